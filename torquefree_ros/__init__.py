@@ -1,0 +1,9 @@
+"""torquefree_ros: an exact torque-free rigid-body attitude simulator for ROS 2.
+
+Importing the package does not import rclpy: the dynamics core is usable without ROS.
+"""
+
+from .core import PROPAGATORS, MotionRegime, RigidBody, make_propagator, propagate
+
+__version__ = "0.1.0"
+__all__ = ["PROPAGATORS", "MotionRegime", "RigidBody", "make_propagator", "propagate", "__version__"]

@@ -1,0 +1,18 @@
+"""The dynamics core: numpy and scipy only, no ROS (a test enforces it)."""
+
+from .propagators import PROPAGATORS, Propagator, make_propagator
+from .rigid_body import MotionRegime, RigidBody
+
+
+def propagate(inertia, angular_velocity, orientation, times, propagator="auto", **options):
+    """Torque-free ``(omega_B, q_NB)`` at the sorted ``times`` (s), shapes ``(N, 3)`` and ``(N, 4)``.
+
+    ``inertia``: principal moments ``[I1, I2, I3]``, a tensor ``[Ixx, Iyy, Izz, Ixy, Ixz, Iyz]`` or a
+    3x3 matrix (kg m^2); ``angular_velocity``: body-frame rate (rad/s); ``orientation``: ``q_NB`` as
+    ``(x, y, z, w)``; ``propagator``: ``auto`` or a name in :data:`PROPAGATORS`; ``options``: the
+    propagator's settings (``step`` for fixed-step methods, ``rtol``/``atol`` for adaptive ones).
+    """
+    return make_propagator(inertia, angular_velocity, orientation, propagator, **options)(times)
+
+
+__all__ = ["PROPAGATORS", "MotionRegime", "Propagator", "RigidBody", "make_propagator", "propagate"]

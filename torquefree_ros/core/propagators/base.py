@@ -1,0 +1,63 @@
+"""One interface for every propagator (after scipy's ``OdeSolver`` family): construct from a body and
+an initial state, then evaluate ``(omega_B, q_NB)`` at any sorted array of times since that state."""
+
+from __future__ import annotations
+
+import abc
+from typing import ClassVar
+
+import numpy as np
+
+from ..rigid_body import RigidBody
+from ..validation import finite_vector, sample_times, unit_quaternion
+
+
+class Propagator(abc.ABC):
+    """Base class. Subclasses set ``name`` and ``exact`` and implement :meth:`_evaluate`.
+
+    ``__call__(times)`` returns ``omega_B`` of shape ``(N, 3)`` (rad/s, body frame) and ``q_NB`` of
+    shape ``(N, 4)`` (``x, y, z, w``) for the sorted, non-negative ``times`` (s).
+    """
+
+    name: ClassVar[str]
+    exact: ClassVar[bool] = False
+    #: option name -> default; anything else given to the constructor is an error
+    options: ClassVar[dict] = {}
+
+    def __init__(self, body, angular_velocity, orientation, **options):
+        self.body = RigidBody.from_inertia(body)
+        self.omega0_B = finite_vector(angular_velocity, "angular_velocity", (3,))
+        self.q0_NB = unit_quaternion(orientation, "orientation")
+        unknown = sorted(set(options) - set(self.options))
+        if unknown:
+            known = ", ".join(sorted(self.options)) or "none"
+            raise ValueError(f"{unknown[0]}: not an option of propagator '{self.name}' (options: {known})")
+        self.settings = {**self.options, **options}
+
+    def __call__(self, times):
+        times = sample_times(times)
+        return self._evaluate(times)
+
+    @abc.abstractmethod
+    def _evaluate(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
+
+    def describe(self) -> str:
+        settings = ", ".join(f"{k}={v:g}" for k, v in self.settings.items())
+        return f"{self.name}({settings})" if settings else self.name
+
+
+#: name -> class; filled by the modules that define propagators
+PROPAGATORS: dict[str, type[Propagator]] = {}
+
+
+def register(cls: type[Propagator]) -> type[Propagator]:
+    PROPAGATORS[cls.name] = cls
+    return cls
+
+
+def propagator_class(name: str) -> type[Propagator]:
+    try:
+        return PROPAGATORS[name]
+    except KeyError:
+        known = ", ".join(["auto", *sorted(PROPAGATORS)])
+        raise ValueError(f"propagator: unknown propagator {name!r} (known: {known})") from None

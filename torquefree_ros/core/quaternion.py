@@ -1,0 +1,96 @@
+"""Attitude conventions, in one place.
+
+Quaternions are stored ``(x, y, z, w)`` (scalar last, as geometry_msgs), use the Hamilton product,
+and ``q_NB`` is the orientation of the body frame B in the inertial frame N: ``R(q_NB)`` maps
+body-frame coordinates to inertial ones (REP 103). Kinematics with the body-frame rate ``omega_BN_B``:
+``dq_NB/dt = 1/2 q_NB ⊗ (omega_BN_B, 0)``.
+
+All functions broadcast over leading axes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+IDENTITY = np.array([0.0, 0.0, 0.0, 1.0])
+
+
+def multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Hamilton product ``p ⊗ q`` of ``(x, y, z, w)`` quaternions."""
+    p = np.asarray(p, dtype=float)
+    q = np.asarray(q, dtype=float)
+    px, py, pz, pw = np.moveaxis(p, -1, 0)
+    qx, qy, qz, qw = np.moveaxis(q, -1, 0)
+    return np.stack(
+        [
+            pw * qx + px * qw + py * qz - pz * qy,
+            pw * qy - px * qz + py * qw + pz * qx,
+            pw * qz + px * qy - py * qx + pz * qw,
+            pw * qw - px * qx - py * qy - pz * qz,
+        ],
+        axis=-1,
+    )
+
+
+def conjugate(q: np.ndarray) -> np.ndarray:
+    """Inverse rotation of a unit quaternion."""
+    q = np.asarray(q, dtype=float)
+    return q * np.array([-1.0, -1.0, -1.0, 1.0])
+
+
+def to_matrix(q: np.ndarray) -> np.ndarray:
+    """Rotation matrix ``R(q)`` (maps body coordinates to inertial ones); ``q`` must be unit."""
+    x, y, z, w = np.moveaxis(np.asarray(q, dtype=float), -1, 0)
+    return np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
+            np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
+            np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
+        ],
+        axis=-2,
+    )
+
+
+def from_matrix(matrix: np.ndarray) -> np.ndarray:
+    """Unit quaternion of a proper rotation matrix (Shepperd's method, largest pivot), ``w >= 0``."""
+    m = np.asarray(matrix, dtype=float)
+    trace = np.trace(m)
+    pivots = np.array([m[0, 0], m[1, 1], m[2, 2], trace])
+    k = int(np.argmax(pivots))
+    if k == 3:
+        q = np.array([m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1], 1.0 + trace])
+    else:
+        i, j, l = k, (k + 1) % 3, (k + 2) % 3
+        q = np.empty(4)
+        q[i] = 1.0 + 2.0 * m[i, i] - trace
+        q[j] = m[j, i] + m[i, j]
+        q[l] = m[l, i] + m[i, l]
+        q[3] = m[l, j] - m[j, l]
+    q /= np.linalg.norm(q)
+    return q if q[3] >= 0 else -q
+
+
+def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``R(q) v``: a body-frame vector expressed in the inertial frame."""
+    return np.einsum("...ij,...j->...i", to_matrix(q), np.asarray(v, dtype=float))
+
+
+def exp_rotation(rotation_vector: np.ndarray) -> np.ndarray:
+    """Unit quaternion of the rotation by ``|v|`` rad about ``v`` (the map ``v -> exp(v/2)``)."""
+    v = np.asarray(rotation_vector, dtype=float)
+    angle = np.linalg.norm(v, axis=-1, keepdims=True)
+    half = 0.5 * angle
+    # sin(|v|/2)/|v| without dividing by zero: its series is exact to rounding below 1e-4.
+    small = angle < 1e-4
+    scale = np.where(small, 0.5 - angle * angle / 48.0, np.sin(half) / np.where(small, 1.0, angle))
+    return np.concatenate([v * scale, np.cos(half)], axis=-1)
+
+
+def angle_between(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Rotation angle (rad, in [0, pi]) of ``p* ⊗ q``; the same for ``q`` and ``-q``.
+
+    ``atan2`` of the vector and scalar parts keeps full relative precision for tiny angles,
+    where ``2 acos(|p·q|)`` would not.
+    """
+    d = multiply(conjugate(p), q)
+    return 2.0 * np.arctan2(np.linalg.norm(d[..., :3], axis=-1), np.abs(d[..., 3]))

@@ -1,0 +1,177 @@
+"""Rigid body: inertia (principal moments or a full tensor), validation, invariants, the Duffing
+analog of seed 000 (Junkins, Jacobson & Blanton 1973) and a classification of the torque-free motion.
+
+Frames in names: ``omega_B`` is the body-frame rate in the user's body frame B; ``_P`` marks the
+principal frame P. ``principal_axes`` has the principal axes as columns in B coordinates, is a proper
+rotation, and ``tensor = principal_axes @ diag(moments) @ principal_axes.T``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import quaternion
+from .validation import finite_vector
+
+# A body's largest moment may exceed the sum of the other two by this relative amount before it is
+# refused as unphysical (a flat plate sits exactly on the bound; rounding of a diagonalised tensor
+# is ~1e-16, moments typed with 9+ significant digits pass).
+TRIANGLE_RTOL = 1e-9
+# Off-diagonal asymmetry of a 3x3 tensor tolerated (relative to its largest entry) as rounding.
+SYMMETRY_RTOL = 1e-12
+# Moments closer than this (relative) are *labelled* equal in the regime report; the propagators
+# never use it: their formulas stay exact as two moments approach each other.
+EQUAL_MOMENTS_RTOL = 1e-12
+
+
+@dataclass(frozen=True)
+class RigidBody:
+    """A validated inertia. Build it with :meth:`from_inertia`."""
+
+    tensor: np.ndarray  # 3x3, body frame B
+    moments: np.ndarray  # principal moments, in the order of the columns of principal_axes
+    principal_axes: np.ndarray  # 3x3 proper rotation, columns = principal axes in B
+
+    @classmethod
+    def from_inertia(cls, inertia, name: str = "inertia") -> "RigidBody":
+        """From ``[I1, I2, I3]`` (principal; B is then the principal frame, any order),
+        ``[Ixx, Iyy, Izz, Ixy, Ixz, Iyz]`` (tensor elements, as in URDF) or a 3x3 matrix."""
+        if isinstance(inertia, RigidBody):
+            return inertia
+        array = np.asarray(inertia, dtype=float) if _is_numeric(inertia) else None
+        if array is not None and array.shape == (3, 3):
+            tensor = _symmetric_tensor(array, name)
+        else:
+            values = finite_vector(inertia, name, (3, 6))
+            if values.shape[0] == 3:
+                _check_moments(values, name)
+                return cls(np.diag(values), values.copy(), np.eye(3))
+            xx, yy, zz, xy, xz, yz = values
+            tensor = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+        if not np.all(np.isfinite(tensor)):
+            raise ValueError(f"{name}: every entry must be finite")
+        if not np.any(tensor - np.diag(np.diag(tensor))):
+            # Already principal: keep B as the principal frame exactly (no eigen-solver rounding).
+            moments = np.diag(tensor).copy()
+            _check_moments(moments, name)
+            return cls(tensor, moments, np.eye(3))
+        moments, axes = np.linalg.eigh(tensor)
+        if np.linalg.det(axes) < 0.0:
+            axes[:, 2] = -axes[:, 2]  # a proper rotation, not a reflection
+        _check_moments(moments, name)
+        return cls(tensor, moments, axes)
+
+    # -- invariants (broadcast over leading axes of omega_B) -----------------------------------
+    def angular_momentum(self, omega_B) -> np.ndarray:
+        """``H_B = I omega_B`` in the body frame."""
+        return np.einsum("ij,...j->...i", self.tensor, np.asarray(omega_B, dtype=float))
+
+    def angular_momentum_inertial(self, omega_B, q_NB) -> np.ndarray:
+        """``H_N = R(q_NB) I omega_B``: constant in a torque-free motion."""
+        return quaternion.rotate(q_NB, self.angular_momentum(omega_B))
+
+    def kinetic_energy(self, omega_B) -> np.ndarray:
+        """``T = omega · I omega / 2``."""
+        omega_B = np.asarray(omega_B, dtype=float)
+        return 0.5 * np.einsum("...i,...i->...", omega_B, self.angular_momentum(omega_B))
+
+    def momentum_magnitude(self, omega_B) -> np.ndarray:
+        """``|H|``."""
+        return np.linalg.norm(self.angular_momentum(omega_B), axis=-1)
+
+    def to_principal(self, omega_B) -> np.ndarray:
+        return np.asarray(omega_B, dtype=float) @ self.principal_axes
+
+    def from_principal(self, omega_P) -> np.ndarray:
+        return np.asarray(omega_P, dtype=float) @ self.principal_axes.T
+
+    def momentum_energy_gaps(self, omega_B) -> np.ndarray:
+        """``H^2 - 2 T I_j`` for each principal moment ``I_j``, as ``sum_i I_i (I_i - I_j) w_i^2``.
+
+        The direct difference of ``H^2`` and ``2 T I_j`` cancels catastrophically next to the
+        separatrix (``H^2 = 2 T I_mid``); this form only subtracts moments.
+        """
+        w2 = self.to_principal(omega_B) ** 2
+        I = self.moments
+        return np.einsum("i,ij,...i->...j", I, I[:, None] - I[None, :], w2)
+
+    def duffing_constants(self, omega_B):
+        """``(A, B, K)`` of ``w_i'' + A_i w_i + B_i w_i^3 = 0`` and of its integral
+        ``w_i'^2 + A_i w_i^2 + B_i/2 w_i^4 = K_i``, principal axis order (seed 000)."""
+        I = self.moments
+        g = self.momentum_energy_gaps(omega_B)  # g_j = H^2 - 2 T I_j
+        product = I[0] * I[1] * I[2]
+        A, B, K = np.empty(3), np.empty(3), np.empty(3)
+        for i, j, k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
+            A[i] = -((I[i] - I[j]) * g[k] + (I[i] - I[k]) * g[j]) / product
+            B[i] = 2.0 * (I[i] - I[j]) * (I[i] - I[k]) / (I[j] * I[k])
+            K[i] = -g[j] * g[k] / (I[i] ** 2 * I[j] * I[k])
+        return A, B, K
+
+    def classify(self, omega_B) -> "MotionRegime":
+        from .polhode import classify_motion  # polhode builds on this module
+
+        return classify_motion(self, omega_B)
+
+
+@dataclass(frozen=True)
+class MotionRegime:
+    """What kind of torque-free motion a state starts; periods in seconds (``inf`` where the
+    motion never repeats, ``nan`` where the notion does not apply)."""
+
+    kind: str  # at_rest | sphere | pure_spin | axisymmetric_oblate | axisymmetric_prolate |
+    #            major_axis_polhode | minor_axis_polhode | separatrix
+    axis: str = ""  # for pure_spin: major | intermediate | minor | symmetric-plane
+    stability: str = ""  # for pure_spin: "marginally stable" or "unstable" (seed 002)
+    polhode_period: float = float("nan")  # period of the body rates
+    flip_period: float = float("nan")  # time between reversals of the intermediate-axis rate
+    precession_rate: float = float("nan")  # axisymmetric: w_p = (I3/IT - 1) w3 (seed 000)
+    separatrix_distance: float = float("nan")  # (H^2/2T - I_mid) / I_mid
+
+    def summary(self) -> str:
+        parts = [self.kind.replace("_", " ")]
+        if self.axis:
+            parts.append(f"about the {self.axis} axis ({self.stability})")
+        for label, value in (
+            ("polhode period", self.polhode_period),
+            ("flip period", self.flip_period),
+            ("precession rate", self.precession_rate),
+        ):
+            if not np.isnan(value):
+                parts.append(f"{label} {value:.6g}" + (" rad/s" if "rate" in label else " s"))
+        return ", ".join(parts)
+
+
+def _is_numeric(value) -> bool:
+    try:
+        np.asarray(value, dtype=float)
+        return True
+    except (TypeError, ValueError):
+        return False
+
+
+def _symmetric_tensor(matrix: np.ndarray, name: str) -> np.ndarray:
+    if not np.all(np.isfinite(matrix)):
+        raise ValueError(f"{name}: every entry must be finite")
+    scale = float(np.max(np.abs(matrix)))
+    if np.max(np.abs(matrix - matrix.T)) > SYMMETRY_RTOL * scale:
+        raise ValueError(f"{name}: an inertia tensor must be symmetric, got {matrix.tolist()}")
+    return 0.5 * (matrix + matrix.T)
+
+
+def _check_moments(moments: np.ndarray, name: str) -> None:
+    if np.any(moments <= 0.0):
+        raise ValueError(
+            f"{name}: principal moments must be positive (positive-definite tensor), "
+            f"got {moments.tolist()}"
+        )
+    largest = float(np.max(moments))
+    others = float(np.sum(moments) - largest)
+    if largest > others * (1.0 + TRIANGLE_RTOL):
+        raise ValueError(
+            f"{name}: principal moments {moments.tolist()} violate the triangle inequality "
+            f"(the largest, {largest:g}, exceeds the sum of the other two, {others:g}): "
+            "no rigid body has this inertia"
+        )
