@@ -14,11 +14,12 @@ integrals from ``scipy.special``):
   (``F(phi|m) = sin(phi) R_F(cos^2 phi, 1 - m sin^2 phi, 1)``, DLMF 19.25.5);
 * on ``[K/2, K]`` use ``v = K - u``: ``sn = cd(v)``, ``cn = k' sd(v)``, ``dn = k' nd(v)`` (DLMF 22.4.3).
 
-The angle integral ``G(u) = ∫_0^u du' / (1 - n sn^2(u'))`` (``n <= 0``) is what the attitude about the
-angular momentum needs; it equals ``Π(n; am u | m)``. Written as ``u + n ∫ sn^2/(1 - n sn^2)`` with
-``∫_0^u sn^2/(1 - n sn^2) du' = (1/3) sn^3 R_J(cn^2, dn^2, 1, 1 - n sn^2)`` (DLMF 19.25.14), and on the
-second half of the quarter period by the same identity in ``v = K - u``, it has no cancellation.
-On the separatrix (``mc = 0``) everything is hyperbolic and in closed form.
+The attitude about the angular momentum needs ``Π(n; am u | m) = u + n S(u)`` (``n <= 0``) with
+``S(u) = ∫_0^u sn^2/(1 - n sn^2) du' = (1/3) sn^3 R_J(cn^2, dn^2, 1, 1 - n sn^2)`` (DLMF 19.25.14).
+``S`` itself is returned, not ``Π``: the attitude uses ``n S`` beside terms that would cancel against
+``u``. On the second half of the quarter period ``S`` comes from the same identity in ``v = K - u``
+(``sn(K - v) = cd(v)``), so nothing cancels. On the separatrix (``mc = 0``) everything is
+hyperbolic and in closed form.
 """
 
 from __future__ import annotations
@@ -36,18 +37,18 @@ _NEWTON_STEPS = 4
 
 @dataclass(frozen=True)
 class JacobiValues:
-    """``sn, cn, dn``, the amplitude ``am`` (continuous) and ``G`` at an array of arguments ``u``."""
+    """``sn, cn, dn``, the amplitude ``am`` and ``S = ∫_0^u sn^2/(1 - n sn^2)`` (both continuous)."""
 
     sn: np.ndarray
     cn: np.ndarray
     dn: np.ndarray
     am: np.ndarray
-    angle_integral: np.ndarray
+    sn2_integral: np.ndarray
 
 
 class JacobiElliptic:
     """Jacobi functions for a fixed parameter given as ``mc = 1 - m`` (``0 <= mc <= 1``), and the
-    angle integral ``G`` for a fixed characteristic ``n <= 0``."""
+    integral ``S`` for a fixed characteristic ``n <= 0``."""
 
     def __init__(self, mc: float, n: float = 0.0):
         if not 0.0 <= mc <= 1.0:
@@ -60,13 +61,10 @@ class JacobiElliptic:
         self.k_prime = float(np.sqrt(self.mc))
         if self.mc > 0.0:
             self.quarter_period = float(elliprf(0.0, self.mc, 1.0))
-            # G(K) = K + (n/3) R_J(0, mc, 1, 1 - n)
-            self.angle_integral_quarter = self.quarter_period + self.n / 3.0 * float(
-                elliprj(0.0, self.mc, 1.0, 1.0 - self.n)
-            )
+            self.sn2_integral_quarter = float(elliprj(0.0, self.mc, 1.0, 1.0 - self.n)) / 3.0  # S(K)
         else:
             self.quarter_period = np.inf
-            self.angle_integral_quarter = np.inf
+            self.sn2_integral_quarter = np.inf
 
     # -- public ---------------------------------------------------------------------------------
     def __call__(self, u) -> JacobiValues:
@@ -84,7 +82,7 @@ class JacobiElliptic:
             cn=parity * c,
             dn=d,
             am=sign * am + np.pi * half_periods,
-            angle_integral=sign * g + 2.0 * self.angle_integral_quarter * half_periods,
+            sn2_integral=sign * g + 2.0 * self.sn2_integral_quarter * half_periods,
         )
 
     def incomplete_first_kind(self, sn, cn, dn) -> np.ndarray:
@@ -129,27 +127,27 @@ class JacobiElliptic:
         c = np.where(first, c1, kp * s1 / d1)
         d = np.where(first, d1, kp / d1)
         am = np.arctan2(s, c)
-        # G on the first half: u + n (1/3) sn^3 R_J(cn^2, dn^2, 1, 1 - n sn^2)
+        # S on the first half: (1/3) sn^3 R_J(cn^2, dn^2, 1, 1 - n sn^2).
+        # On the second half, with v = K - r: sn^2(K - v) / (1 - n sn^2(K - v)) equals
+        # (1 - sn^2 v) / ((1 - n)(1 - n' sn^2 v)) for n' = (m - n)/(1 - n), so
+        # S(r) = S(K) - [v - (1 - n') S_n'(v)] / (1 - n) with 1 - n' = mc/(1 - n) and
+        # 1 - n' sn^2 = cn^2 + mc/(1 - n) sn^2 (no cancellation near sn = 1).
         p_first = 1.0 - n * s1 * s1
-        # G on the second half: G(K) - [v + (n' - m)(1/3) sn(v)^3 R_J(..., 1 - n' sn(v)^2)] / (1 - n)
-        # with n' = (m - n)/(1 - n), n' - m = -n mc/(1 - n), 1 - n' sn^2 = cn^2 + mc/(1 - n) sn^2.
         p_second = c1 * c1 + mc / (1.0 - n) * s1 * s1
         rj = elliprj(c1 * c1, d1 * d1, 1.0, np.where(first, p_first, p_second)) * s1**3 / 3.0
-        g_first = w + n * rj
-        g_second = self.angle_integral_quarter - (w - n * mc / (1.0 - n) * rj) / (1.0 - n)
-        g = np.where(first, g_first, g_second)
+        g_second = self.sn2_integral_quarter - (w - mc / (1.0 - n) * rj) / (1.0 - n)
+        g = np.where(first, rj, g_second)
         return s, c, d, am, g
 
     def _separatrix(self, u: np.ndarray) -> JacobiValues:
-        """``m = 1``: ``sn = tanh``, ``cn = dn = sech``, ``am = gd``, and ``G`` in closed form
-        ``G(u) = [u + sqrt(-n) atan(sqrt(-n) tanh u)] / (1 - n)``."""
+        """``m = 1``: ``sn = tanh``, ``cn = dn = sech``, ``am = gd``, and in closed form
+        ``S(u) = ∫ tanh^2/(1 - n tanh^2) = [u - atan(sqrt(-n) tanh u) / sqrt(-n)] / (1 - n)``."""
         a = np.abs(u)
         with np.errstate(under="ignore"):  # sech underflows to its true value 0 far out
             e = np.exp(-a)
             sech = 2.0 * e / (1.0 + e * e)
         tanh = np.tanh(u)
         root = np.sqrt(-self.n)
-        g = (u + root * np.arctan(root * tanh)) / (1.0 - self.n)
-        return JacobiValues(
-            sn=tanh, cn=sech, dn=sech.copy(), am=np.arctan2(tanh, sech), angle_integral=g
-        )
+        bounded = np.arctan(root * tanh) / root if root > 0.0 else tanh
+        s = (u - bounded) / (1.0 - self.n)
+        return JacobiValues(sn=tanh, cn=sech, dn=sech.copy(), am=np.arctan2(tanh, sech), sn2_integral=s)

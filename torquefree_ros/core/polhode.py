@@ -16,7 +16,9 @@ computation of the free rigid body motion and its use in splitting methods", SIA
 Attitude: ``R_NS(t) = P Rz(psi(t)) Q(m(t))`` where ``Q(m)`` is the shortest-arc rotation taking
 ``m/|m|`` to ``e_z`` and ``P`` is constant. Landau's angle about ``H`` for the frame built on
 ``e3 x m`` obeys ``psi_e' = |m|/J3 + |m|(J3-J1)/(J1 J3) / (1 - n sn^2 u)`` with
-``n = -J3 (J2-J1) / (J1 (J3-J2)) <= 0``, integrated exactly by :class:`JacobiElliptic`'s ``G``;
+``n = -J3 (J2-J1) / (J1 (J3-J2)) <= 0``. Its two terms cancel for a thin rod (``J3 << J1``), so it is
+used as ``psi_e' = |m|/J1 + |m|(J3-J1) n/(J1 J3) sn^2/(1 - n sn^2)``, integrated exactly by
+:class:`JacobiElliptic`'s ``S``;
 the shortest-arc frame differs from it by the angle of ``(m1, m2)``, which is ``am(u)`` plus a
 bounded periodic term, so the quaternion stays continuous over any number of periods.
 """
@@ -107,13 +109,14 @@ class PolhodeAttitude:
     def __init__(self, polhode: Polhode, q_NS0: np.ndarray):
         self.polhode = polhode
         J = polhode.moments
-        self._psi_rate = polhode.momentum / J[2]
-        self._psi_integral_gain = polhode.momentum * (J[2] - J[0]) / (J[0] * J[2] * polhode.rate)
+        n = polhode.jacobi.n
+        self._psi_rate = polhode.momentum / J[0]
+        self._psi_integral_gain = polhode.momentum * (J[2] - J[0]) * n / (J[0] * J[2] * polhode.rate)
         self._direction = np.sign(polhode.amplitudes[1])  # sign(J3 - J2)
         self._lever = np.array([J[0] * polhode.amplitudes[0], J[1] * abs(polhode.amplitudes[1])])
         v0 = polhode.jacobi(np.array([polhode.initial_phase]))
         self._angle0 = self._angle_terms(v0)[0]
-        self._g0 = v0.angle_integral[0]
+        self._s0 = v0.sn2_integral[0]
         self._left = quaternion.multiply(q_NS0, quaternion.conjugate(self._shortest_arc(v0)[0]))
 
     def _shortest_arc(self, v) -> np.ndarray:
@@ -134,7 +137,7 @@ class PolhodeAttitude:
         omega_S = p.rates(None, v)
         psi = (
             self._psi_rate * t
-            + self._psi_integral_gain * (v.angle_integral - self._g0)
+            + self._psi_integral_gain * (v.sn2_integral - self._s0)
             - (self._angle_terms(v) - self._angle0)
         )
         half = 0.5 * psi

@@ -56,7 +56,7 @@ def sample_times(value, name: str = "times") -> np.ndarray:
     if np.any(np.diff(times) < 0.0):
         first = int(np.argmax(np.diff(times) < 0.0))
         raise ValueError(
-            f"{name}: must be sorted, but times[{first + 1}] = {times[first + 1]!r} "
-            f"< times[{first}] = {times[first]!r}"
+            f"{name}: must be sorted, but times[{first + 1}] = {float(times[first + 1])!r} "
+            f"< times[{first}] = {float(times[first])!r}"
         )
     return times

@@ -36,7 +36,12 @@ class Propagator(abc.ABC):
 
     def __call__(self, times):
         times = sample_times(times)
-        return self._evaluate(times)
+        omega, q = self._evaluate(times)
+        # t = 0 is the initial state itself, not its reconstruction through the solution
+        start = times == 0.0
+        omega[start] = self.omega0_B
+        q[start] = self.q0_NB
+        return omega, q
 
     @abc.abstractmethod
     def _evaluate(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...

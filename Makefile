@@ -1,0 +1,24 @@
+# The two commands: `make run` (the simulator on its built-in default scene) and `make test`.
+# Each creates .venv from PyPI when it is missing (no apt ROS install needed).
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+
+.PHONY: run test reference clean
+
+$(VENV)/.installed: requirements.txt requirements-test.txt
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --disable-pip-version-check -r requirements-test.txt
+	touch $@
+
+run: $(VENV)/.installed
+	$(PY) -m torquefree_ros.cli --duration 10 --rate 10
+
+test: $(VENV)/.installed
+	$(PY) -m pytest
+
+reference: $(VENV)/.installed
+	$(PY) tools/make_reference.py --jobs 2
+
+clean:
+	rm -rf $(VENV) build install log

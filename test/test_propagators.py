@@ -1,0 +1,186 @@
+"""The same checks over every registered propagator (after scipy's test_ivp), plus what is specific
+to each: convergence order, geometric |q| = 1, exactness of the analytic one."""
+
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from conftest import ACCURATE_SETTINGS
+from torquefree_ros import RigidBody, make_propagator, propagate
+from torquefree_ros.core import quaternion
+
+INERTIA = [1.0, 2.0, 3.0]
+OMEGA = [0.4, -0.3, 0.9]
+Q0 = Rotation.from_rotvec([0.2, -0.5, 0.9]).as_quat()
+TIMES = np.linspace(0.0, 10.0, 41)
+
+
+def run(name, inertia=INERTIA, omega=OMEGA, q0=Q0, times=TIMES):
+    return propagate(inertia, omega, q0, times, propagator=name, **ACCURATE_SETTINGS[name])
+
+
+def test_shapes_and_initial_state(propagator_name):
+    w, q = run(propagator_name)
+    assert w.shape == (TIMES.size, 3) and q.shape == (TIMES.size, 4)
+    np.testing.assert_array_equal(w[0], OMEGA)
+    np.testing.assert_array_equal(q[0], Q0)
+
+
+def test_inertial_angular_momentum_and_energy_are_conserved(propagator_name):
+    w, q = run(propagator_name)
+    body = RigidBody.from_inertia(INERTIA)
+    H = body.angular_momentum_inertial(w, q)
+    T = body.kinetic_energy(w)
+    # analytic: rounding only; numerical at ACCURATE_SETTINGS: truncation below 1e-10
+    tol = 1e-14 if propagator_name == "analytic" else 1e-10
+    np.testing.assert_allclose(H, np.broadcast_to(H[0], H.shape), rtol=0, atol=tol * np.linalg.norm(H[0]))
+    np.testing.assert_allclose(T, T[0], rtol=tol)
+
+
+def test_agrees_with_the_exact_solution(propagator_name):
+    w, q = run(propagator_name)
+    w_exact, q_exact = run("analytic")
+    # 1e-8: what ACCURATE_SETTINGS promise over 10 s at |w| ~ 1 rad/s
+    np.testing.assert_allclose(w, w_exact, atol=1e-8)
+    assert quaternion.angle_between(q, q_exact).max() < 1e-8
+    assert np.all(np.sum(q * q_exact, axis=1) > 0)  # the same sign: q is continuous from q0
+
+
+def test_kinematics_match_finite_differences_of_q(propagator_name):
+    """dq/dt = 1/2 q ⊗ (w, 0) with w in the body frame: the convention the contract states."""
+    h = 1e-4
+    times = np.array([3.0 - h, 3.0, 3.0 + h])
+    w, q = run(propagator_name, times=times)
+    dq = (q[2] - q[0]) / (2 * h)
+    expected = 0.5 * quaternion.multiply(q[1], np.append(w[1], 0.0))
+    # central difference: truncation h^2 |q'''| / 6 ~ 2e-9, rounding eps / h ~ 1e-12
+    np.testing.assert_allclose(dq, expected, atol=5e-9)
+
+
+def test_negated_quaternion_gives_the_negated_trajectory(propagator_name):
+    w, q = run(propagator_name)
+    w_neg, q_neg = run(propagator_name, q0=-Q0)
+    np.testing.assert_array_equal(w_neg, w)
+    np.testing.assert_allclose(q_neg, -q, rtol=0, atol=1e-15)
+
+
+# Describing the same body in another frame changes only rounding, except for the adaptive method:
+# its error norm is taken component-wise, so its step sequence (and truncation error, < 1e-10 at
+# ACCURATE_SETTINGS) depends on the frame.
+FRAME_TOLERANCE = {"dop853": 1e-10}
+
+
+def test_relabelled_axes_give_the_same_physics(propagator_name):
+    """A body described in a frame B' = axes permuted (a proper rotation) moves identically."""
+    P = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])  # B -> B' coordinates
+    q_P = quaternion.from_matrix(P.T)  # maps B' coordinates back to B
+    inertia_permuted = np.diag(P @ np.diag(INERTIA) @ P.T)
+    w, q = run(propagator_name)
+    w2, q2 = run(propagator_name, inertia=inertia_permuted, omega=P @ OMEGA, q0=quaternion.multiply(Q0, q_P))
+    tol = FRAME_TOLERANCE.get(propagator_name, 1e-12)
+    np.testing.assert_allclose(w2, w @ P.T, atol=tol)
+    assert quaternion.angle_between(q2, quaternion.multiply(q, q_P)).max() < tol
+
+
+def test_full_tensor_equals_principal_description(propagator_name):
+    R = Rotation.from_rotvec([0.4, 0.1, -0.8]).as_matrix()  # principal -> body coordinates
+    tensor = R @ np.diag(INERTIA) @ R.T
+    q_R = quaternion.from_matrix(R.T)  # maps body coordinates to principal ones
+    w, q = run(propagator_name)
+    w_b, q_b = run(propagator_name, inertia=tensor, omega=R @ OMEGA, q0=quaternion.multiply(Q0, q_R))
+    tol = FRAME_TOLERANCE.get(propagator_name, 1e-12)
+    np.testing.assert_allclose(w_b, w @ R.T, atol=tol)
+    assert quaternion.angle_between(q_b, quaternion.multiply(q, q_R)).max() < tol
+
+
+def test_samples_do_not_depend_on_how_they_are_requested(propagator_name):
+    """The node asks in blocks, offline tools all at once: the samples must be identical."""
+    propagator = make_propagator(INERTIA, OMEGA, Q0, propagator_name, **ACCURATE_SETTINGS[propagator_name])
+    w_all, q_all = make_propagator(INERTIA, OMEGA, Q0, propagator_name, **ACCURATE_SETTINGS[propagator_name])(TIMES)
+    blocks = [propagator(chunk) for chunk in np.array_split(TIMES, 7)]
+    np.testing.assert_array_equal(np.concatenate([b[0] for b in blocks]), w_all)
+    np.testing.assert_array_equal(np.concatenate([b[1] for b in blocks]), q_all)
+    # asking for an earlier time again restarts rather than failing
+    w_again, _ = propagator(TIMES[:5])
+    np.testing.assert_array_equal(w_again, w_all[:5])
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"angular_velocity": [0.0, float("nan"), 1.0]}, r"^angular_velocity: every entry must be finite"),
+        ({"angular_velocity": [0.0, 1.0]}, r"^angular_velocity: expected 3 numbers"),
+        ({"orientation": [0.0, 0.0, 0.0, 0.0]}, r"^orientation: the zero quaternion"),
+        ({"orientation": [0.0, 0.0, 0.0, 2.0]}, r"^orientation: expected a unit quaternion"),
+        ({"orientation": [0.0, 0.0, 1.0]}, r"^orientation: expected 4 numbers"),
+        ({"inertia": [1.0, 2.0, 4.0]}, r"^inertia: .*triangle inequality"),
+        ({"times": [0.0, 2.0, 1.0]}, r"^times: must be sorted"),
+        ({"times": [-1.0, 2.0]}, r"^times: .*>= 0"),
+        ({"times": [0.0, float("inf")]}, r"^times: every time must be finite"),
+    ],
+)
+def test_bad_input_names_the_argument(propagator_name, kwargs, message):
+    args = {"inertia": INERTIA, "angular_velocity": OMEGA, "orientation": Q0, "times": TIMES, **kwargs}
+    with pytest.raises(ValueError, match=message):
+        propagate(args["inertia"], args["angular_velocity"], args["orientation"], args["times"], propagator=propagator_name)
+
+
+def test_unknown_propagator_and_option_are_refused():
+    with pytest.raises(ValueError, match=r"^propagator: unknown propagator 'rk45' \(known: auto, analytic"):
+        propagate(INERTIA, OMEGA, Q0, TIMES, propagator="rk45")
+    with pytest.raises(ValueError, match=r"^step: not an option of propagator 'analytic'"):
+        propagate(INERTIA, OMEGA, Q0, TIMES, propagator="analytic", step=0.1)
+    with pytest.raises(ValueError, match=r"^step: must be a positive finite number"):
+        propagate(INERTIA, OMEGA, Q0, TIMES, propagator="rk4", step=-0.1)
+
+
+def test_auto_is_the_analytic_propagator_for_a_torque_free_body():
+    assert type(make_propagator(INERTIA, OMEGA, Q0)).name == "analytic"
+
+
+@pytest.mark.parametrize("name", ["rk4", "lie_rk4"])
+def test_fixed_step_methods_converge_at_fourth_order(name):
+    w_exact, q_exact = run("analytic")
+    errors = []
+    for step in (0.04, 0.02, 0.01):
+        w, q = propagate(INERTIA, OMEGA, Q0, TIMES, propagator=name, step=step)
+        errors.append(max(np.abs(w - w_exact).max(), quaternion.angle_between(q, q_exact).max()))
+    ratios = np.array(errors[:-1]) / np.array(errors[1:])
+    # order 4: halving the step divides the error by 2^4 = 16 (asymptotically; 12..20 allowed)
+    assert np.all((ratios > 12) & (ratios < 20)), ratios
+
+
+def test_dop853_error_falls_with_the_tolerance():
+    w_exact, q_exact = run("analytic")
+    errors = []
+    for rtol in (1e-6, 1e-9, 1e-12):
+        w, q = propagate(INERTIA, OMEGA, Q0, TIMES, propagator="dop853", rtol=rtol, atol=rtol * 1e-2)
+        errors.append(quaternion.angle_between(q, q_exact).max())
+    assert errors[0] > 30 * errors[1] > 30 * 30 * errors[2], errors
+
+
+def test_geometric_method_keeps_unit_quaternions_by_construction():
+    times = np.linspace(0.0, 200.0, 11)  # 20 000 steps
+    _, q = propagate(INERTIA, OMEGA, Q0, times, propagator="lie_rk4", step=0.01)
+    assert np.abs(np.linalg.norm(q, axis=1) - 1.0).max() <= 1e-14
+
+
+CORE = Path(__file__).resolve().parent.parent / "torquefree_ros" / "core"
+
+
+def test_core_imports_no_ros_module():
+    ros = ("rclpy", "rosidl", "geometry_msgs", "std_srvs", "sensor_msgs", "builtin_interfaces", "rosgraph_msgs")
+    for path in CORE.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = [a.name for a in node.names] if isinstance(node, ast.Import) else (
+                [node.module or ""] if isinstance(node, ast.ImportFrom) else [])
+            for name in names:
+                assert not name.startswith(ros), f"{path.name} imports {name}"
+    code = "import sys, torquefree_ros; torquefree_ros.propagate([1,2,3],[0,1,0],[0,0,0,1],[1.0]); print(sorted(m for m in sys.modules if m.startswith('rclpy')))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=CORE.parent.parent)
+    assert out.stdout.strip().splitlines()[-1] == "[]"
