@@ -175,7 +175,12 @@ class DOP853Propagator(Propagator):
                     message = self._solver.step()
                 if self._solver.status == "failed":
                     raise RuntimeError(f"dop853 failed at t = {self._solver.t}: {message}")
-                self._dense = self._solver.dense_output()
-            out[i] = self._solver.y if t == self._solver.t else self._dense(t)
+                self._dense = None
+            if t == self._solver.t:
+                out[i] = self._solver.y
+            else:
+                if self._dense is None:  # built only for steps that hold an output time
+                    self._dense = self._solver.dense_output()
+                out[i] = self._dense(t)
         q = out[:, 3:]
         return out[:, :3], q / np.linalg.norm(q, axis=1, keepdims=True)
