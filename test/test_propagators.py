@@ -75,26 +75,25 @@ def test_negated_quaternion_gives_the_negated_trajectory(propagator_name):
 FRAME_TOLERANCE = {"dop853": 1e-10}
 
 
-def test_relabelled_axes_give_the_same_physics(propagator_name):
-    """A body described in a frame B' = axes permuted (a proper rotation) moves identically."""
-    P = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])  # B -> B' coordinates
-    q_P = quaternion.from_matrix(P.T)  # maps B' coordinates back to B
-    inertia_permuted = np.diag(P @ np.diag(INERTIA) @ P.T)
+@pytest.mark.parametrize(
+    "rotation, as_moments",
+    [
+        # axes relabelled (a proper permutation): the inertia is given as unsorted principal moments
+        (np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]]), True),
+        # a general body frame: the inertia is given as the full tensor
+        (Rotation.from_rotvec([0.4, 0.1, -0.8]).as_matrix(), False),
+    ],
+    ids=["relabelled-axes", "full-tensor"],
+)
+def test_the_same_body_in_another_frame_moves_identically(propagator_name, rotation, as_moments):
+    """``rotation`` maps principal coordinates to the new body frame's coordinates."""
+    tensor = rotation @ np.diag(INERTIA) @ rotation.T
+    inertia = np.diag(tensor) if as_moments else tensor
+    q_R = quaternion.from_matrix(rotation.T)  # maps new-body coordinates to principal ones
     w, q = run(propagator_name)
-    w2, q2 = run(propagator_name, inertia=inertia_permuted, omega=P @ OMEGA, q0=quaternion.multiply(Q0, q_P))
+    w_b, q_b = run(propagator_name, inertia=inertia, omega=rotation @ OMEGA, q0=quaternion.multiply(Q0, q_R))
     tol = FRAME_TOLERANCE.get(propagator_name, 1e-12)
-    np.testing.assert_allclose(w2, w @ P.T, atol=tol)
-    assert quaternion.angle_between(q2, quaternion.multiply(q, q_P)).max() < tol
-
-
-def test_full_tensor_equals_principal_description(propagator_name):
-    R = Rotation.from_rotvec([0.4, 0.1, -0.8]).as_matrix()  # principal -> body coordinates
-    tensor = R @ np.diag(INERTIA) @ R.T
-    q_R = quaternion.from_matrix(R.T)  # maps body coordinates to principal ones
-    w, q = run(propagator_name)
-    w_b, q_b = run(propagator_name, inertia=tensor, omega=R @ OMEGA, q0=quaternion.multiply(Q0, q_R))
-    tol = FRAME_TOLERANCE.get(propagator_name, 1e-12)
-    np.testing.assert_allclose(w_b, w @ R.T, atol=tol)
+    np.testing.assert_allclose(w_b, w @ rotation.T, atol=tol)
     assert quaternion.angle_between(q_b, quaternion.multiply(q, q_R)).max() < tol
 
 
