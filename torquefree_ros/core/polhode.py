@@ -50,9 +50,9 @@ class Polhode:
     def polhode_period(self) -> float:
         return 4.0 * self.jacobi.quarter_period / self.rate
 
-    def rates(self, u: np.ndarray, values=None) -> np.ndarray:
-        v = values if values is not None else self.jacobi(u)
-        return np.stack([v.cn, v.sn, v.dn], axis=-1) * self.amplitudes
+    def rates(self, values) -> np.ndarray:
+        """``omega_S`` from the Jacobi values at ``u = rate t + initial_phase``."""
+        return np.stack([values.cn, values.sn, values.dn], axis=-1) * self.amplitudes
 
 
 def solve_polhode(moments_P: np.ndarray, omega_P: np.ndarray) -> Polhode | None:
@@ -121,7 +121,7 @@ class PolhodeAttitude:
 
     def _shortest_arc(self, v) -> np.ndarray:
         """Unit quaternion of the rotation taking ``m/|m|`` (S coordinates) to ``e_z``."""
-        m = np.stack([v.cn, v.sn, v.dn], axis=-1) * self.polhode.amplitudes * self.polhode.moments
+        m = self.polhode.rates(v) * self.polhode.moments
         q = np.stack([m[:, 1], -m[:, 0], np.zeros_like(v.cn), self.polhode.momentum + m[:, 2]], -1)
         return q / np.linalg.norm(q, axis=-1, keepdims=True)
 
@@ -134,7 +134,7 @@ class PolhodeAttitude:
     def __call__(self, t: np.ndarray):
         p = self.polhode
         v = p.jacobi(p.rate * t + p.initial_phase)
-        omega_S = p.rates(None, v)
+        omega_S = p.rates(v)
         psi = (
             self._psi_rate * t
             + self._psi_integral_gain * (v.sn2_integral - self._s0)

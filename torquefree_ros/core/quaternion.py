@@ -12,9 +12,6 @@ from __future__ import annotations
 
 import numpy as np
 
-IDENTITY = np.array([0.0, 0.0, 0.0, 1.0])
-
-
 def multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     """Hamilton product ``p ⊗ q`` of ``(x, y, z, w)`` quaternions."""
     p = np.asarray(p, dtype=float)

@@ -84,9 +84,6 @@ class RigidBody:
     def to_principal(self, omega_B) -> np.ndarray:
         return np.asarray(omega_B, dtype=float) @ self.principal_axes
 
-    def from_principal(self, omega_P) -> np.ndarray:
-        return np.asarray(omega_P, dtype=float) @ self.principal_axes.T
-
     def momentum_energy_gaps(self, omega_B) -> np.ndarray:
         """``H^2 - 2 T I_j`` for each principal moment ``I_j``, as ``sum_i I_i (I_i - I_j) w_i^2``.
 
