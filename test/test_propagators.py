@@ -183,3 +183,20 @@ def test_core_imports_no_ros_module():
     code = "import sys, torquefree_ros; torquefree_ros.propagate([1,2,3],[0,1,0],[0,0,0,1],[1.0]); print(sorted(m for m in sys.modules if m.startswith('rclpy')))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=CORE.parent.parent)
     assert out.stdout.strip().splitlines()[-1] == "[]"
+
+
+@pytest.mark.parametrize("duration, rate, count", [(2.3, 100.0, 231), (0.7, 10.0, 8), (1.0, 3.0, 4), (0.0, 50.0, 1), (0.99, 1.0, 1)])
+def test_contract_sample_times_include_both_ends(duration, rate, count):
+    from torquefree_ros.core.timing import sample_times
+
+    times = sample_times(duration, rate)
+    assert times.size == count  # k = 0 ... floor(duration * rate)
+    np.testing.assert_array_equal(times, np.arange(count) / rate)
+
+
+@pytest.mark.parametrize("duration, rate, message", [(-1.0, 10.0, "^duration: "), (1.0, 0.0, "^rate: "), (float("nan"), 1.0, "^duration: ")])
+def test_contract_sample_times_refuse_bad_input(duration, rate, message):
+    from torquefree_ros.core.timing import sample_times
+
+    with pytest.raises(ValueError, match=message):
+        sample_times(duration, rate)

@@ -17,6 +17,7 @@ from scipy.integrate import solve_ivp
 
 from torquefree_ros import make_propagator
 from torquefree_ros.core import quaternion
+from torquefree_ros.core.accuracy import trajectory_errors
 
 DATA = Path(__file__).resolve().parent.parent / "test" / "data" / "hard_cases.json"
 
@@ -41,13 +42,6 @@ def scipy_dop853(case, times):
     return sol.y[:3].T, q / np.linalg.norm(q, axis=1, keepdims=True)
 
 
-def errors(case, w, q):
-    w_ref, q_ref = np.array(case["omega"]), np.array(case["q"])
-    speed = np.linalg.norm(w_ref, axis=1)
-    rate = np.linalg.norm(w - w_ref, axis=1) / np.where(speed > 0, speed, 1.0)
-    return quaternion.angle_between(q, q_ref).max(), rate.max()
-
-
 def main():
     cases = json.loads(DATA.read_text())["cases"]
     methods = ["analytic", "lie_rk4", "rk4", "dop853", "scipy DOP853 1e-12"]
@@ -65,7 +59,7 @@ def main():
             else:
                 w, q = make_propagator(case["inertia"], case["angular_velocity"], case["orientation"], m, **settings(m, case))(times)
             cost = (time.perf_counter() - start) / times.size * 1e6
-            att, rate = errors(case, w, q)
+            rate, att = (e.max() for e in trajectory_errors(w, q, case["omega"], case["q"]))
             cells.append(f"{att:.1e} / {rate:.1e} / {cost:.0f}")
         print(f"| {case['name']} | {max(case['attitude_floor']):.0e} | " + " | ".join(cells) + " |", flush=True)
 

@@ -8,6 +8,7 @@ import sys
 import numpy as np
 
 from .core import PROPAGATORS, make_propagator
+from .core.timing import sample_times
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -31,16 +32,11 @@ def _parser() -> argparse.ArgumentParser:
 def propagate_main(argv=None) -> int:
     parser = _parser()
     args = parser.parse_args(argv)
-    if not (np.isfinite(args.duration) and args.duration >= 0):
-        parser.error(f"--duration: must be a finite number >= 0, got {args.duration}")
-    if not (np.isfinite(args.rate) and args.rate > 0):
-        parser.error(f"--rate: must be a finite number > 0, got {args.rate}")
     try:
+        times = sample_times(args.duration, args.rate)
         propagator = make_propagator(args.inertia, args.angular_velocity, args.orientation, args.propagator)
     except ValueError as error:
         parser.error(str(error))
-    # sample k is the state at exactly k / rate (the contract's sample times)
-    times = np.arange(int(np.floor(args.duration * args.rate + 1e-9)) + 1) / args.rate
     omega, q = propagator(times)
     out = sys.stdout
     out.write("t,w_x,w_y,w_z,q_x,q_y,q_z,q_w\n")

@@ -75,14 +75,14 @@ class JacobiElliptic:
         half_periods = np.round(u / (2.0 * K))
         r = u - 2.0 * K * half_periods  # in [-K, K]
         sign = np.where(r < 0.0, -1.0, 1.0)
-        s, c, d, am, g = self._quarter(np.abs(r))
+        s, c, d, am, integral = self._quarter(np.abs(r))
         parity = 1.0 - 2.0 * np.mod(half_periods, 2.0)  # (-1)^j
         return JacobiValues(
             sn=parity * sign * s,
             cn=parity * c,
             dn=d,
             am=sign * am + np.pi * half_periods,
-            sn2_integral=sign * g + 2.0 * self.sn2_integral_quarter * half_periods,
+            sn2_integral=sign * integral + 2.0 * self.sn2_integral_quarter * half_periods,
         )
 
     def incomplete_first_kind(self, sn, cn, dn) -> np.ndarray:
@@ -135,9 +135,8 @@ class JacobiElliptic:
         p_first = 1.0 - n * s1 * s1
         p_second = c1 * c1 + mc / (1.0 - n) * s1 * s1
         rj = elliprj(c1 * c1, d1 * d1, 1.0, np.where(first, p_first, p_second)) * s1**3 / 3.0
-        g_second = self.sn2_integral_quarter - (w - mc / (1.0 - n) * rj) / (1.0 - n)
-        g = np.where(first, rj, g_second)
-        return s, c, d, am, g
+        integral_second = self.sn2_integral_quarter - (w - mc / (1.0 - n) * rj) / (1.0 - n)
+        return s, c, d, am, np.where(first, rj, integral_second)
 
     def _separatrix(self, u: np.ndarray) -> JacobiValues:
         """``m = 1``: ``sn = tanh``, ``cn = dn = sech``, ``am = gd``, and in closed form
