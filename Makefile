@@ -4,7 +4,7 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 
-.PHONY: run test reference clean
+.PHONY: run test reference bench-node clean
 
 $(VENV)/.installed: requirements.txt requirements-test.txt
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -12,13 +12,16 @@ $(VENV)/.installed: requirements.txt requirements-test.txt
 	touch $@
 
 run: $(VENV)/.installed
-	$(PY) -m torquefree_ros.cli --duration 10 --rate 10
+	$(PY) -m torquefree_ros.sim_node $(if $(ARGS),--ros-args $(ARGS))
 
 test: $(VENV)/.installed
 	$(PY) -m pytest
 
 reference: $(VENV)/.installed
 	$(PY) tools/make_reference.py --jobs 2
+
+bench-node: $(VENV)/.installed
+	$(PY) tools/bench_node.py
 
 clean:
 	rm -rf $(VENV) build install log

@@ -23,6 +23,7 @@ setup(
     tests_require=["pytest"],
     entry_points={
         "console_scripts": [
+            "torquefree_sim = torquefree_ros.sim_node:main",
             "torquefree_propagate = torquefree_ros.cli:propagate_main",
         ],
     },

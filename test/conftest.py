@@ -1,3 +1,7 @@
+import fcntl
+import os
+import tempfile
+
 import numpy as np
 import pytest
 
@@ -29,3 +33,25 @@ def propagator_name(request):
 def pytest_collection_modifyitems(items):
     missing = set(PROPAGATORS) - set(ACCURATE_SETTINGS)
     assert not missing, f"give ACCURATE_SETTINGS for new propagators: {missing}"
+
+
+# -- DDS isolation: each test session owns a ROS domain, so parallel runs never see each other -------
+_domain_lock = None
+
+
+def pytest_configure(config):
+    """Claim the first free ROS domain id (a lock file per id) before any rclpy context exists, and
+    keep discovery on this machine."""
+    global _domain_lock
+    os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    for domain in range(1, 102):  # 0..101 is the portable range; 0 is everyone's default
+        lock = open(os.path.join(tempfile.gettempdir(), f"torquefree_ros_domain_{domain}.lock"), "w")
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            lock.close()
+            continue
+        _domain_lock = lock
+        os.environ["ROS_DOMAIN_ID"] = str(domain)
+        return
+    raise pytest.UsageError("no free ROS domain id in 1..101 for this test session")

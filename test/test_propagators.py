@@ -200,3 +200,8 @@ def test_contract_sample_times_refuse_bad_input(duration, rate, message):
 
     with pytest.raises(ValueError, match=message):
         sample_times(duration, rate)
+
+
+def test_a_state_that_overflows_float64_is_refused(propagator_name):
+    with pytest.raises(ValueError, match=r"^angular_velocity: .*overflows float64"):
+        make_propagator(INERTIA, [1e200, 1.0, 1.0], Q0, propagator_name)

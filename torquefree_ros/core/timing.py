@@ -15,8 +15,34 @@ def sample_times(duration: float, rate: float) -> np.ndarray:
     """``k / rate`` for ``k = 0 ... floor(duration * rate)``, both ends included."""
     if not (math.isfinite(duration) and duration >= 0.0):
         raise ValueError(f"duration: must be a finite number >= 0, got {duration!r}")
-    if not (math.isfinite(rate) and rate > 0.0):
-        raise ValueError(f"rate: must be a finite number > 0, got {rate!r}")
+    rate = check_rate(rate)
     product = duration * rate
     last = math.floor(product * (1.0 + _COUNT_RTOL))
     return np.arange(last + 1) / rate
+
+
+# A sample period shorter than a microsecond is not a use case; it also keeps every stamp distinct.
+MAX_RATE = 1e6
+
+
+def check_rate(rate, name: str = "rate") -> float:
+    """A sample rate in Hz: a finite number in (0, MAX_RATE]."""
+    if isinstance(rate, bool) or not isinstance(rate, (int, float, np.integer, np.floating)):
+        raise ValueError(f"{name}: expected a number (Hz), got {rate!r}")
+    rate = float(rate)
+    if not (math.isfinite(rate) and 0.0 < rate <= MAX_RATE):
+        raise ValueError(f"{name}: must be a finite number in (0, {MAX_RATE:g}] Hz, got {rate!r}")
+    return rate
+
+
+def stamps_ns(epoch_ns: int, times: np.ndarray) -> np.ndarray:
+    """Stamps ``epoch + t`` in integer nanoseconds, ``t`` rounded to the nearest nanosecond."""
+    return np.int64(epoch_ns) + np.rint(np.asarray(times) * 1e9).astype(np.int64)
+
+
+def restart_epoch_ns(now_ns: int, last_stamp_ns: int | None, rate: float) -> int:
+    """The epoch of a (re)start: now, but never before one period after the last published stamp,
+    so stamps never go backwards and a clock of our own keeps its cadence across a reset."""
+    if last_stamp_ns is None:
+        return int(now_ns)
+    return max(int(now_ns), int(last_stamp_ns) + max(1, round(1e9 / rate)))

@@ -28,6 +28,7 @@ class Propagator(abc.ABC):
         self.body = RigidBody.from_inertia(body)
         self.omega0_B = finite_vector(angular_velocity, "angular_velocity", (3,))
         self.q0_NB = unit_quaternion(orientation, "orientation")
+        _check_representable(self.body, self.omega0_B)
         unknown = sorted(set(options) - set(self.options))
         if unknown:
             known = ", ".join(sorted(self.options)) or "none"
@@ -49,6 +50,18 @@ class Propagator(abc.ABC):
     def describe(self) -> str:
         settings = ", ".join(f"{k}={v:g}" for k, v in self.settings.items())
         return f"{self.name}({settings})" if settings else self.name
+
+
+def _check_representable(body: RigidBody, omega_B: np.ndarray) -> None:
+    # The solvers form products like I_max * |H|^2; they must stay finite in float64.
+    with np.errstate(over="ignore", invalid="ignore"):
+        momentum_squared = float(np.sum(body.angular_momentum(omega_B) ** 2))
+        scale = momentum_squared * float(np.max(body.moments)) ** 2
+    if not np.isfinite(scale):
+        raise ValueError(
+            f"angular_velocity: the state {omega_B.tolist()} with moments {body.moments.tolist()} "
+            "overflows float64 (|H|^2 * I_max^2 is not finite)"
+        )
 
 
 #: name -> class; filled by the modules that define propagators

@@ -1,0 +1,130 @@
+"""In-process harness for the simulator node: a private rclpy context, the node under test, and a
+client node that subscribes, sets parameters and calls ``~/reset`` like any other participant.
+Everything is driven by spinning one executor until a condition holds (no sleeps)."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.parameter import Parameter, parameter_value_to_python
+from rclpy.parameter_client import AsyncParameterClient
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rosgraph_msgs.msg import Clock
+from std_srvs.srv import Trigger
+
+from torquefree_ros.sim_node import TorqueFreeSim
+
+SPIN_TIMEOUT = 20.0  # s; generous for a loaded 2-core CI machine
+
+
+def stamp_ns(stamp) -> int:
+    return stamp.sec * 1_000_000_000 + stamp.nanosec
+
+
+class SimHarness:
+    """Each harness runs in a namespace of its own, so harnesses alive at the same time (a
+    module-scoped one beside a test's own) never receive each other's samples."""
+
+    _count = 0
+
+    def __init__(self, args=None, namespace=None, **parameters):
+        SimHarness._count += 1
+        self.namespace = f"harness{SimHarness._count}" if namespace is None else namespace
+        self.context = rclpy.Context()
+        rclpy.init(args=args, context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        try:
+            overrides = [Parameter(name, value=value) for name, value in parameters.items()]
+            self.node = TorqueFreeSim(context=self.context, parameter_overrides=overrides, namespace=self.namespace)
+            self.client = rclpy.create_node("test_client", context=self.context, namespace=self.namespace)
+        except BaseException:
+            self.context.try_shutdown()
+            raise
+        self.omega: dict[int, np.ndarray] = {}
+        self.q: dict[int, np.ndarray] = {}
+        self.arrivals: list[int] = []  # angular_velocity stamps in order of arrival
+        self.frames: set[tuple[str, str]] = set()
+        self.clock: list[int] = []
+        self.diagnostics: list[DiagnosticArray] = []
+        qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10000, reliability=ReliabilityPolicy.RELIABLE)
+        self.client.create_subscription(Vector3Stamped, "angular_velocity", self._on_omega, qos)
+        self.client.create_subscription(QuaternionStamped, "attitude", self._on_q, qos)
+        self.client.create_subscription(Clock, "/clock", lambda m: self.clock.append(stamp_ns(m.clock)), qos)
+        self.client.create_subscription(DiagnosticArray, "/diagnostics", self.diagnostics.append, 10)
+        node_name = self.node.get_fully_qualified_name()
+        self.parameters = AsyncParameterClient(self.client, node_name)
+        self.reset_client = self.client.create_client(Trigger, f"{node_name}/reset")
+        self.executor.add_node(self.node)
+        self.executor.add_node(self.client)
+
+    def _on_omega(self, message: Vector3Stamped) -> None:
+        v = message.vector
+        stamp = stamp_ns(message.header.stamp)
+        self.omega[stamp] = np.array([v.x, v.y, v.z])
+        self.arrivals.append(stamp)
+        self.frames.add(("angular_velocity", message.header.frame_id))
+
+    def _on_q(self, message: QuaternionStamped) -> None:
+        q = message.quaternion
+        self.q[stamp_ns(message.header.stamp)] = np.array([q.x, q.y, q.z, q.w])
+        self.frames.add(("attitude", message.header.frame_id))
+
+    # -- driving -----------------------------------------------------------------------------------
+    def spin_until(self, condition, timeout: float = SPIN_TIMEOUT, what: str = "condition"):
+        deadline = time.monotonic() + timeout
+        while not condition():
+            if time.monotonic() > deadline:
+                raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+            self.executor.spin_once(timeout_sec=0.05)
+
+    def wait_future(self, future, what: str):
+        self.spin_until(future.done, what=what)
+        return future.result()
+
+    def pairs(self) -> list[tuple[int, np.ndarray, np.ndarray]]:
+        """``(stamp_ns, w, q)`` for every stamp received on both topics, in stamp order."""
+        return [(s, self.omega[s], self.q[s]) for s in sorted(self.omega.keys() & self.q.keys())]
+
+    def wait_samples(self, count: int, after: int | None = None):
+        """Until ``count`` complete samples with stamps after ``after`` have arrived; returns them."""
+        def fresh():
+            return [p for p in self.pairs() if after is None or p[0] > after]
+        self.spin_until(lambda: len(fresh()) >= count, what=f"{count} samples")
+        return fresh()
+
+    def wait_connected(self):
+        """Until the node's publishers see the test subscriptions (samples from then on arrive)."""
+        outputs = self.node._outputs
+        self.spin_until(lambda: outputs.angular_velocity.get_subscription_count() > 0
+                        and outputs.attitude.get_subscription_count() > 0, what="discovery")
+        self.spin_until(self.reset_client.service_is_ready, what="the reset service")
+        self.spin_until(lambda: self.parameters.services_are_ready(), what="the parameter services")
+
+    def set_parameters(self, **values):
+        params = [Parameter(name, value=value) for name, value in values.items()]
+        return self.wait_future(self.parameters.set_parameters(params), "set_parameters").results
+
+    def set_parameters_atomically(self, **values):
+        params = [Parameter(name, value=value) for name, value in values.items()]
+        return self.wait_future(self.parameters.set_parameters_atomically(params), "atomic set").result
+
+    def get_parameter(self, name: str):
+        values = self.wait_future(self.parameters.get_parameters([name]), "get_parameters").values
+        return parameter_value_to_python(values[0])
+
+    def reset(self):
+        return self.wait_future(self.reset_client.call_async(Trigger.Request()), "~/reset")
+
+    def close(self):
+        try:
+            self.executor.shutdown()
+            self.node.destroy_node()
+            self.client.destroy_node()
+        finally:
+            self.context.try_shutdown()
+

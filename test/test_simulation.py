@@ -1,0 +1,66 @@
+"""The contract's sample grid as the node and the offline tools use it (core.simulation, core.timing)."""
+
+import numpy as np
+import pytest
+
+from torquefree_ros import make_propagator, propagate
+from torquefree_ros.core.simulation import Simulation
+from torquefree_ros.core.timing import check_rate, restart_epoch_ns, stamps_ns
+
+INERTIA, OMEGA, Q0 = [3.0, 2.0, 1.0], [0.3, 0.2, 1.0], [0.0, 0.0, 0.0, 1.0]
+
+
+def test_blocks_are_the_exact_samples_at_k_over_rate(propagator_name):
+    from conftest import ACCURATE_SETTINGS
+
+    options = ACCURATE_SETTINGS[propagator_name]
+    simulation = Simulation(make_propagator(INERTIA, OMEGA, Q0, propagator_name, **options), 30.0, epoch_ns=5)
+    blocks = [simulation.samples(first, count) for first, count in ((0, 1), (1, 7), (8, 256), (264, 3))]
+    k = np.arange(267)
+    w_ref, q_ref = propagate(INERTIA, OMEGA, Q0, k / 30.0, propagator_name, **options)
+    np.testing.assert_array_equal(np.concatenate([b.omega_B for b in blocks]), w_ref)
+    np.testing.assert_array_equal(np.concatenate([b.q_NB for b in blocks]), q_ref)
+    np.testing.assert_array_equal(np.concatenate([b.stamps_ns for b in blocks]),
+                                  5 + np.rint(k / 30.0 * 1e9).astype(np.int64))
+
+
+def test_stamps_are_exact_nanoseconds_on_wall_clock_epochs():
+    epoch = 1_795_238_758_420_937_365  # a 2026 wall-clock time: beyond float64's integer range
+    times = np.arange(100_000) / 1000.0
+    stamps = stamps_ns(epoch, times)
+    assert stamps.dtype == np.int64
+    np.testing.assert_array_equal(np.diff(stamps), 1_000_000)  # exactly 1 ms apart
+    assert stamps[0] == epoch
+
+
+@pytest.mark.parametrize(
+    "now, last, rate, epoch",
+    [
+        (100, None, 10.0, 100),  # first start: now
+        (1_000, 990, 100.0, 10_000_990),  # our own clock: one period after the last stamp
+        (50_000_000, 10_000_000, 100.0, 50_000_000),  # wall clock well past the last stamp: now
+        (0, 2**62, 1e6, 2**62 + 1000),  # a clock switch never sends stamps backwards
+    ],
+)
+def test_restart_epoch_never_goes_back(now, last, rate, epoch):
+    assert restart_epoch_ns(now, last, rate) == epoch
+
+
+@pytest.mark.parametrize("rate", [0.0, -1.0, float("nan"), float("inf"), 2e6, "100", True])
+def test_bad_rates_are_refused_with_the_name(rate):
+    with pytest.raises(ValueError, match=r"^publish_rate: "):
+        check_rate(rate, "publish_rate")
+
+
+def test_summary_names_the_state_and_invariants_are_exact():
+    simulation = Simulation(make_propagator(INERTIA, OMEGA, Q0), 100.0, epoch_ns=1_500_000_000)
+    summary = simulation.summary()
+    for part in ("inertia [3, 2, 1] kg m^2", "w0 [0.3, 0.2, 1] rad/s", "q0 [0, 0, 0, 1]", "T 0.675 J",
+                 "|H| 1.40356688", "minor axis polhode, polhode period", "propagator analytic",
+                 "100 Hz", "first stamp 1.500000000 s"):
+        assert part in summary, part
+    block = simulation.samples(1000, 200)  # 10 to 12 s into the motion
+    for omega in block.omega_B:
+        invariants = simulation.invariants(omega)
+        assert abs(invariants.energy_drift) <= 4e-16 * 8  # a few rounding units of T
+        assert abs(invariants.momentum_drift) <= 4e-16 * 8

@@ -1,0 +1,255 @@
+"""The publishing loop of the simulator node, in a thread of its own.
+
+It is the one place where the running simulation changes: a restart requested by the reset service
+is applied between two samples, so no stamp ever carries a rate from one state and an attitude from
+another. Samples are computed and CDR-encoded in vectorised blocks and published in stamp order.
+
+Pacing: with ``real_time_factor == 1`` stamps are wall-clock time and sample ``k`` is published when
+the wall clock reaches its stamp; a late loop catches up without skipping and counts the samples it
+published more than one period after they were due. Any other factor runs a clock of our own,
+published on ``/clock`` just before each sample (0 = as fast as possible).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from dataclasses import dataclass
+from typing import Callable, NamedTuple
+
+import numpy as np
+
+from .cdr import encode_stamped_doubles, encode_times
+from .core.propagators import Propagator
+from .core.simulation import SampleBlock, Simulation
+from .core.timing import restart_epoch_ns
+
+# Samples computed ahead in one vectorised call: at most MAX_BLOCK, and at most this much wall time
+# of samples (a reset discards the rest). When paced, the block is also kept small enough that
+# computing it fits in one period, so it does not make the next sample late (see _Run.adapt).
+MAX_BLOCK = 256
+BLOCK_WALL_SECONDS = 0.25
+
+
+@dataclass(frozen=True)
+class RunRequest:
+    propagator: Propagator
+    publish_rate: float
+    real_time_factor: float
+    body_frame: str
+    inertial_frame: str
+
+    @property
+    def wall_clock(self) -> bool:
+        return self.real_time_factor == 1.0
+
+
+class LastSample(NamedTuple):
+    simulation: Simulation
+    index: int
+    stamp_ns: int
+    omega_B: np.ndarray
+
+
+class _Run:
+    """A started simulation with its pacing and its encoded block."""
+
+    def __init__(self, request: RunRequest, simulation: Simulation):
+        self.request = request
+        self.simulation = simulation
+        self.wall_ref_ns = time.time_ns()
+        self.mono_ref = time.monotonic()
+        self.period_wall = (1.0 / (request.publish_rate * request.real_time_factor)
+                            if request.real_time_factor else 0.0)
+        samples_per_wall_second = request.publish_rate * (request.real_time_factor or float("inf"))
+        self.max_block = int(min(MAX_BLOCK, max(1.0, samples_per_wall_second * BLOCK_WALL_SECONDS)))
+        # Paced runs start with a one-sample block: its cost is the fixed cost of a block.
+        self.block_size = 1 if self.period_wall else self.max_block
+        self.fixed_cost: float | None = None
+        self.sample_cost: float | None = None
+        self.next_index = 0
+        self.block: SampleBlock | None = None
+        self.messages: tuple = ()
+        self.position = 0
+
+    def deadline(self, stamp_ns: int) -> float | None:
+        """Monotonic time at which the sample is due, or None when not paced."""
+        if self.request.wall_clock:
+            return self.mono_ref + (stamp_ns - self.wall_ref_ns) * 1e-9
+        if self.request.real_time_factor == 0.0:
+            return None
+        return self.mono_ref + (stamp_ns - self.simulation.epoch_ns) * 1e-9 / self.request.real_time_factor
+
+    def refill(self) -> None:
+        started = time.perf_counter()
+        block = self.simulation.samples(self.next_index, self.block_size)
+        request = self.request
+        self.messages = (
+            encode_stamped_doubles(block.stamps_ns, request.body_frame, block.omega_B),
+            encode_stamped_doubles(block.stamps_ns, request.inertial_frame, block.q_NB),
+            None if request.wall_clock else encode_times(block.stamps_ns),
+        )
+        self.block = block
+        self.next_index += len(block)
+        self.position = 0
+        if self.period_wall:
+            self.adapt(len(block), time.perf_counter() - started)
+
+    def adapt(self, size: int, cost: float) -> None:
+        """Model a block's cost as fixed + size * per_sample. The largest block whose cost fits in
+        one period delays no sample past its period; if even the fixed cost does not fit, every
+        block delays one sample whatever its size, so the largest block makes the fewest late."""
+        if self.fixed_cost is None:
+            self.fixed_cost = cost
+        elif size > 1:
+            per_sample = max(0.0, (cost - self.fixed_cost) / (size - 1))
+            self.sample_cost = per_sample if self.sample_cost is None else 0.8 * self.sample_cost + 0.2 * per_sample
+        slack = self.period_wall - self.fixed_cost
+        if slack <= 0.0 or not self.sample_cost:
+            self.block_size = self.max_block
+        else:
+            self.block_size = int(min(self.max_block, max(1.0, slack / self.sample_cost)))
+
+
+class SampleLoop:
+    """Publishes ``angular_velocity`` and ``attitude`` (and ``/clock``) from its own thread.
+
+    ``publishers`` has ``angular_velocity``, ``attitude`` and, before any run on a clock of our own
+    starts, ``clock``.
+    ``keep_going()`` is false once the ROS context shuts down; publishing then stops quietly.
+    """
+
+    def __init__(self, publishers, keep_going: Callable[[], bool], logger):
+        self._publishers = publishers
+        self._keep_going = keep_going
+        self._logger = logger
+        self._lock = threading.Lock()
+        self._wake = threading.Event()
+        self._pending: tuple[RunRequest, threading.Event, list] | None = None
+        self._stopping = False
+        self._run: _Run | None = None
+        self._thread: threading.Thread | None = None
+        self.last_stamp_ns: int | None = None
+        self.last: LastSample | None = None
+        self.published = 0
+        self.late = 0
+        self.failure = ""
+
+    # -- called from the executor thread ---------------------------------------------------------
+    def start(self, request: RunRequest) -> Simulation:
+        self._run = self._begin(request)
+        self._thread = threading.Thread(target=self._main, name="torquefree_samples", daemon=True)
+        self._thread.start()
+        return self._run.simulation
+
+    def restart(self, request: RunRequest, timeout: float = 10.0) -> Simulation:
+        """Apply ``request`` between two samples; returns the new simulation once it is running."""
+        done, result = threading.Event(), []
+        with self._lock:
+            if self._stopping or not self.running:
+                raise RuntimeError("the sample loop is not running")
+            self._pending = (request, done, result)
+        self._wake.set()
+        if not done.wait(timeout):
+            raise RuntimeError(f"the sample loop did not take the restart within {timeout:g} s")
+        return result[0]
+
+    def stop(self, timeout: float = 5.0) -> None:
+        with self._lock:
+            self._stopping = True
+        self._wake.set()
+        if self._thread is not None and self._thread is not threading.current_thread():
+            self._thread.join(timeout)
+
+    @property
+    def running(self) -> bool:
+        return self._thread is not None and self._thread.is_alive()
+
+    @property
+    def simulation(self) -> Simulation | None:
+        return self._run.simulation if self._run else None
+
+    @property
+    def clock_now_ns(self) -> int:
+        """Now on the clock the stamps come from."""
+        run = self._run
+        if run is None or run.request.wall_clock:
+            return time.time_ns()
+        return self.last_stamp_ns if self.last_stamp_ns is not None else run.simulation.epoch_ns
+
+    # -- the loop thread ---------------------------------------------------------------------------
+    def _begin(self, request: RunRequest) -> _Run:
+        now = time.time_ns() if request.wall_clock else (self.last_stamp_ns or 0)
+        epoch = restart_epoch_ns(now, self.last_stamp_ns, request.publish_rate)
+        simulation = Simulation(request.propagator, request.publish_rate, epoch, rate_name="publish_rate")
+        self.failure = ""
+        return _Run(request, simulation)
+
+    def _take_pending(self) -> bool:
+        with self._lock:
+            if self._stopping:
+                raise _Stop
+            pending, self._pending = self._pending, None
+        if pending is None:
+            return False
+        request, done, result = pending
+        self._run = self._begin(request)
+        result.append(self._run.simulation)
+        done.set()
+        return True
+
+    def _main(self) -> None:
+        try:
+            self._loop()
+        except _Stop:
+            pass
+        except Exception as error:  # noqa: BLE001 - reported, and the node stays up for a reset
+            if self._stopping or not self._keep_going():
+                return
+            self.failure = f"{type(error).__name__}: {error}"
+            self._logger.error(f"sample loop stopped: {self.failure}")
+
+    def _loop(self) -> None:
+        publishers = self._publishers
+        omega_publisher, q_publisher = publishers.angular_velocity, publishers.attitude
+        while True:
+            self._take_pending()
+            run = self._run
+            if run.block is None or run.position == len(run.block):
+                try:
+                    run.refill()
+                except (ValueError, ArithmeticError) as error:
+                    self._fail(f"cannot compute samples {run.next_index}..: {error}")
+                    continue
+            block, i = run.block, run.position
+            stamp = int(block.stamps_ns[i])
+            deadline = run.deadline(stamp)
+            if deadline is not None:
+                delay = deadline - time.monotonic()
+                if delay > 0.0:
+                    if self._wake.wait(delay):
+                        self._wake.clear()
+                    continue  # re-check for a restart or a stop, then for the deadline
+                if -delay > run.period_wall:
+                    self.late += 1
+            omega_messages, q_messages, clock_messages = run.messages
+            if clock_messages is not None:
+                publishers.clock.publish(clock_messages[i])
+            omega_publisher.publish(omega_messages[i])
+            q_publisher.publish(q_messages[i])
+            run.position = i + 1
+            self.published += 1
+            self.last_stamp_ns = stamp
+            self.last = LastSample(run.simulation, block.first + i, stamp, block.omega_B[i])
+
+    def _fail(self, reason: str) -> None:
+        """Stop publishing until a restart arrives; the node stays up and reports the reason."""
+        self.failure = reason
+        self._logger.error(f"simulation stopped: {reason}; call ~/reset to restart")
+        while not self._take_pending():
+            self._wake.wait()
+            self._wake.clear()
+
+
+class _Stop(Exception):
+    pass

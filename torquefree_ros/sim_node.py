@@ -1,0 +1,203 @@
+"""``torquefree_sim``: the attitude simulator node (default name ``torquefree``).
+
+A thin layer over the dynamics core: parameters (``sim_parameters``) describe a simulation, the
+sample loop (``sample_loop``) publishes it, ``~/reset`` restarts it, ``/diagnostics`` reports it.
+The node computes nothing physical itself.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.exceptions import InvalidParameterValueException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rosgraph_msgs.msg import Clock
+from std_srvs.srv import Trigger
+
+from .core.scene import SceneError
+from .sample_loop import RunRequest, SampleLoop
+from .sim_parameters import SPEC_BY_NAME, SPECS, ConfigurationError, SimConfig, check_value, config_from_values, rejection
+
+DIAGNOSTICS_PERIOD = 1.0  # s
+# The share of late samples above which /diagnostics reports a warning.
+LATE_WARNING_FRACTION = 0.01
+
+
+class _Publishers:
+    def __init__(self, node: Node, depth: int):
+        qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth, reliability=ReliabilityPolicy.RELIABLE)
+        self._node, self._qos = node, qos
+        self.angular_velocity = node.create_publisher(Vector3Stamped, "angular_velocity", qos)
+        self.attitude = node.create_publisher(QuaternionStamped, "attitude", qos)
+        self.clock = None  # created by the first run on a clock of our own
+
+    def ensure_clock(self) -> None:
+        if self.clock is None:
+            self.clock = self._node.create_publisher(Clock, "/clock", self._qos)
+
+
+class TorqueFreeSim(Node):
+    """Publishes ``angular_velocity`` and ``attitude`` from the moment it is constructed; the caller
+    spins it (services, parameters, diagnostics). Raises :class:`ConfigurationError` when the
+    start-up parameters do not describe a usable simulation."""
+
+    def __init__(self, node_name: str = "torquefree", **node_options):
+        # Undeclared names reach our on-set callback, whose reason names them (rclpy's does not).
+        super().__init__(node_name, allow_undeclared_parameters=True, **node_options)
+        self._declared = False
+        self._loop: SampleLoop | None = None
+        try:
+            self.add_on_set_parameters_callback(self._on_set_parameters)
+            for spec in SPECS:
+                self.declare_parameter(spec.name, spec.default, spec.descriptor())
+            self._declared = True
+            config = self._config()
+            request = self._run_request(config)
+        except InvalidParameterValueException as error:
+            super().destroy_node()
+            raise ConfigurationError(str(error).split("Reason: ", 1)[-1]) from None
+        except ValueError as error:
+            super().destroy_node()
+            raise ConfigurationError(str(error)) from None
+
+        self._outputs = _Publishers(self, self.get_parameter("qos_depth").value)
+        if not request.wall_clock:
+            self._outputs.ensure_clock()
+        self.create_service(Trigger, "~/reset", self._on_reset)
+        self._diagnostics = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self.create_timer(DIAGNOSTICS_PERIOD, self._publish_diagnostics)
+        self._loop = SampleLoop(self._outputs, self.context.ok, self.get_logger())
+        simulation = self._loop.start(request)  # last: the first sample is due now
+        self.get_logger().info(f"start: {simulation.summary()}")
+
+    @property
+    def sample_loop(self) -> SampleLoop:
+        return self._loop
+
+    def destroy_node(self):
+        if self._loop is not None:
+            self._loop.stop()
+        super().destroy_node()
+
+    # -- parameters --------------------------------------------------------------------------------
+    def _values(self, changes=()) -> dict:
+        values = {spec.name: check_value(spec.name, self.get_parameter(spec.name)) for spec in SPECS}
+        for parameter in changes:
+            values[parameter.name] = check_value(parameter.name, parameter)
+        return values
+
+    def _config(self, changes=()) -> SimConfig:
+        values = self._values(changes)
+        try:
+            config = config_from_values(values)
+        except SceneError as error:
+            message = str(error)
+            raise ValueError(message if message.startswith("scene:") else f"scene: {message}") from None
+        config.build()  # the whole state must be usable, not only each value on its own
+        return config
+
+    def _on_set_parameters(self, parameters) -> SetParametersResult:
+        try:
+            for parameter in parameters:
+                if parameter.name in SPEC_BY_NAME:
+                    check_value(parameter.name, parameter)
+                elif not self.has_parameter(parameter.name):
+                    known = ", ".join(spec.name for spec in SPECS)
+                    raise ValueError(f"{parameter.name}: not a parameter of this node (parameters: {known})")
+            if self._declared:
+                self._config(parameters)
+        except ValueError as error:
+            return rejection(error)
+        return SetParametersResult(successful=True)
+
+    def _run_request(self, config: SimConfig) -> RunRequest:
+        return RunRequest(config.build(), config.publish_rate, config.real_time_factor,
+                          config.body_frame, config.inertial_frame)
+
+    # -- reset -------------------------------------------------------------------------------------
+    def _on_reset(self, request, response):
+        try:
+            run = self._run_request(self._config())
+            if not run.wall_clock:
+                self._outputs.ensure_clock()
+            simulation = self._loop.restart(run)
+        except (ValueError, RuntimeError) as error:
+            response.success = False
+            response.message = f"reset refused, the running simulation continues unchanged: {error}"
+            self.get_logger().warning(response.message)
+            return response
+        response.success = True
+        response.message = simulation.summary()
+        self.get_logger().info(f"reset: {response.message}")
+        return response
+
+    # -- diagnostics -------------------------------------------------------------------------------
+    def _publish_diagnostics(self) -> None:
+        loop = self._loop
+        simulation, last = loop.simulation, loop.last
+        status = DiagnosticStatus(name=f"{self.get_name()}: simulation", hardware_id=self.get_fully_qualified_name())
+        values = {
+            "propagator": simulation.propagator.describe(),
+            "publish_rate": f"{simulation.rate:g}",
+            "regime": simulation.regime.summary(),
+            "samples_published": str(loop.published),
+            "late_samples": str(loop.late),
+        }
+        if last is not None and last.simulation is simulation:
+            invariants = simulation.invariants(last.omega_B)
+            values.update(
+                sim_time=repr(float(last.index / simulation.rate)),
+                kinetic_energy=f"{invariants.kinetic_energy:.17g}",
+                angular_momentum=f"{invariants.momentum:.17g}",
+                kinetic_energy_drift=f"{invariants.energy_drift:.3g}",
+                angular_momentum_drift=f"{invariants.momentum_drift:.3g}",
+            )
+        if loop.failure:
+            status.level, status.message = DiagnosticStatus.ERROR, loop.failure
+        elif loop.late > LATE_WARNING_FRACTION * max(loop.published, 1):
+            status.level, status.message = DiagnosticStatus.WARN, "more than 1% of samples published late"
+        else:
+            status.level, status.message = DiagnosticStatus.OK, "running"
+        status.values = [KeyValue(key=key, value=value) for key, value in values.items()]
+        array = DiagnosticArray(status=[status])
+        stamp = loop.clock_now_ns
+        array.header.stamp.sec, array.header.stamp.nanosec = divmod(stamp, 1_000_000_000)
+        self._diagnostics.publish(array)
+
+
+def main(args=None) -> int:
+    """``ros2 run torquefree_ros torquefree_sim [--ros-args ...]``: exit status 0 on SIGINT/SIGTERM,
+    1 when the parameters do not describe a usable simulation."""
+    rclpy.init(args=args)
+    node = executor = None
+    try:
+        executor = SingleThreadedExecutor()
+        node = TorqueFreeSim()
+        executor.add_node(node)
+        executor.spin()
+    except ConfigurationError as error:
+        rclpy.logging.get_logger("torquefree").fatal(f"cannot start: {error}")
+        return 1
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except Exception:
+        if rclpy.ok():
+            raise
+        # a signal shut the context down while the node was starting: that is a clean stop too
+    finally:
+        if executor is not None:
+            executor.shutdown()
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,177 @@
+"""The simulator node's parameters: declarations with descriptors, validation, and the configuration
+they describe. Values take effect at the next ``~/reset`` (``qos_depth`` only at start-up).
+
+Every parameter is declared with dynamic typing so that this module, not rclpy, checks the type: the
+reason then names the parameter, and an integer is accepted where a number is meant
+(``publish_rate: 100`` in YAML).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
+from rclpy.parameter import Parameter
+
+from .core import PROPAGATORS, make_propagator
+from .core.propagators import Propagator
+from .core.rigid_body import RigidBody
+from .core.scene import Scene, default_scene, load_scene
+from .core.timing import MAX_RATE, check_rate
+from .core.validation import finite_vector, unit_quaternion
+
+_NUMBER = (Parameter.Type.INTEGER, Parameter.Type.DOUBLE)
+_ARRAY = (Parameter.Type.INTEGER_ARRAY, Parameter.Type.DOUBLE_ARRAY, Parameter.Type.BYTE_ARRAY)
+MAX_REAL_TIME_FACTOR = 1e6
+
+
+class ConfigurationError(ValueError):
+    """The parameters do not describe a usable simulation; the message names the parameter."""
+
+
+@dataclass(frozen=True)
+class ParameterSpec:
+    name: str
+    default: object  # None: not set (the scene's value is used)
+    description: str
+    constraints: str
+    read_only: bool = False
+    number_range: tuple | None = None
+
+    def descriptor(self) -> ParameterDescriptor:
+        descriptor = ParameterDescriptor(
+            description=self.description,
+            additional_constraints=self.constraints,
+            read_only=self.read_only,
+            dynamic_typing=True,
+        )
+        if self.number_range is not None:
+            low, high = self.number_range
+            if isinstance(low, int) and isinstance(high, int):
+                descriptor.integer_range = [IntegerRange(from_value=low, to_value=high, step=0)]
+            else:
+                descriptor.floating_point_range = [FloatingPointRange(from_value=low, to_value=high, step=0.0)]
+        return descriptor
+
+
+_AT_RESET = " Takes effect at the next ~/reset."
+SPECS = (
+    ParameterSpec("scene", "", "Path of a scene file (YAML); empty = the built-in default scene." + _AT_RESET,
+                  "a readable scene file, or empty"),
+    ParameterSpec("inertia", None,
+                  "Principal moments [I1, I2, I3] or tensor [Ixx, Iyy, Izz, Ixy, Ixz, Iyz], kg m^2; "
+                  "overrides the scene; not set or [] = the scene's." + _AT_RESET,
+                  "3 or 6 finite numbers; positive-definite; moments obey the triangle inequality"),
+    ParameterSpec("angular_velocity", None,
+                  "Initial body-frame angular velocity [wx, wy, wz], rad/s; overrides the scene; "
+                  "not set or [] = the scene's." + _AT_RESET, "3 finite numbers"),
+    ParameterSpec("orientation", None,
+                  "Initial attitude q_NB (x, y, z, w), body to inertial; overrides the scene; "
+                  "not set or [] = the scene's." + _AT_RESET, "4 finite numbers with norm 1 (within 1e-6)"),
+    ParameterSpec("publish_rate", 100.0, "Samples per simulated second, Hz; sample k is the state at k / rate."
+                  + _AT_RESET, f"> 0 and <= {MAX_RATE:g}", number_range=(0.0, MAX_RATE)),
+    ParameterSpec("real_time_factor", 1.0,
+                  "1 = wall-clock pace with wall-clock stamps; other values pace simulated time at this "
+                  "multiple of wall time and publish /clock; 0 = as fast as possible." + _AT_RESET,
+                  f">= 0 and <= {MAX_REAL_TIME_FACTOR:g}", number_range=(0.0, MAX_REAL_TIME_FACTOR)),
+    ParameterSpec("body_frame", "body", "header.frame_id of angular_velocity (the body frame)." + _AT_RESET,
+                  "a non-empty frame id without a leading '/'"),
+    ParameterSpec("inertial_frame", "world", "header.frame_id of attitude (the inertial frame)." + _AT_RESET,
+                  "a non-empty frame id without a leading '/'"),
+    ParameterSpec("propagator", "auto",
+                  "auto (the exact solution for a torque-free scene) or a registered propagator." + _AT_RESET,
+                  "one of: " + ", ".join(["auto", *sorted(PROPAGATORS)])),
+    ParameterSpec("qos_depth", 10, "History depth of the reliable publishers (read at start-up only).",
+                  "an integer in [1, 10000]", read_only=True, number_range=(1, 10000)),
+)
+SPEC_BY_NAME = {spec.name: spec for spec in SPECS}
+
+
+@dataclass(frozen=True)
+class SimConfig:
+    """What the parameters describe; ``build()`` makes the propagator or raises ``ValueError``."""
+
+    scene: Scene
+    inertia: tuple
+    angular_velocity: tuple
+    orientation: tuple
+    publish_rate: float
+    real_time_factor: float
+    body_frame: str
+    inertial_frame: str
+    propagator: str
+
+    def build(self) -> Propagator:
+        return make_propagator(self.inertia, self.angular_velocity, self.orientation, self.propagator)
+
+
+def check_value(name: str, parameter: Parameter):
+    """The parameter's value in canonical form, or ``ValueError`` naming it and the reason."""
+    kind, value = parameter.type_, parameter.value
+    if kind == Parameter.Type.NOT_SET:
+        if SPEC_BY_NAME[name].default is None:
+            return None
+        raise ValueError(f"{name}: cannot be unset")
+    if name in ("inertia", "angular_velocity", "orientation"):
+        if kind not in _ARRAY:
+            raise ValueError(f"{name}: expected an array of numbers, got {_type_name(kind)} {value!r}")
+        if len(value) == 0:
+            return None  # the scene's value
+        if kind == Parameter.Type.BYTE_ARRAY:
+            raise ValueError(f"{name}: expected an array of numbers, got a byte array")
+        if name == "inertia":
+            RigidBody.from_inertia(finite_vector(value, name, (3, 6)), name)
+            return tuple(float(x) for x in value)
+        if name == "angular_velocity":
+            return tuple(finite_vector(value, name, (3,)).tolist())
+        return tuple(unit_quaternion(value, name).tolist())
+    if name in ("publish_rate", "real_time_factor", "qos_depth"):
+        if kind not in _NUMBER or (name == "qos_depth" and kind != Parameter.Type.INTEGER):
+            wanted = "an integer" if name == "qos_depth" else "a number"
+            raise ValueError(f"{name}: expected {wanted}, got {_type_name(kind)} {value!r}")
+        if name == "publish_rate":
+            return check_rate(value, name)
+        if name == "real_time_factor":
+            if not 0.0 <= float(value) <= MAX_REAL_TIME_FACTOR:
+                raise ValueError(f"{name}: must lie in [0, {MAX_REAL_TIME_FACTOR:g}], got {value!r}")
+            return float(value)
+        if not 1 <= value <= 10000:
+            raise ValueError(f"{name}: must lie in [1, 10000], got {value!r}")
+        return int(value)
+    if kind != Parameter.Type.STRING:
+        raise ValueError(f"{name}: expected a string, got {_type_name(kind)} {value!r}")
+    if name == "scene":
+        return value
+    if name == "propagator":
+        if value != "auto" and value not in PROPAGATORS:
+            known = ", ".join(["auto", *sorted(PROPAGATORS)])
+            raise ValueError(f"{name}: unknown propagator {value!r} (known: {known})")
+        return value
+    if not value or value.startswith("/") or any(c.isspace() for c in value):
+        raise ValueError(f"{name}: expected a non-empty frame id without a leading '/' or spaces, got {value!r}")
+    return value
+
+
+def config_from_values(values: dict) -> SimConfig:
+    """A configuration from canonical values (``check_value``); the scene fills what is not set."""
+    scene = load_scene(values["scene"]) if values["scene"] else default_scene()
+    config = SimConfig(
+        scene=scene,
+        inertia=values["inertia"] or scene.inertia,
+        angular_velocity=values["angular_velocity"] or scene.angular_velocity,
+        orientation=values["orientation"] or scene.orientation,
+        publish_rate=values["publish_rate"],
+        real_time_factor=values["real_time_factor"],
+        body_frame=values["body_frame"],
+        inertial_frame=values["inertial_frame"],
+        propagator=values["propagator"],
+    )
+    return config
+
+
+def rejection(error: ValueError) -> SetParametersResult:
+    return SetParametersResult(successful=False, reason=str(error))
+
+
+def _type_name(kind: Parameter.Type) -> str:
+    return kind.name.lower().replace("_", " ")
