@@ -247,6 +247,11 @@ def test_undeclared_and_unset_parameters_are_rejected(shared_harness):
     assert shared_harness.get_parameter("publish_rate") == 100.0
 
 
+def test_rclpy_own_parameters_stay_settable(shared_harness):
+    (result,) = shared_harness.set_parameters(use_sim_time=False)
+    assert result.successful, result.reason
+
+
 def test_an_atomic_set_with_one_bad_value_changes_nothing(shared_harness):
     result = shared_harness.set_parameters_atomically(inertia=[1.0, 2.0, 3.0], angular_velocity=[1.0, math.inf, 0.0])
     assert not result.successful and "angular_velocity" in result.reason

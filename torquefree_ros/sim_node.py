@@ -22,7 +22,7 @@ from std_srvs.srv import Trigger
 
 from .core.scene import SceneError
 from .sample_loop import RunRequest, SampleLoop
-from .sim_parameters import SPEC_BY_NAME, SPECS, ConfigurationError, SimConfig, check_value, config_from_values, rejection
+from .sim_parameters import SPEC_BY_NAME, SPECS, ConfigurationError, check_value, config_from_values, rejection
 
 DIAGNOSTICS_PERIOD = 1.0  # s
 # The share of late samples above which /diagnostics reports a warning.
@@ -57,8 +57,7 @@ class TorqueFreeSim(Node):
             for spec in SPECS:
                 self.declare_parameter(spec.name, spec.default, spec.descriptor())
             self._declared = True
-            config = self._config()
-            request = self._run_request(config)
+            request = self._run_request()
         except InvalidParameterValueException as error:
             super().destroy_node()
             raise ConfigurationError(str(error).split("Reason: ", 1)[-1]) from None
@@ -89,41 +88,41 @@ class TorqueFreeSim(Node):
     def _values(self, changes=()) -> dict:
         values = {spec.name: check_value(spec.name, self.get_parameter(spec.name)) for spec in SPECS}
         for parameter in changes:
-            values[parameter.name] = check_value(parameter.name, parameter)
+            if parameter.name in SPEC_BY_NAME:  # rclpy's own parameters (use_sim_time) pass through
+                values[parameter.name] = check_value(parameter.name, parameter)
         return values
 
-    def _config(self, changes=()) -> SimConfig:
+    def _run_request(self, changes=()) -> RunRequest:
+        """The run the parameters (with ``changes`` applied) describe; building its propagator is
+        the check that the whole state is usable, not only each value on its own."""
         values = self._values(changes)
         try:
             config = config_from_values(values)
         except SceneError as error:
             message = str(error)
             raise ValueError(message if message.startswith("scene:") else f"scene: {message}") from None
-        config.build()  # the whole state must be usable, not only each value on its own
-        return config
+        return RunRequest(config.build(), config.publish_rate, config.real_time_factor,
+                          config.body_frame, config.inertial_frame)
 
     def _on_set_parameters(self, parameters) -> SetParametersResult:
         try:
             for parameter in parameters:
-                if parameter.name in SPEC_BY_NAME:
-                    check_value(parameter.name, parameter)
-                elif not self.has_parameter(parameter.name):
+                if parameter.name not in SPEC_BY_NAME and not self.has_parameter(parameter.name):
                     known = ", ".join(spec.name for spec in SPECS)
                     raise ValueError(f"{parameter.name}: not a parameter of this node (parameters: {known})")
             if self._declared:
-                self._config(parameters)
+                self._run_request(parameters)
+            else:  # declaring: the others are not there yet to form a whole configuration
+                for parameter in parameters:
+                    check_value(parameter.name, parameter)
         except ValueError as error:
             return rejection(error)
         return SetParametersResult(successful=True)
 
-    def _run_request(self, config: SimConfig) -> RunRequest:
-        return RunRequest(config.build(), config.publish_rate, config.real_time_factor,
-                          config.body_frame, config.inertial_frame)
-
     # -- reset -------------------------------------------------------------------------------------
     def _on_reset(self, request, response):
         try:
-            run = self._run_request(self._config())
+            run = self._run_request()
             if not run.wall_clock:
                 self._outputs.ensure_clock()
             simulation = self._loop.restart(run)
