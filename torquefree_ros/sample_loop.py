@@ -129,7 +129,6 @@ class SampleLoop:
         self._stopping = False
         self._run: _Run | None = None
         self._thread: threading.Thread | None = None
-        self.last_stamp_ns: int | None = None
         self.last: LastSample | None = None
         self.published = 0
         self.late = 0
@@ -170,17 +169,24 @@ class SampleLoop:
         return self._run.simulation if self._run else None
 
     @property
+    def last_stamp_ns(self) -> int | None:
+        last = self.last
+        return last.stamp_ns if last is not None else None
+
+    @property
     def clock_now_ns(self) -> int:
         """Now on the clock the stamps come from."""
         run = self._run
         if run is None or run.request.wall_clock:
             return time.time_ns()
-        return self.last_stamp_ns if self.last_stamp_ns is not None else run.simulation.epoch_ns
+        last = self.last_stamp_ns
+        return last if last is not None else run.simulation.epoch_ns
 
     # -- the loop thread ---------------------------------------------------------------------------
     def _begin(self, request: RunRequest) -> _Run:
-        now = time.time_ns() if request.wall_clock else (self.last_stamp_ns or 0)
-        epoch = restart_epoch_ns(now, self.last_stamp_ns, request.publish_rate)
+        last = self.last_stamp_ns
+        now = time.time_ns() if request.wall_clock else (last or 0)
+        epoch = restart_epoch_ns(now, last, request.publish_rate)
         simulation = Simulation(request.propagator, request.publish_rate, epoch, rate_name="publish_rate")
         self.failure = ""
         return _Run(request, simulation)
@@ -239,7 +245,6 @@ class SampleLoop:
             q_publisher.publish(q_messages[i])
             run.position = i + 1
             self.published += 1
-            self.last_stamp_ns = stamp
             self.last = LastSample(run.simulation, block.first + i, stamp, block.omega_B[i])
 
     def _fail(self, reason: str) -> None:

@@ -20,9 +20,8 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from std_srvs.srv import Trigger
 
-from .core.scene import SceneError
 from .sample_loop import RunRequest, SampleLoop
-from .sim_parameters import SPEC_BY_NAME, SPECS, ConfigurationError, check_value, config_from_values, rejection
+from .sim_parameters import SPEC_BY_NAME, SPECS, ConfigurationError, check_value, rejection, run_request
 
 DIAGNOSTICS_PERIOD = 1.0  # s
 # The share of late samples above which /diagnostics reports a warning.
@@ -93,16 +92,7 @@ class TorqueFreeSim(Node):
         return values
 
     def _run_request(self, changes=()) -> RunRequest:
-        """The run the parameters (with ``changes`` applied) describe; building its propagator is
-        the check that the whole state is usable, not only each value on its own."""
-        values = self._values(changes)
-        try:
-            config = config_from_values(values)
-        except SceneError as error:
-            message = str(error)
-            raise ValueError(message if message.startswith("scene:") else f"scene: {message}") from None
-        return RunRequest(config.build(), config.publish_rate, config.real_time_factor,
-                          config.body_frame, config.inertial_frame)
+        return run_request(self._values(changes))
 
     def _on_set_parameters(self, parameters) -> SetParametersResult:
         try:

@@ -14,11 +14,11 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.parameter import Parameter
 
 from .core import PROPAGATORS, make_propagator
-from .core.propagators import Propagator
 from .core.rigid_body import RigidBody
-from .core.scene import Scene, default_scene, load_scene
+from .core.scene import SceneError, default_scene, load_scene
 from .core.timing import MAX_RATE, check_rate
 from .core.validation import finite_vector, unit_quaternion
+from .sample_loop import RunRequest
 
 _NUMBER = (Parameter.Type.INTEGER, Parameter.Type.DOUBLE)
 _ARRAY = (Parameter.Type.INTEGER_ARRAY, Parameter.Type.DOUBLE_ARRAY, Parameter.Type.BYTE_ARRAY)
@@ -87,24 +87,6 @@ SPECS = (
 SPEC_BY_NAME = {spec.name: spec for spec in SPECS}
 
 
-@dataclass(frozen=True)
-class SimConfig:
-    """What the parameters describe; ``build()`` makes the propagator or raises ``ValueError``."""
-
-    scene: Scene
-    inertia: tuple
-    angular_velocity: tuple
-    orientation: tuple
-    publish_rate: float
-    real_time_factor: float
-    body_frame: str
-    inertial_frame: str
-    propagator: str
-
-    def build(self) -> Propagator:
-        return make_propagator(self.inertia, self.angular_velocity, self.orientation, self.propagator)
-
-
 def check_value(name: str, parameter: Parameter):
     """The parameter's value in canonical form, or ``ValueError`` naming it and the reason."""
     kind, value = parameter.type_, parameter.value
@@ -120,7 +102,7 @@ def check_value(name: str, parameter: Parameter):
         if kind == Parameter.Type.BYTE_ARRAY:
             raise ValueError(f"{name}: expected an array of numbers, got a byte array")
         if name == "inertia":
-            RigidBody.from_inertia(finite_vector(value, name, (3, 6)), name)
+            RigidBody.from_inertia(value, name)
             return tuple(float(x) for x in value)
         if name == "angular_velocity":
             return tuple(finite_vector(value, name, (3,)).tolist())
@@ -152,21 +134,19 @@ def check_value(name: str, parameter: Parameter):
     return value
 
 
-def config_from_values(values: dict) -> SimConfig:
-    """A configuration from canonical values (``check_value``); the scene fills what is not set."""
-    scene = load_scene(values["scene"]) if values["scene"] else default_scene()
-    config = SimConfig(
-        scene=scene,
-        inertia=values["inertia"] or scene.inertia,
-        angular_velocity=values["angular_velocity"] or scene.angular_velocity,
-        orientation=values["orientation"] or scene.orientation,
-        publish_rate=values["publish_rate"],
-        real_time_factor=values["real_time_factor"],
-        body_frame=values["body_frame"],
-        inertial_frame=values["inertial_frame"],
-        propagator=values["propagator"],
-    )
-    return config
+def run_request(values: dict) -> RunRequest:
+    """The run canonical values (``check_value``) describe, the scene filling what is not set.
+    Building its propagator checks that the whole state is usable, not only each value alone."""
+    try:
+        scene = load_scene(values["scene"]) if values["scene"] else default_scene()
+    except SceneError as error:
+        message = str(error)
+        raise ValueError(message if message.startswith("scene:") else f"scene: {message}") from None
+    propagator = make_propagator(values["inertia"] or scene.inertia,
+                                 values["angular_velocity"] or scene.angular_velocity,
+                                 values["orientation"] or scene.orientation, values["propagator"])
+    return RunRequest(propagator, values["publish_rate"], values["real_time_factor"],
+                      values["body_frame"], values["inertial_frame"])
 
 
 def rejection(error: ValueError) -> SetParametersResult:
