@@ -25,6 +25,9 @@ setup(
         "console_scripts": [
             "torquefree_sim = torquefree_ros.sim_node:main",
             "torquefree_propagate = torquefree_ros.cli:propagate_main",
+            "torquefree_bag = torquefree_ros.bag_cli:bag_main",
+            "torquefree_record = torquefree_ros.recorder:main",
+            "torquefree_play = torquefree_ros.player:main",
         ],
     },
 )

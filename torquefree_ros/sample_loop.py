@@ -19,6 +19,7 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
+from .bag.writer import BagError
 from .cdr import encode_stamped_doubles, encode_times
 from .core.propagators import Propagator
 from .core.simulation import SampleBlock, Simulation
@@ -117,10 +118,14 @@ class SampleLoop:
     ``publishers`` has ``angular_velocity``, ``attitude`` and, before any run on a clock of our own
     starts, ``clock``.
     ``keep_going()`` is false once the ROS context shuts down; publishing then stops quietly.
+    ``recorder`` (a ``bag.samples.SampleRecorder``), when given, gets every sample right after it is
+    published, with the same bytes; if the bag fails, recording stops and publishing goes on.
     """
 
-    def __init__(self, publishers, keep_going: Callable[[], bool], logger):
+    def __init__(self, publishers, keep_going: Callable[[], bool], logger, recorder=None):
         self._publishers = publishers
+        self._recorder = recorder
+        self.recording_failure = ""
         self._keep_going = keep_going
         self._logger = logger
         self._lock = threading.Lock()
@@ -243,9 +248,20 @@ class SampleLoop:
                 publishers.clock.publish(clock_messages[i])
             omega_publisher.publish(omega_messages[i])
             q_publisher.publish(q_messages[i])
+            if self._recorder is not None:
+                self._record(stamp, omega_messages[i], q_messages[i],
+                             None if clock_messages is None else clock_messages[i])
             run.position = i + 1
             self.published += 1
             self.last = LastSample(run.simulation, block.first + i, stamp, block.omega_B[i])
+
+    def _record(self, stamp: int, omega_message: bytes, q_message: bytes, clock_message: bytes | None) -> None:
+        try:
+            self._recorder.write_sample(stamp, omega_message, q_message, clock_message)
+        except BagError as error:
+            self.recording_failure = str(error)
+            self._recorder = None
+            self._logger.error(f"recording stopped, publishing goes on: {error}")
 
     def _fail(self, reason: str) -> None:
         """Stop publishing until a restart arrives; the node stays up and reports the reason."""

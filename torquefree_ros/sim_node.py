@@ -20,6 +20,8 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from std_srvs.srv import Trigger
 
+from .bag import BagError, BagWriter
+from .bag.samples import SampleRecorder, sample_qos
 from .sample_loop import RunRequest, SampleLoop
 from .sim_parameters import SPEC_BY_NAME, SPECS, ConfigurationError, check_value, rejection, run_request
 
@@ -51,6 +53,7 @@ class TorqueFreeSim(Node):
         super().__init__(node_name, allow_undeclared_parameters=True, **node_options)
         self._declared = False
         self._loop: SampleLoop | None = None
+        self._bag: SampleRecorder | None = None
         try:
             self.add_on_set_parameters_callback(self._on_set_parameters)
             for spec in SPECS:
@@ -64,13 +67,18 @@ class TorqueFreeSim(Node):
             super().destroy_node()
             raise ConfigurationError(str(error)) from None
 
-        self._outputs = _Publishers(self, self.get_parameter("qos_depth").value)
+        depth = self.get_parameter("qos_depth").value
+        writer = self._open_bag()
+        self._outputs = _Publishers(self, depth)
+        if writer is not None:
+            self._bag = SampleRecorder(writer, self._outputs.angular_velocity.topic_name,
+                                       self._outputs.attitude.topic_name, sample_qos(depth))
         if not request.wall_clock:
             self._outputs.ensure_clock()
         self.create_service(Trigger, "~/reset", self._on_reset)
         self._diagnostics = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.create_timer(DIAGNOSTICS_PERIOD, self._publish_diagnostics)
-        self._loop = SampleLoop(self._outputs, self.context.ok, self.get_logger())
+        self._loop = SampleLoop(self._outputs, self.context.ok, self.get_logger(), self._bag)
         simulation = self._loop.start(request)  # last: the first sample is due now
         self.get_logger().info(f"start: {simulation.summary()}")
 
@@ -78,9 +86,27 @@ class TorqueFreeSim(Node):
     def sample_loop(self) -> SampleLoop:
         return self._loop
 
+    def _open_bag(self) -> BagWriter | None:
+        path = self.get_parameter("record_bag").value
+        if not path:
+            return None
+        try:
+            return BagWriter(path, custom_data={"torquefree_ros.node": self.get_fully_qualified_name()})
+        except BagError as error:
+            super().destroy_node()
+            raise ConfigurationError(f"record_bag: {error}") from None
+
     def destroy_node(self):
         if self._loop is not None:
             self._loop.stop()
+        if self._bag is not None:
+            try:
+                self._bag.writer.close()
+                self.get_logger().info(f"bag closed: {self._bag.writer.path} "
+                                       f"({self._bag.writer.message_count} messages)")
+            except BagError as error:
+                self.get_logger().error(str(error))
+            self._bag = None
         super().destroy_node()
 
     # -- parameters --------------------------------------------------------------------------------
@@ -147,8 +173,13 @@ class TorqueFreeSim(Node):
                 kinetic_energy_drift=f"{invariants.energy_drift:.3g}",
                 angular_momentum_drift=f"{invariants.momentum_drift:.3g}",
             )
+        if self._bag is not None:
+            values["record_bag"] = str(self._bag.writer.path)
+            values["messages_recorded"] = str(self._bag.writer.message_count)
         if loop.failure:
             status.level, status.message = DiagnosticStatus.ERROR, loop.failure
+        elif loop.recording_failure:
+            status.level, status.message = DiagnosticStatus.ERROR, f"recording stopped: {loop.recording_failure}"
         elif loop.late > LATE_WARNING_FRACTION * max(loop.published, 1):
             status.level, status.message = DiagnosticStatus.WARN, "more than 1% of samples published late"
         else:

@@ -83,6 +83,11 @@ SPECS = (
                   "one of: " + ", ".join(["auto", *sorted(PROPAGATORS)])),
     ParameterSpec("qos_depth", 10, "History depth of the reliable publishers (read at start-up only).",
                   "an integer in [1, 10000]", read_only=True, number_range=(1, 10000)),
+    ParameterSpec("record_bag", "",
+                  "Bag directory (rosbag2 MCAP) to record every published sample into; empty = no recording. "
+                  "Read at start-up only, so no participant on the domain can make the node write elsewhere.",
+                  "a path that does not exist yet, in a writable directory; an existing bag is never overwritten",
+                  read_only=True),
 )
 SPEC_BY_NAME = {spec.name: spec for spec in SPECS}
 
@@ -122,7 +127,7 @@ def check_value(name: str, parameter: Parameter):
         return int(value)
     if kind != Parameter.Type.STRING:
         raise ValueError(f"{name}: expected a string, got {_type_name(kind)} {value!r}")
-    if name == "scene":
+    if name in ("scene", "record_bag"):
         return value
     if name == "propagator":
         if value != "auto" and value not in PROPAGATORS:

@@ -1,0 +1,61 @@
+"""Independent readers for the bag tests: the ``mcap`` library with mcap-ros2-support's decoder, and
+``rosbags`` (AnyReader with the Jazzy typestore). Neither shares code with our writer."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import yaml
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
+from rosbags.highlevel import AnyReader
+from rosbags.typesys import Stores, get_typestore
+
+SEPARATOR = "=" * 80 + "\n"
+
+
+def mcap_file(bag: Path) -> Path:
+    return bag / f"{bag.name}_0.mcap"
+
+
+def read_with_mcap(bag: Path) -> dict:
+    """topic -> list of (log_time, publish_time, decoded message), plus the file's summary."""
+    out: dict = {}
+    with open(mcap_file(bag), "rb") as stream:
+        reader = make_reader(stream, decoder_factories=[DecoderFactory()])
+        for _, channel, message, decoded in reader.iter_decoded_messages(log_time_order=True):
+            out.setdefault(channel.topic, []).append((message.log_time, message.publish_time, decoded))
+    return out
+
+
+def summary(bag: Path):
+    with open(mcap_file(bag), "rb") as stream:
+        reader = make_reader(stream)
+        return reader.get_header(), reader.get_summary(), list(reader.iter_metadata())
+
+
+def read_with_rosbags(bag: Path) -> tuple[dict, dict]:
+    """topic -> list of (timestamp, deserialized message); topic -> connection."""
+    messages: dict = {}
+    with AnyReader([bag], default_typestore=get_typestore(Stores.ROS2_JAZZY)) as reader:
+        connections = {c.topic: c for c in reader.connections}
+        for connection, timestamp, raw in reader.messages():
+            messages.setdefault(connection.topic, []).append((timestamp, reader.deserialize(raw, connection.msgtype)))
+    return messages, connections
+
+
+def metadata(bag: Path) -> dict:
+    return yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+
+
+def stamp_ns(header) -> int:
+    return header.stamp.sec * 1_000_000_000 + header.stamp.nanosec
+
+
+def vectors(messages) -> np.ndarray:
+    return np.array([[m.vector.x, m.vector.y, m.vector.z] for *_, m in messages])
+
+
+def quaternions(messages) -> np.ndarray:
+    return np.array([[m.quaternion.x, m.quaternion.y, m.quaternion.z, m.quaternion.w] for *_, m in messages])

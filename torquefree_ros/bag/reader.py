@@ -1,0 +1,207 @@
+"""Reads rosbag2 MCAP bags (ours and others'), also a file cut short by a crash.
+
+A complete file is read through its summary and indexes. A file without a footer (a killed
+recorder, a full disk) is scanned record by record up to its last complete chunk; :func:`reindex`
+then writes the ``metadata.yaml`` that describes what is readable, like ``ros2 bag reindex``.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import struct
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterator, NamedTuple
+
+import yaml
+from mcap.exceptions import McapError
+from mcap.reader import SeekingReader
+from mcap.records import Channel, Message, Schema
+from mcap.stream_reader import StreamReader
+
+from .metadata import METADATA_FILE, BagMetadata, TopicRecord, metadata_file_text
+from .qos import BagQos
+from .definitions import MessageDefinition
+from .writer import BagError, BagWriter, _write_atomically
+
+
+@dataclass
+class BagTopic:
+    name: str
+    type: str
+    offered_qos_profiles: tuple[BagQos, ...]
+    type_description_hash: str
+    message_count: int
+    definition: MessageDefinition  # as stored in the bag's schema
+
+
+class BagMessage(NamedTuple):
+    topic: str
+    log_time_ns: int
+    publish_time_ns: int
+    data: bytes
+
+
+def _qos_profiles(channel: Channel, where: str) -> tuple[BagQos, ...]:
+    text = channel.metadata.get("offered_qos_profiles", "")
+    if not text:
+        return ()
+    try:
+        return tuple(BagQos.from_yaml(item) for item in (yaml.safe_load(text) or []))
+    except (yaml.YAMLError, ValueError, KeyError, TypeError) as error:
+        raise BagError(f"{where}: topic '{channel.topic}': unreadable offered_qos_profiles: {error}") from None
+
+
+def storage_file(path) -> Path:
+    """The ``.mcap`` file of a bag directory (from its metadata, else the only one), or the file itself."""
+    path = Path(path)
+    if path.is_file():
+        return path
+    if not path.is_dir():
+        raise BagError(f"bag '{path}': no such bag directory or file")
+    metadata = path / METADATA_FILE
+    if metadata.is_file():
+        try:
+            info = yaml.safe_load(metadata.read_text(encoding="utf-8"))["rosbag2_bagfile_information"]
+            files = info["relative_file_paths"]
+            storage = info["storage_identifier"]
+        except (OSError, yaml.YAMLError, KeyError, TypeError) as error:
+            raise BagError(f"bag '{path}': unreadable {METADATA_FILE}: {error}") from None
+        if storage != "mcap":
+            raise BagError(f"bag '{path}': storage '{storage}' is not supported (only mcap)")
+        if len(files) != 1:
+            raise BagError(f"bag '{path}': {len(files)} storage files; split bags are not supported")
+        return path / Path(files[0]).name
+    candidates = sorted(path.glob("*.mcap"))
+    if len(candidates) != 1:
+        raise BagError(f"bag '{path}': expected one .mcap file, found {len(candidates)}")
+    return candidates[0]
+
+
+class BagReader:
+    """Topics and messages of a bag; ``complete`` is False for a file that lost its end."""
+
+    def __init__(self, path):
+        self.path = Path(path)
+        self.file_path = storage_file(self.path)
+        self._topics: dict[int, BagTopic] = {}
+        self.span_ns: tuple[int, int] | None = None  # first and last log time
+        try:
+            with open(self.file_path, "rb") as stream:
+                self.profile = self._read_header(stream)
+                self.complete = self._read_summary(stream)
+                if not self.complete:
+                    stream.seek(0)
+                    for channel, message in self._scan(stream):
+                        self._topics[channel.id].message_count += 1
+                        self._extend_span(message.log_time)
+        except OSError as error:
+            raise BagError(f"bag '{self.path}': cannot read '{self.file_path}': {error.strerror or error}") from None
+
+    @property
+    def topics(self) -> list[BagTopic]:
+        return list(self._topics.values())
+
+    @property
+    def message_count(self) -> int:
+        return sum(topic.message_count for topic in self._topics.values())
+
+    def messages(self, topics=None) -> Iterator[BagMessage]:
+        """Messages in log-time order (file order for a file without its end), optionally of some topics."""
+        wanted = None if topics is None else set(topics)
+        with open(self.file_path, "rb") as stream:
+            if self.complete:
+                found = SeekingReader(stream).iter_messages(topics=wanted, log_time_order=True)
+                pairs = ((channel, message) for _, channel, message in found)
+            else:
+                pairs = self._scan(stream)
+            for channel, message in pairs:
+                if wanted is None or channel.topic in wanted:
+                    yield BagMessage(channel.topic, message.log_time, message.publish_time, message.data)
+
+    # -- reading -----------------------------------------------------------------------------------
+    def _read_header(self, stream) -> str:
+        try:
+            header = next(iter(StreamReader(stream, skip_magic=False).records))
+        except (McapError, StopIteration, ValueError, struct.error) as error:
+            raise BagError(f"bag '{self.path}': '{self.file_path.name}' is not an MCAP file ({error})") from None
+        stream.seek(0)
+        return getattr(header, "profile", "")
+
+    def _read_summary(self, stream) -> bool:
+        try:
+            summary = SeekingReader(stream).get_summary()
+        except (McapError, ValueError, EOFError, struct.error):
+            return False
+        if summary is None or summary.statistics is None:
+            return False
+        counts = summary.statistics.channel_message_counts
+        for channel_id, channel in summary.channels.items():
+            self._add_topic(channel, summary.schemas.get(channel.schema_id), counts.get(channel_id, 0))
+        stats = summary.statistics
+        if stats.message_count:
+            self.span_ns = (stats.message_start_time, stats.message_end_time)
+        return True
+
+    def _add_topic(self, channel: Channel, schema: Schema | None, count: int) -> None:
+        type_name = schema.name if schema else ""
+        type_hash = channel.metadata.get("topic_type_hash", "")
+        definition = MessageDefinition(type_name, schema.encoding if schema else "",
+                                       schema.data.decode("utf-8", "replace") if schema else "", type_hash)
+        self._topics[channel.id] = BagTopic(channel.topic, type_name, _qos_profiles(channel, f"bag '{self.path}'"),
+                                            type_hash, count, definition)
+
+    def _extend_span(self, log_time: int) -> None:
+        span = self.span_ns
+        self.span_ns = (log_time, log_time) if span is None else (min(span[0], log_time), max(span[1], log_time))
+
+    def _scan(self, stream) -> Iterator[tuple[Channel, Message]]:
+        """Messages up to the first record that is cut off or damaged (a file without its end)."""
+        schemas: dict[int, Schema] = {}
+        channels: dict[int, Channel] = {}
+        try:
+            for record in StreamReader(stream, validate_crcs=True).records:
+                if isinstance(record, Schema):
+                    schemas[record.id] = record
+                elif isinstance(record, Channel):
+                    channels[record.id] = record
+                    if record.id not in self._topics:
+                        self._add_topic(record, schemas.get(record.schema_id), 0)
+                elif isinstance(record, Message) and record.channel_id in channels:
+                    yield channels[record.channel_id], record
+        except (McapError, ValueError, EOFError, struct.error):
+            return  # the end of what was written completely
+
+
+def reindex(path) -> BagMetadata:
+    """Makes a bag whose recorder died (no summary, maybe a cut-off chunk) complete again: the
+    readable messages are copied, with their schemas, QoS and times, into a complete MCAP file that
+    replaces the old one, and ``metadata.yaml`` is written. A complete bag only gets ``metadata.yaml``."""
+    bag = Path(path)
+    reader = BagReader(bag)
+    if reader.complete:
+        metadata = BagMetadata(reader.file_path.name)
+        for topic in reader.topics:
+            metadata.topics.append(TopicRecord(topic.name, topic.type, topic.offered_qos_profiles,
+                                               topic.type_description_hash, message_count=topic.message_count))
+        if reader.span_ns is not None:
+            metadata.first_time_ns, metadata.last_time_ns = reader.span_ns
+        _write_atomically(bag / METADATA_FILE, metadata_file_text(metadata))
+        return metadata
+    if reader.file_path.parent != bag:
+        raise BagError(f"bag '{bag}': give the bag directory to reindex, not the file")
+    staging = bag.parent / f".{bag.name}.reindex"
+    try:
+        with BagWriter(staging, overwrite=True, file_name=reader.file_path.name) as writer:
+            channels = {topic.name: writer.add_topic(topic.name, topic.type, topic.offered_qos_profiles,
+                                                     topic.definition) for topic in reader.topics}
+            for message in reader.messages():
+                writer.write(channels[message.topic], message.log_time_ns, message.data, message.publish_time_ns)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)  # the original file is untouched
+        raise
+    os.replace(staging / reader.file_path.name, reader.file_path)
+    os.replace(staging / METADATA_FILE, bag / METADATA_FILE)
+    staging.rmdir()
+    return writer.metadata

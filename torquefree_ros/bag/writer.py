@@ -1,0 +1,256 @@
+"""Writes rosbag2 (Jazzy) bags with MCAP storage, as ``rosbag2_storage_mcap`` does.
+
+A bag is a directory ``NAME/`` with ``NAME_0.mcap`` and ``metadata.yaml``. The MCAP file has profile
+``ros2``; one ``ros2msg`` schema per type with the full definition (``definitions``); one ``cdr``
+channel per topic with the metadata ``offered_qos_profiles`` (YAML) and ``topic_type_hash``; chunks,
+uncompressed unless asked (``zstd``), with message indexes, statistics and summary; and, at close, the
+``rosbag2`` metadata record carrying the same mapping as ``metadata.yaml``.
+
+Crash safety: a chunk is written out (and the file flushed) when it reaches ``chunk_bytes`` or when
+it has been open ``chunk_seconds`` of wall time, so a killed recorder loses at most that much.
+:func:`~torquefree_ros.bag.reader.reindex` makes such a file complete again (``torquefree_bag --reindex``).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import time
+from pathlib import Path
+
+from mcap.writer import CompressionType, Writer
+
+from .. import __version__
+from .definitions import DefinitionError, MessageDefinition, message_definition
+from .metadata import METADATA_FILE, BagMetadata, TopicRecord, dump, metadata_file_text
+from .qos import BagQos
+
+CHUNK_BYTES = 1024 * 1024
+CHUNK_SECONDS = 1.0
+COMPRESSIONS = {"none": CompressionType.NONE, "zstd": CompressionType.ZSTD}
+LIBRARY = f"torquefree_ros {__version__} (python mcap writer, rosbag2_storage_mcap layout)"
+
+
+class BagError(RuntimeError):
+    """A bag that cannot be created, written or read; the message names the path and the reason."""
+
+
+def mcap_file_name(bag_dir: Path) -> str:
+    """rosbag2's name for the first (only) storage file of a bag directory."""
+    return f"{bag_dir.name}_0.mcap"
+
+
+def prepare_bag_directory(path, overwrite: bool = False) -> Path:
+    """Checks that a bag can be created at ``path`` and creates its (empty) directory.
+
+    An existing path is refused unless ``overwrite``; even then only a bag directory (``metadata.yaml``
+    and ``.mcap`` files) is replaced, never another directory or a file.
+    """
+    path = Path(path)
+    if not path.name or path.name in (".", ".."):
+        raise BagError(f"bag '{path}': give a directory name for the bag")
+    if path.exists() or path.is_symlink():
+        if not overwrite:
+            raise BagError(f"bag '{path}': already exists; choose another name or overwrite it explicitly")
+        if not _is_bag_directory(path):
+            raise BagError(f"bag '{path}': exists and is not a bag directory (only metadata.yaml and .mcap "
+                           f"files), so it is not overwritten")
+        shutil.rmtree(path)
+    try:
+        path.mkdir(parents=True)
+    except OSError as error:
+        raise BagError(f"bag '{path}': cannot create the directory: {error.strerror or error}") from None
+    if not os.access(path, os.W_OK | os.X_OK):
+        path.rmdir()
+        raise BagError(f"bag '{path}': the directory is not writable")
+    return path
+
+
+def _is_bag_directory(path: Path) -> bool:
+    if not path.is_dir() or path.is_symlink():
+        return False
+    entries = list(path.iterdir())
+    return bool(entries) and all(
+        entry.is_file() and (entry.name == METADATA_FILE or entry.suffix == ".mcap") for entry in entries)
+
+
+class BagWriter:
+    """A rosbag2 MCAP bag being written; a context manager that closes the bag however the block ends.
+
+    Not thread-safe: write and close from one thread at a time.
+    """
+
+    def __init__(self, path, *, overwrite: bool = False, compression: str = "none",
+                 chunk_bytes: int = CHUNK_BYTES, chunk_seconds: float = CHUNK_SECONDS,
+                 custom_data: dict[str, str] | None = None, file_name: str | None = None):
+        if compression not in COMPRESSIONS:
+            raise BagError(f"compression: '{compression}' is not one of {', '.join(COMPRESSIONS)}")
+        if not (chunk_bytes > 0 and chunk_seconds > 0):
+            raise BagError("chunk_bytes and chunk_seconds: must be > 0")
+        self.path = prepare_bag_directory(path, overwrite)
+        self.file_path = self.path / (file_name or mcap_file_name(self.path))
+        self._metadata = BagMetadata(self.file_path.name, custom_data=dict(custom_data or {}))
+        self._topics: dict[str, int] = {}
+        self._records: dict[int, TopicRecord] = {}
+        self._schemas: dict[str, int] = {}
+        self._chunk_seconds = chunk_seconds
+        self._chunk_opened: float | None = None
+        self._failure: str | None = None
+        self._closed = False
+        try:
+            self._stream = open(self.file_path, "xb")
+            self._mcap = Writer(self._stream, chunk_size=chunk_bytes, compression=COMPRESSIONS[compression])
+            self._mcap.start(profile="ros2", library=LIBRARY)
+        except OSError as error:
+            raise self._io_error(error) from None
+
+    # -- topics ------------------------------------------------------------------------------------
+    def add_topic(self, name: str, type_name: str, offered_qos: tuple[BagQos, ...] | list = (),
+                  definition: MessageDefinition | None = None) -> int:
+        """Registers ``name`` (an absolute topic name) with its type and the publishers' QoS profiles;
+        returns the channel id to write with. Adding a topic again returns its channel.
+        ``definition`` defaults to the installed one (copying a bag passes the bag's own)."""
+        if not name.startswith("/"):
+            raise BagError(f"topic '{name}': bag topics are fully qualified names starting with '/'")
+        if name in self._topics:
+            return self._topics[name]
+        try:
+            definition = definition or message_definition(type_name)
+        except DefinitionError as error:
+            raise BagError(f"topic '{name}': {error}") from None
+        offered_qos = tuple(offered_qos)
+        try:
+            schema_id = self._schemas.get(definition.type_name)
+            if schema_id is None:
+                schema_id = self._mcap.register_schema(definition.type_name, definition.encoding,
+                                                       definition.text.encode("utf-8"))
+                self._schemas[definition.type_name] = schema_id
+            qos_text = dump([qos.to_yaml() for qos in offered_qos]).rstrip("\n")
+            channel_id = self._mcap.register_channel(name, "cdr", schema_id, {
+                "offered_qos_profiles": qos_text, "topic_type_hash": definition.type_hash})
+        except OSError as error:
+            raise self._io_error(error) from None
+        self._topics[name] = channel_id
+        record = TopicRecord(name, definition.type_name, offered_qos, definition.type_hash)
+        self._records[channel_id] = record
+        self._metadata.topics.append(record)
+        return channel_id
+
+    def channel(self, name: str) -> int:
+        return self._topics[name]
+
+    # -- messages ----------------------------------------------------------------------------------
+    def write(self, channel_id: int, log_time_ns: int, data: bytes, publish_time_ns: int | None = None) -> None:
+        """One serialized (CDR) message; ``publish_time`` defaults to ``log_time``."""
+        self.write_rows((channel_id,), (log_time_ns,), ((data,),),
+                        None if publish_time_ns is None else (publish_time_ns,))
+
+    def write_rows(self, channel_ids, log_times_ns, columns, publish_times_ns=None) -> None:
+        """Row ``i`` writes ``columns[j][i]`` on ``channel_ids[j]`` for every ``j``, all with
+        ``log_times_ns[i]``: the messages of one sample stay together and in time order."""
+        self._check_open()
+        times = [int(t) for t in log_times_ns]
+        if not times:
+            return
+        published = times if publish_times_ns is None else [int(t) for t in publish_times_ns]
+        for channel_id, payloads in zip(channel_ids, columns):
+            if channel_id not in self._records:
+                raise BagError(f"bag '{self.path}': write on unknown channel {channel_id} (add_topic first)")
+            if len(payloads) != len(times):
+                raise BagError(f"bag '{self.path}': channel {channel_id}: {len(payloads)} messages for "
+                               f"{len(times)} times")
+        add = self._mcap.add_message
+        try:
+            for i, log_time in enumerate(times):
+                for channel_id, payloads in zip(channel_ids, columns):
+                    add(channel_id, log_time, payloads[i], published[i])
+        except OSError as error:
+            raise self._io_error(error) from None
+        for channel_id in channel_ids:
+            self._records[channel_id].message_count += len(times)
+        metadata = self._metadata
+        first, last = min(times), max(times)
+        metadata.first_time_ns = first if metadata.first_time_ns is None else min(first, metadata.first_time_ns)
+        metadata.last_time_ns = last if metadata.last_time_ns is None else max(last, metadata.last_time_ns)
+        now = time.monotonic()
+        if self._chunk_opened is None:
+            self._chunk_opened = now
+        elif now - self._chunk_opened >= self._chunk_seconds:
+            self.flush()
+
+    def flush(self) -> None:
+        """Writes out the open chunk and flushes the file (readable after a crash from here on)."""
+        self._check_open()
+        try:
+            self._mcap.flush()
+        except OSError as error:
+            raise self._io_error(error) from None
+        self._chunk_opened = None
+
+    @property
+    def message_count(self) -> int:
+        return self._metadata.message_count
+
+    @property
+    def metadata(self) -> BagMetadata:
+        return self._metadata
+
+    # -- closing -----------------------------------------------------------------------------------
+    def close(self) -> None:
+        """Finishes the MCAP file (rosbag2 record, summary, footer) and writes ``metadata.yaml``.
+        After a write error, makes what is in the file a complete bag again (when the disk allows)."""
+        if self._closed:
+            return
+        self._closed = True
+        if self._failure is None:
+            try:
+                self._mcap.flush()
+                self._mcap.add_metadata("rosbag2", {"serialized_metadata": dump(self._metadata.to_yaml()).rstrip("\n")})
+                self._mcap.finish()
+                self._stream.close()
+                _write_atomically(self.path / METADATA_FILE, metadata_file_text(self._metadata))
+                return
+            except OSError as error:
+                self._failure = self._io_error(error).args[0]
+        try:
+            self._stream.close()
+        except OSError:
+            pass  # the buffered tail is lost; the chunks already in the file stay readable
+        from .reader import reindex  # noqa: PLC0415 - only on this failure path
+
+        try:
+            reindex(self.path)
+        except (BagError, OSError):
+            pass
+        raise BagError(self._failure)
+
+    def __enter__(self) -> "BagWriter":
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is None:
+            self.close()
+            return
+        try:
+            self.close()
+        except BagError:
+            pass  # the original error is the one to report
+
+    # -- helpers -----------------------------------------------------------------------------------
+    def _check_open(self) -> None:
+        if self._failure is not None:
+            raise BagError(self._failure)
+        if self._closed:
+            raise BagError(f"bag '{self.path}': already closed")
+
+    def _io_error(self, error: OSError) -> BagError:
+        reason = error.strerror or str(error)
+        self._failure = (f"bag '{self.path}': cannot write '{self.file_path.name}': {reason}; the chunks "
+                         f"written before stay readable, the last open chunk is lost")
+        return BagError(self._failure)
+
+
+def _write_atomically(path: Path, text: str) -> None:
+    temporary = path.with_name(path.name + ".tmp")
+    temporary.write_text(text, encoding="utf-8")
+    os.replace(temporary, path)
