@@ -4,7 +4,7 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 
-.PHONY: run test reference bench-node clean
+.PHONY: run test reference bench-node bench-bag clean
 
 $(VENV)/.installed: requirements.txt requirements-test.txt
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -22,6 +22,9 @@ reference: $(VENV)/.installed
 
 bench-node: $(VENV)/.installed
 	$(PY) tools/bench_node.py
+
+bench-bag: $(VENV)/.installed
+	$(PY) tools/bench_bag.py
 
 clean:
 	rm -rf $(VENV) build install log

@@ -22,6 +22,7 @@ from std_srvs.srv import Trigger
 
 from .bag import BagError, BagWriter
 from .bag.samples import SampleRecorder, sample_qos
+from .ros_process import shut_down
 from .sample_loop import RunRequest, SampleLoop
 from .sim_parameters import SPEC_BY_NAME, SPECS, ConfigurationError, check_value, rejection, run_request
 
@@ -211,11 +212,7 @@ def main(args=None) -> int:
             raise
         # a signal shut the context down while the node was starting: that is a clean stop too
     finally:
-        if executor is not None:
-            executor.shutdown()
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
+        shut_down(executor, node)
     return 0
 
 

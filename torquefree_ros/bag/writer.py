@@ -187,6 +187,12 @@ class BagWriter:
             raise self._io_error(error) from None
         self._chunk_opened = None
 
+    def flush_if_due(self) -> None:
+        """Writes out the open chunk if it has been open ``chunk_seconds`` (call it from a timer when
+        messages are sparse)."""
+        if self._chunk_opened is not None and time.monotonic() - self._chunk_opened >= self._chunk_seconds:
+            self.flush()
+
     @property
     def message_count(self) -> int:
         return self._metadata.message_count

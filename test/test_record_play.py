@@ -1,0 +1,130 @@
+"""``torquefree_record`` and ``torquefree_play`` as processes on this test session's DDS domain:
+player → recorder round trip, recorder against the node's own recording, and their input errors."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bag_checks import read_with_rosbags
+from torquefree_ros import player, recorder
+from torquefree_ros.bag import BagReader
+from torquefree_ros.bag_cli import bag_main
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def _spawn(module: str, *args: str) -> subprocess.Popen:
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    return subprocess.Popen([sys.executable, "-m", module, *args], cwd=REPO, env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+
+
+def _wait_for_line(process: subprocess.Popen, text: str, count: int = 1) -> None:
+    seen = 0
+    for line in process.stderr:
+        seen += text in line
+        if seen >= count:
+            return
+    raise AssertionError(f"'{text}' never appeared: {process.communicate()}")
+
+
+def _stop(process: subprocess.Popen) -> str:
+    process.send_signal(signal.SIGINT)
+    try:
+        _, stderr = process.communicate(timeout=30)
+    finally:
+        process.kill()
+    assert process.returncode == 0 and "Traceback" not in stderr, stderr
+    return stderr
+
+
+def _data(bag: Path, topic: str) -> list[bytes]:
+    return [m.data for m in BagReader(bag).messages([topic])]
+
+
+def test_player_to_recorder_round_trip_keeps_every_message_and_the_timing(tmp_path):
+    source, copy = tmp_path / "source", tmp_path / "copy"
+    assert bag_main(["default", "--duration", "2", "--rate", "50", "--output", str(source)]) == 0
+    rec = _spawn("torquefree_ros.recorder", "--output", str(copy), "--topics", "/angular_velocity", "/attitude",
+                 "/clock")
+    try:
+        play = subprocess.run([sys.executable, "-m", "torquefree_ros.player", str(source), "--rate", "2",
+                               "--clock", "50", "--wait-for-subscribers", "20"], cwd=REPO, capture_output=True,
+                              text=True, timeout=60)
+        assert play.returncode == 0 and "played 202 messages" in play.stderr, play.stderr
+        time.sleep(0.5)
+    finally:
+        _stop(rec)
+    for topic in ("/angular_velocity", "/attitude"):
+        assert _data(copy, topic) == _data(source, topic)  # every message, in order, byte for byte
+    copied = BagReader(copy)
+    assert {t.name: t.offered_qos_profiles[0].reliability for t in copied.topics
+            if t.name != "/clock"} == {"/angular_velocity": "reliable", "/attitude": "reliable"}
+    # the recorded timing: 2 s of bag played at twice the speed takes about 1 s
+    received = np.array([m.log_time_ns for m in copied.messages(["/attitude"])]) / 1e9
+    assert 0.9 <= received[-1] - received[0] <= 2.0
+    # /clock carried the bag's time, never ahead of the messages
+    clock = [int.from_bytes(d[4:8], "little", signed=True) * 10**9 + int.from_bytes(d[8:12], "little")
+             for d in _data(copy, "/clock")]
+    assert len(clock) >= 20 and clock == sorted(clock) and 0 <= clock[0] and clock[-1] <= 2 * 10**9
+    messages, _ = read_with_rosbags(copy)  # an independent reader opens the recording
+    assert len(messages["/attitude"]) == 101
+
+
+def test_recorder_gets_every_sample_the_node_publishes(tmp_path):
+    node_bag, recorded = tmp_path / "node_bag", tmp_path / "recorded"
+    rec = _spawn("torquefree_ros.recorder", "--output", str(recorded))  # all topics
+    node = _spawn("torquefree_ros.sim_node", "--ros-args", "-p", "publish_rate:=200.0",
+                  "-p", f"record_bag:={node_bag}")
+    try:
+        _wait_for_line(rec, "recording /attitude")
+        time.sleep(1.5)
+        _stop(node)  # the node closes its own bag: the reference of what it published
+        time.sleep(0.5)
+    finally:
+        node.kill()
+        _stop(rec)
+    for topic in ("/angular_velocity", "/attitude"):
+        published, got = _data(node_bag, topic), _data(recorded, topic)
+        assert len(got) >= 200
+        assert got == published[len(published) - len(got):]  # nothing lost after the recorder subscribed
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_a_looping_player_stops_cleanly_on_signals(signum, tmp_path):
+    bag = tmp_path / "bag"
+    assert bag_main(["default", "--duration", "1", "--rate", "50", "--output", str(bag)]) == 0
+    play = _spawn("torquefree_ros.player", str(bag), "--loop", "--clock", "20")
+    time.sleep(2.5)
+    play.send_signal(signum)
+    try:
+        _, stderr = play.communicate(timeout=30)
+    finally:
+        play.kill()
+    assert play.returncode == 0 and "Traceback" not in stderr, stderr
+    assert int(stderr.split("played ")[1].split()[0]) > 0
+
+
+def test_player_and_recorder_input_errors(tmp_path, capsys):
+    assert player.main(["torquefree_play", str(tmp_path / "missing")]) == 1
+    assert f"bag '{tmp_path / 'missing'}'" in capsys.readouterr().err
+    bag = tmp_path / "bag"
+    assert bag_main(["default", "--duration", "0.1", "--rate", "10", "--output", str(bag)]) == 0
+    for argv, message in ((["--rate", "0"], "--rate"), (["--topics", "/nope"], "not in the bag: /nope"),
+                          (["--clock", "-1"], "--clock")):
+        with pytest.raises(SystemExit) as exit_info:
+            player.main(["torquefree_play", str(bag), *argv])
+        assert exit_info.value.code == 2 and message in capsys.readouterr().err
+    assert recorder.main(["torquefree_record", "--output", str(bag)]) == 1
+    assert "already exists" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        recorder.main(["torquefree_record", "--output", str(tmp_path / "new"), "--topics", "relative"])
+    assert "absolute" in capsys.readouterr().err and not (tmp_path / "new").exists()

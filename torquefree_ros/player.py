@@ -1,0 +1,159 @@
+"""``torquefree_play``: replays a bag onto its topics with the recorded timing, like ``ros2 bag play``.
+
+Each topic gets a publisher with the QoS its publishers offered when it was recorded (rosbag2's
+rule, ``ros_qos.offer_for_recorded``); messages go out as the recorded bytes, message ``i`` at
+``start + (t_i - t_0) / rate`` on the wall clock. ``--clock HZ`` publishes the bag's time on
+``/clock``; ``--loop`` starts over at the end.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import threading
+import time
+
+import rclpy
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import QoSProfile
+from rosgraph_msgs.msg import Clock
+
+from .bag import BagError, BagReader
+from .cdr import encode_times
+from .ros_process import shut_down
+from .ros_qos import message_class, offer_for_recorded
+
+ACK_TIMEOUT = 10.0  # s; reliable subscribers get everything before the player exits
+
+
+class BagPlayer(Node):
+    def __init__(self, bag: BagReader, rate: float = 1.0, clock_rate: float = 0.0, loop: bool = False,
+                 topics: list[str] | None = None, **node_options):
+        super().__init__("torquefree_play", **node_options)
+        self.bag, self.rate, self.loop = bag, rate, loop
+        self.topics = [t for t in bag.topics if topics is None or t.name in topics]
+        self.publishers_by_topic = {}
+        for topic in self.topics:
+            try:
+                cls = message_class(topic.type)
+            except ValueError as error:
+                self.get_logger().warning(f"not playing {topic.name}: {error}")
+                continue
+            self.publishers_by_topic[topic.name] = self.create_publisher(
+                cls, topic.name, offer_for_recorded(topic.offered_qos_profiles))
+        self._clock = self.create_publisher(Clock, "/clock", QoSProfile(depth=10)) if clock_rate > 0 else None
+        self._clock_period = 1.0 / clock_rate if clock_rate > 0 else math.inf
+        self.played = 0
+        self._stop = threading.Event()
+
+    def wait_for_subscribers(self, timeout: float) -> bool:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline and not self._stop.is_set():
+            if all(p.get_subscription_count() > 0 for p in self.publishers_by_topic.values()):
+                return True
+            time.sleep(0.05)
+        return False
+
+    def play(self) -> None:
+        """Blocks until the bag has been played (once, or until stopped with ``--loop``)."""
+        names = set(self.publishers_by_topic)
+        while not self._stop.is_set() and self.context.ok():
+            self._play_once(names)
+            if not self.loop:
+                break
+        for publisher in self.publishers_by_topic.values():
+            if not self.context.ok():
+                return
+            publisher.wait_for_all_acked(rclpy.duration.Duration(seconds=ACK_TIMEOUT))
+
+    def stop(self) -> None:
+        self._stop.set()
+
+    def _play_once(self, names: set[str]) -> None:
+        start = time.monotonic()
+        first = None
+        next_clock = start
+        for message in self.bag.messages(names):
+            if first is None:
+                first = message.log_time_ns
+            due = start + (message.log_time_ns - first) / 1e9 / self.rate
+            while True:
+                now = time.monotonic()
+                if self._clock is not None and now >= next_clock:
+                    bag_time = first + int((now - start) * self.rate * 1e9)
+                    self._clock.publish(encode_times([min(bag_time, message.log_time_ns)])[0])
+                    next_clock += self._clock_period
+                wait = min(due, next_clock) - now
+                if wait <= 0 and now >= due:
+                    break
+                if self._stop.wait(min(max(wait, 0.0), 0.1)) or not self.context.ok():
+                    return
+            self.publishers_by_topic[message.topic].publish(message.data)
+            self.played += 1
+
+
+def _spin(executor) -> None:
+    try:
+        executor.spin()
+    except ExternalShutdownException:
+        pass  # SIGINT / SIGTERM: the main thread stops playing and shuts down
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="torquefree_play",
+                                     description="Replay a rosbag2 MCAP bag onto its topics with the recorded timing.")
+    parser.add_argument("bag", help="bag directory (or .mcap file)")
+    parser.add_argument("--rate", "-r", type=float, default=1.0, help="playback speed multiplier (default 1)")
+    parser.add_argument("--clock", type=float, nargs="?", const=40.0, default=0.0, metavar="HZ",
+                        help="publish the bag's time on /clock (default 40 Hz when given)")
+    parser.add_argument("--loop", "-l", action="store_true", help="start over at the end")
+    parser.add_argument("--topics", nargs="+", metavar="TOPIC", help="only these topics")
+    parser.add_argument("--wait-for-subscribers", type=float, default=0.0, metavar="SECONDS",
+                        help="first wait up to this long until every topic has a subscriber")
+    return parser
+
+
+def main(argv=None) -> int:
+    parser = _parser()
+    args = parser.parse_args(rclpy.utilities.remove_ros_args(sys.argv if argv is None else argv)[1:])
+    if not (math.isfinite(args.rate) and args.rate > 0):
+        parser.error(f"--rate: must be a finite number > 0, got {args.rate!r}")
+    if not (math.isfinite(args.clock) and args.clock >= 0):
+        parser.error(f"--clock: must be a rate in Hz > 0, got {args.clock!r}")
+    try:
+        bag = BagReader(args.bag)
+    except BagError as error:
+        print(f"torquefree_play: {error}", file=sys.stderr)
+        return 1
+    if args.topics:
+        unknown = sorted(set(args.topics) - {t.name for t in bag.topics})
+        if unknown:
+            parser.error(f"--topics: not in the bag: {', '.join(unknown)}")
+    rclpy.init(args=argv)
+    node = executor = spinner = None
+    try:
+        node = BagPlayer(bag, args.rate, args.clock, args.loop, args.topics)
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        spinner = threading.Thread(target=_spin, args=(executor,), daemon=True)
+        spinner.start()
+        if args.wait_for_subscribers > 0 and not node.wait_for_subscribers(args.wait_for_subscribers):
+            node.get_logger().warning("not every topic has a subscriber; playing anyway")
+        node.play()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except Exception:
+        if rclpy.ok():
+            raise  # otherwise a signal shut the context down mid-publish: a clean stop
+    finally:
+        if node is not None:
+            node.stop()
+            print(f"{args.bag}: played {node.played} messages", file=sys.stderr)
+        shut_down(executor, node, spinner)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

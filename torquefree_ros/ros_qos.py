@@ -1,0 +1,74 @@
+"""Between rclpy's QoS profiles and the bag's (rosbag2 v9) ones, and rosbag2's rules for choosing the
+QoS a recorder requests and a player offers."""
+
+from __future__ import annotations
+
+import importlib
+
+from rclpy.duration import Duration
+from rclpy.qos import (DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSProfile, ReliabilityPolicy)
+
+from .bag.qos import INFINITE_NS, BagQos
+
+# A player keeps at least this many messages per topic for reliable delivery at high rates.
+PLAYER_DEPTH = 1000
+RECORDER_DEPTH = 1000
+
+
+def _duration_ns(duration: Duration) -> int:
+    ns = duration.nanoseconds
+    return INFINITE_NS if ns <= 0 or ns >= INFINITE_NS else ns  # 0 = rmw default = not limited
+
+
+def bag_qos(profile: QoSProfile) -> BagQos:
+    return BagQos(
+        history=profile.history.name.lower(), depth=int(profile.depth),
+        reliability=profile.reliability.name.lower(), durability=profile.durability.name.lower(),
+        deadline=_duration_ns(profile.deadline), lifespan=_duration_ns(profile.lifespan),
+        liveliness=profile.liveliness.name.lower(),
+        liveliness_lease_duration=_duration_ns(profile.liveliness_lease_duration),
+        avoid_ros_namespace_conventions=bool(profile.avoid_ros_namespace_conventions))
+
+
+def _duration(ns: int) -> Duration:
+    return Duration(nanoseconds=0 if ns >= INFINITE_NS else ns)
+
+
+def request_for_offers(offers: list[BagQos]) -> QoSProfile:
+    """What rosbag2's recorder requests: reliable / transient local only if every publisher offers it."""
+    reliable = bool(offers) and all(q.reliability == "reliable" for q in offers)
+    transient = bool(offers) and all(q.durability == "transient_local" for q in offers)
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=RECORDER_DEPTH,
+                      reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
+                      durability=DurabilityPolicy.TRANSIENT_LOCAL if transient else DurabilityPolicy.VOLATILE)
+
+
+def offer_for_recorded(profiles: tuple[BagQos, ...]) -> QoSProfile:
+    """What rosbag2's player offers: the recorded profile when all publishers agreed on the policies
+    that decide compatibility (keep-last history of its own), else rmw's defaults (reliable, volatile)."""
+    same = profiles and all((q.reliability, q.durability, q.deadline, q.liveliness, q.liveliness_lease_duration)
+                            == (profiles[0].reliability, profiles[0].durability, profiles[0].deadline,
+                                profiles[0].liveliness, profiles[0].liveliness_lease_duration) for q in profiles)
+    if not same:
+        return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=PLAYER_DEPTH)
+    p = profiles[0]
+
+    def policy(enum, name):
+        return enum[name.upper()] if name.upper() in enum.__members__ else enum.SYSTEM_DEFAULT
+
+    return QoSProfile(
+        history=HistoryPolicy.KEEP_LAST, depth=max(p.depth, PLAYER_DEPTH),
+        reliability=policy(ReliabilityPolicy, p.reliability), durability=policy(DurabilityPolicy, p.durability),
+        deadline=_duration(p.deadline), lifespan=_duration(p.lifespan),
+        liveliness=policy(LivelinessPolicy, p.liveliness),
+        liveliness_lease_duration=_duration(p.liveliness_lease_duration),
+        avoid_ros_namespace_conventions=p.avoid_ros_namespace_conventions)
+
+
+def message_class(type_name: str):
+    """The Python class of ``pkg/msg/Type``; ``ValueError`` naming the type when it is not installed."""
+    try:
+        package, namespace, name = type_name.split("/")
+        return getattr(importlib.import_module(f"{package}.{namespace}"), name)
+    except (ValueError, ImportError, AttributeError):
+        raise ValueError(f"message type '{type_name}': not installed for Python") from None
