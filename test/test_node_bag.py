@@ -12,7 +12,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from rclpy.qos import ReliabilityPolicy
 
 from bag_checks import metadata, read_with_rosbags, vectors
 from sim_harness import SimHarness

@@ -21,7 +21,7 @@ from rosgraph_msgs.msg import Clock
 from std_srvs.srv import Trigger
 
 from .bag import BagError, BagWriter
-from .bag.samples import SampleRecorder, sample_qos
+from .bag.samples import ANGULAR_VELOCITY, ATTITUDE, CLOCK, SampleRecorder, sample_qos
 from .ros_process import shut_down
 from .sample_loop import RunRequest, SampleLoop
 from .sim_parameters import SPEC_BY_NAME, SPECS, ConfigurationError, check_value, rejection, run_request
@@ -35,13 +35,13 @@ class _Publishers:
     def __init__(self, node: Node, depth: int):
         qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth, reliability=ReliabilityPolicy.RELIABLE)
         self._node, self._qos = node, qos
-        self.angular_velocity = node.create_publisher(Vector3Stamped, "angular_velocity", qos)
-        self.attitude = node.create_publisher(QuaternionStamped, "attitude", qos)
+        self.angular_velocity = node.create_publisher(Vector3Stamped, ANGULAR_VELOCITY[0], qos)
+        self.attitude = node.create_publisher(QuaternionStamped, ATTITUDE[0], qos)
         self.clock = None  # created by the first run on a clock of our own
 
     def ensure_clock(self) -> None:
         if self.clock is None:
-            self.clock = self._node.create_publisher(Clock, "/clock", self._qos)
+            self.clock = self._node.create_publisher(Clock, CLOCK[0], self._qos)
 
 
 class TorqueFreeSim(Node):

@@ -20,10 +20,10 @@ from mcap.reader import SeekingReader
 from mcap.records import Channel, Message, Schema
 from mcap.stream_reader import StreamReader
 
+from .definitions import MessageDefinition
 from .metadata import METADATA_FILE, BagMetadata, TopicRecord, metadata_file_text
 from .qos import BagQos
-from .definitions import MessageDefinition
-from .writer import BagError, BagWriter, _write_atomically
+from .writer import BagError, BagWriter, write_atomically
 
 
 @dataclass
@@ -187,7 +187,7 @@ def reindex(path) -> BagMetadata:
                                                topic.type_description_hash, message_count=topic.message_count))
         if reader.span_ns is not None:
             metadata.first_time_ns, metadata.last_time_ns = reader.span_ns
-        _write_atomically(bag / METADATA_FILE, metadata_file_text(metadata))
+        write_atomically(bag / METADATA_FILE, metadata_file_text(metadata))
         return metadata
     if reader.file_path.parent != bag:
         raise BagError(f"bag '{bag}': give the bag directory to reindex, not the file")

@@ -214,7 +214,7 @@ class BagWriter:
                 self._mcap.add_metadata("rosbag2", {"serialized_metadata": dump(self._metadata.to_yaml()).rstrip("\n")})
                 self._mcap.finish()
                 self._stream.close()
-                _write_atomically(self.path / METADATA_FILE, metadata_file_text(self._metadata))
+                write_atomically(self.path / METADATA_FILE, metadata_file_text(self._metadata))
                 return
             except OSError as error:
                 self._failure = self._io_error(error).args[0]
@@ -256,7 +256,7 @@ class BagWriter:
         return BagError(self._failure)
 
 
-def _write_atomically(path: Path, text: str) -> None:
+def write_atomically(path: Path, text: str) -> None:
     temporary = path.with_name(path.name + ".tmp")
     temporary.write_text(text, encoding="utf-8")
     os.replace(temporary, path)
