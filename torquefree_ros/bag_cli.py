@@ -14,6 +14,7 @@ import time
 from pathlib import Path
 
 from .bag import BagError, BagWriter, reindex
+from .bag.definitions import DefinitionError, share_directory
 from .bag.samples import SampleRecorder, sample_qos
 from .bag.writer import COMPRESSIONS
 from .cdr import encode_stamped_doubles
@@ -41,8 +42,11 @@ def resolve_scene(name: str):
 
 
 def _scene_directories():
-    yield SCENE_DIRECTORY
-    yield Path(sys.prefix) / "share" / "torquefree_ros" / "config" / "scenes"
+    yield SCENE_DIRECTORY  # a source checkout
+    try:
+        yield share_directory("torquefree_ros") / "config" / "scenes"  # an installed package
+    except DefinitionError:
+        pass
 
 
 def write_scene_bag(scene, output, duration: float, rate: float, *, epoch_ns: int = 0, propagator: str = "auto",

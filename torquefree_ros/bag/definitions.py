@@ -51,7 +51,8 @@ def _split(type_name: str) -> tuple[str, str, str]:
 
 
 @functools.lru_cache(maxsize=None)
-def _share_directory(package: str) -> Path:
+def share_directory(package: str) -> Path:
+    """``share/<package>`` of an installed package (ament index, else this Python's prefix)."""
     try:
         return Path(get_package_share_directory(package))
     except (PackageNotFoundError, ValueError, OSError):
@@ -65,7 +66,7 @@ def _share_directory(package: str) -> Path:
 
 def _interface_file(type_name: str, extension: str) -> Path:
     package, namespace, name = _split(type_name)
-    return _share_directory(package) / namespace / f"{name}{extension}"
+    return share_directory(package) / namespace / f"{name}{extension}"
 
 
 def _dependencies(text: str, extension: str, package: str) -> list[str]:

@@ -2,7 +2,7 @@
 
 A complete file is read through its summary and indexes. A file without a footer (a killed
 recorder, a full disk) is scanned record by record up to its last complete chunk; :func:`reindex`
-then writes the ``metadata.yaml`` that describes what is readable, like ``ros2 bag reindex``.
+then copies what is readable into a complete file and writes its ``metadata.yaml``.
 """
 
 from __future__ import annotations
@@ -89,7 +89,7 @@ class BagReader:
         self.span_ns: tuple[int, int] | None = None  # first and last log time
         try:
             with open(self.file_path, "rb") as stream:
-                self.profile = self._read_header(stream)
+                self._check_header(stream)
                 self.complete = self._read_summary(stream)
                 if not self.complete:
                     stream.seek(0)
@@ -121,13 +121,12 @@ class BagReader:
                     yield BagMessage(channel.topic, message.log_time, message.publish_time, message.data)
 
     # -- reading -----------------------------------------------------------------------------------
-    def _read_header(self, stream) -> str:
+    def _check_header(self, stream) -> None:
         try:
-            header = next(iter(StreamReader(stream, skip_magic=False).records))
+            next(iter(StreamReader(stream, skip_magic=False).records))
         except (McapError, StopIteration, ValueError, struct.error) as error:
             raise BagError(f"bag '{self.path}': '{self.file_path.name}' is not an MCAP file ({error})") from None
         stream.seek(0)
-        return getattr(header, "profile", "")
 
     def _read_summary(self, stream) -> bool:
         try:

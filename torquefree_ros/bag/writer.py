@@ -136,9 +136,6 @@ class BagWriter:
         self._metadata.topics.append(record)
         return channel_id
 
-    def channel(self, name: str) -> int:
-        return self._topics[name]
-
     # -- messages ----------------------------------------------------------------------------------
     def write(self, channel_id: int, log_time_ns: int, data: bytes, publish_time_ns: int | None = None) -> None:
         """One serialized (CDR) message; ``publish_time`` defaults to ``log_time``."""
