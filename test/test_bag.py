@@ -276,3 +276,30 @@ def test_a_full_disk_is_a_clear_error_and_what_was_written_stays_readable(tmp_pa
     messages, _ = read_with_rosbags(bag)  # an independent reader agrees
     assert len(messages["/angular_velocity"]) == len(omega)
     np.testing.assert_array_equal(vectors(messages["/angular_velocity"]), _expected_state(len(omega), 100.0)[1])
+
+
+def test_a_scene_with_outputs_writes_them_as_the_node_publishes_them(tmp_path):
+    """The imu library scene: /imu (sensor_msgs/Imu) and /euler_angles beside the samples, read by
+    both independent readers, values equal to the core's rows for each sample."""
+    from torquefree_ros.core.simulation import Simulation
+    from torquefree_ros.scene_library import resolve_scene
+
+    bag = tmp_path / "imu_bag"
+    assert bag_main(["imu", "--duration", "2", "--rate", "50", "--output", str(bag)]) == 0
+    messages, connections = read_with_rosbags(bag)
+    assert {t: c.msgtype for t, c in connections.items()} == {
+        "/angular_velocity": "geometry_msgs/msg/Vector3Stamped", "/attitude": "geometry_msgs/msg/QuaternionStamped",
+        "/imu": "sensor_msgs/msg/Imu", "/euler_angles": "geometry_msgs/msg/Vector3Stamped"}
+    scene = resolve_scene("imu")
+    block = Simulation(scene.propagator(), 50.0, outputs=scene.outputs).samples(0, 101)
+    imu_rows, euler_rows = block.outputs
+    imu = [m for _, m in messages["/imu"]]
+    assert len(imu) == 101 and [stamp_ns(m.header) for m in imu] == block.stamps_ns.tolist()
+    np.testing.assert_array_equal([[m.angular_velocity.x, m.angular_velocity.y, m.angular_velocity.z] for m in imu],
+                                  imu_rows[:, 13:16])
+    np.testing.assert_array_equal([m.angular_velocity_covariance for m in imu], imu_rows[:, 16:25])
+    assert all(m.orientation_covariance[0] == -1.0 and m.header.frame_id == "body" for m in imu)
+    np.testing.assert_array_equal(vectors(messages["/euler_angles"]), euler_rows)
+    decoded = read_with_mcap(bag)
+    assert len(decoded["/imu"]) == 101 and decoded["/imu"][5][2].angular_velocity.x == imu_rows[5, 13]
+    assert metadata(bag)["message_count"] == 4 * 101

@@ -58,35 +58,32 @@ def _raw_mcap(messages: list[bytes], output: Path) -> float:
 def _stages(duration: float) -> dict:
     """Seconds spent in each stage for the same samples, measured one stage at a time."""
     from torquefree_ros.bag import BagWriter
-    from torquefree_ros.bag.samples import SampleRecorder
+    from torquefree_ros.bag.samples import SampleRecorder, encode_block
     from torquefree_ros.bag_cli import BLOCK
-    from torquefree_ros.cdr import encode_stamped_doubles
-    from torquefree_ros.core import make_propagator
     from torquefree_ros.core.scene import default_scene
     from torquefree_ros.core.simulation import Simulation
     from torquefree_ros.core.timing import sample_times
 
     scene = default_scene()
-    simulation = Simulation(make_propagator(scene.inertia, scene.angular_velocity, scene.orientation), RATE)
+    simulation = Simulation(scene.propagator(), RATE)
     count = sample_times(duration, RATE).shape[0]
     t0 = time.perf_counter()
     blocks = [simulation.samples(first, min(BLOCK, count - first)) for first in range(0, count, BLOCK)]
     t1 = time.perf_counter()
-    encoded = [(b.stamps_ns, encode_stamped_doubles(b.stamps_ns, "body", b.omega_B),
-                encode_stamped_doubles(b.stamps_ns, "world", b.q_NB)) for b in blocks]
+    encoded = [(b.stamps_ns, encode_block(b, "body", "world")) for b in blocks]
     t2 = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
         with BagWriter(Path(tmp) / "stages") as writer:
             recorder = SampleRecorder.in_namespace(writer)
-            for stamps, omega, q in encoded:
-                recorder.write_block(stamps, omega, q)
+            for stamps, columns in encoded:
+                recorder.write_block(stamps, columns)
         t3 = time.perf_counter()
         with BagWriter(Path(tmp) / "per_sample") as writer:
             recorder = SampleRecorder.in_namespace(writer)
-            stamps, omega, q = encoded[0]
+            stamps, columns = encoded[0]
             t4 = time.perf_counter()
             for i in range(len(stamps)):
-                recorder.write_sample(int(stamps[i]), omega[i], q[i])
+                recorder.write_sample(int(stamps[i]), columns, i)
             t5 = time.perf_counter()
     return {"samples": count, "propagate": t1 - t0, "cdr": t2 - t1, "write": t3 - t2,
             "node_write_sample": (t5 - t4) / len(encoded[0][0])}

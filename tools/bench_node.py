@@ -128,12 +128,11 @@ def layer_costs(samples: int = 20000) -> dict:
     from rosgraph_msgs.msg import Clock
 
     from torquefree_ros.cdr import encode_stamped_doubles, encode_times
-    from torquefree_ros.core import make_propagator
     from torquefree_ros.core.scene import default_scene
     from torquefree_ros.core.simulation import Simulation
 
     scene = default_scene()
-    simulation = Simulation(make_propagator(scene.inertia, scene.angular_velocity, scene.orientation), 100.0)
+    simulation = Simulation(scene.propagator(), 100.0)
     block = 256
     t = time.perf_counter()
     blocks = [simulation.samples(first, block) for first in range(0, samples, block)]

@@ -11,42 +11,17 @@ import argparse
 import math
 import sys
 import time
-from pathlib import Path
 
 from .bag import BagError, BagWriter, reindex
-from .bag.definitions import DefinitionError, share_directory
-from .bag.samples import SampleRecorder, sample_qos
+from .bag.samples import SampleRecorder, encode_block, sample_qos
 from .bag.writer import COMPRESSIONS
-from .cdr import encode_stamped_doubles
-from .core import PROPAGATORS, make_propagator
-from .core.scene import SceneError, default_scene, load_scene
+from .core import PROPAGATORS
+from .core.scene import SceneError
 from .core.simulation import Simulation
 from .core.timing import sample_times
+from .scene_library import resolve_scene
 
 BLOCK = 4096  # samples computed, encoded and written per step: memory stays flat at any duration
-SCENE_DIRECTORY = Path(__file__).resolve().parent.parent / "config" / "scenes"
-
-
-def resolve_scene(name: str):
-    """A scene file, or the name of an installed scene (``default`` = the built-in default)."""
-    path = Path(name)
-    if path.is_file() or path.suffix in (".yaml", ".yml") or "/" in name:
-        return load_scene(path)
-    if name == "default":
-        return default_scene()
-    for directory in _scene_directories():
-        candidate = directory / f"{name}.yaml"
-        if candidate.is_file():
-            return load_scene(candidate)
-    raise SceneError(f"scene: '{name}' is neither a file nor an installed scene")
-
-
-def _scene_directories():
-    yield SCENE_DIRECTORY  # a source checkout
-    try:
-        yield share_directory("torquefree_ros") / "config" / "scenes"  # an installed package
-    except DefinitionError:
-        pass
 
 
 def write_scene_bag(scene, output, duration: float, rate: float, *, epoch_ns: int = 0, propagator: str = "auto",
@@ -55,15 +30,13 @@ def write_scene_bag(scene, output, duration: float, rate: float, *, epoch_ns: in
     """Writes samples ``0 … floor(duration·rate)`` of ``scene``; returns the bag's metadata.
     The output is checked (and created) before the first sample is computed."""
     count = sample_times(duration, rate).shape[0]
-    simulation = Simulation(make_propagator(scene.inertia, scene.angular_velocity, scene.orientation, propagator),
-                            rate, epoch_ns)
+    simulation = Simulation(scene.propagator(propagator), rate, epoch_ns, outputs=scene.outputs)
     custom = {"torquefree_ros.scene": scene.source, "torquefree_ros.summary": simulation.summary()}
     with BagWriter(output, overwrite=overwrite, compression=compression, custom_data=custom) as writer:
         recorder = SampleRecorder.in_namespace(writer, namespace, sample_qos(qos_depth))
         for first in range(0, count, BLOCK):
             block = simulation.samples(first, min(BLOCK, count - first))
-            recorder.write_block(block.stamps_ns, encode_stamped_doubles(block.stamps_ns, body_frame, block.omega_B),
-                                 encode_stamped_doubles(block.stamps_ns, inertial_frame, block.q_NB))
+            recorder.write_block(block.stamps_ns, encode_block(block, body_frame, inertial_frame, simulation.outputs))
     return writer.metadata
 
 
@@ -71,7 +44,8 @@ def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="torquefree_bag",
         description="Simulate a scene offline into a rosbag2 (Jazzy) MCAP bag: angular_velocity "
-        "(Vector3Stamped) and attitude (QuaternionStamped), samples k = 0 … floor(duration·rate).")
+        "(Vector3Stamped), attitude (QuaternionStamped) and the outputs the scene names (imu, euler_angles), "
+        "samples k = 0 … floor(duration·rate).")
     parser.add_argument("scene", nargs="?", help="scene file, or the name of an installed scene ('default')")
     parser.add_argument("--duration", type=float, help="simulated seconds")
     parser.add_argument("--rate", type=float, help="samples per simulated second (Hz)")
@@ -120,7 +94,7 @@ def bag_main(argv=None) -> int:
         print(f"torquefree_bag: {error}", file=sys.stderr)
         return 1
     elapsed = time.perf_counter() - started
-    samples = metadata.message_count // 2
+    samples = metadata.topics[0].message_count if metadata.topics else 0
     print(f"{args.output}: {samples} samples ({metadata.message_count} messages) in {elapsed:.2f} s, "
           f"{samples / max(elapsed, 1e-9):.0f} samples/s")
     return 0

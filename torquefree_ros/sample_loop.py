@@ -19,8 +19,8 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
+from .bag.samples import encode_block
 from .bag.writer import BagError
-from .cdr import encode_stamped_doubles, encode_times
 from .core.propagators import Propagator
 from .core.simulation import SampleBlock, Simulation
 from .core.timing import restart_epoch_ns
@@ -39,6 +39,7 @@ class RunRequest:
     real_time_factor: float
     body_frame: str
     inertial_frame: str
+    outputs: tuple = ()  # the scene's output effects: each publishes one more topic
 
     @property
     def wall_clock(self) -> bool:
@@ -50,6 +51,7 @@ class LastSample(NamedTuple):
     index: int
     stamp_ns: int
     omega_B: np.ndarray
+    internal: np.ndarray  # the effects' own states
 
 
 class _Run:
@@ -70,7 +72,7 @@ class _Run:
         self.sample_cost: float | None = None
         self.next_index = 0
         self.block: SampleBlock | None = None
-        self.messages: tuple = ()
+        self.columns: tuple = ()  # bag.samples.SampleColumn per topic, in publishing order
         self.position = 0
 
     def deadline(self, stamp_ns: int) -> float | None:
@@ -85,11 +87,8 @@ class _Run:
         started = time.perf_counter()
         block = self.simulation.samples(self.next_index, self.block_size)
         request = self.request
-        self.messages = (
-            encode_stamped_doubles(block.stamps_ns, request.body_frame, block.omega_B),
-            encode_stamped_doubles(block.stamps_ns, request.inertial_frame, block.q_NB),
-            None if request.wall_clock else encode_times(block.stamps_ns),
-        )
+        self.columns = encode_block(block, request.body_frame, request.inertial_frame, self.simulation.outputs,
+                                    clock=not request.wall_clock)
         self.block = block
         self.next_index += len(block)
         self.position = 0
@@ -113,10 +112,11 @@ class _Run:
 
 
 class SampleLoop:
-    """Publishes ``angular_velocity`` and ``attitude`` (and ``/clock``) from its own thread.
+    """Publishes ``angular_velocity``, ``attitude``, the scene's outputs (and ``/clock``) from its own
+    thread.
 
-    ``publishers`` has ``angular_velocity``, ``attitude`` and, before any run on a clock of our own
-    starts, ``clock``.
+    ``publishers.get(topic)`` gives the publisher of each topic a run publishes; the caller creates
+    them before it starts or restarts a run that needs them.
     ``keep_going()`` is false once the ROS context shuts down; publishing then stops quietly.
     ``recorder`` (a ``bag.samples.SampleRecorder``), when given, gets every sample right after it is
     published, with the same bytes; if the bag fails, recording stops and publishing goes on.
@@ -170,6 +170,10 @@ class SampleLoop:
         return self._thread is not None and self._thread.is_alive()
 
     @property
+    def request(self) -> RunRequest | None:
+        return self._run.request if self._run else None
+
+    @property
     def simulation(self) -> Simulation | None:
         return self._run.simulation if self._run else None
 
@@ -192,7 +196,8 @@ class SampleLoop:
         last = self.last_stamp_ns
         now = time.time_ns() if request.wall_clock else (last or 0)
         epoch = restart_epoch_ns(now, last, request.publish_rate)
-        simulation = Simulation(request.propagator, request.publish_rate, epoch, rate_name="publish_rate")
+        simulation = Simulation(request.propagator, request.publish_rate, epoch, rate_name="publish_rate",
+                                outputs=request.outputs)
         self.failure = ""
         return _Run(request, simulation)
 
@@ -221,8 +226,6 @@ class SampleLoop:
             self._logger.error(f"sample loop stopped: {self.failure}")
 
     def _loop(self) -> None:
-        publishers = self._publishers
-        omega_publisher, q_publisher = publishers.angular_velocity, publishers.attitude
         while True:
             self._take_pending()
             run = self._run
@@ -232,6 +235,7 @@ class SampleLoop:
                 except (ValueError, ArithmeticError) as error:
                     self._fail(f"cannot compute samples {run.next_index}..: {error}")
                     continue
+                publishers = [self._publishers.get(column.topic) for column in run.columns]
             block, i = run.block, run.position
             stamp = int(block.stamps_ns[i])
             deadline = run.deadline(stamp)
@@ -243,21 +247,17 @@ class SampleLoop:
                     continue  # re-check for a restart or a stop, then for the deadline
                 if -delay > run.period_wall:
                     self.late += 1
-            omega_messages, q_messages, clock_messages = run.messages
-            if clock_messages is not None:
-                publishers.clock.publish(clock_messages[i])
-            omega_publisher.publish(omega_messages[i])
-            q_publisher.publish(q_messages[i])
+            for publisher, column in zip(publishers, run.columns):
+                publisher.publish(column.messages[i])
             if self._recorder is not None:
-                self._record(stamp, omega_messages[i], q_messages[i],
-                             None if clock_messages is None else clock_messages[i])
+                self._record(stamp, run.columns, i)
             run.position = i + 1
             self.published += 1
-            self.last = LastSample(run.simulation, block.first + i, stamp, block.omega_B[i])
+            self.last = LastSample(run.simulation, block.first + i, stamp, block.omega_B[i], block.internal[i])
 
-    def _record(self, stamp: int, omega_message: bytes, q_message: bytes, clock_message: bytes | None) -> None:
+    def _record(self, stamp: int, columns, index: int) -> None:
         try:
-            self._recorder.write_sample(stamp, omega_message, q_message, clock_message)
+            self._recorder.write_sample(stamp, columns, index)
         except BagError as error:
             self.recording_failure = str(error)
             self._recorder = None

@@ -23,6 +23,7 @@ from std_srvs.srv import Trigger
 from .bag import BagError, BagWriter
 from .bag.samples import ANGULAR_VELOCITY, ATTITUDE, CLOCK, SampleRecorder, sample_qos
 from .ros_process import shut_down
+from .ros_qos import message_class
 from .sample_loop import RunRequest, SampleLoop
 from .sim_parameters import SPEC_BY_NAME, SPECS, ConfigurationError, check_value, rejection, run_request
 
@@ -32,16 +33,38 @@ LATE_WARNING_FRACTION = 0.01
 
 
 class _Publishers:
+    """The node's sample publishers by topic: ``angular_velocity`` and ``attitude`` always, ``/clock``
+    from the first run on a clock of our own, an output's topic only while a scene names it."""
+
     def __init__(self, node: Node, depth: int):
         qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth, reliability=ReliabilityPolicy.RELIABLE)
         self._node, self._qos = node, qos
         self.angular_velocity = node.create_publisher(Vector3Stamped, ANGULAR_VELOCITY[0], qos)
         self.attitude = node.create_publisher(QuaternionStamped, ATTITUDE[0], qos)
-        self.clock = None  # created by the first run on a clock of our own
+        self._by_topic = {ANGULAR_VELOCITY[0]: self.angular_velocity, ATTITUDE[0]: self.attitude}
+        self._outputs: set[str] = set()
 
-    def ensure_clock(self) -> None:
-        if self.clock is None:
-            self.clock = self._node.create_publisher(Clock, CLOCK[0], self._qos)
+    def get(self, topic: str):
+        return self._by_topic[topic]
+
+    def resolved(self, topic: str) -> str:
+        return self._by_topic[topic].topic_name
+
+    def ensure(self, request: RunRequest) -> None:
+        """Create what ``request`` publishes on (before the run starts)."""
+        if not request.wall_clock and CLOCK[0] not in self._by_topic:
+            self._by_topic[CLOCK[0]] = self._node.create_publisher(Clock, CLOCK[0], self._qos)
+        for output in request.outputs:
+            if output.topic not in self._by_topic:
+                self._by_topic[output.topic] = self._node.create_publisher(
+                    message_class(output.message_type), output.topic, self._qos)
+                self._outputs.add(output.topic)
+
+    def retire(self, request: RunRequest) -> None:
+        """Destroy the output publishers ``request`` no longer uses (after the loop took it)."""
+        for topic in self._outputs - {output.topic for output in request.outputs}:
+            self._node.destroy_publisher(self._by_topic.pop(topic))
+            self._outputs.discard(topic)
 
 
 class TorqueFreeSim(Node):
@@ -72,10 +95,8 @@ class TorqueFreeSim(Node):
         writer = self._open_bag()
         self._outputs = _Publishers(self, depth)
         if writer is not None:
-            self._bag = SampleRecorder(writer, self._outputs.angular_velocity.topic_name,
-                                       self._outputs.attitude.topic_name, sample_qos(depth))
-        if not request.wall_clock:
-            self._outputs.ensure_clock()
+            self._bag = SampleRecorder(writer, self._outputs.resolved, sample_qos(depth))
+        self._outputs.ensure(request)
         self.create_service(Trigger, "~/reset", self._on_reset)
         self._diagnostics = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.create_timer(DIAGNOSTICS_PERIOD, self._publish_diagnostics)
@@ -140,14 +161,15 @@ class TorqueFreeSim(Node):
     def _on_reset(self, request, response):
         try:
             run = self._run_request()
-            if not run.wall_clock:
-                self._outputs.ensure_clock()
+            self._outputs.ensure(run)
             simulation = self._loop.restart(run)
         except (ValueError, RuntimeError) as error:
+            self._outputs.retire(self._loop.request)
             response.success = False
             response.message = f"reset refused, the running simulation continues unchanged: {error}"
             self.get_logger().warning(response.message)
             return response
+        self._outputs.retire(run)
         response.success = True
         response.message = simulation.summary()
         self.get_logger().info(f"reset: {response.message}")
@@ -162,17 +184,20 @@ class TorqueFreeSim(Node):
             "propagator": simulation.propagator.describe(),
             "publish_rate": f"{simulation.rate:g}",
             "regime": simulation.regime.summary(),
+            "effects": simulation.describe_effects(),
             "samples_published": str(loop.published),
             "late_samples": str(loop.late),
         }
         if last is not None and last.simulation is simulation:
-            invariants = simulation.invariants(last.omega_B)
+            invariants = simulation.invariants(last.omega_B, last.internal)
             values.update(
                 sim_time=repr(float(last.index / simulation.rate)),
                 kinetic_energy=f"{invariants.kinetic_energy:.17g}",
                 angular_momentum=f"{invariants.momentum:.17g}",
                 kinetic_energy_drift=f"{invariants.energy_drift:.3g}",
                 angular_momentum_drift=f"{invariants.momentum_drift:.3g}",
+                # where the scene conserves a quantity its drift is the propagator's error
+                conserved=", ".join(sorted(invariants.conserved)) or "none (the effects change both)",
             )
         if self._bag is not None:
             values["record_bag"] = str(self._bag.writer.path)

@@ -13,12 +13,13 @@ from dataclasses import dataclass
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
 from rclpy.parameter import Parameter
 
-from .core import PROPAGATORS, make_propagator
+from .core import PROPAGATORS
 from .core.rigid_body import RigidBody
-from .core.scene import SceneError, default_scene, load_scene
+from .core.scene import SceneError, default_scene
 from .core.timing import MAX_RATE, check_rate
 from .core.validation import finite_vector, unit_quaternion
 from .sample_loop import RunRequest
+from .scene_library import resolve_scene
 
 _NUMBER = (Parameter.Type.INTEGER, Parameter.Type.DOUBLE)
 _ARRAY = (Parameter.Type.INTEGER_ARRAY, Parameter.Type.DOUBLE_ARRAY, Parameter.Type.BYTE_ARRAY)
@@ -56,8 +57,9 @@ class ParameterSpec:
 
 _AT_RESET = " Takes effect at the next ~/reset."
 SPECS = (
-    ParameterSpec("scene", "", "Path of a scene file (YAML); empty = the built-in default scene." + _AT_RESET,
-                  "a readable scene file, or empty"),
+    ParameterSpec("scene", "", "Path of a scene file (YAML), or the name of a library scene (dzhanibekov, "
+                  "explorer1, ...); empty = the built-in default scene." + _AT_RESET,
+                  "a readable, valid scene file or a library scene name, or empty"),
     ParameterSpec("inertia", None,
                   "Principal moments [I1, I2, I3] or tensor [Ixx, Iyy, Izz, Ixy, Ixz, Iyz], kg m^2; "
                   "overrides the scene; not set or [] = the scene's." + _AT_RESET,
@@ -79,7 +81,8 @@ SPECS = (
     ParameterSpec("inertial_frame", "world", "header.frame_id of attitude (the inertial frame)." + _AT_RESET,
                   "a non-empty frame id without a leading '/'"),
     ParameterSpec("propagator", "auto",
-                  "auto (the exact solution for a torque-free scene) or a registered propagator." + _AT_RESET,
+                  "auto (the exact solution for a torque-free scene, DOP853 at the scene's accuracy when an effect "
+                  "changes the motion) or a registered propagator." + _AT_RESET,
                   "one of: " + ", ".join(["auto", *sorted(PROPAGATORS)])),
     ParameterSpec("qos_depth", 10, "History depth of the reliable publishers (read at start-up only).",
                   "an integer in [1, 10000]", read_only=True, number_range=(1, 10000)),
@@ -143,15 +146,14 @@ def run_request(values: dict) -> RunRequest:
     """The run canonical values (``check_value``) describe, the scene filling what is not set.
     Building its propagator checks that the whole state is usable, not only each value alone."""
     try:
-        scene = load_scene(values["scene"]) if values["scene"] else default_scene()
+        scene = resolve_scene(values["scene"]) if values["scene"] else default_scene()
     except SceneError as error:
         message = str(error)
         raise ValueError(message if message.startswith("scene:") else f"scene: {message}") from None
-    propagator = make_propagator(values["inertia"] or scene.inertia,
-                                 values["angular_velocity"] or scene.angular_velocity,
-                                 values["orientation"] or scene.orientation, values["propagator"])
+    propagator = scene.propagator(values["propagator"], inertia=values["inertia"],
+                                  angular_velocity=values["angular_velocity"], orientation=values["orientation"])
     return RunRequest(propagator, values["publish_rate"], values["real_time_factor"],
-                      values["body_frame"], values["inertial_frame"])
+                      values["body_frame"], values["inertial_frame"], scene.outputs)
 
 
 def rejection(error: ValueError) -> SetParametersResult:

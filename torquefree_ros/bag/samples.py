@@ -1,14 +1,28 @@
-"""The simulator's samples in a bag: the same topics, types, QoS, stamps and bytes as the node
-publishes, whether written by the node while it publishes or offline by ``torquefree_bag``."""
+"""The simulator's samples as messages: which topics a sample goes out on, their CDR bytes, and
+writing them to a bag. One source for the node (which publishes and records them) and the offline
+``torquefree_bag``: the same topics, types, QoS, stamps and bytes.
+
+A sample is ``/clock`` (on a clock of our own), ``angular_velocity``, ``attitude``, then the
+scene's outputs (``imu``, ``euler_angles``) in the order the scene names them; only those exist.
+"""
 
 from __future__ import annotations
 
+from typing import Callable, NamedTuple
+
+from ..cdr import encode_stamped_doubles, encode_times
 from .qos import BagQos
 from .writer import BagWriter
 
 ANGULAR_VELOCITY = ("angular_velocity", "geometry_msgs/msg/Vector3Stamped")
 ATTITUDE = ("attitude", "geometry_msgs/msg/QuaternionStamped")
 CLOCK = ("/clock", "rosgraph_msgs/msg/Clock")
+
+
+class SampleColumn(NamedTuple):
+    topic: str  # as the node names it: relative, or absolute for /clock
+    type_name: str
+    messages: list  # CDR bytes, one per sample of the block
 
 
 def sample_qos(depth: int = 10) -> BagQos:
@@ -22,36 +36,48 @@ def resolve_topic(name: str, namespace: str = "/") -> str:
     return namespace.rstrip("/") + "/" + name
 
 
-class SampleRecorder:
-    """Writes sample messages (already CDR-encoded) on the simulator's topics of ``writer``."""
+def encode_block(block, body_frame: str, inertial_frame: str, outputs=(), clock: bool = False) -> tuple:
+    """The messages of a :class:`~torquefree_ros.core.simulation.SampleBlock`, one column per topic,
+    in publishing order. ``outputs``: the simulation's output effects (their rows are in the block)."""
+    stamps = block.stamps_ns
+    columns = [SampleColumn(CLOCK[0], CLOCK[1], encode_times(stamps))] if clock else []
+    columns.append(SampleColumn(*ANGULAR_VELOCITY, encode_stamped_doubles(stamps, body_frame, block.omega_B)))
+    columns.append(SampleColumn(*ATTITUDE, encode_stamped_doubles(stamps, inertial_frame, block.q_NB)))
+    for output, rows in zip(outputs, block.outputs):
+        frame = body_frame if output.frame == "body" else inertial_frame
+        columns.append(SampleColumn(output.topic, output.message_type, encode_stamped_doubles(stamps, frame, rows)))
+    return tuple(columns)
 
-    def __init__(self, writer: BagWriter, omega_topic: str, q_topic: str, qos: BagQos | None = None):
-        """``omega_topic`` and ``q_topic``: the resolved (absolute) names the samples go out on."""
+
+class SampleRecorder:
+    """Writes sample columns on ``writer``; a topic's channel is added the first time it is written.
+
+    ``resolve`` maps a column's topic to the name it goes out on (the node passes its publishers'
+    resolved, possibly remapped names; offline, relative names go into ``namespace``)."""
+
+    def __init__(self, writer: BagWriter, resolve: Callable[[str], str], qos: BagQos | None = None):
         self.writer = writer
+        self._resolve = resolve
         self._qos = (qos or sample_qos(),)
-        self._omega = writer.add_topic(omega_topic, ANGULAR_VELOCITY[1], self._qos)
-        self._q = writer.add_topic(q_topic, ATTITUDE[1], self._qos)
-        self._clock: int | None = None
+        self._channels: dict[str, int] = {}
 
     @classmethod
     def in_namespace(cls, writer: BagWriter, namespace: str = "/", qos: BagQos | None = None) -> "SampleRecorder":
-        return cls(writer, resolve_topic(ANGULAR_VELOCITY[0], namespace), resolve_topic(ATTITUDE[0], namespace), qos)
+        return cls(writer, lambda topic: resolve_topic(topic, namespace), qos)
 
-    def _clock_channel(self) -> int:
-        if self._clock is None:
-            self._clock = self.writer.add_topic(CLOCK[0], CLOCK[1], self._qos)
-        return self._clock
+    def _channel(self, column: SampleColumn) -> int:
+        channel = self._channels.get(column.topic)
+        if channel is None:
+            channel = self.writer.add_topic(self._resolve(column.topic), column.type_name, self._qos)
+            self._channels[column.topic] = channel
+        return channel
 
-    def write_block(self, stamps_ns, omega_messages, q_messages, clock_messages=None) -> None:
-        """Sample ``i``: ``/clock`` (when given), then ``angular_velocity``, then ``attitude``, all
-        logged at the sample's stamp, in the order the node publishes them."""
-        if clock_messages is None:
-            self.writer.write_rows((self._omega, self._q), stamps_ns, (omega_messages, q_messages))
-        else:
-            self.writer.write_rows((self._clock_channel(), self._omega, self._q), stamps_ns,
-                                   (clock_messages, omega_messages, q_messages))
+    def write_block(self, stamps_ns, columns) -> None:
+        """Sample ``i``: every column's message ``i``, in column order, logged at the sample's stamp."""
+        self.writer.write_rows([self._channel(column) for column in columns], stamps_ns,
+                               [column.messages for column in columns])
 
-    def write_sample(self, stamp_ns: int, omega_message: bytes, q_message: bytes,
-                     clock_message: bytes | None = None) -> None:
-        self.write_block((stamp_ns,), (omega_message,), (q_message,),
-                         None if clock_message is None else (clock_message,))
+    def write_sample(self, stamp_ns: int, columns, index: int) -> None:
+        """Sample ``index`` of the block ``columns`` belong to (the node records as it publishes)."""
+        self.writer.write_rows([self._channel(column) for column in columns], (stamp_ns,),
+                               [(column.messages[index],) for column in columns])

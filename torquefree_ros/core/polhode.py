@@ -147,6 +147,16 @@ class PolhodeAttitude:
         return omega_S, q_NS
 
 
+def _angle(vector: np.ndarray, axial: float, axis: int) -> float:
+    """Acute angle between ``vector`` and the line of principal axis ``axis``."""
+    transverse = float(np.linalg.norm(np.delete(vector, axis)))
+    return float(np.arctan2(transverse, axial))
+
+
+def _angle_between(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.arctan2(np.linalg.norm(np.cross(a, b)), np.dot(a, b)))
+
+
 def classify_motion(body: RigidBody, omega_B) -> MotionRegime:
     """The regime of the torque-free motion starting at ``omega_B`` (seed 000 and 002)."""
     omega_P = body.to_principal(omega_B)
@@ -177,7 +187,14 @@ def classify_motion(body: RigidBody, omega_B) -> MotionRegime:
         transverse = I[mid]
         precession = (I[symmetry_axis] / transverse - 1.0) * float(omega_P[symmetry_axis])
         kind = "axisymmetric_oblate" if equal_lo else "axisymmetric_prolate"
-        return MotionRegime(kind, polhode_period=period, precession_rate=precession)
+        # The cones of seed 000: the body cone is swept by w about the symmetry axis, the space cone
+        # by w about H; the symmetry axis precesses about H_N at |H| / I_transverse.
+        axial = abs(float(omega_P[symmetry_axis]))
+        H_P = I * omega_P
+        return MotionRegime(kind, polhode_period=period, precession_rate=precession,
+                            body_cone_angle=_angle(omega_P, axial, symmetry_axis),
+                            space_cone_angle=_angle_between(omega_P, H_P),
+                            inertial_precession_rate=float(np.linalg.norm(H_P)) / transverse)
     if polhode.jacobi.mc == 0.0:
         kind = "separatrix"
     else:

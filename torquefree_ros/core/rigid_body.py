@@ -126,6 +126,9 @@ class MotionRegime:
     flip_period: float = float("nan")  # time between reversals of the intermediate-axis rate
     precession_rate: float = float("nan")  # axisymmetric: w_p = (I3/IT - 1) w3 (seed 000)
     separatrix_distance: float = float("nan")  # (H^2/2T - I_mid) / I_mid
+    body_cone_angle: float = float("nan")  # axisymmetric: between w and the symmetry axis, rad
+    space_cone_angle: float = float("nan")  # axisymmetric: between w and H, rad
+    inertial_precession_rate: float = float("nan")  # axisymmetric: symmetry axis about H_N, |H|/I_T
 
     def summary(self) -> str:
         parts = [self.kind.replace("_", " ")]
@@ -134,10 +137,14 @@ class MotionRegime:
         for label, value in (
             ("polhode period", self.polhode_period),
             ("flip period", self.flip_period),
-            ("precession rate", self.precession_rate),
+            ("body-frame precession rate", self.precession_rate),
         ):
             if not np.isnan(value):
                 parts.append(f"{label} {value:.6g}" + (" rad/s" if "rate" in label else " s"))
+        if not np.isnan(self.body_cone_angle):
+            parts.append(f"body cone angle {np.degrees(self.body_cone_angle):.6g} deg, space cone angle "
+                         f"{np.degrees(self.space_cone_angle):.6g} deg, symmetry axis precesses about H at "
+                         f"{self.inertial_precession_rate:.6g} rad/s")
         return ", ".join(parts)
 
 

@@ -1,21 +1,38 @@
-"""Scenes: a body, its initial state and the effects it calls for, read from YAML.
+"""Scenes: a body, its initial state, and the effects and outputs it calls for, read from YAML.
 
-Every error names the file and the path of the offending field (``body.inertia``, ``effects[1]``) and
-says what is wrong. The built-in default scene lives here, so it needs no file at run time;
-``config/scenes/default.yaml`` is the same scene as a file (a test keeps the two equal).
+Schema (SI units; every error names the file, the field path and the reason)::
+
+    description: one line                       # optional
+    body:                                       # exactly one of:
+      inertia: [I1, I2, I3] | [Ixx, Iyy, Izz, Ixy, Ixz, Iyz]
+      parts: [- box: {mass, size, position, orientation} | cylinder | sphere | point_mass]
+    initial:
+      angular_velocity: [wx, wy, wz]           # body frame, rad/s
+      orientation: [x, y, z, w]                 # q_NB, default identity
+    effects: [- NAME: {parameters}]             # see core.effects; none = torque-free
+    accuracy: 1e-10                             # integrator tolerance when an effect needs one
+    sweep: {members: 9}                         # optional: a family at the initial |H| (members())
+
+An effect that changes the motion makes the scene need a numerical propagator; an output effect
+(``imu``, ``euler_angles``) only adds a topic. A scene that names nothing builds nothing: no effect
+object exists and ``auto`` is the exact solution.
 """
 
 from __future__ import annotations
 
-import difflib
-from dataclasses import dataclass
+import re
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 import yaml
 
+from . import bodies
+from .effects import MotionEffect, OutputEffect, parse_effect
+from .propagators import Propagator, make_propagator
 from .rigid_body import RigidBody
-from .validation import finite_vector, unit_quaternion
+from .schema import (FieldError, Param, check_keys, child, fields, integer, listing, mapping, number, text,
+                     unit_quaternion, vector)
 
 DEFAULT_SCENE_DATA = {
     "description": "a triaxial body tumbling visibly about its minor axis (the built-in default scene)",
@@ -23,12 +40,7 @@ DEFAULT_SCENE_DATA = {
     "initial": {"angular_velocity": [0.3, 0.2, 1.0], "orientation": [0.0, 0.0, 0.0, 1.0]},
     "effects": [],
 }
-
-_SCENE_KEYS = {"description": str, "body": dict, "initial": dict, "effects": list}
-_BODY_KEYS = ("inertia",)
-_INITIAL_KEYS = ("angular_velocity", "orientation")
-#: effect name -> class; filled when effects exist (none yet: every scene is torque-free)
-EFFECTS: dict[str, type] = {}
+MIN_ACCURACY, MAX_ACCURACY = 1e-14, 1e-3
 
 
 class SceneError(ValueError):
@@ -37,16 +49,51 @@ class SceneError(ValueError):
 
 @dataclass(frozen=True)
 class Scene:
-    inertia: tuple  # as written: 3 principal moments or 6 tensor elements (kg m^2)
+    inertia: tuple  # 3 principal moments or 6 tensor elements (kg m^2); parts give the tensor
     angular_velocity: tuple  # body frame, rad/s
     orientation: tuple  # q_NB as (x, y, z, w)
-    effects: tuple = ()
+    effects: tuple = ()  # MotionEffect instances: they change the motion
+    outputs: tuple = ()  # OutputEffect instances: they only add topics
+    accuracy: float | None = None  # integrator tolerance; None = the default
     description: str = ""
     source: str = "<built-in default>"
+    mass: float | None = None  # kg, for a body made of parts
+    center_of_mass: tuple | None = None  # m, in the frame the parts are written in
+    sweep_members: int | None = None  # an energy sweep: how many members
 
     @property
     def torque_free(self) -> bool:
         return not self.effects
+
+    def propagator(self, name: str = "auto", *, inertia=None, angular_velocity=None, orientation=None,
+                   **options) -> Propagator:
+        """The scene's propagator; ``auto`` is exact unless an effect changes the motion. The keyword
+        arguments override the scene's body and initial state (the node's parameters)."""
+        return make_propagator(self.inertia if inertia is None else inertia,
+                               self.angular_velocity if angular_velocity is None else angular_velocity,
+                               self.orientation if orientation is None else orientation,
+                               name, self.effects, self.accuracy, **options)
+
+
+    def members(self) -> list["Scene"]:
+        """The energy sweep (seed 000): at the ``|H|`` of the initial state, energies spaced evenly
+        from the minimum ``H^2 / (2 I_max)`` (a spin about the major axis) to the maximum
+        ``H^2 / (2 I_min)`` (about the minor axis). Member ``j`` has ``H_P = |H| (sqrt(1 - f) e_major
+        + sqrt(f) e_minor)``, ``f = j / (members - 1)``, so ``2T = H^2 ((1 - f) / I_max + f / I_min)``.
+        A scene without ``sweep`` is its own only member."""
+        if not self.sweep_members:
+            return [self]
+        body = RigidBody.from_inertia(self.inertia)
+        H = float(body.momentum_magnitude(self.angular_velocity))
+        major, minor = int(np.argmax(body.moments)), int(np.argmin(body.moments))
+        members = []
+        for f in np.linspace(0.0, 1.0, self.sweep_members):
+            H_P = np.zeros(3)
+            H_P[major], H_P[minor] = H * np.sqrt(1.0 - f), H * np.sqrt(f)
+            omega_B = body.principal_axes @ (H_P / body.moments)
+            members.append(replace(self, angular_velocity=tuple(float(x) for x in omega_B), sweep_members=None,
+                                   description=f"{self.description} (energy fraction {f:.3g})"))
+        return members
 
 
 def default_scene() -> Scene:
@@ -57,80 +104,106 @@ def load_scene(path) -> Scene:
     """Read and validate a scene file."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        text_ = path.read_text(encoding="utf-8")
     except OSError as error:
         raise SceneError(f"scene: cannot read {str(path)!r}: {error.strerror or error}") from None
+    except UnicodeDecodeError as error:
+        raise SceneError(f"{path}: not UTF-8 text: {error}") from None
     try:
-        data = yaml.safe_load(text)
+        data = yaml.load(text_, Loader=_SceneLoader)
     except yaml.YAMLError as error:
         raise SceneError(f"{path}: not valid YAML: {error}") from None
     return scene_from_mapping(data, source=str(path))
 
 
+class _SceneLoader(yaml.SafeLoader):
+    """YAML 1.2 numbers: PyYAML follows YAML 1.1, where ``1e-3`` and ``3.986e14`` (no dot or no
+    exponent sign) are strings, a trap in a file of SI values."""
+
+
+_SceneLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?$|^[-+]?\.(?:inf|Inf|INF)$|^\.(?:nan|NaN|NAN)$"),
+    list("-+0123456789."),
+)
+
+_INITIAL = {
+    "angular_velocity": Param(vector(3, unit="rad/s"), help="initial body-frame rate [wx, wy, wz], rad/s"),
+    "orientation": Param(unit_quaternion(), np.array([0.0, 0.0, 0.0, 1.0])),
+}
+_TOP = {
+    "description": Param(text(allow_empty=True), ""),
+    "body": Param(lambda value, path: value, help="every scene names its body: inertia or parts"),
+    "initial": Param(lambda value, path: fields(value, path, _INITIAL), help="every scene names its initial state"),
+    "effects": Param(listing(parse_effect), []),
+    "accuracy": Param(number(MIN_ACCURACY, MAX_ACCURACY), None),
+    "sweep": Param(mapping({"members": Param(integer(2, 1000), help="how many initial states, 2 or more")}), None),
+}
+
+
 def scene_from_mapping(data, source: str = "<built-in default>") -> Scene:
-    def fail(where: str, reason: str):
-        raise SceneError(f"{source}: {where}: {reason}")
-
-    if not isinstance(data, dict):
-        fail("(top level)", f"expected a mapping with keys {', '.join(_SCENE_KEYS)}, got {type(data).__name__}")
-    _check_keys(data, tuple(_SCENE_KEYS), "", fail)
-    for key, kind in _SCENE_KEYS.items():
-        if key in data and not isinstance(data[key], kind):
-            fail(key, f"expected a {_KIND_NAMES[kind]}, got {type(data[key]).__name__}")
-    for key in ("body", "initial"):
-        if key not in data:
-            fail(key, "missing (every scene names its body and initial state)")
-    body, initial = data["body"], data["initial"]
-    _check_keys(body, _BODY_KEYS, "body.", fail)
-    _check_keys(initial, _INITIAL_KEYS, "initial.", fail)
-    if "inertia" not in body:
-        fail("body.inertia", "missing")
-    if "angular_velocity" not in initial:
-        fail("initial.angular_velocity", "missing")
-
-    def checked(where: str, check, value):
-        try:
-            return check(value)
-        except ValueError as error:
-            fail(where, str(error).split(": ", 1)[-1])
-
-    inertia = checked("body.inertia", lambda v: _numbers(v, (3, 6)), body["inertia"])
-    checked("body.inertia", RigidBody.from_inertia, inertia)
-    omega = checked("initial.angular_velocity", lambda v: _numbers(v, (3,)), initial["angular_velocity"])
-    q = checked("initial.orientation", lambda v: unit_quaternion(_numbers(v, (4,))),
-                initial.get("orientation", [0.0, 0.0, 0.0, 1.0]))
-    effects = data.get("effects") or []
-    for index, entry in enumerate(effects):
-        if not (isinstance(entry, dict) and len(entry) == 1):
-            fail(f"effects[{index}]", "expected a one-key mapping '- NAME: {parameters}'")
-        (name,) = entry
-        if name not in EFFECTS:
-            known = ", ".join(sorted(EFFECTS)) or "none yet: scenes are torque-free"
-            fail(f"effects[{index}]", f"unknown effect {name!r} (known: {known})")
+    try:
+        values = fields(data, "", _TOP)
+        body = _body(values["body"], "body")
+    except FieldError as error:
+        raise SceneError(f"{source}: {error}") from None
+    initial, effects = values["initial"], values["effects"]
+    try:
+        _check_output_topics(effects)
+    except FieldError as error:
+        raise SceneError(f"{source}: {error}") from None
     return Scene(
-        inertia=tuple(float(x) for x in inertia),
-        angular_velocity=tuple(float(x) for x in omega),
-        orientation=tuple(float(x) for x in q),
-        effects=tuple(effects),
-        description=str(data.get("description", "")),
+        inertia=body["inertia"],
+        angular_velocity=tuple(float(x) for x in initial["angular_velocity"]),
+        orientation=tuple(float(x) for x in initial["orientation"]),
+        effects=tuple(e for e in effects if isinstance(e, MotionEffect)),
+        outputs=tuple(e for e in effects if isinstance(e, OutputEffect)),
+        accuracy=values["accuracy"],
+        description=values["description"],
         source=source,
+        mass=body.get("mass"),
+        center_of_mass=body.get("center_of_mass"),
+        sweep_members=values["sweep"]["members"] if values["sweep"] else None,
     )
 
 
-_KIND_NAMES = {str: "string", dict: "mapping", list: "list"}
+_SAMPLE_TOPICS = ("angular_velocity", "attitude", "/clock", "/diagnostics")
 
 
-def _numbers(value, lengths) -> np.ndarray:
-    if not isinstance(value, (list, tuple)) or not all(
-        isinstance(x, (int, float)) and not isinstance(x, bool) for x in value
-    ):
-        raise ValueError(f"expected a list of numbers, got {value!r}")
-    return finite_vector(value, "value", lengths)
+def _check_output_topics(effects) -> None:
+    used = {}
+    for index, effect in enumerate(effects):
+        if not isinstance(effect, OutputEffect):
+            continue
+        where = f"effects[{index}].{effect.name}.topic"
+        topic = effect.topic
+        if topic in _SAMPLE_TOPICS:
+            raise FieldError(where, f"'{topic}' is one of the simulator's own topics")
+        if topic in used:
+            raise FieldError(where, f"'{topic}' is already the topic of effects[{used[topic]}]")
+        used[topic] = index
 
 
-def _check_keys(mapping: dict, allowed, prefix: str, fail) -> None:
-    for key in mapping:
-        if key not in allowed:
-            close = difflib.get_close_matches(str(key), allowed, n=1)
-            hint = f"; did you mean {close[0]!r}?" if close else f" (allowed: {', '.join(allowed)})"
-            fail(f"{prefix}{key}", f"unknown key{hint}")
+def _body(value, path: str) -> dict:
+    if not isinstance(value, dict):
+        raise FieldError(path, "expected a mapping with 'inertia' or 'parts'")
+    check_keys(value, ("inertia", "parts"), path)
+    if ("inertia" in value) == ("parts" in value):
+        raise FieldError(path, "give either 'inertia' or 'parts', not " + ("both" if value else "neither"))
+    if "inertia" in value:
+        where = child(path, "inertia")
+        inertia = vector(3, 6, unit="kg m^2")(value["inertia"], where)
+        _check_inertia(inertia, where)
+        return {"inertia": tuple(float(x) for x in inertia)}
+    where = child(path, "parts")
+    composite = bodies.combine(listing(bodies.parse_part, min_length=1)(value["parts"], where))
+    _check_inertia(composite.tensor, where)
+    return {"inertia": bodies.tensor_elements(composite.tensor), "mass": composite.mass,
+            "center_of_mass": tuple(float(x) for x in composite.center_of_mass)}
+
+
+def _check_inertia(inertia, path: str) -> None:
+    try:
+        RigidBody.from_inertia(inertia, "inertia")
+    except ValueError as error:
+        raise FieldError(path, str(error).split(": ", 1)[-1]) from None

@@ -2,7 +2,8 @@
 
 Sample ``k`` after a (re)start is the state at exactly ``t_k = k / rate``, stamped
 ``epoch + t_k`` in integer nanoseconds. Samples come in vectorised blocks; for a given propagator a
-sample does not depend on how the blocks were cut.
+sample does not depend on how the blocks were cut. The scene's outputs (``imu``, ``euler_angles``)
+are computed with the samples, and only when the scene names them.
 """
 
 from __future__ import annotations
@@ -22,6 +23,8 @@ class SampleBlock:
     stamps_ns: np.ndarray  # (N,) int64, epoch + t_k
     omega_B: np.ndarray  # (N, 3) rad/s, body frame
     q_NB: np.ndarray  # (N, 4) (x, y, z, w), body in inertial
+    internal: np.ndarray  # (N, state_size): the effects' own states (a damper's rate)
+    outputs: tuple = ()  # one (N, width) float64 array per output, in Simulation.outputs order
 
     def __len__(self) -> int:
         return self.times.shape[0]
@@ -29,23 +32,27 @@ class SampleBlock:
 
 @dataclass(frozen=True)
 class Invariants:
-    kinetic_energy: float  # J
-    momentum: float  # |H|, kg m^2/s
+    kinetic_energy: float  # J, body + effects
+    momentum: float  # |H|, kg m^2/s, body + effects
     energy_drift: float  # (T - T0) / T0 since the (re)start; 0 at rest
     momentum_drift: float  # (|H| - |H|0) / |H|0
+    conserved: frozenset  # of "energy", "momentum": which drifts are errors rather than physics
 
 
 class Simulation:
-    """``propagator`` sampled at ``rate`` Hz from ``epoch_ns``."""
+    """``propagator`` sampled at ``rate`` Hz from ``epoch_ns``, with ``outputs`` (output effects)."""
 
-    def __init__(self, propagator: Propagator, rate: float, epoch_ns: int = 0, rate_name: str = "rate"):
+    def __init__(self, propagator: Propagator, rate: float, epoch_ns: int = 0, rate_name: str = "rate",
+                 outputs=()):
         self.propagator = propagator
         self.rate = check_rate(rate, rate_name)
         self.epoch_ns = int(epoch_ns)
-        body, omega0 = propagator.body, propagator.omega0_B
-        self.kinetic_energy0 = float(body.kinetic_energy(omega0))
-        self.momentum0 = float(body.momentum_magnitude(omega0))
-        self.regime = body.classify(omega0)
+        self.outputs = tuple(outputs)
+        self._streams = tuple(output.stream(self.rate) for output in self.outputs)
+        omega0, x0 = propagator.omega0_B, propagator.x0
+        self.kinetic_energy0 = float(propagator.energy(omega0, x0))
+        self.momentum0 = float(np.linalg.norm(propagator.momentum_B(omega0, x0)))
+        self.regime = propagator.body.classify(omega0)
 
     @property
     def body(self):
@@ -53,19 +60,26 @@ class Simulation:
 
     def samples(self, first: int, count: int) -> SampleBlock:
         times = np.arange(first, first + count) / self.rate
-        omega, q = self.propagator(times)
-        return SampleBlock(first, times, stamps_ns(self.epoch_ns, times), omega, q)
+        omega, q, internal = self.propagator.states(times)
+        outputs = tuple(stream.rows(first, times, omega, q) for stream in self._streams)
+        return SampleBlock(first, times, stamps_ns(self.epoch_ns, times), omega, q, internal, outputs)
 
-    def invariants(self, omega_B) -> Invariants:
-        """Energy and momentum of a sample and their drift since the (re)start (exact: zero up to
-        rounding; a numerical propagator shows its error here)."""
-        energy = float(self.body.kinetic_energy(omega_B))
-        momentum = float(self.body.momentum_magnitude(omega_B))
+    def invariants(self, omega_B, internal=None) -> Invariants:
+        """Energy and momentum (body + effects) of a sample and their drift since the (re)start.
+        Where the scene conserves them, the drift is the propagator's error (the exact one: zero up to
+        rounding); a torque or a damper changes them by physics."""
+        if internal is None:
+            if self.propagator.dynamics.state_size:
+                raise ValueError("internal: the scene's effects carry a state of their own; pass it")
+            internal = self.propagator.x0
+        energy = float(self.propagator.energy(omega_B, internal))
+        momentum = float(np.linalg.norm(self.propagator.momentum_B(omega_B, internal)))
         return Invariants(
             energy,
             momentum,
             _relative(energy, self.kinetic_energy0),
             _relative(momentum, self.momentum0),
+            self.propagator.conserved,
         )
 
     def summary(self) -> str:
@@ -80,9 +94,15 @@ class Simulation:
         return (
             f"inertia {inertia} kg m^2, w0 {_fmt(p.omega0_B)} rad/s, q0 {_fmt(p.q0_NB)}, "
             f"T {self.kinetic_energy0:.9g} J, |H| {self.momentum0:.9g} kg m^2/s, "
-            f"regime: {self.regime.summary()}; propagator {p.describe()}, {self.rate:g} Hz, "
+            f"{'regime' if p.dynamics.torque_free else 'torque-free regime of the initial state'}: "
+            f"{self.regime.summary()}; effects {self.describe_effects()}; "
+            f"propagator {p.describe()}, {self.rate:g} Hz, "
             f"first stamp {self.epoch_ns // 10**9}.{self.epoch_ns % 10**9:09d} s"
         )
+
+    def describe_effects(self) -> str:
+        named = [effect.describe() for effect in (*self.propagator.effects, *self.outputs)]
+        return ", ".join(named) if named else "none (torque-free)"
 
 
 def _relative(value: float, reference: float) -> float:

@@ -3,10 +3,24 @@
 from . import analytic, numerical  # noqa: F401  (registers the propagators)
 from .base import PROPAGATORS, Propagator, propagator_class
 
-__all__ = ["PROPAGATORS", "Propagator", "propagator_class", "make_propagator"]
+__all__ = ["PROPAGATORS", "DEFAULT_ACCURACY", "Propagator", "propagator_class", "make_propagator"]
+
+#: the integrator tolerance (relative, per step) of ``auto`` for a scene with effects
+DEFAULT_ACCURACY = 1e-10
+# auto's absolute tolerance, relative to the accuracy: the rtol/atol pair of scipy's tight settings
+_ATOL_PER_RTOL = 1e-2
 
 
-def make_propagator(body, angular_velocity, orientation, propagator: str = "auto", **options) -> Propagator:
-    """Build a propagator by name; ``auto`` is the exact one for a torque-free body."""
-    name = "analytic" if propagator == "auto" else propagator
-    return propagator_class(name)(body, angular_velocity, orientation, **options)
+def make_propagator(body, angular_velocity, orientation, propagator: str = "auto", effects=(),
+                    accuracy: float | None = None, **options) -> Propagator:
+    """Build a propagator by name. ``auto`` is the exact solution when no effect changes the motion,
+    else DOP853 held to ``accuracy`` (``rtol``; ``atol = accuracy / 100``; default
+    :data:`DEFAULT_ACCURACY`). ``effects``: motion effects only (outputs never reach a propagator)."""
+    effects = tuple(effects)
+    if propagator != "auto":
+        return propagator_class(propagator)(body, angular_velocity, orientation, effects, **options)
+    if not effects:
+        return propagator_class("analytic")(body, angular_velocity, orientation, **options)
+    tolerance = DEFAULT_ACCURACY if accuracy is None else accuracy
+    options = {"rtol": tolerance, "atol": tolerance * _ATOL_PER_RTOL, **options}
+    return propagator_class("dop853")(body, angular_velocity, orientation, effects, **options)

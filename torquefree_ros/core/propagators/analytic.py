@@ -17,9 +17,10 @@ from .base import Propagator, register
 class AnalyticPropagator(Propagator):
     name = "analytic"
     exact = True
+    supports_effects = False
 
-    def __init__(self, body, angular_velocity, orientation, **options):
-        super().__init__(body, angular_velocity, orientation, **options)
+    def __init__(self, body, angular_velocity, orientation, effects=(), **options):
+        super().__init__(body, angular_velocity, orientation, effects, **options)
         omega0_P = self.body.to_principal(self.omega0_B)
         self.polhode = solve_polhode(self.body.moments, omega0_P)
         if self.polhode is None:
@@ -36,6 +37,6 @@ class AnalyticPropagator(Propagator):
         if self._attitude is None:  # stationary: constant rate, rotation about a fixed axis
             omega = np.broadcast_to(self.omega0_B, (times.size, 3)).copy()
             q = quaternion.multiply(self.q0_NB, quaternion.exp_rotation(times[:, None] * self.omega0_B))
-            return omega, q
+            return omega, q, np.empty((times.size, 0))
         omega_S, q_NS = self._attitude(times)
-        return omega_S @ self._C, quaternion.multiply(q_NS, self._q_C)
+        return omega_S @ self._C, quaternion.multiply(q_NS, self._q_C), np.empty((times.size, 0))

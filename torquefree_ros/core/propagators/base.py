@@ -1,5 +1,6 @@
-"""One interface for every propagator (after scipy's ``OdeSolver`` family): construct from a body and
-an initial state, then evaluate ``(omega_B, q_NB)`` at any sorted array of times since that state."""
+"""One interface for every propagator (after scipy's ``OdeSolver`` family): construct from a body, an
+initial state and the scene's motion effects, then evaluate ``(omega_B, q_NB)`` at any sorted array
+of times since that state."""
 
 from __future__ import annotations
 
@@ -10,21 +11,27 @@ import numpy as np
 
 from ..rigid_body import RigidBody
 from ..validation import finite_vector, sample_times, unit_quaternion
+from .dynamics import Dynamics
 
 
 class Propagator(abc.ABC):
     """Base class. Subclasses set ``name`` and ``exact`` and implement :meth:`_evaluate`.
 
     ``__call__(times)`` returns ``omega_B`` of shape ``(N, 3)`` (rad/s, body frame) and ``q_NB`` of
-    shape ``(N, 4)`` (``x, y, z, w``) for the sorted, non-negative ``times`` (s).
+    shape ``(N, 4)`` (``x, y, z, w``) for the sorted, non-negative ``times`` (s); :meth:`states`
+    adds the effects' own states (shape ``(N, state_size)``, empty for most scenes).
+
+    ``effects``: the scene's motion effects (:class:`~torquefree_ros.core.effects.MotionEffect`);
+    only propagators with ``supports_effects`` take any.
     """
 
     name: ClassVar[str]
     exact: ClassVar[bool] = False
+    supports_effects: ClassVar[bool] = True
     #: option name -> default; anything else given to the constructor is an error
     options: ClassVar[dict] = {}
 
-    def __init__(self, body, angular_velocity, orientation, **options):
+    def __init__(self, body, angular_velocity, orientation, effects=(), **options):
         self.body = RigidBody.from_inertia(body)
         self.omega0_B = finite_vector(angular_velocity, "angular_velocity", (3,))
         self.q0_NB = unit_quaternion(orientation, "orientation")
@@ -33,19 +40,50 @@ class Propagator(abc.ABC):
         if unknown:
             known = ", ".join(sorted(self.options)) or "none"
             raise ValueError(f"{unknown[0]}: not an option of propagator '{self.name}' (options: {known})")
+        effects = tuple(effects)
+        if effects and not self.supports_effects:
+            names = ", ".join(effect.name for effect in effects)
+            raise ValueError(f"propagator: '{self.name}' is the exact torque-free solution; the scene's effects "
+                             f"({names}) need a numerical propagator ('auto' picks one)")
         self.settings = {**self.options, **options}
+        self.dynamics = Dynamics(self.body.tensor, [effect.bound(self.body.tensor) for effect in effects])
+        self.x0 = self.dynamics.initial_state(self.omega0_B)
+
+    @property
+    def effects(self) -> tuple:
+        return self.dynamics.effects
+
+    @property
+    def conserved(self) -> frozenset:
+        """The invariants (``energy``, ``momentum``) the motion keeps: a numerical propagator's drift
+        in them is its error; the others change by physics."""
+        return self.dynamics.conserved
 
     def __call__(self, times):
+        omega, q, _ = self.states(times)
+        return omega, q
+
+    def states(self, times):
+        """``(omega_B, q_NB, x)`` at ``times``; ``x`` holds the effects' own states."""
         times = sample_times(times)
-        omega, q = self._evaluate(times)
+        omega, q, x = self._evaluate(times)
         # t = 0 is the initial state itself, not its reconstruction through the solution
         start = times == 0.0
         omega[start] = self.omega0_B
         q[start] = self.q0_NB
-        return omega, q
+        x[start] = self.x0
+        return omega, q, x
+
+    def momentum_B(self, omega_B, x) -> np.ndarray:
+        """Total angular momentum, body + effects, body frame."""
+        return self.dynamics.momentum_B(np.asarray(omega_B, float), np.asarray(x, float))
+
+    def energy(self, omega_B, x) -> np.ndarray:
+        """Total kinetic energy, body + effects."""
+        return self.dynamics.energy(np.asarray(omega_B, float), np.asarray(x, float))
 
     @abc.abstractmethod
-    def _evaluate(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
+    def _evaluate(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
 
     def describe(self) -> str:
         settings = ", ".join(f"{k}={v:g}" for k, v in self.settings.items())

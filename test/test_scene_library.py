@@ -1,0 +1,129 @@
+"""The scene library (config/scenes): every scene loads, says what it is in one line, and shows what
+its description promises, checked independently of the code that made the promise."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from torquefree_ros.core import quaternion
+from torquefree_ros.core.scene import load_scene
+from torquefree_ros.core.simulation import Simulation
+from torquefree_ros.scene_library import installed_scenes, resolve_scene
+
+LIBRARY = Path(__file__).resolve().parents[1] / "config" / "scenes"
+NAMES = ["axisymmetric_coning", "default", "dzhanibekov", "energy_sweep", "explorer1", "gravity_gradient",
+         "gyrostat", "imu"]
+TIGHT = {"rtol": 1e-12, "atol": 1e-14}
+
+
+def library(name):
+    return load_scene(LIBRARY / f"{name}.yaml")
+
+
+def test_the_library_has_every_scene_each_with_a_one_line_description():
+    assert sorted(p.stem for p in LIBRARY.glob("*.yaml")) == NAMES
+    assert set(NAMES) <= set(installed_scenes())
+    for name in NAMES:
+        description = library(name).description
+        assert description and "\n" not in description and len(description) < 200, name
+
+
+def test_library_scenes_resolve_by_name_and_unknown_names_list_the_library():
+    assert resolve_scene("dzhanibekov").source.endswith("dzhanibekov.yaml")
+    with pytest.raises(ValueError, match=r"'dzanibekov' is neither a file nor a library scene \(library: .*dzhanibekov"):
+        resolve_scene("dzanibekov")
+
+
+def test_dzhanibekov_flips_at_the_reported_period():
+    scene = library("dzhanibekov")
+    simulation = Simulation(scene.propagator(), 100.0)
+    assert simulation.regime.kind in ("major_axis_polhode", "minor_axis_polhode")
+    flip = simulation.regime.flip_period
+    times = np.linspace(0.0, 4.5 * flip, 20001)
+    omega, _ = scene.propagator("dop853", **TIGHT)(times)  # an independent integrator
+    crossings = times[np.where(np.diff(np.sign(omega[:, 1])) != 0)[0]]
+    assert len(crossings) == 4  # the intermediate-axis rate reverses once per flip period
+    np.testing.assert_allclose(np.diff(crossings), flip, rtol=2e-4)  # grid spacing 2e-4 of a flip
+    assert np.abs(omega[:, 1]).max() > 4.99  # a full reversal of the spin, not a wobble
+
+
+def test_axisymmetric_coning_reports_the_cones_it_sweeps():
+    scene = library("axisymmetric_coning")
+    regime = Simulation(scene.propagator(), 100.0).regime
+    assert "body cone angle" in regime.summary() and "space cone angle" in regime.summary()
+    times = np.linspace(0.0, 10.0, 1001)
+    p = scene.propagator("dop853", **TIGHT)
+    omega, q = p(times)
+    H_N = p.body.angular_momentum_inertial(omega, q)
+    omega_N = quaternion.rotate(q, omega)
+    alpha = np.arctan2(np.linalg.norm(omega[:, 1:], axis=1), np.abs(omega[:, 0]))  # w to the symmetry axis x
+    beta = np.arctan2(np.linalg.norm(np.cross(omega_N, H_N), axis=1), np.sum(omega_N * H_N, axis=1))
+    np.testing.assert_allclose(alpha, regime.body_cone_angle, rtol=1e-9)
+    np.testing.assert_allclose(beta, regime.space_cone_angle, rtol=1e-9)
+    # the symmetry axis circles H_N at |H| / I_T: unwrap its azimuth about H_N
+    h = H_N[0] / np.linalg.norm(H_N[0])
+    e1 = quaternion.rotate(q, np.array([1.0, 0.0, 0.0]))
+    u = np.cross(h, [0.0, 0.0, 1.0]) if abs(h[2]) < 0.9 else np.cross(h, [1.0, 0.0, 0.0])
+    u /= np.linalg.norm(u)
+    v = np.cross(h, u)
+    azimuth = np.unwrap(np.arctan2(e1 @ v, e1 @ u))
+    rate = np.polyfit(times, azimuth, 1)[0]
+    assert rate == pytest.approx(regime.inertial_precession_rate, rel=1e-9)
+
+
+def test_explorer1_ends_in_a_flat_spin_about_its_major_axis():
+    scene = library("explorer1")
+    p = scene.propagator()
+    assert [effect.name for effect in p.effects] == ["damper"]
+    times = np.linspace(0.0, 900.0, 901)
+    omega, q, x = p.states(times)
+    energy = p.energy(omega, x)
+    assert np.all(np.diff(energy) <= 1e-12 * energy[0])
+    momentum = np.linalg.norm(p.momentum_B(omega, x), axis=1)
+    np.testing.assert_allclose(momentum, momentum[0], rtol=1e-7)  # scene accuracy 1e-9 over 900 s
+    major = int(np.argmax(p.body.moments))
+    assert omega[0, major] == 0.0 and abs(omega[-1, major]) / np.linalg.norm(omega[-1]) > np.cos(np.radians(2.0))
+
+
+def test_gravity_gradient_librates_about_the_local_vertical():
+    scene = library("gravity_gradient")
+    (effect,) = scene.effects
+    n = effect.mean_motion
+    times = np.linspace(0.0, 2 * np.pi / n, 401)  # one orbit
+    _, q = scene.propagator()(times)
+    # the nadir axis (body z) stays within the 0.1 rad pitch amplitude of the local vertical -r_N
+    nadir_B = quaternion.rotate(q, np.array([0.0, 0.0, 1.0]))
+    down = -np.column_stack([np.cos(n * times), np.sin(n * times), np.zeros_like(times)])
+    tilt = np.arccos(np.clip(np.sum(nadir_B * down, axis=1), -1.0, 1.0))
+    assert tilt[0] == pytest.approx(0.1, rel=1e-9)
+    assert tilt.max() <= 0.1 * (1 + 1e-6) and tilt.min() < 0.01  # it swings through the vertical
+
+
+def test_gyrostat_keeps_its_intermediate_axis_spin():
+    scene = library("gyrostat")
+    p = scene.propagator()
+    times = np.linspace(0.0, 120.0, 1201)
+    omega, q, x = p.states(times)
+    H_N = quaternion.rotate(q, p.momentum_B(omega, x))
+    np.testing.assert_allclose(H_N, np.broadcast_to(H_N[0], H_N.shape), atol=1e-8 * np.linalg.norm(H_N[0]))
+    assert omega[:, 1].min() > 0.99
+
+
+def test_imu_scene_is_torque_free_with_two_outputs():
+    scene = library("imu")
+    assert scene.torque_free and scene.propagator().name == "analytic"
+    assert [(o.name, o.topic, o.message_type) for o in scene.outputs] == [
+        ("imu", "imu", "sensor_msgs/msg/Imu"), ("euler_angles", "euler_angles", "geometry_msgs/msg/Vector3Stamped")]
+
+
+def test_energy_sweep_spans_minimum_to_maximum_energy_at_constant_momentum():
+    scene = library("energy_sweep")
+    members = scene.members()
+    assert len(members) == 9
+    I = np.array(scene.inertia)
+    H0 = np.linalg.norm(I * scene.angular_velocity)
+    omegas = np.array([m.angular_velocity for m in members])
+    np.testing.assert_allclose(np.linalg.norm(I * omegas, axis=1), H0, rtol=1e-14)
+    two_T = np.sum(I * omegas**2, axis=1)
+    np.testing.assert_allclose(two_T, np.linspace(H0**2 / I.max(), H0**2 / I.min(), 9), rtol=1e-14)

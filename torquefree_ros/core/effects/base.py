@@ -1,0 +1,141 @@
+"""One interface for every effect, one registry.
+
+An effect is named in a scene as ``- NAME: {parameters}``. Two kinds share the registry:
+
+* a :class:`MotionEffect` changes the motion: it adds a body-frame torque to Euler's equations
+  ``I w' + w x I w = sum(torque_B)`` and may carry a state of its own (a damper's rate) with its own
+  derivative. ``uses_attitude`` says whether it needs ``q`` (then integrators must supply stage
+  attitudes), ``conserves`` which invariants survive it, ``breakpoints`` where its torque jumps.
+* an :class:`OutputEffect` only derives a topic from the samples (an IMU, Euler angles); it never
+  changes the motion, so a scene with outputs alone keeps the exact propagator.
+
+Parameters are declared as :class:`~torquefree_ros.core.schema.Param` and checked before the class
+is built, so every error carries the field path (``effects[1].torque``).
+"""
+
+from __future__ import annotations
+
+import abc
+from typing import ClassVar
+
+import numpy as np
+
+from ..schema import FieldError, Param, child, fields, one_key
+
+#: effect name -> class; filled by the modules that define effects
+EFFECTS: dict[str, type["Effect"]] = {}
+ENERGY, MOMENTUM = "energy", "momentum"
+
+
+class Effect(abc.ABC):
+    name: ClassVar[str]
+    summary: ClassVar[str]  # one line for the catalogue
+    parameters: ClassVar[dict[str, Param]] = {}
+    changes_motion: ClassVar[bool]
+
+    def __init__(self, **values):
+        self.values = values
+
+    @classmethod
+    def from_parameters(cls, values: dict, path: str) -> "Effect":
+        """Build from checked ``values``; cross-field rules raise ``FieldError`` under ``path``."""
+        return cls(**values)
+
+    def describe(self) -> str:
+        shown = ", ".join(f"{key}={_short(value)}" for key, value in self.values.items() if value is not None)
+        return f"{self.name}({shown})"
+
+
+class MotionEffect(Effect):
+    changes_motion = True
+    uses_attitude: ClassVar[bool] = False
+    state_size: ClassVar[int] = 0
+    conserves: ClassVar[frozenset] = frozenset()
+
+    def bound(self, tensor: np.ndarray) -> "MotionEffect":
+        """This effect for a body of inertia ``tensor`` (body frame); a copy when it needs it."""
+        return self
+
+    def initial_state(self, omega0_B: np.ndarray) -> np.ndarray:
+        return np.empty(0)
+
+    @abc.abstractmethod
+    def torque_B(self, t: float, omega_B: np.ndarray, q_NB: np.ndarray, state: np.ndarray,
+                 segment_start: float) -> np.ndarray:
+        """Body-frame torque on the body. ``segment_start``: where the smooth piece being integrated
+        begins (a breakpoint or a step start); piecewise quantities are those of the piece starting
+        there, so a stage evaluated exactly at the next breakpoint still sees this piece."""
+
+    def state_rate(self, t: float, omega_B: np.ndarray, q_NB: np.ndarray, state: np.ndarray) -> np.ndarray:
+        return np.empty(0)
+
+    def breakpoints(self) -> tuple[float, ...]:
+        return ()
+
+    def momentum_B(self, state: np.ndarray) -> np.ndarray:
+        """Angular momentum the effect carries itself (a wheel, a damper), body frame; broadcasts
+        over leading axes of ``state``."""
+        return np.zeros(state.shape[:-1] + (3,))
+
+    def energy(self, state: np.ndarray) -> np.ndarray:
+        return np.zeros(state.shape[:-1])
+
+
+class OutputEffect(Effect):
+    """Derives one topic from the samples. ``topic``, ``message_type``; ``frame`` is ``body`` or
+    ``inertial`` (the frame id the node uses for it). :meth:`stream` starts the output for a run."""
+
+    changes_motion = False
+    message_type: ClassVar[str]
+    frame: ClassVar[str]
+
+    @property
+    def topic(self) -> str:
+        return self.values.get("topic") or self.name
+
+    @abc.abstractmethod
+    def stream(self, rate: float) -> "OutputStream": ...
+
+
+class OutputStream(abc.ABC):
+    """Per run: ``rows(first, times, omega_B, q_NB)`` gives one row of float64 per sample, the
+    message's fields after its header in declaration order. Rows depend only on the sample index and
+    the scene, never on how samples are cut into blocks."""
+
+    @abc.abstractmethod
+    def rows(self, first: int, times: np.ndarray, omega_B: np.ndarray, q_NB: np.ndarray) -> np.ndarray: ...
+
+
+def register(cls):
+    EFFECTS[cls.name] = cls
+    return cls
+
+
+def parse_effect(entry, path: str) -> Effect:
+    name, parameters = one_key(entry, path, EFFECTS, "effect")
+    cls = EFFECTS[name]
+    where = child(path, name)
+    values = fields(parameters, where, cls.parameters)
+    return cls.from_parameters(values, where)
+
+
+def invariants_conserved(effects) -> frozenset:
+    """What stays constant under all ``effects`` (torque-free: energy and momentum)."""
+    kept = frozenset({ENERGY, MOMENTUM})
+    for effect in effects:
+        kept &= effect.conserves
+    return kept
+
+
+def _short(value) -> str:
+    if isinstance(value, np.ndarray):
+        return "[" + ", ".join(f"{x:g}" for x in value.ravel()) + "]"
+    if isinstance(value, float):
+        return f"{value:g}"
+    if isinstance(value, list):
+        return f"<{len(value)} entries>"
+    return str(value)
+
+
+__all__ = ["EFFECTS", "ENERGY", "MOMENTUM", "Effect", "FieldError", "MotionEffect", "OutputEffect",
+           "OutputStream", "invariants_conserved", "parse_effect", "register"]
