@@ -15,6 +15,7 @@ setup(
         ("share/" + package_name + "/config/scenes", glob("config/scenes/*.yaml")),
     ],
     install_requires=["setuptools"],
+    extras_require={"plot": ["matplotlib>=3.7"]},
     zip_safe=True,
     maintainer="torquefree_ros maintainers",
     maintainer_email="maintainers@torquefree-ros.invalid",
@@ -28,6 +29,7 @@ setup(
             "torquefree_bag = torquefree_ros.bag_cli:bag_main",
             "torquefree_record = torquefree_ros.recorder:main",
             "torquefree_play = torquefree_ros.player:main",
+            "torquefree_plot = torquefree_ros.plot:main",
         ],
     },
 )

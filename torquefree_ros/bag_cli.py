@@ -31,7 +31,8 @@ def write_scene_bag(scene, output, duration: float, rate: float, *, epoch_ns: in
     The output is checked (and created) before the first sample is computed."""
     count = sample_times(duration, rate).shape[0]
     simulation = Simulation(scene.propagator(propagator), rate, epoch_ns, outputs=scene.outputs)
-    custom = {"torquefree_ros.scene": scene.source, "torquefree_ros.summary": simulation.summary()}
+    custom = {"torquefree_ros.scene": scene.source, "torquefree_ros.summary": simulation.summary(),
+              "torquefree_ros.inertia": " ".join(repr(float(x)) for x in scene.inertia)}
     with BagWriter(output, overwrite=overwrite, compression=compression, custom_data=custom) as writer:
         recorder = SampleRecorder.in_namespace(writer, namespace, sample_qos(qos_depth))
         for first in range(0, count, BLOCK):

@@ -73,3 +73,16 @@ def encode_times(stamps_ns) -> list[bytes]:
     records["sec"] = sec
     records["nanosec"] = nanosec
     return _split(records)
+
+
+def decode_stamped_doubles(message: bytes, width: int) -> tuple[int, str, np.ndarray]:
+    """``(stamp_ns, frame_id, values)`` of a message laid out as :func:`encode_stamped_doubles` writes
+    it (a Header, then ``width`` float64s): the inverse, for tools that read bags without rclpy."""
+    if message[:4] != CDR_LE:
+        raise ValueError("not a little-endian CDR message (encapsulation header)")
+    sec, nanosec, length = np.frombuffer(message, dtype="<i4,<u4,<u4", count=1, offset=4)[0]
+    text_end = 12 + int(length)
+    start = 4 + -(-text_end // 8) * 8
+    values = np.frombuffer(message, dtype="<f8", count=width, offset=start)
+    frame = message[16:16 + int(length) - 1].decode("utf-8")
+    return int(sec) * 1_000_000_000 + int(nanosec), frame, values.copy()
