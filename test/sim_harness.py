@@ -4,6 +4,7 @@ Everything is driven by spinning one executor until a condition holds (no sleeps
 
 from __future__ import annotations
 
+import contextlib
 import time
 
 import numpy as np
@@ -24,6 +25,17 @@ SPIN_TIMEOUT = 20.0  # s; generous for a loaded 2-core CI machine
 
 def stamp_ns(stamp) -> int:
     return stamp.sec * 1_000_000_000 + stamp.nanosec
+
+
+@contextlib.contextmanager
+def connected_harness(**parameters):
+    """A started, connected harness, closed on exit (the body of the tests' fixtures)."""
+    harness = SimHarness(**parameters)
+    try:
+        harness.wait_connected()
+        yield harness
+    finally:
+        harness.close()
 
 
 class SimHarness:

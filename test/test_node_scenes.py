@@ -8,7 +8,7 @@ import pytest
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Imu
-from sim_harness import SimHarness, stamp_ns
+from sim_harness import connected_harness, stamp_ns
 
 from torquefree_ros.core.simulation import Simulation
 from torquefree_ros.scene_library import resolve_scene
@@ -16,12 +16,8 @@ from torquefree_ros.scene_library import resolve_scene
 
 @pytest.fixture
 def harness():
-    h = SimHarness(publish_rate=200.0)
-    try:
-        h.wait_connected()
+    with connected_harness(publish_rate=200.0) as h:
         yield h
-    finally:
-        h.close()
 
 
 def published_topics(harness) -> set[str]:

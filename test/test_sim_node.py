@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from sim_harness import SimHarness
+from sim_harness import SimHarness, connected_harness
 
 from torquefree_ros import RigidBody, propagate
 from torquefree_ros.core.quaternion import to_matrix
@@ -57,13 +57,8 @@ def assert_run_is_exact(pairs, inertia, omega0, q0, rate):
 
 @pytest.fixture
 def harness(request):
-    parameters = getattr(request, "param", {})
-    h = SimHarness(**parameters)
-    try:
-        h.wait_connected()
+    with connected_harness(**getattr(request, "param", {})) as h:
         yield h
-    finally:
-        h.close()
 
 
 # -- samples ---------------------------------------------------------------------------------------
@@ -215,12 +210,8 @@ BAD_VALUES = [
 
 @pytest.fixture(scope="module")
 def shared_harness():
-    h = SimHarness(publish_rate=100.0)
-    try:
-        h.wait_connected()
+    with connected_harness(publish_rate=100.0) as h:
         yield h
-    finally:
-        h.close()
 
 
 @pytest.mark.parametrize("name, value, reason", BAD_VALUES, ids=[f"{n}={v!r}" for n, v, _ in BAD_VALUES])

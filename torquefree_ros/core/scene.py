@@ -133,7 +133,7 @@ _INITIAL = {
 }
 _TOP = {
     "description": Param(text(allow_empty=True), ""),
-    "body": Param(lambda value, path: value, help="every scene names its body: inertia or parts"),
+    "body": Param(lambda value, path: _body(value, path), help="every scene names its body: inertia or parts"),
     "initial": Param(lambda value, path: fields(value, path, _INITIAL), help="every scene names its initial state"),
     "effects": Param(listing(parse_effect), []),
     "accuracy": Param(number(MIN_ACCURACY, MAX_ACCURACY), None),
@@ -144,10 +144,9 @@ _TOP = {
 def scene_from_mapping(data, source: str = "<built-in default>") -> Scene:
     try:
         values = fields(data, "", _TOP)
-        body = _body(values["body"], "body")
     except FieldError as error:
         raise SceneError(f"{source}: {error}") from None
-    initial, effects = values["initial"], values["effects"]
+    body, initial, effects = values["body"], values["initial"], values["effects"]
     try:
         _check_output_topics(effects)
     except FieldError as error:

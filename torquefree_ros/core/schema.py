@@ -15,7 +15,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .validation import UNIT_QUATERNION_RTOL
+from . import validation
 
 Checker = Callable[[Any, str], Any]
 REQUIRED = object()
@@ -140,17 +140,14 @@ def vector(*lengths: int, unit: str = "", positive: bool = False) -> Checker:
 
 
 def unit_quaternion() -> Checker:
-    """``(x, y, z, w)``, normalised; the zero quaternion and norms far from 1 are refused."""
+    """``(x, y, z, w)``, normalised by the core's own check (zero and far-from-unit norms refused)."""
     as_vector = vector(4)
 
     def check(value, path):
-        q = as_vector(value, path)
-        norm = float(np.linalg.norm(q))
-        if norm == 0.0:
-            raise FieldError(path, "the zero quaternion is not a rotation")
-        if abs(norm - 1.0) > UNIT_QUATERNION_RTOL:
-            raise FieldError(path, f"expected a unit quaternion (x, y, z, w), got norm {norm:.9g}")
-        return q / norm
+        try:
+            return validation.unit_quaternion(as_vector(value, path), path)
+        except ValueError as error:
+            raise FieldError(path, str(error).split(": ", 1)[-1]) from None
 
     return check
 

@@ -97,15 +97,14 @@ class GravityGradient(MotionEffect):
             if radius is None:
                 raise FieldError(child(path, "radius"), "missing (or give 'mean_motion')")
             values = {**values, "gravitational_parameter": EARTH_MU if mu is None else mu}
-        return cls(values, path)
+        return cls(**values)
 
-    def __init__(self, values, path="gravity_gradient"):
-        super().__init__(**values)
-        n = values["mean_motion"]
-        if n is None:
-            n = float(np.sqrt(values["gravitational_parameter"] / values["radius"] ** 3))
-        self.mean_motion = n
-        self.u0 = values["argument_of_latitude"]
+    def __init__(self, radius=None, gravitational_parameter=EARTH_MU, mean_motion=None, argument_of_latitude=0.0):
+        super().__init__(radius=radius, gravitational_parameter=gravitational_parameter if mean_motion is None else None,
+                         mean_motion=mean_motion, argument_of_latitude=argument_of_latitude)
+        self.mean_motion = mean_motion if mean_motion is not None else float(
+            np.sqrt(gravitational_parameter / radius ** 3))
+        self.u0 = argument_of_latitude
         self._tensor: np.ndarray | None = None
 
     def bound(self, tensor):
