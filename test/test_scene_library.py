@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from torquefree_ros.core import quaternion
-from torquefree_ros.core.scene import load_scene
+from torquefree_ros import load_scene
 from torquefree_ros.core.simulation import Simulation
 from torquefree_ros.scene_library import installed_scenes, resolve_scene
 
