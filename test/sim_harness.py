@@ -5,6 +5,7 @@ Everything is driven by spinning one executor until a condition holds (no sleeps
 from __future__ import annotations
 
 import contextlib
+import re
 import time
 
 import numpy as np
@@ -25,6 +26,13 @@ SPIN_TIMEOUT = 20.0  # s; generous for a loaded 2-core CI machine
 
 def stamp_ns(stamp) -> int:
     return stamp.sec * 1_000_000_000 + stamp.nanosec
+
+
+def reset_epoch_ns(response) -> int:
+    """The stamp of sample 0 of the run a reset started, as its summary states it."""
+    match = re.search(r"first stamp (\d+)\.(\d{9}) s", response.message)
+    assert match, response.message
+    return int(match[1]) * 1_000_000_000 + int(match[2])
 
 
 @contextlib.contextmanager

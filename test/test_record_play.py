@@ -82,7 +82,9 @@ def test_player_to_recorder_round_trip_keeps_every_message_and_the_timing(tmp_pa
 def test_recorder_gets_every_sample_the_node_publishes(tmp_path):
     node_bag, recorded = tmp_path / "node_bag", tmp_path / "recorded"
     rec = _spawn("torquefree_ros.recorder", "--output", str(recorded))  # all topics
-    node = _spawn("torquefree_ros.sim_node", "--ros-args", "-p", "publish_rate:=200.0",
+    # qos_depth 1000 (5 s at 200 Hz): with the default 10, a reliable keep-last writer overwrites
+    # samples a CPU-starved reader has not acknowledged within 50 ms, which is DDS, not the recorder
+    node = _spawn("torquefree_ros.sim_node", "--ros-args", "-p", "publish_rate:=200.0", "-p", "qos_depth:=1000",
                   "-p", f"record_bag:={node_bag}")
     try:
         _wait_for_line(rec, "recording /attitude")
@@ -98,7 +100,11 @@ def test_recorder_gets_every_sample_the_node_publishes(tmp_path):
         # nothing lost between the first message received and the last: a contiguous run of what the
         # node published (under load the last few may still be in flight when the recorder stops)
         first = published.index(got[0])
-        assert got == published[first:first + len(got)]
+        expected = published[first:first + len(got)]
+        mismatch = next((i for i, (a, b) in enumerate(zip(got, expected)) if a != b), None)
+        assert mismatch is None, (f"{topic}: message {mismatch} of {len(got)} received differs; it is "
+                                  f"published[{published.index(got[mismatch]) if got[mismatch] in published else None}]"
+                                  f", expected published[{first + mismatch}]")
         assert len(published) - (first + len(got)) <= 20  # at most 0.1 s of samples at 200 Hz in flight
 
 
