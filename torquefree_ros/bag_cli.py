@@ -13,7 +13,7 @@ import sys
 import time
 
 from .bag import BagError, BagWriter, reindex
-from .bag.samples import SampleRecorder, encode_block, sample_qos
+from .bag.samples import INERTIA_KEY, SampleRecorder, encode_block, sample_qos
 from .bag.writer import COMPRESSIONS
 from .core import PROPAGATORS
 from .core.scene import SceneError
@@ -32,7 +32,7 @@ def write_scene_bag(scene, output, duration: float, rate: float, *, epoch_ns: in
     count = sample_times(duration, rate).shape[0]
     simulation = Simulation(scene.propagator(propagator), rate, epoch_ns, outputs=scene.outputs)
     custom = {"torquefree_ros.scene": scene.source, "torquefree_ros.summary": simulation.summary(),
-              "torquefree_ros.inertia": " ".join(repr(float(x)) for x in scene.inertia)}
+              INERTIA_KEY: " ".join(repr(float(x)) for x in scene.inertia)}
     with BagWriter(output, overwrite=overwrite, compression=compression, custom_data=custom) as writer:
         recorder = SampleRecorder.in_namespace(writer, namespace, sample_qos(qos_depth))
         for first in range(0, count, BLOCK):

@@ -19,16 +19,16 @@ import sys
 from pathlib import Path
 
 import numpy as np
-import yaml
 
-from .bag.reader import BagReader
+from .bag import BagError
+from .bag.reader import BagReader, bag_information
+from .bag.samples import INERTIA_KEY
 from .cdr import decode_stamped_doubles
 from .core.rigid_body import RigidBody
 from .core.scene import SceneError
 from .core.simulation import Simulation
 from .scene_library import resolve_scene
 
-INERTIA_KEY = "torquefree_ros.inertia"  # custom_data of bags written by torquefree_bag
 MAX_SAMPLES = 200_000
 
 
@@ -81,11 +81,8 @@ def runs_from_bag(path: Path):
 
 
 def bag_inertia(path: Path):
-    try:
-        info = yaml.safe_load((path / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
-        text = info.get("custom_data", {}).get(INERTIA_KEY)
-    except (OSError, KeyError, TypeError, yaml.YAMLError):
-        text = None
+    """The inertia ``torquefree_bag`` stores in the bag, or None."""
+    text = (bag_information(path).get("custom_data") or {}).get(INERTIA_KEY)
     return None if text is None else [float(x) for x in text.split()]
 
 
@@ -166,7 +163,7 @@ def main(argv=None) -> int:
             name = Path(scene.source).stem if scene.source.endswith((".yaml", ".yml")) else "default"
             runs = runs_from_scene(scene, args.duration, args.rate)
         written = draw(runs, body, name.replace(" ", "_"), Path(args.output_dir))
-    except (PlotError, SceneError, ValueError) as error:
+    except (PlotError, SceneError, BagError, ValueError) as error:
         print(f"torquefree_plot: {error}", file=sys.stderr)
         return 2
     for path in written:

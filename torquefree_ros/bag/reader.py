@@ -53,6 +53,15 @@ def _qos_profiles(channel: Channel, where: str) -> tuple[BagQos, ...]:
         raise BagError(f"{where}: topic '{channel.topic}': unreadable offered_qos_profiles: {error}") from None
 
 
+def bag_information(path) -> dict:
+    """The ``rosbag2_bagfile_information`` mapping of a bag directory's ``metadata.yaml``."""
+    metadata = Path(path) / METADATA_FILE
+    try:
+        return yaml.safe_load(metadata.read_text(encoding="utf-8"))["rosbag2_bagfile_information"]
+    except (OSError, yaml.YAMLError, KeyError, TypeError) as error:
+        raise BagError(f"bag '{path}': unreadable {METADATA_FILE}: {error}") from None
+
+
 def storage_file(path) -> Path:
     """The ``.mcap`` file of a bag directory (from its metadata, else the only one), or the file itself."""
     path = Path(path)
@@ -62,11 +71,11 @@ def storage_file(path) -> Path:
         raise BagError(f"bag '{path}': no such bag directory or file")
     metadata = path / METADATA_FILE
     if metadata.is_file():
+        info = bag_information(path)
         try:
-            info = yaml.safe_load(metadata.read_text(encoding="utf-8"))["rosbag2_bagfile_information"]
             files = info["relative_file_paths"]
             storage = info["storage_identifier"]
-        except (OSError, yaml.YAMLError, KeyError, TypeError) as error:
+        except (KeyError, TypeError) as error:
             raise BagError(f"bag '{path}': unreadable {METADATA_FILE}: {error}") from None
         if storage != "mcap":
             raise BagError(f"bag '{path}': storage '{storage}' is not supported (only mcap)")

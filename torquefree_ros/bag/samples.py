@@ -17,6 +17,8 @@ from .writer import BagWriter
 ANGULAR_VELOCITY = ("angular_velocity", "geometry_msgs/msg/Vector3Stamped")
 ATTITUDE = ("attitude", "geometry_msgs/msg/QuaternionStamped")
 CLOCK = ("/clock", "rosgraph_msgs/msg/Clock")
+#: custom_data key of the body's inertia (3 or 6 numbers, space-separated) in offline bags
+INERTIA_KEY = "torquefree_ros.inertia"
 
 
 class SampleColumn(NamedTuple):

@@ -74,7 +74,6 @@ class Scene:
                                self.orientation if orientation is None else orientation,
                                name, self.effects, self.accuracy, **options)
 
-
     def members(self) -> list["Scene"]:
         """The energy sweep (seed 000): at the ``|H|`` of the initial state, energies spaced evenly
         from the minimum ``H^2 / (2 I_max)`` (a spin about the major axis) to the maximum
@@ -131,26 +130,15 @@ _INITIAL = {
     "angular_velocity": Param(vector(3, unit="rad/s"), help="initial body-frame rate [wx, wy, wz], rad/s"),
     "orientation": Param(unit_quaternion(), np.array([0.0, 0.0, 0.0, 1.0])),
 }
-_TOP = {
-    "description": Param(text(allow_empty=True), ""),
-    "body": Param(lambda value, path: _body(value, path), help="every scene names its body: inertia or parts"),
-    "initial": Param(lambda value, path: fields(value, path, _INITIAL), help="every scene names its initial state"),
-    "effects": Param(listing(parse_effect), []),
-    "accuracy": Param(number(MIN_ACCURACY, MAX_ACCURACY), None),
-    "sweep": Param(mapping({"members": Param(integer(2, 1000), help="how many initial states, 2 or more")}), None),
-}
 
 
 def scene_from_mapping(data, source: str = "<built-in default>") -> Scene:
     try:
         values = fields(data, "", _TOP)
+        _check_output_topics(values["effects"])
     except FieldError as error:
         raise SceneError(f"{source}: {error}") from None
     body, initial, effects = values["body"], values["initial"], values["effects"]
-    try:
-        _check_output_topics(effects)
-    except FieldError as error:
-        raise SceneError(f"{source}: {error}") from None
     return Scene(
         inertia=body["inertia"],
         angular_velocity=tuple(float(x) for x in initial["angular_velocity"]),
@@ -199,6 +187,16 @@ def _body(value, path: str) -> dict:
     _check_inertia(composite.tensor, where)
     return {"inertia": bodies.tensor_elements(composite.tensor), "mass": composite.mass,
             "center_of_mass": tuple(float(x) for x in composite.center_of_mass)}
+
+
+_TOP = {
+    "description": Param(text(allow_empty=True), ""),
+    "body": Param(_body, help="every scene names its body: inertia or parts"),
+    "initial": Param(mapping(_INITIAL), help="every scene names its initial state"),
+    "effects": Param(listing(parse_effect), []),
+    "accuracy": Param(number(MIN_ACCURACY, MAX_ACCURACY), None),
+    "sweep": Param(mapping({"members": Param(integer(2, 1000), help="how many initial states, 2 or more")}), None),
+}
 
 
 def _check_inertia(inertia, path: str) -> None:

@@ -46,7 +46,7 @@ class Propagator(abc.ABC):
             raise ValueError(f"propagator: '{self.name}' is the exact torque-free solution; the scene's effects "
                              f"({names}) need a numerical propagator ('auto' picks one)")
         self.settings = {**self.options, **options}
-        self.dynamics = Dynamics(self.body.tensor, [effect.bound(self.body.tensor) for effect in effects])
+        self.dynamics = Dynamics(self.body, [effect.bound(self.body.tensor) for effect in effects])
         self.x0 = self.dynamics.initial_state(self.omega0_B)
 
     @property

@@ -13,12 +13,14 @@ import numpy as np
 
 from .. import quaternion
 from ..effects import ENERGY, MOMENTUM, invariants_conserved
+from ..rigid_body import RigidBody
 
 
 class Dynamics:
-    def __init__(self, tensor: np.ndarray, effects=()):
-        self.tensor = tensor
-        self.inverse = np.linalg.inv(tensor)
+    def __init__(self, body: RigidBody, effects=()):
+        self.body = body
+        self.tensor = body.tensor
+        self.inverse = np.linalg.inv(body.tensor)
         self.effects = tuple(effects)
         self.uses_attitude = any(effect.uses_attitude for effect in self.effects)
         self.slices = []
@@ -37,10 +39,6 @@ class Dynamics:
     def initial_state(self, omega0_B: np.ndarray) -> np.ndarray:
         parts = [effect.initial_state(omega0_B) for effect in self.effects]
         return np.concatenate(parts) if parts else np.empty(0)
-
-    def omega_dot(self, omega: np.ndarray) -> np.ndarray:
-        """Torque-free only."""
-        return self.inverse @ np.cross(self.tensor @ omega, omega)
 
     def rates(self, t: float, omega: np.ndarray, q: np.ndarray, x: np.ndarray, segment_start: float):
         """``(w', x')`` at a state, on the smooth piece that starts at ``segment_start`` (see
@@ -62,13 +60,13 @@ class Dynamics:
 
     # -- invariants of the whole system (body + effects' own momentum and energy) ------------------
     def momentum_B(self, omega_B: np.ndarray, x: np.ndarray) -> np.ndarray:
-        total = np.einsum("ij,...j->...i", self.tensor, omega_B)
+        total = self.body.angular_momentum(omega_B)
         for effect, part in zip(self.effects, self.slices):
             total = total + effect.momentum_B(x[..., part])
         return total
 
     def energy(self, omega_B: np.ndarray, x: np.ndarray) -> np.ndarray:
-        total = 0.5 * np.einsum("...i,ij,...j->...", omega_B, self.tensor, omega_B)
+        total = self.body.kinetic_energy(omega_B)
         for effect, part in zip(self.effects, self.slices):
             total = total + effect.energy(x[..., part])
         return total
