@@ -4,7 +4,7 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 
-.PHONY: run test reference bench-node bench-bag clean
+.PHONY: run test reference bench bench-node bench-bag clean
 
 $(VENV)/.installed: requirements.txt requirements-test.txt
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -19,6 +19,10 @@ test: $(VENV)/.installed
 
 reference: $(VENV)/.installed
 	$(PY) tools/make_reference.py --jobs 2
+
+# the work-precision report: docs/bench/{work_precision.csv,work_precision.png,results.md} (~15 min)
+bench: $(VENV)/.installed
+	$(PY) -m torquefree_ros.bench.cli --output-dir docs/bench
 
 bench-node: $(VENV)/.installed
 	$(PY) tools/bench_node.py

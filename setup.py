@@ -8,6 +8,7 @@ setup(
     name=package_name,
     version="0.1.0",
     packages=find_packages(exclude=["test", "test.*", "tools"]),
+    package_data={"torquefree_ros.bench": ["hard_cases.json"]},
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
         ("share/" + package_name, ["package.xml"]),
@@ -15,7 +16,8 @@ setup(
         ("share/" + package_name + "/config/scenes", glob("config/scenes/*.yaml")),
     ],
     install_requires=["setuptools"],
-    extras_require={"plot": ["matplotlib>=3.7"]},
+    # mujoco 4.0.0 on PyPI is a shell around the not-yet-usable mujoco-core; 3.x is the real one
+    extras_require={"plot": ["matplotlib>=3.7"], "bench": ["matplotlib>=3.7", "mujoco>=3.1,<4"]},
     zip_safe=True,
     maintainer="torquefree_ros maintainers",
     maintainer_email="maintainers@torquefree-ros.invalid",
@@ -30,6 +32,7 @@ setup(
             "torquefree_record = torquefree_ros.recorder:main",
             "torquefree_play = torquefree_ros.player:main",
             "torquefree_plot = torquefree_ros.plot:main",
+            "torquefree_bench = torquefree_ros.bench.cli:main",
         ],
     },
 )

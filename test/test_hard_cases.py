@@ -1,4 +1,4 @@
-"""The exact propagator against the independent high-precision reference (test/data/hard_cases.json,
+"""The exact propagator against the independent high-precision reference (torquefree_ros/bench/hard_cases.json,
 made by tools/make_reference.py: mpmath Taylor-series integration at 45 digits).
 
 Tolerance, per case and per sample: attitude error (rad) and relative rate error
@@ -12,9 +12,10 @@ import numpy as np
 import pytest
 
 from torquefree_ros import propagate
+from torquefree_ros.bench.cases import REFERENCE_FILE
 from torquefree_ros.core.accuracy import trajectory_errors
 
-REFERENCE = json.loads((Path(__file__).parent / "data" / "hard_cases.json").read_text())
+REFERENCE = json.loads(REFERENCE_FILE.read_text())
 CASES = {case["name"]: case for case in REFERENCE["cases"]}
 FLOOR_FACTOR = 100.0
 ABSOLUTE_FLOOR = 1e-15

@@ -154,6 +154,22 @@ def test_fixed_step_methods_converge_at_fourth_order(name):
     assert np.all((ratios > 12) & (ratios < 20)), ratios
 
 
+@pytest.mark.parametrize("name", ["rk4", "lie_rk4"])
+def test_outputs_on_the_grid_take_no_partial_step(name):
+    """100 Hz outputs on a 1 ms grid: k * 0.01 differs from (10 k) * 0.001 by rounding, and must not
+    cost a partial step. 1 s of outputs is exactly 1000 steps of 4 evaluations each."""
+    p = make_propagator(INERTIA, OMEGA, Q0, name, step=1e-3)
+    calls = []
+    derivative = p.dynamics.derivative
+    p.dynamics.derivative = lambda *args: calls.append(1) or derivative(*args)
+    omega, q = p(np.arange(101) * 0.01)
+    assert len(calls) == 4 * 1000
+    # the snapped samples are the grid states themselves
+    grid = make_propagator(INERTIA, OMEGA, Q0, name, step=1e-3)(np.arange(0, 1001, 10) * 1e-3)
+    np.testing.assert_array_equal(omega, grid[0])
+    np.testing.assert_array_equal(q, grid[1])
+
+
 def test_dop853_error_falls_with_the_tolerance():
     w_exact, q_exact = run("analytic")
     errors = []

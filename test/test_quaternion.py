@@ -61,3 +61,15 @@ def test_angle_between_ignores_sign_and_is_exact_for_tiny_angles(q):
     assert quaternion.angle_between(q, -q) < 1e-15
     tiny = quaternion.multiply(q, quaternion.exp_rotation(np.array([0.0, 3e-12, 0.0])))
     assert abs(quaternion.angle_between(q, tiny) - 3e-12) < 1e-20 + 1e-4 * 3e-12
+
+
+@given(unit, unit, vector, vector)
+def test_the_single_float_path_agrees_with_the_batched_one(p, q, v, u):
+    """One quaternion or vector takes plain float arithmetic (the integrators' stages); a batch takes
+    numpy's. Both give the same numbers."""
+    np.testing.assert_allclose(quaternion.multiply(p, q), quaternion.multiply(p[None], q[None])[0], atol=1e-15)
+    np.testing.assert_allclose(quaternion.rotate(q, v), quaternion.rotate(q[None], v[None])[0], atol=1e-13)
+    np.testing.assert_allclose(quaternion.cross(u, v), np.cross(u, v), atol=1e-12)
+    np.testing.assert_allclose(quaternion.exp_rotation(v), quaternion.exp_rotation(v[None])[0], atol=1e-15)
+    np.testing.assert_allclose(quaternion.rotate_inverse(q, quaternion.rotate(q, v)), v, atol=1e-13)
+    np.testing.assert_allclose(quaternion.rotate_inverse(q, v), Rotation.from_quat(q).inv().apply(v), atol=1e-13)

@@ -322,6 +322,7 @@ def test_diagnostics_report_the_running_simulation(harness):
     values = {v.key: v.value for v in status.values}
     assert status.name == "torquefree: simulation" and status.level == status.OK
     assert values["propagator"] == "analytic" and values["publish_rate"] == "100"
+    assert values["accuracy"] == "exact (closed form: float64 rounding of the inputs)"
     assert int(values["samples_published"]) > 0 and int(values["late_samples"]) >= 0
     assert float(values["kinetic_energy"]) == pytest.approx(0.675, rel=1e-15)
     # the exact propagator: invariants drift by rounding only

@@ -4,8 +4,8 @@
 - ``torquefree_bag`` throughput (samples/s; a sample = angular_velocity + attitude) for a 1 min and a
   1 h bag at 100 Hz, side by side in the same run with the raw ``mcap`` writer writing the same number
   of pre-serialized messages with the same chunking (the library's own limit);
-- where the time goes per sample: the exact propagator (blocks of 4096), CDR encoding, bag writing;
-- the node's per-sample recording cost (``SampleRecorder.write_sample``, one sample at a time);
+- where the time goes per sample (``torquefree_ros.bench.pipeline``): the exact propagator, CDR
+  encoding, bag writing in blocks, and the node's recorder one sample at a time;
 - peak memory (max RSS) of a fresh process writing each bag, beside one that only imports: flat
   means it does not grow with the duration.
 """
@@ -55,40 +55,6 @@ def _raw_mcap(messages: list[bytes], output: Path) -> float:
         return time.perf_counter() - started
 
 
-def _stages(duration: float) -> dict:
-    """Seconds spent in each stage for the same samples, measured one stage at a time."""
-    from torquefree_ros.bag import BagWriter
-    from torquefree_ros.bag.samples import SampleRecorder, encode_block
-    from torquefree_ros.bag_cli import BLOCK
-    from torquefree_ros.core.scene import default_scene
-    from torquefree_ros.core.simulation import Simulation
-    from torquefree_ros.core.timing import sample_times
-
-    scene = default_scene()
-    simulation = Simulation(scene.propagator(), RATE)
-    count = sample_times(duration, RATE).shape[0]
-    t0 = time.perf_counter()
-    blocks = [simulation.samples(first, min(BLOCK, count - first)) for first in range(0, count, BLOCK)]
-    t1 = time.perf_counter()
-    encoded = [(b.stamps_ns, encode_block(b, "body", "world")) for b in blocks]
-    t2 = time.perf_counter()
-    with tempfile.TemporaryDirectory() as tmp:
-        with BagWriter(Path(tmp) / "stages") as writer:
-            recorder = SampleRecorder.in_namespace(writer)
-            for stamps, columns in encoded:
-                recorder.write_block(stamps, columns)
-        t3 = time.perf_counter()
-        with BagWriter(Path(tmp) / "per_sample") as writer:
-            recorder = SampleRecorder.in_namespace(writer)
-            stamps, columns = encoded[0]
-            t4 = time.perf_counter()
-            for i in range(len(stamps)):
-                recorder.write_sample(int(stamps[i]), columns, i)
-            t5 = time.perf_counter()
-    return {"samples": count, "propagate": t1 - t0, "cdr": t2 - t1, "write": t3 - t2,
-            "node_write_sample": (t5 - t4) / len(encoded[0][0])}
-
-
 def _child(case: str) -> None:
     """One measurement in a fresh process, so that its peak memory is its own."""
     with tempfile.TemporaryDirectory() as tmp:
@@ -132,10 +98,10 @@ def main() -> int:
             raw = _raw_mcap(messages, Path(tmp) / "raw.mcap")
         print(f"{name:>6} {samples:>8} {ours:>8.3f} {samples / ours:>10.0f} {raw:>11.3f} {raw / ours:>9.2f}"
               f"   (raw: {raw / len(messages) * 1e6:.2f} us/message, ours: {ours / len(messages) * 1e6:.2f})")
-    stages = _stages(CASES["1 h"])
-    n = stages["samples"]
-    print("per sample, 1 h bag: " + ", ".join(f"{k} {stages[k] / n * 1e6:.2f} us" for k in ("propagate", "cdr", "write"))
-          + f"; node recording one sample at a time: {stages['node_write_sample'] * 1e6:.2f} us")
+    from torquefree_ros.bench.pipeline import sample_costs
+
+    costs = sample_costs()
+    print("per sample (us, CPU): " + ", ".join(f"{stage} {cost:.2f}" for stage, cost in costs.items()))
     baseline = _in_child("imports")
     print(f"peak memory (max RSS): imports only {baseline['max_rss_mib']:.0f} MiB", end="")
     for name in CASES:

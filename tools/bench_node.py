@@ -7,7 +7,7 @@ the machine it ran on.
 - CPU use of the node process at 100 Hz;
 - samples/s as fast as possible (real_time_factor 0, /clock included);
 - cost per sample, side by side in one run: the core's block evaluation, the CDR encoding, the
-  publishes, and, for comparison, rclpy's message-object path.
+  publishes (``torquefree_ros.bench.pipeline``), and, for comparison, rclpy's message-object path.
 
 The node runs in this process (its loop thread plus an executor thread, as under `ros2 run`).
 """
@@ -120,61 +120,40 @@ def measure_run(seconds: float, **parameters) -> dict:
     return {"published": published, "late": late, "cpu": cpu / wall, "wall": wall, "received": received}
 
 
-def layer_costs(samples: int = 20000) -> dict:
-    """Per-sample cost of each stage, measured in one process, blocks of 256 as the node uses."""
-    import numpy as np
+def message_object_cost(samples: int = 20000) -> float:
+    """Seconds per sample of the path the node avoids: filling message objects and rclpy publish(msg)."""
     import rclpy
     from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
     from rosgraph_msgs.msg import Clock
 
-    from torquefree_ros.cdr import encode_stamped_doubles, encode_times
     from torquefree_ros.core.scene import default_scene
     from torquefree_ros.core.simulation import Simulation
 
-    scene = default_scene()
-    simulation = Simulation(scene.propagator(), 100.0)
-    block = 256
-    t = time.perf_counter()
-    blocks = [simulation.samples(first, block) for first in range(0, samples, block)]
-    core = (time.perf_counter() - t) / samples
-    t = time.perf_counter()
-    encoded = [(encode_stamped_doubles(b.stamps_ns, "body", b.omega_B),
-                encode_stamped_doubles(b.stamps_ns, "world", b.q_NB), encode_times(b.stamps_ns)) for b in blocks]
-    encode = (time.perf_counter() - t) / samples
-
+    block = Simulation(default_scene().propagator(), 100.0).samples(0, samples)
     context = rclpy.Context()
     rclpy.init(context=context)
     node = rclpy.create_node("bench_publish", context=context)
     omega_pub = node.create_publisher(Vector3Stamped, "angular_velocity", 10)
     q_pub = node.create_publisher(QuaternionStamped, "attitude", 10)
     clock_pub = node.create_publisher(Clock, "/clock", 10)
-    t = time.perf_counter()
-    for omegas, qs, clocks in encoded:
-        for i in range(len(omegas)):
-            clock_pub.publish(clocks[i])
-            omega_pub.publish(omegas[i])
-            q_pub.publish(qs[i])
-    publish = (time.perf_counter() - t) / samples
-
     omega_msg, q_msg, clock_msg = Vector3Stamped(), QuaternionStamped(), Clock()
     omega_msg.header.frame_id, q_msg.header.frame_id = "body", "world"
     t = time.perf_counter()
-    for b in blocks:
-        for stamp, w, q in zip(b.stamps_ns.tolist(), b.omega_B.tolist(), b.q_NB.tolist()):
-            sec, nanosec = divmod(stamp, 1_000_000_000)
-            for header in (omega_msg.header, q_msg.header):
-                header.stamp.sec, header.stamp.nanosec = sec, nanosec
-            clock_msg.clock.sec, clock_msg.clock.nanosec = sec, nanosec
-            v, o = omega_msg.vector, q_msg.quaternion
-            v.x, v.y, v.z = w
-            o.x, o.y, o.z, o.w = q
-            clock_pub.publish(clock_msg)
-            omega_pub.publish(omega_msg)
-            q_pub.publish(q_msg)
-    message_objects = (time.perf_counter() - t) / samples
+    for stamp, w, q in zip(block.stamps_ns.tolist(), block.omega_B.tolist(), block.q_NB.tolist()):
+        sec, nanosec = divmod(stamp, 1_000_000_000)
+        for header in (omega_msg.header, q_msg.header):
+            header.stamp.sec, header.stamp.nanosec = sec, nanosec
+        clock_msg.clock.sec, clock_msg.clock.nanosec = sec, nanosec
+        v, o = omega_msg.vector, q_msg.quaternion
+        v.x, v.y, v.z = w
+        o.x, o.y, o.z, o.w = q
+        clock_pub.publish(clock_msg)
+        omega_pub.publish(omega_msg)
+        q_pub.publish(q_msg)
+    cost = (time.perf_counter() - t) / samples
     node.destroy_node()
     context.try_shutdown()
-    return {"core": core, "encode": encode, "publish": publish, "message_objects": message_objects}
+    return cost
 
 
 def main(argv=None) -> int:
@@ -207,16 +186,16 @@ def main(argv=None) -> int:
           f"subscriber received {r['received'][0]}/{r['received'][1]} (reliable keep-last 1000 drops what it "
           f"cannot take), node CPU {100 * r['cpu']:.0f} % of a core")
 
-    costs = layer_costs()
-    total = costs["core"] + costs["encode"] + costs["publish"]
-    print("\ncost per sample (us), blocks of 256, no subscriber, one process:")
-    print(f"  core (exact propagator, Simulation.samples): {1e6 * costs['core']:.2f}")
-    print(f"  CDR encoding of w, q and /clock:              {1e6 * costs['encode']:.2f}")
-    print(f"  three raw publishes (w, q, /clock):            {1e6 * costs['publish']:.2f}")
-    print(f"  total: {1e6 * total:.2f} us -> at most {1 / total:.0f} samples/s; ROS layer share "
-          f"{100 * (costs['encode'] + costs['publish']) / total:.0f} %")
+    from torquefree_ros.bench.pipeline import sample_costs
+
+    costs = sample_costs()
+    print("\ncost per sample (us), blocks of 256, no subscriber, one process (CPU time):")
+    for stage in ("propagate (exact)", "CDR encoding", "node publishes (3 raw, no subscriber)"):
+        print(f"  {stage}: {costs[stage]:.2f}")
+    total = sum(costs[stage] for stage in ("propagate (exact)", "CDR encoding", "node publishes (3 raw, no subscriber)"))
+    print(f"  total: {total:.2f} us -> at most {1e6 / total:.0f} samples/s")
     print(f"  for comparison, filling message objects and rclpy publish(msg): "
-          f"{1e6 * costs['message_objects']:.2f} us per sample")
+          f"{1e6 * message_object_cost():.2f} us per sample")
     return 0
 
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Regenerate test/data/hard_cases.json: high-precision reference solutions of the torque-free rigid
+"""Regenerate torquefree_ros/bench/hard_cases.json: high-precision reference solutions of the torque-free rigid
 body for the hard cases, and the float64 floor of each sample.
 
 Independence: the reference integrates Euler's equations in the principal frame and
@@ -33,7 +33,7 @@ DIGITS = 45
 ORDER = 40
 STEP_FRACTION = 0.2  # of the radius of convergence: truncation ~ 0.2**40 ~ 1e-28
 ROUNDING_UNIT = 2.0**-53
-OUTPUT = Path(__file__).resolve().parent.parent / "test" / "data" / "hard_cases.json"
+OUTPUT = Path(__file__).resolve().parent.parent / "torquefree_ros" / "bench" / "hard_cases.json"
 
 
 def _q(axis, angle):

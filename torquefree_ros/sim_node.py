@@ -182,6 +182,8 @@ class TorqueFreeSim(Node):
         status = DiagnosticStatus(name=f"{self.get_name()}: simulation", hardware_id=self.get_fully_qualified_name())
         values = {
             "propagator": simulation.propagator.describe(),
+            # what the settings deliver, measured at the (re)start; the drifts below follow it live
+            "accuracy": simulation.accuracy,
             "publish_rate": f"{simulation.rate:g}",
             "regime": simulation.regime.summary(),
             "effects": simulation.describe_effects(),

@@ -5,17 +5,45 @@ and ``q_NB`` is the orientation of the body frame B in the inertial frame N: ``R
 body-frame coordinates to inertial ones (REP 103). Kinematics with the body-frame rate ``omega_BN_B``:
 ``dq_NB/dt = 1/2 q_NB ⊗ (omega_BN_B, 0)``.
 
-All functions broadcast over leading axes.
+All functions broadcast over leading axes. A single quaternion or vector (1-D arrays) takes a plain
+float path: the integrators call these once per stage, where numpy's per-call cost on 3- and
+4-element arrays (10 µs for ``np.cross``) would be most of a step.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+
+
+_CONJUGATE = np.array([-1.0, -1.0, -1.0, 1.0])
+
+
+def _single(*arrays: np.ndarray) -> bool:
+    return all(a.ndim == 1 for a in arrays)
+
+
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a x b`` of 3-vectors (``np.cross``, with the float path for one pair)."""
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    if not _single(a, b):
+        return np.cross(a, b)
+    a1, a2, a3 = a.tolist()
+    b1, b2, b3 = b.tolist()
+    return np.array([a2 * b3 - a3 * b2, a3 * b1 - a1 * b3, a1 * b2 - a2 * b1])
+
 
 def multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     """Hamilton product ``p ⊗ q`` of ``(x, y, z, w)`` quaternions."""
     p = np.asarray(p, dtype=float)
     q = np.asarray(q, dtype=float)
+    if _single(p, q):
+        px, py, pz, pw = p.tolist()
+        qx, qy, qz, qw = q.tolist()
+        return np.array([pw * qx + px * qw + py * qz - pz * qy, pw * qy - px * qz + py * qw + pz * qx,
+                         pw * qz + px * qy - py * qx + pz * qw, pw * qw - px * qx - py * qy - pz * qz])
     px, py, pz, pw = np.moveaxis(p, -1, 0)
     qx, qy, qz, qw = np.moveaxis(q, -1, 0)
     return np.stack(
@@ -31,8 +59,7 @@ def multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
 
 def conjugate(q: np.ndarray) -> np.ndarray:
     """Inverse rotation of a unit quaternion."""
-    q = np.asarray(q, dtype=float)
-    return q * np.array([-1.0, -1.0, -1.0, 1.0])
+    return np.asarray(q, dtype=float) * _CONJUGATE
 
 
 def to_matrix(q: np.ndarray) -> np.ndarray:
@@ -68,16 +95,35 @@ def from_matrix(matrix: np.ndarray) -> np.ndarray:
 
 
 def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """``R(q) v``: a body-frame vector expressed in the inertial frame."""
-    return np.einsum("...ij,...j->...i", to_matrix(q), np.asarray(v, dtype=float))
+    """``R(q) v``: a body-frame vector expressed in the inertial frame; ``q`` must be unit."""
+    q = np.asarray(q, dtype=float)
+    v = np.asarray(v, dtype=float)
+    if not _single(q, v):
+        return np.einsum("...ij,...j->...i", to_matrix(q), v)
+    # v + 2 w (u x v) + 2 u x (u x v), u the vector part, w the scalar
+    ux, uy, uz, w = q.tolist()
+    vx, vy, vz = v.tolist()
+    tx, ty, tz = 2.0 * (uy * vz - uz * vy), 2.0 * (uz * vx - ux * vz), 2.0 * (ux * vy - uy * vx)
+    return np.array([vx + w * tx + uy * tz - uz * ty, vy + w * ty + uz * tx - ux * tz,
+                     vz + w * tz + ux * ty - uy * tx])
+
+
+def rotate_inverse(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``R(q)^T v``: an inertial vector in body coordinates (``rotate`` by the conjugate)."""
+    return rotate(conjugate(q), v)
 
 
 def exp_rotation(rotation_vector: np.ndarray) -> np.ndarray:
     """Unit quaternion of the rotation by ``|v|`` rad about ``v`` (the map ``v -> exp(v/2)``)."""
     v = np.asarray(rotation_vector, dtype=float)
+    # sin(|v|/2)/|v| without dividing by zero: its series is exact to rounding below 1e-4.
+    if v.ndim == 1:
+        x, y, z = v.tolist()
+        angle = math.sqrt(x * x + y * y + z * z)
+        scale = 0.5 - angle * angle / 48.0 if angle < 1e-4 else math.sin(0.5 * angle) / angle
+        return np.array([x * scale, y * scale, z * scale, math.cos(0.5 * angle)])
     angle = np.linalg.norm(v, axis=-1, keepdims=True)
     half = 0.5 * angle
-    # sin(|v|/2)/|v| without dividing by zero: its series is exact to rounding below 1e-4.
     small = angle < 1e-4
     scale = np.where(small, 0.5 - angle * angle / 48.0, np.sin(half) / np.where(small, 1.0, angle))
     return np.concatenate([v * scale, np.cos(half)], axis=-1)

@@ -9,9 +9,11 @@ are computed with the samples, and only when the scene names them.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
+from .accuracy import estimate_accuracy
 from .propagators import Propagator
 from .timing import check_rate, stamps_ns
 
@@ -83,8 +85,8 @@ class Simulation:
         )
 
     def summary(self) -> str:
-        """One line: inertia, initial state, invariants, regime with its period, propagator, rate and
-        the stamp of sample 0."""
+        """One line: inertia, initial state, invariants, regime with its period, propagator and the
+        accuracy it delivers, rate and the stamp of sample 0."""
         body, p = self.body, self.propagator
         inertia = _fmt(body.moments)
         if np.any(body.tensor - np.diag(np.diag(body.tensor))):
@@ -96,9 +98,18 @@ class Simulation:
             f"T {self.kinetic_energy0:.9g} J, |H| {self.momentum0:.9g} kg m^2/s, "
             f"{'regime' if p.dynamics.torque_free else 'torque-free regime of the initial state'}: "
             f"{self.regime.summary()}; effects {self.describe_effects()}; "
-            f"propagator {p.describe()}, {self.rate:g} Hz, "
+            f"propagator {p.describe()}, accuracy: {self.accuracy}; {self.rate:g} Hz, "
             f"first stamp {self.epoch_ns // 10**9}.{self.epoch_ns % 10**9:09d} s"
         )
+
+    @cached_property
+    def accuracy(self) -> str:
+        """What the propagator's settings deliver from this initial state (measured once, on fresh
+        propagators: :func:`~torquefree_ros.core.accuracy.estimate_accuracy`)."""
+        try:
+            return estimate_accuracy(self.propagator).describe()
+        except Exception as error:  # noqa: BLE001 - the estimate informs; it must not stop a run
+            return f"not estimated ({error})"
 
     def describe_effects(self) -> str:
         named = [effect.describe() for effect in (*self.propagator.effects, *self.outputs)]

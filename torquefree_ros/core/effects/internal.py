@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import quaternion
 from ..schema import FieldError, Param, number, vector
 from .base import ENERGY, MOMENTUM, MotionEffect, register
 
@@ -45,7 +46,7 @@ class Damper(MotionEffect):
         return self.c * (state - omega_B)
 
     def state_rate(self, t, omega_B, q_NB, state):
-        return -self.c / self.J * (state - omega_B) - np.cross(omega_B, state)
+        return -self.c / self.J * (state - omega_B) - quaternion.cross(omega_B, state)
 
     def momentum_B(self, state):
         return self.J * state
@@ -79,7 +80,7 @@ class Rotor(MotionEffect):
         self.h_B = momentum * np.asarray(axis, float) / np.linalg.norm(axis)
 
     def torque_B(self, t, omega_B, q_NB, state, segment_start):
-        return np.cross(self.h_B, omega_B)
+        return quaternion.cross(self.h_B, omega_B)
 
     def momentum_B(self, state):
         return np.broadcast_to(self.h_B, state.shape[:-1] + (3,))

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import bisect
 import copy
+import math
 
 import numpy as np
 
@@ -65,7 +66,7 @@ class ExternalTorque(MotionEffect):
 
     def torque_B(self, t, omega_B, q_NB, state, segment_start):
         torque = self.torque_at(segment_start)
-        return quaternion.rotate(quaternion.conjugate(q_NB), torque) if self.inertial else torque
+        return quaternion.rotate_inverse(q_NB, torque) if self.inertial else torque
 
     def breakpoints(self):
         return tuple(self._starts[1:])
@@ -114,8 +115,8 @@ class GravityGradient(MotionEffect):
 
     def radial_N(self, t: float) -> np.ndarray:
         u = self.u0 + self.mean_motion * t
-        return np.array([np.cos(u), np.sin(u), 0.0])
+        return np.array([math.cos(u), math.sin(u), 0.0])
 
     def torque_B(self, t, omega_B, q_NB, state, segment_start):
-        e_B = quaternion.rotate(quaternion.conjugate(q_NB), self.radial_N(t))
-        return 3.0 * self.mean_motion ** 2 * np.cross(e_B, self._tensor @ e_B)
+        e_B = quaternion.rotate_inverse(q_NB, self.radial_N(t))
+        return 3.0 * self.mean_motion ** 2 * quaternion.cross(e_B, self._tensor @ e_B)

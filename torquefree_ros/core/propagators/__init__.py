@@ -3,12 +3,12 @@
 from . import analytic, numerical  # noqa: F401  (registers the propagators)
 from .base import PROPAGATORS, Propagator, propagator_class
 
-__all__ = ["PROPAGATORS", "DEFAULT_ACCURACY", "Propagator", "propagator_class", "make_propagator"]
+__all__ = ["PROPAGATORS", "ATOL_PER_RTOL", "DEFAULT_ACCURACY", "Propagator", "propagator_class", "make_propagator"]
 
 #: the integrator tolerance (relative, per step) of ``auto`` for a scene with effects
 DEFAULT_ACCURACY = 1e-10
 # auto's absolute tolerance, relative to the accuracy: the rtol/atol pair of scipy's tight settings
-_ATOL_PER_RTOL = 1e-2
+ATOL_PER_RTOL = 1e-2
 
 
 def make_propagator(body, angular_velocity, orientation, propagator: str = "auto", effects=(),
@@ -22,5 +22,5 @@ def make_propagator(body, angular_velocity, orientation, propagator: str = "auto
     if not effects:
         return propagator_class("analytic")(body, angular_velocity, orientation, **options)
     tolerance = DEFAULT_ACCURACY if accuracy is None else accuracy
-    options = {"rtol": tolerance, "atol": tolerance * _ATOL_PER_RTOL, **options}
+    options = {"rtol": tolerance, "atol": tolerance * ATOL_PER_RTOL, **options}
     return propagator_class("dop853")(body, angular_velocity, orientation, effects, **options)

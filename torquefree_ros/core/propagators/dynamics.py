@@ -3,15 +3,14 @@ of a scene's motion effects, the attitude kinematics, and the effects' own state
 
     I w' = I w x w + sum(torque_B),   q' = 1/2 q ⊗ (w, 0),   x_e' = effect_e.state_rate
 
-in the user's body frame with the full inertia tensor. Without effects this is the torque-free
-right-hand side alone (no loop, no allocation beyond the cross product).
+in the user's body frame with the full inertia tensor, on one flat state ``y = (w, q, x)``. Without
+effects this is the torque-free right-hand side alone (no loop over effects).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .. import quaternion
 from ..effects import ENERGY, MOMENTUM, invariants_conserved
 from ..rigid_body import RigidBody
 
@@ -19,8 +18,8 @@ from ..rigid_body import RigidBody
 class Dynamics:
     def __init__(self, body: RigidBody, effects=()):
         self.body = body
-        self.tensor = body.tensor
-        self.inverse = np.linalg.inv(body.tensor)
+        self._tensor_rows = tuple(map(tuple, body.tensor.tolist()))
+        self._inverse_rows = tuple(map(tuple, np.linalg.inv(body.tensor).tolist()))
         self.effects = tuple(effects)
         self.uses_attitude = any(effect.uses_attitude for effect in self.effects)
         self.slices = []
@@ -40,23 +39,37 @@ class Dynamics:
         parts = [effect.initial_state(omega0_B) for effect in self.effects]
         return np.concatenate(parts) if parts else np.empty(0)
 
-    def rates(self, t: float, omega: np.ndarray, q: np.ndarray, x: np.ndarray, segment_start: float):
-        """``(w', x')`` at a state, on the smooth piece that starts at ``segment_start`` (see
-        :meth:`MotionEffect.torque_B`)."""
-        torque = np.cross(self.tensor @ omega, omega)
-        if not self.effects:
-            return self.inverse @ torque, x
+    def derivative(self, t: float, y: np.ndarray, segment_start: float) -> np.ndarray:
+        """``y'`` of the flat state ``y = (w, q, x)``, on the smooth piece that starts at
+        ``segment_start`` (see :meth:`MotionEffect.torque_B`). The rigid body's part is plain float
+        arithmetic: it is evaluated once per stage, and numpy's per-call cost would dominate."""
+        w1, w2, w3, qx, qy, qz, qw = y[:7].tolist()
+        (a11, a12, a13), (a21, a22, a23), (a31, a32, a33) = self._tensor_rows
+        h1, h2, h3 = a11 * w1 + a12 * w2 + a13 * w3, a21 * w1 + a22 * w2 + a23 * w3, a31 * w1 + a32 * w2 + a33 * w3
+        m1, m2, m3 = h2 * w3 - h3 * w2, h3 * w1 - h1 * w3, h1 * w2 - h2 * w1  # (I w) x w
+        if self.effects:
+            torque, x_dot = self._effect_terms(t, y, segment_start)
+            e1, e2, e3 = torque.tolist()
+            m1, m2, m3 = m1 + e1, m2 + e2, m3 + e3
+        (b11, b12, b13), (b21, b22, b23), (b31, b32, b33) = self._inverse_rows
+        rates = np.array([
+            b11 * m1 + b12 * m2 + b13 * m3, b21 * m1 + b22 * m2 + b23 * m3, b31 * m1 + b32 * m2 + b33 * m3,
+            # q' = 1/2 q ⊗ (w, 0)
+            0.5 * (qw * w1 + qy * w3 - qz * w2), 0.5 * (qw * w2 - qx * w3 + qz * w1),
+            0.5 * (qw * w3 + qx * w2 - qy * w1), -0.5 * (qx * w1 + qy * w2 + qz * w3),
+        ])
+        return np.concatenate([rates, x_dot]) if self.effects else rates
+
+    def _effect_terms(self, t, y, segment_start):
+        omega, q, x = y[:3], y[3:7], y[7:]
+        torque = np.zeros(3)
         x_dot = np.empty(self.state_size)
         for effect, part in zip(self.effects, self.slices):
             state = x[part]
             torque = torque + effect.torque_B(t, omega, q, state, segment_start)
             if effect.state_size:
                 x_dot[part] = effect.state_rate(t, omega, q, state)
-        return self.inverse @ torque, x_dot
-
-    @staticmethod
-    def q_dot(q: np.ndarray, omega: np.ndarray) -> np.ndarray:
-        return 0.5 * quaternion.multiply(q, np.append(omega, 0.0))
+        return torque, x_dot
 
     # -- invariants of the whole system (body + effects' own momentum and energy) ------------------
     def momentum_B(self, omega_B: np.ndarray, x: np.ndarray) -> np.ndarray:

@@ -31,9 +31,12 @@ def _positive_option(settings: dict, key: str) -> float:
 
 
 class FixedStepPropagator(Propagator):
-    """A one-step method on a fixed grid; subclasses implement :meth:`advance`."""
+    """A one-step method on a fixed grid; subclasses implement :meth:`advance` on the flat state
+    ``y = (w, q, x)``."""
 
     options = {"step": 1e-3}
+    #: the order of the global error (for the step-halving error estimate)
+    order = 4
     #: True when the method keeps |q| = 1 by construction (no output normalisation)
     geometric = False
 
@@ -44,47 +47,53 @@ class FixedStepPropagator(Propagator):
 
     def _restart(self):
         self._grid_index = 0
-        self._state = (self.omega0_B.copy(), self.q0_NB.copy(), self.x0.copy())
+        self._y = np.concatenate([self.omega0_B, self.q0_NB, self.x0])
 
     @abc.abstractmethod
-    def advance(self, t: float, omega: np.ndarray, q: np.ndarray, x: np.ndarray, h: float) -> tuple: ...
+    def advance(self, t: float, y: np.ndarray, h: float) -> np.ndarray: ...
 
-    def _advance(self, t: float, state: tuple, h: float) -> tuple:
+    def _advance(self, t: float, y: np.ndarray, h: float) -> np.ndarray:
         """``advance`` over ``[t, t + h]``, split at the breakpoints inside it."""
         breakpoints = self.dynamics.breakpoints
         end = t + h
         index = bisect.bisect_right(breakpoints, t)
         while index < len(breakpoints) and breakpoints[index] < end:
-            state = self.advance(t, *state, breakpoints[index] - t)
+            y = self.advance(t, y, breakpoints[index] - t)
             t = breakpoints[index]
             index += 1
-        return self.advance(t, *state, end - t)
+        return self.advance(t, y, end - t)
 
-    def _grid_index_below(self, t: float) -> int:
+    def _grid_point(self, t: float) -> tuple[int, float]:
+        """The grid point ``j`` at or below ``t`` and the partial step from it. A time within rounding
+        of a grid point is on it, so a 100 Hz output on a 1 ms grid takes no extra partial step."""
+        j = round(t / self.step)
+        if abs(t - j * self.step) <= _GRID_SNAP_ULPS * math.ulp(t):
+            return j, 0.0
         j = math.floor(t / self.step)
         if (j + 1) * self.step <= t:
             j += 1
         elif j * self.step > t:
             j -= 1
-        return j
+        return j, t - j * self.step
 
     def _evaluate(self, times):
-        omegas = np.empty((times.size, 3))
-        qs = np.empty((times.size, 4))
-        xs = np.empty((times.size, self.dynamics.state_size))
-        for i, t in enumerate(times):
-            j = self._grid_index_below(float(t))
+        out = np.empty((times.size, 7 + self.dynamics.state_size))
+        for i, t in enumerate(times.tolist()):
+            j, partial = self._grid_point(t)
             if j < self._grid_index:
                 self._restart()
             while self._grid_index < j:
-                self._state = self._advance(self._grid_index * self.step, self._state, self.step)
+                self._y = self._advance(self._grid_index * self.step, self._y, self.step)
                 self._grid_index += 1
-            partial = float(t) - j * self.step
-            omega, q, x = self._advance(j * self.step, self._state, partial) if partial > 0.0 else self._state
-            omegas[i] = omega
-            qs[i] = q if self.geometric else q / np.linalg.norm(q)
-            xs[i] = x
-        return omegas, qs, xs
+            out[i] = self._advance(j * self.step, self._y, partial) if partial > 0.0 else self._y
+        q = out[:, 3:7]
+        if not self.geometric:
+            q = q / np.linalg.norm(q, axis=1, keepdims=True)
+        return out[:, :3], q, out[:, 7:]
+
+
+#: how close (in rounding units of t) an output time must be to a grid point to be on it
+_GRID_SNAP_ULPS = 4
 
 
 @register
@@ -93,25 +102,14 @@ class RK4Propagator(FixedStepPropagator):
 
     name = "rk4"
 
-    def advance(self, t, omega, q, x, h):
-        f = self.dynamics
+    def advance(self, t, y, h):
+        f = self.dynamics.derivative
         half = t + 0.5 * h
-        k1w, k1x = f.rates(t, omega, q, x, t)
-        k1q = f.q_dot(q, omega)
-        w2, q2, x2 = omega + 0.5 * h * k1w, q + 0.5 * h * k1q, x + 0.5 * h * k1x
-        k2w, k2x = f.rates(half, w2, q2, x2, t)
-        k2q = f.q_dot(q2, w2)
-        w3, q3, x3 = omega + 0.5 * h * k2w, q + 0.5 * h * k2q, x + 0.5 * h * k2x
-        k3w, k3x = f.rates(half, w3, q3, x3, t)
-        k3q = f.q_dot(q3, w3)
-        w4, q4, x4 = omega + h * k3w, q + h * k3q, x + h * k3x
-        k4w, k4x = f.rates(t + h, w4, q4, x4, t)
-        k4q = f.q_dot(q4, w4)
-        return (
-            omega + h / 6.0 * (k1w + 2.0 * k2w + 2.0 * k3w + k4w),
-            q + h / 6.0 * (k1q + 2.0 * k2q + 2.0 * k3q + k4q),
-            x + h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x),
-        )
+        k1 = f(t, y, t)
+        k2 = f(half, y + (0.5 * h) * k1, t)
+        k3 = f(half, y + (0.5 * h) * k2, t)
+        k4 = f(t + h, y + h * k3, t)
+        return y + (h / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
 
 
 @register
@@ -124,30 +122,35 @@ class LieRK4Propagator(FixedStepPropagator):
     name = "lie_rk4"
     geometric = True
 
-    def advance(self, t, omega, q, x, h):
-        f = self.dynamics
+    def advance(self, t, y, h):
+        f = self.dynamics.derivative
         exp = quaternion.exp_rotation
         mul = quaternion.multiply
         half = t + 0.5 * h
         # Stage attitudes (Y2 = exp(h/2 F1) Y1, Y3 = exp(h/2 F2) Y1, Y4 = exp(h F3 - h/2 F1) Y2,
-        # written for the right action) matter only to torques that depend on q.
-        attitude = f.uses_attitude
-        w1 = omega
-        k1, k1x = f.rates(t, w1, q, x, t)
-        w2, x2 = omega + 0.5 * h * k1, x + 0.5 * h * k1x
-        q2 = mul(q, exp(0.5 * h * w1)) if attitude else q
-        k2, k2x = f.rates(half, w2, q2, x2, t)
-        w3, x3 = omega + 0.5 * h * k2, x + 0.5 * h * k2x
-        q3 = mul(q, exp(0.5 * h * w2)) if attitude else q
-        k3, k3x = f.rates(half, w3, q3, x3, t)
-        w4, x4 = omega + h * k3, x + h * k3x
-        q4 = mul(q2, exp(h * (w3 - 0.5 * w1))) if attitude else q
-        k4, k4x = f.rates(t + h, w4, q4, x4, t)
-        first = exp(h / 12.0 * (3.0 * w1 + 2.0 * w2 + 2.0 * w3 - w4))
-        second = exp(h / 12.0 * (-w1 + 2.0 * w2 + 2.0 * w3 + 3.0 * w4))
-        q_new = mul(mul(q, first), second)
-        return (omega + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4), q_new / np.linalg.norm(q_new),
-                x + h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x))
+        # written for the right action) matter only to torques that depend on q; otherwise the
+        # stages' q slots are never read.
+        attitude = self.dynamics.uses_attitude
+        q, w1 = y[3:7], y[:3]
+        k1 = f(t, y, t)
+        y2 = y + (0.5 * h) * k1
+        if attitude:
+            y2[3:7] = mul(q, exp((0.5 * h) * w1))
+        k2 = f(half, y2, t)
+        y3 = y + (0.5 * h) * k2
+        if attitude:
+            y3[3:7] = mul(q, exp((0.5 * h) * y2[:3]))
+        k3 = f(half, y3, t)
+        y4 = y + h * k3
+        if attitude:
+            y4[3:7] = mul(y2[3:7], exp(h * (y3[:3] - 0.5 * w1)))
+        k4 = f(t + h, y4, t)
+        y_new = y + (h / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
+        w2, w3, w4 = y2[:3], y3[:3], y4[:3]
+        middle = 2.0 * (w2 + w3)
+        q_new = mul(mul(q, exp((h / 12.0) * (3.0 * w1 + middle - w4))), exp((h / 12.0) * (middle - w1 + 3.0 * w4)))
+        y_new[3:7] = q_new / math.sqrt(q_new @ q_new)
+        return y_new
 
 
 @register
@@ -166,10 +169,7 @@ class DOP853Propagator(Propagator):
         self._restart()
 
     def _rhs(self, t, y):
-        omega, q, x = y[:3], y[3:7], y[7:]
-        f = self.dynamics
-        omega_dot, x_dot = f.rates(t, omega, q, x, self._segment_start)
-        return np.concatenate([omega_dot, f.q_dot(q, omega), x_dot])
+        return self.dynamics.derivative(t, y, self._segment_start)
 
     def _restart(self):
         self._begin_segment(0.0, np.concatenate([self.omega0_B, self.q0_NB, self.x0]))
@@ -182,27 +182,30 @@ class DOP853Propagator(Propagator):
         self._segment_start = t0
         self._solver = DOP853(self._rhs, t0, y0, t_bound=bound, rtol=self.rtol, atol=self.atol)
         self._step_start = t0
-        self._dense = None
 
     def _evaluate(self, times):
         out = np.empty((times.size, 7 + self.dynamics.state_size))
-        for i, t in enumerate(times):
-            if t < self._step_start:
+        i = 0
+        while i < times.size:
+            if times[i] < self._step_start:
                 self._restart()
-            while self._solver.t < t:
-                if self._solver.status == "finished":  # at a breakpoint: a new segment from here
-                    self._begin_segment(self._solver.t, self._solver.y)
-                self._step_start = self._solver.t
+            solver = self._solver
+            while solver.t < times[i]:
+                if solver.status == "finished":  # at a breakpoint: a new segment from here
+                    self._begin_segment(solver.t, solver.y)
+                    solver = self._solver
+                self._step_start = solver.t
                 with np.errstate(under="ignore"):  # scipy's min-step guard: nextafter(0) - 0
-                    message = self._solver.step()
-                if self._solver.status == "failed":
-                    raise RuntimeError(f"dop853 failed at t = {self._solver.t}: {message}")
-                self._dense = None
-            if t == self._solver.t:
-                out[i] = self._solver.y
-            else:
-                if self._dense is None:  # built only for steps that hold an output time
-                    self._dense = self._solver.dense_output()
-                out[i] = self._dense(t)
+                    message = solver.step()
+                if solver.status == "failed":
+                    raise RuntimeError(f"dop853 failed at t = {solver.t}: {message}")
+            # every output time up to the step's end, from one dense output
+            end = int(np.searchsorted(times, solver.t, side="right"))
+            inside = times[i:end]
+            at_end = inside == solver.t
+            out[i:end][at_end] = solver.y
+            if not at_end.all():
+                out[i:end][~at_end] = solver.dense_output()(inside[~at_end]).T
+            i = end
         q = out[:, 3:7]
         return out[:, :3], q / np.linalg.norm(q, axis=1, keepdims=True), out[:, 7:]

@@ -1,0 +1,82 @@
+"""The whole cost of one sample after the propagator: CDR encoding, the node's publishes, bag
+writing (offline, in blocks; the node's recorder, one sample at a time), and the offline bag
+throughput, all for the default scene at 100 Hz, measured in one process."""
+
+from __future__ import annotations
+
+import tempfile
+import time
+from pathlib import Path
+
+RATE = 100.0
+_BLOCK = 256  # samples per block, as the node's loop
+
+
+def sample_costs(samples: int = 20000) -> dict:
+    """µs per sample of each stage (a sample = angular_velocity + attitude + /clock)."""
+    import rclpy
+    from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
+    from rosgraph_msgs.msg import Clock
+
+    from ..bag import BagWriter
+    from ..bag.samples import SampleRecorder, encode_block
+    from ..cdr import encode_times
+    from ..core.scene import default_scene
+    from ..core.simulation import Simulation
+
+    simulation = Simulation(default_scene().propagator(), RATE)
+    t0 = time.process_time()
+    blocks = [simulation.samples(first, min(_BLOCK, samples - first)) for first in range(0, samples, _BLOCK)]
+    t1 = time.process_time()
+    encoded = [(b.stamps_ns, encode_block(b, "body", "world"), encode_times(b.stamps_ns)) for b in blocks]
+    t2 = time.process_time()
+    costs = {"propagate (exact)": t1 - t0, "CDR encoding": t2 - t1}
+
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    try:
+        node = rclpy.create_node("bench_publish", context=context)
+        publishers = (node.create_publisher(Clock, "/clock", 10),
+                      node.create_publisher(Vector3Stamped, "angular_velocity", 10),
+                      node.create_publisher(QuaternionStamped, "attitude", 10))
+        t3 = time.process_time()
+        for _, columns, clocks in encoded:
+            omegas, qs = (column.messages for column in columns)
+            for i in range(len(clocks)):
+                publishers[0].publish(clocks[i])
+                publishers[1].publish(omegas[i])
+                publishers[2].publish(qs[i])
+        costs["node publishes (3 raw, no subscriber)"] = time.process_time() - t3
+        node.destroy_node()
+    finally:
+        context.try_shutdown()
+
+    with tempfile.TemporaryDirectory() as tmp:
+        with BagWriter(Path(tmp) / "blocks") as writer:
+            recorder = SampleRecorder.in_namespace(writer)
+            t4 = time.process_time()
+            for stamps, columns, _ in encoded:
+                recorder.write_block(stamps, columns)
+            costs["bag write, offline blocks"] = time.process_time() - t4
+        with BagWriter(Path(tmp) / "samples") as writer:
+            recorder = SampleRecorder.in_namespace(writer)
+            t5 = time.process_time()
+            for stamps, columns, _ in encoded:
+                for i in range(len(stamps)):
+                    recorder.write_sample(int(stamps[i]), columns, i)
+            costs["bag write, node recorder (per sample)"] = time.process_time() - t5
+    return {stage: seconds / samples * 1e6 for stage, seconds in costs.items()}
+
+
+def bag_throughput(duration: float = 600.0) -> dict:
+    """``torquefree_bag`` on the default scene: samples/s for a bag of ``duration`` at 100 Hz."""
+    from ..bag_cli import write_scene_bag
+    from ..core.scene import default_scene
+    from ..core.timing import sample_times
+
+    with tempfile.TemporaryDirectory() as tmp:
+        start = time.process_time()
+        write_scene_bag(default_scene(), Path(tmp) / "bag", duration, RATE)
+        seconds = time.process_time() - start
+    count = sample_times(duration, RATE).shape[0]
+    return {"duration_s": duration, "samples": count, "cpu_s": seconds, "samples_per_s": count / seconds}

@@ -1,0 +1,217 @@
+"""The report's outputs from the measurements: the CSV, the per-case tables ("to reach 1e-6 / 1e-9 /
+1e-12 rad, method X costs Y µs per simulated second"), the targets as ratios measured in the same run,
+and the work-precision plot."""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+import platform
+import sys
+from importlib import metadata
+
+import numpy as np
+
+TARGETS = (1e-6, 1e-9, 1e-12)
+#: the accuracy grid on which "where RK4 stops being worth it" is read
+_CROSSOVER_TARGETS = tuple(10.0 ** -k for k in range(2, 14))
+
+
+def environment() -> dict:
+    """The machine and the versions the numbers belong to."""
+    versions = {}
+    for package in ("numpy", "scipy", "mujoco", "matplotlib", "torquefree_ros"):
+        try:
+            versions[package] = metadata.version(package)
+        except metadata.PackageNotFoundError:
+            continue
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as info:
+            cpu = next(line.split(":", 1)[1].strip() for line in info if line.startswith("model name"))
+    except (OSError, StopIteration):
+        pass
+    return {"machine": f"{cpu}, {os.cpu_count()} cores, {platform.platform()}",
+            "python": sys.version.split()[0], **versions}
+
+
+def write_csv(path, measurements, env: dict) -> None:
+    """One row per measurement, after ``# key: value`` lines naming the machine and versions."""
+    from .sweep import Measurement
+
+    with open(path, "w", newline="") as stream:
+        for key, value in env.items():
+            stream.write(f"# {key}: {value}\n")
+        writer = csv.DictWriter(stream, fieldnames=Measurement.columns())
+        writer.writeheader()
+        for measurement in measurements:
+            writer.writerow({k: _csv_value(v) for k, v in measurement.row().items()})
+
+
+def read_csv(path) -> list[dict]:
+    with open(path, newline="") as stream:
+        return list(csv.DictReader(line for line in stream if not line.startswith("#")))
+
+
+def _csv_value(value):
+    if isinstance(value, float):
+        return "" if math.isnan(value) else f"{value:.6g}"
+    return "" if value is None else value
+
+
+# -- reading the measurements -----------------------------------------------------------------------
+def cheapest(measurements, case: str, methods, target: float):
+    """The cheapest measurement of any of ``methods`` on ``case`` whose attitude error is within
+    ``target`` rad (``None``: not reached)."""
+    names = {methods} if isinstance(methods, str) else set(methods)
+    reaching = [m for m in measurements if m.ok and m.case == case and m.method in names
+                and m.attitude_error_rad <= target]
+    return min(reaching, key=lambda m: m.cpu_us_per_sim_s, default=None)
+
+
+def _method_order(measurements) -> list[str]:
+    return list(dict.fromkeys(m.method for m in measurements))
+
+
+def _case_order(measurements) -> list[str]:
+    return list(dict.fromkeys(m.case for m in measurements))
+
+
+def _setting(m) -> str:
+    return "" if m.setting is None else f"{m.setting_name} {m.setting:.3g}"
+
+
+def _cost(value: float) -> str:
+    return f"{value:,.0f}" if value >= 100 else f"{value:.3g}"
+
+
+def case_table(measurements, case: str) -> str:
+    """Markdown: per method, the cost (µs per simulated second at 100 Hz) to reach each target."""
+    rows = [m for m in measurements if m.case == case]
+    best = {}
+    for m in rows:
+        if m.ok and (m.method not in best or m.attitude_error_rad < best[m.method].attitude_error_rad):
+            best[m.method] = m
+    head = "| method | " + " | ".join(f"to reach {t:.0e} rad" for t in TARGETS) + " | best error reached (rad) |"
+    lines = [head, "|---" * (len(TARGETS) + 2) + "|"]
+    for method in _method_order(rows):
+        cells = []
+        for target in TARGETS:
+            m = cheapest(rows, case, method, target)
+            cells.append(f"{_cost(m.cpu_us_per_sim_s)} µs/s ({_setting(m)})".replace(" ()", "") if m else "not reached")
+        reached = f"{best[method].attitude_error_rad:.1e}" if method in best else "failed"
+        lines.append(f"| {method} | " + " | ".join(cells) + f" | {reached} |")
+    return "\n".join(lines)
+
+
+def targets(measurements) -> list[str]:
+    """The issue's targets, each a ratio measured in this run, one line per case."""
+    lines = []
+    cases = _case_order(measurements)
+    exact = [m for m in measurements if m.method == "analytic" and m.ok]
+    by_case = {m.case: m for m in exact}
+    dop853s = [name for name in ("dop853", "scipy DOP853") if any(m.method == name for m in measurements)]
+    lines.append("**Exact vs DOP853 at 1e-9 rad** (cost of the cheapest DOP853 setting that reaches 1e-9 rad, "
+                 "over the exact propagator's cost):")
+    for case in cases:
+        a = by_case.get(case)
+        if a is None:
+            continue
+        parts = []
+        for name in dop853s:
+            m = cheapest(measurements, case, name, 1e-9)
+            if m:
+                parts.append(f"{name} {m.cpu_us_per_sim_s / a.cpu_us_per_sim_s:.1f}×")
+            else:
+                best = min((x.attitude_error_rad for x in measurements
+                            if x.ok and x.case == case and x.method == name), default=float("nan"))
+                parts.append(f"{name} never reaches it (best {best:.1e} rad)")
+        lines.append(f"- {case} (exact: {a.attitude_error_rad:.1e} rad): " + ", ".join(parts))
+    mujoco = [m for m in measurements if m.method == "mujoco RK4" and m.ok and np.isclose(m.setting, 0.01)]
+    if mujoco:
+        lines.append("")
+        lines.append("**Exact at 100 Hz vs MuJoCo RK4 at dt = 0.01 s** (time per simulated second, exact / MuJoCo; "
+                     "target ≤ 0.5):")
+        for m in mujoco:
+            a = by_case.get(m.case)
+            if a:
+                lines.append(f"- {m.case}: {a.cpu_us_per_sim_s:.0f} / {m.cpu_us_per_sim_s:.0f} µs = "
+                             f"{a.cpu_us_per_sim_s / m.cpu_us_per_sim_s:.2f} (MuJoCo {m.cpu_us_per_sim_s / 100:.1f} µs "
+                             f"per step; its attitude error {m.attitude_error_rad:.1e} rad)")
+    ours = [name for name in _method_order(measurements)
+            if any(m.method == name and m.family == "torquefree_ros" and name != "analytic" for m in measurements)]
+    if ours and "scipy DOP853" in dop853s:
+        lines.append("")
+        lines.append(f"**Best numerical propagator ({', '.join(ours)}) vs scipy DOP853 at equal accuracy** "
+                     "(cost ratio ours / scipy; target ≤ 1):")
+        for case in cases:
+            parts = []
+            for target in TARGETS:
+                mine, theirs = cheapest(measurements, case, ours, target), cheapest(measurements, case, "scipy DOP853", target)
+                if mine and theirs:
+                    parts.append(f"{target:.0e}: {mine.cpu_us_per_sim_s / theirs.cpu_us_per_sim_s:.2f} ({mine.method})")
+                elif mine:
+                    parts.append(f"{target:.0e}: only ours ({mine.method})")
+                elif theirs:
+                    parts.append(f"{target:.0e}: only scipy")
+            if parts:
+                lines.append(f"- {case}: " + ", ".join(parts))
+    fixed = [name for name in ("rk4", "lie_rk4") if name in _method_order(measurements)]
+    if fixed and "dop853" in dop853s:
+        lines.append("")
+        lines.append("**Where RK4 stops being worth it** (the tightest accuracy at which the cheaper of "
+                     f"{' and '.join(fixed)} still costs no more than dop853):")
+        for case in cases:
+            worth = None
+            for target in _CROSSOVER_TARGETS:
+                rk, dp = cheapest(measurements, case, fixed, target), cheapest(measurements, case, "dop853", target)
+                if rk and (dp is None or rk.cpu_us_per_sim_s <= dp.cpu_us_per_sim_s):
+                    worth = target
+            lines.append(f"- {case}: " + (f"down to {worth:.0e} rad" if worth else "never (dop853 is cheaper at every accuracy)"))
+    return lines
+
+
+def plot(path, measurements) -> bool:
+    """Log-log attitude error vs cost, one panel per case, one line per method; ``False`` when
+    matplotlib (the ``plot`` extra) is missing."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return False
+    cases = _case_order(measurements)
+    methods = _method_order(measurements)
+    columns = min(4, len(cases))
+    rows = math.ceil(len(cases) / columns)
+    figure, axes = plt.subplots(rows, columns, figsize=(4.2 * columns, 3.6 * rows), squeeze=False)
+    colours = plt.get_cmap("tab10")
+    for ax, case in zip(axes.flat, cases):
+        floor = next(m.attitude_floor_rad for m in measurements if m.case == case)
+        for index, method in enumerate(methods):
+            points = sorted(((m.cpu_us_per_sim_s, max(m.attitude_error_rad, 1e-17)) for m in measurements
+                             if m.case == case and m.method == method and m.ok), key=lambda p: p[0])
+            if points:
+                x, y = zip(*points)
+                style = "*" if len(points) == 1 else ".-"
+                ax.loglog(x, y, style, color=colours(index % 10), label=method, markersize=10 if len(points) == 1 else 5)
+        ax.axhline(max(floor, 1e-16), color="0.6", linestyle=":", linewidth=1)
+        ax.set_title(case, fontsize=9)
+        ax.set_xlabel("CPU µs per simulated second (100 Hz output)", fontsize=8)
+        ax.set_ylabel("max attitude error (rad)", fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.grid(True, which="major", alpha=0.3)
+    for ax in axes.flat[len(cases):]:
+        ax.axis("off")
+    handles, labels = axes.flat[0].get_legend_handles_labels()
+    columns_in_legend = min(len(labels), 2 * columns + 1)
+    legend_rows = math.ceil(len(labels) / columns_in_legend)
+    figure.legend(handles, labels, loc="lower center", ncol=columns_in_legend, fontsize=8)
+    figure.suptitle("Work-precision: attitude error against the mpmath reference vs CPU time "
+                    "(dotted: the float64 floor)", fontsize=10)
+    figure.tight_layout(rect=(0, 0.035 * legend_rows * 2 / rows, 1, 0.97))
+    figure.savefig(path, dpi=110)
+    plt.close(figure)
+    return True

@@ -1,0 +1,136 @@
+"""Run every method over its settings on every case and record error and cost.
+
+Error: the largest attitude error (rad) and relative rate error over the case's reference samples
+(its whole horizon). Cost: CPU seconds (``time.process_time``, construction included) to produce the
+100 Hz output over a window of simulated time, per simulated second and per output sample. The window
+is the horizon clipped to [1 s, 100 s]; when the horizon fits in it, one run on the union of the
+100 Hz grid and the reference times gives both, else a second run over the reference times gives the
+error. Runs shorter than 50 ms are repeated (best of the repeats)."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import asdict, dataclass, fields
+
+import numpy as np
+
+from ..core.accuracy import trajectory_errors
+from .cases import Case
+from .methods import OUTPUT_PERIOD, Method
+
+WINDOW_LIMITS = (1.0, 100.0)  # s
+#: a sweep stops tightening a method on a case once a run takes longer than this (CPU s)
+RUN_LIMIT = {False: 20.0, True: 2.0}  # by smoke
+#: fixed-step methods skip a setting that needs more steps than this: ours (Python), MuJoCo (compiled)
+STEP_LIMIT = {"torquefree_ros": 1e6, "mujoco": 5e6}
+_REPEAT_BELOW = 0.05  # s
+_REPEAT_TOTAL = 0.3  # s
+
+
+@dataclass
+class Measurement:
+    case: str
+    method: str
+    family: str
+    setting_name: str
+    setting: float | None
+    attitude_error_rad: float
+    rate_error_rel: float
+    attitude_floor_rad: float
+    cpu_us_per_sim_s: float
+    cpu_us_per_sample: float
+    samples: int
+    window_s: float
+    horizon_s: float
+    status: str  # ok | failed: ... | skipped: ...
+
+    @classmethod
+    def columns(cls) -> list[str]:
+        return [f.name for f in fields(cls)]
+
+    def row(self) -> dict:
+        return asdict(self)
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+
+def cpu_seconds(run):
+    """``(best CPU seconds, result)``: one run, or the best of repeats for a short one."""
+    start = time.process_time()
+    result = run()
+    best = time.process_time() - start
+    total = best
+    while best < _REPEAT_BELOW and total < _REPEAT_TOTAL:
+        start = time.process_time()
+        run()
+        elapsed = time.process_time() - start
+        best, total = min(best, elapsed), total + elapsed
+    return best, result
+
+
+def cost_window(case: Case) -> float:
+    low, high = WINDOW_LIMITS
+    return min(max(case.horizon, low), high)
+
+
+def measure(method: Method, case: Case, setting) -> tuple[Measurement, float]:
+    """One measurement and the CPU seconds it took (all runs)."""
+    window = cost_window(case)
+    grid = np.arange(int(round(window / OUTPUT_PERIOD)) + 1) * OUTPUT_PERIOD
+    record = dict(case=case.name, method=method.label, family=method.family, setting_name=method.setting_name,
+                  setting=setting, attitude_floor_rad=float(case.attitude_floor.max()), window_s=window,
+                  horizon_s=case.horizon)
+    spent = 0.0
+    try:
+        if case.horizon <= window:
+            times = np.union1d(grid, case.times)
+            cpu, (omega, q) = cpu_seconds(lambda: method.run(case, setting, times))
+            at = np.searchsorted(times, case.times)
+            omega, q = omega[at], q[at]
+            spent = cpu
+        else:
+            times = grid
+            cpu, _ = cpu_seconds(lambda: method.run(case, setting, grid))
+            accuracy_cpu, (omega, q) = cpu_seconds(lambda: method.run(case, setting, case.times))
+            spent = cpu + accuracy_cpu
+        rate, attitude = trajectory_errors(omega, q, case.omega, case.q)
+        errors = (float(attitude.max()), float(rate.max()))
+        status = "ok" if np.all(np.isfinite(errors)) else "failed: non-finite result"
+    except Exception as error:  # noqa: BLE001 - a method that fails is a result, reported as such
+        return Measurement(**record, attitude_error_rad=np.nan, rate_error_rel=np.nan, cpu_us_per_sim_s=np.nan,
+                           cpu_us_per_sample=np.nan, samples=0, status=f"failed: {error}"), spent
+    return Measurement(**record, attitude_error_rad=errors[0], rate_error_rel=errors[1],
+                       cpu_us_per_sim_s=cpu / window * 1e6, cpu_us_per_sample=cpu / times.size * 1e6,
+                       samples=int(times.size), status=status), spent
+
+
+def sweep(methods, cases, smoke: bool = False, progress=None) -> list[Measurement]:
+    """Every method x case x setting, settings from cheap to expensive; a method stops on a case at
+    the first setting over budget (recorded as skipped, like the tighter ones after it)."""
+    results = []
+    for case in cases:
+        span = max(case.horizon, cost_window(case))
+        for method in methods:
+            over_budget = None
+            for setting in method.settings(case, smoke):
+                if over_budget is None and method.steps is not None:
+                    steps = method.steps(case, setting, span)
+                    if steps > STEP_LIMIT[method.family]:
+                        over_budget = f"skipped: {steps:.1e} steps over the limit {STEP_LIMIT[method.family]:.0e}"
+                if over_budget:
+                    results.append(_skipped(method, case, setting, over_budget))
+                    continue
+                result, spent = measure(method, case, setting)
+                results.append(result)
+                if progress:
+                    progress(result)
+                if spent > RUN_LIMIT[smoke]:
+                    over_budget = f"skipped: the previous setting took {spent:.0f} s CPU"
+    return results
+
+
+def _skipped(method, case, setting, reason) -> Measurement:
+    return Measurement(case.name, method.label, method.family, method.setting_name, setting, np.nan, np.nan,
+                       float(case.attitude_floor.max()), np.nan, np.nan, 0, cost_window(case), case.horizon, reason)
