@@ -33,9 +33,10 @@ def test_csv_has_every_column_and_names_the_machine_and_versions(smoke):
     assert {(row["case"], row["method"]) for row in rows} == {(c, m) for c in SMOKE_CASES for m in methods}
     for row in rows:
         assert row["status"] == "ok", row
-        assert float(row["cpu_us_per_sim_s"]) > 0 and float(row["cpu_us_per_sample"]) > 0
-        # per sample = per simulated second / samples per second of the 100 Hz window (+ reference times)
-        per_second = float(row["samples"]) / float(row["window_s"])
+        assert float(row["cpu_us_per_sim_s"]) > 0 and float(row["cpu_ms_to_horizon"]) > 0
+        # the stream is the 100 Hz grid over the window, both ends included
+        assert int(row["samples"]) == round(100 * float(row["window_s"])) + 1
+        per_second = int(row["samples"]) / float(row["window_s"])
         assert float(row["cpu_us_per_sample"]) * per_second == pytest.approx(float(row["cpu_us_per_sim_s"]), rel=1e-3)
 
 

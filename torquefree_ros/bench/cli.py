@@ -75,7 +75,8 @@ def _progress(m) -> None:
 def _markdown(measurements, cases, env, plotted: bool) -> str:
     lines = ["# Work-precision report (`torquefree_bench`)", "",
              "Machine and versions: " + "; ".join(f"{k} {v}" for k, v in env.items()) + ".", "",
-             "Error: the largest attitude error (rad) over each case's reference samples (mpmath, 45 digits). "
+             "Error: the largest attitude error (rad) over each case's reference samples (mpmath, 45 digits), "
+             "from a run to those samples alone (its CPU time is the cost to the horizon in the CSV). "
              "Cost: CPU time (construction included) to produce a 100 Hz output, per simulated second. "
              "Adaptive methods use `atol = rtol / 100`; fixed steps are given in seconds "
              "(swept as 8 … 2048 steps per rotation, 2π/|ω0|). scipy's `solve_ivp` gets the same right-hand "

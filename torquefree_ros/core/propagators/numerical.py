@@ -174,6 +174,19 @@ class DOP853Propagator(Propagator):
     def _restart(self):
         self._begin_segment(0.0, np.concatenate([self.omega0_B, self.q0_NB, self.x0]))
 
+    def _advance_past(self, t: float):
+        """Step until the solver's last step reaches ``t``; returns the solver."""
+        solver = self._solver
+        while solver.t < t:
+            if solver.status == "finished":  # at a breakpoint: a new segment from here
+                self._begin_segment(solver.t, solver.y)
+                solver = self._solver
+            self._step_start = solver.t
+            message = solver.step()
+            if solver.status == "failed":
+                raise RuntimeError(f"dop853 failed at t = {solver.t}: {message}")
+        return solver
+
     def _begin_segment(self, t0: float, y0: np.ndarray):
         """A solver that ends at the next breakpoint (none: it steps freely)."""
         breakpoints = self.dynamics.breakpoints
@@ -186,26 +199,19 @@ class DOP853Propagator(Propagator):
     def _evaluate(self, times):
         out = np.empty((times.size, 7 + self.dynamics.state_size))
         i = 0
-        while i < times.size:
-            if times[i] < self._step_start:
-                self._restart()
-            solver = self._solver
-            while solver.t < times[i]:
-                if solver.status == "finished":  # at a breakpoint: a new segment from here
-                    self._begin_segment(solver.t, solver.y)
-                    solver = self._solver
-                self._step_start = solver.t
-                with np.errstate(under="ignore"):  # scipy's min-step guard: nextafter(0) - 0
-                    message = solver.step()
-                if solver.status == "failed":
-                    raise RuntimeError(f"dop853 failed at t = {solver.t}: {message}")
-            # every output time up to the step's end, from one dense output
-            end = int(np.searchsorted(times, solver.t, side="right"))
-            inside = times[i:end]
-            at_end = inside == solver.t
-            out[i:end][at_end] = solver.y
-            if not at_end.all():
-                out[i:end][~at_end] = solver.dense_output()(inside[~at_end]).T
-            i = end
+        with np.errstate(under="ignore"):  # scipy's min-step guard: nextafter(0) - 0
+            while i < times.size:
+                if times[i] < self._step_start:
+                    self._restart()
+                solver = self._advance_past(float(times[i]))
+                # every output time up to the step's end: its state, or one dense output for the rest
+                end = int(np.searchsorted(times, solver.t, side="right"))
+                dense_end = end
+                if times[end - 1] == solver.t:
+                    out[end - 1] = solver.y
+                    dense_end -= 1
+                if dense_end > i:
+                    out[i:dense_end] = solver.dense_output()(times[i:dense_end]).T
+                i = end
         q = out[:, 3:7]
         return out[:, :3], q / np.linalg.norm(q, axis=1, keepdims=True), out[:, 7:]
