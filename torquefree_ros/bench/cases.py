@@ -19,8 +19,6 @@ BENCH_CASES = (
 )
 #: the smoke run's cases (the test suite's)
 SMOKE_CASES = ("flat_plate", "near_separatrix_above_1e-6")
-#: cases with three distinct moments, where the exact solution needs elliptic functions
-AXISYMMETRIC_CASES = ("near_axisymmetric_1e-9",)
 
 
 @dataclass(frozen=True)
@@ -42,10 +40,6 @@ class Case:
     def rotation_period(self) -> float:
         """``2 pi / |w0|``: the unit of the fixed-step methods' step sweep."""
         return 2.0 * np.pi / float(np.linalg.norm(self.angular_velocity))
-
-    @property
-    def triaxial(self) -> bool:
-        return self.name not in AXISYMMETRIC_CASES
 
 
 def load_cases(names=BENCH_CASES) -> list[Case]:

@@ -40,8 +40,6 @@ class Method:
     run: Callable[[Case, float | None, np.ndarray], tuple[np.ndarray, np.ndarray]]
     #: (case, setting, span) -> steps a fixed-step method would take over ``span`` seconds
     steps: Callable[[Case, float, float], float] | None = None
-    exact: bool = False
-    numerical: bool = True
 
 
 def _ours(name: str) -> Method:
@@ -66,8 +64,7 @@ def _ours(name: str) -> Method:
     def run(case, _, times):
         return make_propagator(case.inertia, case.angular_velocity, case.orientation, name)(times)
 
-    return Method(name, "torquefree_ros", "", lambda case, smoke: (None,), run, exact=cls.exact,
-                  numerical=not cls.exact)
+    return Method(name, "torquefree_ros", "", lambda case, smoke: (None,), run)
 
 
 def _tolerances(case, smoke):

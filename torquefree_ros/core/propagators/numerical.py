@@ -30,6 +30,10 @@ def _positive_option(settings: dict, key: str) -> float:
     return float(value)
 
 
+#: how close (in rounding units of t) an output time must be to a grid point to be on it
+_GRID_SNAP_ULPS = 4
+
+
 class FixedStepPropagator(Propagator):
     """A one-step method on a fixed grid; subclasses implement :meth:`advance` on the flat state
     ``y = (w, q, x)``."""
@@ -90,10 +94,6 @@ class FixedStepPropagator(Propagator):
         if not self.geometric:
             q = q / np.linalg.norm(q, axis=1, keepdims=True)
         return out[:, :3], q, out[:, 7:]
-
-
-#: how close (in rounding units of t) an output time must be to a grid point to be on it
-_GRID_SNAP_ULPS = 4
 
 
 @register
