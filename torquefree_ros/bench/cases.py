@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass
-from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -36,7 +35,7 @@ class Case:
     def horizon(self) -> float:
         return float(self.times[-1])
 
-    @cached_property
+    @property
     def rotation_period(self) -> float:
         """``2 pi / |w0|``: the unit of the fixed-step methods' step sweep."""
         return 2.0 * np.pi / float(np.linalg.norm(self.angular_velocity))

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from .cases import BENCH_CASES, SMOKE_CASES, load_cases
 from .methods import all_methods
-from .report import case_table, environment, plot, targets, write_csv
+from .report import case_table, describe_setting, environment, plot, targets, write_csv
 from .sweep import sweep
 
 DEFAULT_OUTPUT = Path("docs") / "bench"
@@ -67,9 +67,8 @@ def main(argv=None) -> int:
 
 
 def _progress(m) -> None:
-    setting = "" if m.setting is None else f" {m.setting_name}={m.setting:.3g}"
     outcome = (f"{m.attitude_error_rad:.1e} rad, {m.cpu_us_per_sim_s:,.0f} µs/s" if m.ok else m.status)
-    print(f"  {m.case:28s} {m.method:14s}{setting:22s} {outcome}", file=sys.stderr, flush=True)
+    print(f"  {m.case:28s} {m.method:14s} {describe_setting(m):22s} {outcome}", file=sys.stderr, flush=True)
 
 
 def _markdown(measurements, cases, env, plotted: bool) -> str:
@@ -92,8 +91,7 @@ def _markdown(measurements, cases, env, plotted: bool) -> str:
     failed = [m for m in measurements if not m.ok]
     if failed:
         lines += ["### Runs that failed or were skipped", ""]
-        lines += [f"- {m.case}, {m.method} {'' if m.setting is None else f'{m.setting_name} {m.setting:.3g}'}: "
-                  f"{m.status}" for m in failed]
+        lines += [f"- {m.case}, {m.method} {describe_setting(m)}: {m.status}" for m in failed]
         lines.append("")
     return "\n".join(lines)
 

@@ -78,7 +78,8 @@ def _case_order(measurements) -> list[str]:
     return list(dict.fromkeys(m.case for m in measurements))
 
 
-def _setting(m) -> str:
+def describe_setting(m) -> str:
+    """``rtol 1e-10``, ``step 0.0117``, ``dt 0.01``; empty for a method without a setting."""
     return "" if m.setting is None else f"{m.setting_name} {m.setting:.3g}"
 
 
@@ -99,23 +100,39 @@ def case_table(measurements, case: str) -> str:
         cells = []
         for target in TARGETS:
             m = cheapest(rows, case, method, target)
-            cells.append(f"{_cost(m.cpu_us_per_sim_s)} µs/s ({_setting(m)})".replace(" ()", "") if m else "not reached")
+            cells.append(f"{_cost(m.cpu_us_per_sim_s)} µs/s ({describe_setting(m)})".replace(" ()", "") if m else "not reached")
         reached = f"{best[method].attitude_error_rad:.1e}" if method in best else "failed"
         lines.append(f"| {method} | " + " | ".join(cells) + f" | {reached} |")
     return "\n".join(lines)
 
 
 def targets(measurements) -> list[str]:
-    """The issue's targets, each a ratio measured in this run, one line per case."""
+    """The issue's targets, each a ratio measured in this run, one line per case; a section is left
+    out when its methods were not run."""
+    exact = {m.case: m for m in measurements if m.method == "analytic" and m.ok}
+    methods = _method_order(measurements)
+    sections = [
+        _exact_vs_dop853(measurements, exact, [name for name in ("dop853", "scipy DOP853") if name in methods]),
+        _exact_vs_mujoco(measurements, exact),
+        _ours_vs_scipy_dop853(measurements, methods),
+        _where_rk4_stops(measurements, methods),
+    ]
     lines = []
-    cases = _case_order(measurements)
-    exact = [m for m in measurements if m.method == "analytic" and m.ok]
-    by_case = {m.case: m for m in exact}
-    dop853s = [name for name in ("dop853", "scipy DOP853") if any(m.method == name for m in measurements)]
-    lines.append("**Exact vs DOP853 at 1e-9 rad** (cost of the cheapest DOP853 setting that reaches 1e-9 rad over "
-                 "the exact propagator's: for a 100 Hz stream / to the horizon's reference samples):")
-    for case in cases:
-        a = by_case.get(case)
+    for section in filter(None, sections):
+        lines += ([""] if lines else []) + section
+    return lines
+
+
+def _best_error(measurements, case: str, method: str) -> float:
+    return min((m.attitude_error_rad for m in measurements if m.ok and m.case == case and m.method == method),
+               default=float("nan"))
+
+
+def _exact_vs_dop853(measurements, exact: dict, dop853s: list) -> list[str]:
+    lines = ["**Exact vs DOP853 at 1e-9 rad** (cost of the cheapest DOP853 setting that reaches 1e-9 rad over "
+             "the exact propagator's: for a 100 Hz stream / to the horizon's reference samples):"]
+    for case in _case_order(measurements):
+        a = exact.get(case)
         if a is None:
             continue
         parts = []
@@ -126,51 +143,61 @@ def targets(measurements) -> list[str]:
                 parts.append(f"{name} {stream.cpu_us_per_sim_s / a.cpu_us_per_sim_s:.1f}× / "
                              f"{jump.cpu_ms_to_horizon / a.cpu_ms_to_horizon:.0f}×")
             else:
-                best = min((x.attitude_error_rad for x in measurements
-                            if x.ok and x.case == case and x.method == name), default=float("nan"))
-                parts.append(f"{name} never reaches it (best {best:.1e} rad)")
+                parts.append(f"{name} never reaches it (best {_best_error(measurements, case, name):.1e} rad)")
         lines.append(f"- {case} (exact: {a.attitude_error_rad:.1e} rad): " + ", ".join(parts))
+    return lines
+
+
+def _exact_vs_mujoco(measurements, exact: dict) -> list[str]:
     mujoco = [m for m in measurements if m.method == "mujoco RK4" and m.ok and np.isclose(m.setting, 0.01)]
-    if mujoco:
-        lines.append("")
-        lines.append("**Exact at 100 Hz vs MuJoCo RK4 at dt = 0.01 s** (time per simulated second, exact / MuJoCo; "
-                     "target ≤ 0.5):")
-        for m in mujoco:
-            a = by_case.get(m.case)
-            if a:
-                lines.append(f"- {m.case}: {a.cpu_us_per_sim_s:.0f} / {m.cpu_us_per_sim_s:.0f} µs = "
-                             f"{a.cpu_us_per_sim_s / m.cpu_us_per_sim_s:.2f} (MuJoCo {m.cpu_us_per_sim_s / 100:.1f} µs "
-                             f"per step; its attitude error {m.attitude_error_rad:.1e} rad)")
-    ours = [name for name in _method_order(measurements)
-            if any(m.method == name and m.family == "torquefree_ros" and name != "analytic" for m in measurements)]
-    if ours and "scipy DOP853" in dop853s:
-        lines.append("")
-        lines.append(f"**Best numerical propagator ({', '.join(ours)}) vs scipy DOP853 at equal accuracy** "
-                     "(cost ratio ours / scipy; target ≤ 1):")
-        for case in cases:
-            parts = []
-            for target in TARGETS:
-                mine, theirs = cheapest(measurements, case, ours, target), cheapest(measurements, case, "scipy DOP853", target)
-                if mine and theirs:
-                    parts.append(f"{target:.0e}: {mine.cpu_us_per_sim_s / theirs.cpu_us_per_sim_s:.2f} ({mine.method})")
-                elif mine:
-                    parts.append(f"{target:.0e}: only ours ({mine.method})")
-                elif theirs:
-                    parts.append(f"{target:.0e}: only scipy")
-            if parts:
-                lines.append(f"- {case}: " + ", ".join(parts))
-    fixed = [name for name in ("rk4", "lie_rk4") if name in _method_order(measurements)]
-    if fixed and "dop853" in dop853s:
-        lines.append("")
-        lines.append("**Where RK4 stops being worth it** (the tightest accuracy at which the cheaper of "
-                     f"{' and '.join(fixed)} still costs no more than dop853):")
-        for case in cases:
-            worth = None
-            for target in _CROSSOVER_TARGETS:
-                rk, dp = cheapest(measurements, case, fixed, target), cheapest(measurements, case, "dop853", target)
-                if rk and (dp is None or rk.cpu_us_per_sim_s <= dp.cpu_us_per_sim_s):
-                    worth = target
-            lines.append(f"- {case}: " + (f"down to {worth:.0e} rad" if worth else "never (dop853 is cheaper at every accuracy)"))
+    if not mujoco:
+        return []
+    lines = ["**Exact at 100 Hz vs MuJoCo RK4 at dt = 0.01 s** (time per simulated second, exact / MuJoCo; "
+             "target ≤ 0.5):"]
+    for m in mujoco:
+        a = exact.get(m.case)
+        if a:
+            lines.append(f"- {m.case}: {a.cpu_us_per_sim_s:.0f} / {m.cpu_us_per_sim_s:.0f} µs = "
+                         f"{a.cpu_us_per_sim_s / m.cpu_us_per_sim_s:.2f} (MuJoCo {m.cpu_us_per_sim_s / 100:.1f} µs "
+                         f"per step; its attitude error {m.attitude_error_rad:.1e} rad)")
+    return lines
+
+
+def _ours_vs_scipy_dop853(measurements, methods: list) -> list[str]:
+    ours = [name for name in methods
+            if name != "analytic" and any(m.method == name and m.family == "torquefree_ros" for m in measurements)]
+    if not ours or "scipy DOP853" not in methods:
+        return []
+    lines = [f"**Best numerical propagator ({', '.join(ours)}) vs scipy DOP853 at equal accuracy** "
+             "(cost ratio ours / scipy; target ≤ 1):"]
+    for case in _case_order(measurements):
+        parts = []
+        for target in TARGETS:
+            mine, theirs = cheapest(measurements, case, ours, target), cheapest(measurements, case, "scipy DOP853", target)
+            if mine and theirs:
+                parts.append(f"{target:.0e}: {mine.cpu_us_per_sim_s / theirs.cpu_us_per_sim_s:.2f} ({mine.method})")
+            elif mine:
+                parts.append(f"{target:.0e}: only ours ({mine.method})")
+            elif theirs:
+                parts.append(f"{target:.0e}: only scipy")
+        if parts:
+            lines.append(f"- {case}: " + ", ".join(parts))
+    return lines
+
+
+def _where_rk4_stops(measurements, methods: list) -> list[str]:
+    fixed = [name for name in ("rk4", "lie_rk4") if name in methods]
+    if not fixed or "dop853" not in methods:
+        return []
+    lines = ["**Where RK4 stops being worth it** (the tightest accuracy at which the cheaper of "
+             f"{' and '.join(fixed)} still costs no more than dop853):"]
+    for case in _case_order(measurements):
+        worth = None
+        for target in _CROSSOVER_TARGETS:
+            rk, dp = cheapest(measurements, case, fixed, target), cheapest(measurements, case, "dop853", target)
+            if rk and (dp is None or rk.cpu_us_per_sim_s <= dp.cpu_us_per_sim_s):
+                worth = target
+        lines.append(f"- {case}: " + (f"down to {worth:.0e} rad" if worth else "never (dop853 is cheaper at every accuracy)"))
     return lines
 
 
