@@ -140,7 +140,9 @@ class JacobiElliptic:
 
     def _separatrix(self, u: np.ndarray) -> JacobiValues:
         """``m = 1``: ``sn = tanh``, ``cn = dn = sech``, ``am = gd``, and in closed form
-        ``S(u) = ∫ tanh^2/(1 - n tanh^2) = [u - atan(sqrt(-n) tanh u) / sqrt(-n)] / (1 - n)``."""
+        ``S(u) = ∫ tanh^2/(1 - n tanh^2) = [u - atan(sqrt(-n) tanh u) / sqrt(-n)] / (1 - n)``.
+        That difference cancels for small ``u`` (``S ~ u^3/3``), so there ``S`` comes from the
+        Carlson form used off the separatrix, ``(1/3) tanh^3 R_J(sech^2, sech^2, 1, 1 - n tanh^2)``."""
         a = np.abs(u)
         with np.errstate(under="ignore"):  # sech underflows to its true value 0 far out
             e = np.exp(-a)
@@ -148,5 +150,8 @@ class JacobiElliptic:
         tanh = np.tanh(u)
         root = np.sqrt(-self.n)
         bounded = np.arctan(root * tanh) / root if root > 0.0 else tanh
-        s = (u - bounded) / (1.0 - self.n)
+        c2 = sech * sech
+        with np.errstate(under="ignore"):
+            carlson = tanh**3 * elliprj(c2, c2, 1.0, 1.0 - self.n * tanh * tanh) / 3.0  # inf once sech^2 underflows
+        s = np.where(a < 1.0, carlson, (u - bounded) / (1.0 - self.n))
         return JacobiValues(sn=tanh, cn=sech, dn=sech.copy(), am=np.arctan2(tanh, sech), sn2_integral=s)

@@ -1,0 +1,103 @@
+"""Jacobi functions, amplitude and the integral ``S`` against mpmath at 60 digits.
+
+Tolerance, per value ``f`` at argument ``u``: ``|error| <= 8 eps (|f| + |u| |f'|)``. The first term is
+a few rounding units of the value; the second is what rounding ``u`` (and the period it is reduced
+by) can move it, since every ``u`` carries a relative error ``~eps`` before any function is
+evaluated. (The reference itself is good to ~1e-60 absolute, allowed for where a value is 0.)
+Next to the separatrix this demands ``cn`` and ``dn`` to relative precision at the
+turning points, where they are as small as ``k' = sqrt(mc)``."""
+
+import mpmath as mp
+import numpy as np
+import pytest
+
+from torquefree_ros.core.elliptic import JacobiElliptic
+
+EPS = np.finfo(float).eps
+TOLERANCE_FACTOR = 8.0
+REFERENCE_ABSOLUTE_ERROR = 1e-55
+PARAMETERS = (1.0, 0.5, 1e-2, 1e-4, 1e-8, 1e-16, 1e-30, 0.0)  # mc
+CHARACTERISTICS = (0.0, -0.3, -40.0)  # n
+# arguments as multiples of the quarter period K (the separatrix, K infinite, uses plain arguments)
+QUARTER_PERIOD_MULTIPLES = (0.0, 1e-9, 0.3, 0.5 - 1e-7, 0.5, 0.5 + 1e-7, 0.9, 1.0 - 1e-9, 1.0, 1.37, 2.0, 3.71,
+                            -0.2, -2.6, 9.5)
+SEPARATRIX_ARGUMENTS = (0.0, 1e-9, 0.1, 1.0, 5.0, 20.0, 40.0, -3.0, -35.0)
+
+
+def reference(u: float, mc: float, n: float) -> dict[str, tuple[float, float]]:
+    """``name -> (value, derivative in u)`` at the float ``u``, in 60-digit arithmetic."""
+    with mp.workdps(60):
+        u_mp, m = mp.mpf(u), 1 - mp.mpf(mc)
+        sn, cn, dn = (mp.ellipfun(kind, u_mp, m=m) for kind in ("sn", "cn", "dn"))
+        if mc == 0.0:
+            am = mp.asin(mp.tanh(u_mp))  # the Gudermannian
+        else:
+            K = mp.ellipk(m)
+            half_periods = mp.nint(u_mp / (2 * K))
+            reduced = u_mp - 2 * K * half_periods  # in [-K, K], where cn >= 0
+            am = mp.atan2(mp.ellipfun("sn", reduced, m=m), mp.ellipfun("cn", reduced, m=m)) + mp.pi * half_periods
+        if n == 0.0 and m == 0:
+            S = (u_mp - mp.sin(u_mp) * mp.cos(u_mp)) / 2  # sn = sin
+        elif n == 0.0:
+            S = (u_mp - mp.ellipe(am, m)) / m
+        else:
+            S = (mp.ellippi(n, am, m) - u_mp) / n
+        values = {
+            "sn": (sn, cn * dn),
+            "cn": (cn, -sn * dn),
+            "dn": (dn, -m * sn * cn),
+            "am": (am, dn),
+            "sn2_integral": (S, sn**2 / (1 - n * sn**2)),
+        }
+        return {name: (float(value), float(derivative)) for name, (value, derivative) in values.items()}
+
+
+def arguments(jacobi: JacobiElliptic) -> np.ndarray:
+    if jacobi.mc == 0.0:
+        return np.array(SEPARATRIX_ARGUMENTS)
+    return np.array(QUARTER_PERIOD_MULTIPLES) * jacobi.quarter_period
+
+
+@pytest.mark.parametrize("n", CHARACTERISTICS)
+@pytest.mark.parametrize("mc", PARAMETERS)
+def test_values_match_mpmath_to_their_condition(mc, n):
+    jacobi = JacobiElliptic(mc, n)
+    u = arguments(jacobi)
+    values = jacobi(u)
+    for i, ui in enumerate(u):
+        for name, (expected, derivative) in reference(float(ui), mc, n).items():
+            got = float(getattr(values, name)[i])
+            tolerance = TOLERANCE_FACTOR * EPS * (abs(expected) + abs(ui) * abs(derivative)) + REFERENCE_ABSOLUTE_ERROR
+            assert abs(got - expected) <= tolerance, (
+                f"{name}(u={ui!r} | mc={mc}, n={n}) = {got!r}, expected {expected!r} "
+                f"(error {abs(got - expected):.2e} > {tolerance:.2e})"
+            )
+
+
+@pytest.mark.parametrize("mc", [value for value in PARAMETERS if value > 0.0])
+def test_values_at_any_argument_do_not_depend_on_the_batch(mc):
+    """Each sample is computed independently of the others requested with it (bit for bit)."""
+    jacobi = JacobiElliptic(mc, -0.3)
+    u = arguments(jacobi)
+    together = jacobi(u)
+    for i, ui in enumerate(u):
+        alone = jacobi(np.array([ui]))
+        for name in ("sn", "cn", "dn", "am", "sn2_integral"):
+            assert getattr(alone, name)[0] == getattr(together, name)[i], (name, ui)
+
+
+@pytest.mark.parametrize("mc", [value for value in PARAMETERS if value > 0.0])
+def test_incomplete_first_kind_inverts_the_functions_on_a_half_period(mc):
+    jacobi = JacobiElliptic(mc)
+    u = np.array([-1.0, -0.5, -1e-6, 0.0, 0.25, 0.5, 0.75, 1.0 - 1e-9, 1.0]) * jacobi.quarter_period
+    expected = [reference(float(ui), mc, 0.0) for ui in u]
+    sn, cn, dn = (np.array([values[name][0] for values in expected]) for name in ("sn", "cn", "dn"))
+    np.testing.assert_allclose(jacobi.incomplete_first_kind(sn, cn, dn), u, rtol=TOLERANCE_FACTOR * EPS,
+                               atol=TOLERANCE_FACTOR * EPS)
+
+
+def test_bad_parameters_are_refused_by_name():
+    with pytest.raises(ValueError, match="mc: "):
+        JacobiElliptic(1.5)
+    with pytest.raises(ValueError, match="n: "):
+        JacobiElliptic(0.5, 0.1)
