@@ -101,3 +101,19 @@ def test_bad_parameters_are_refused_by_name():
         JacobiElliptic(1.5)
     with pytest.raises(ValueError, match="n: "):
         JacobiElliptic(0.5, 0.1)
+
+
+@pytest.mark.parametrize("n", CHARACTERISTICS)
+@pytest.mark.parametrize("mc", PARAMETERS)
+def test_values_at_given_functions_match_mpmath(mc, n):
+    """The initial state gives ``sn, cn, dn`` directly; ``am`` and ``S`` follow without finding ``u``."""
+    jacobi = JacobiElliptic(mc, n)
+    u = arguments(jacobi)
+    inside = u[np.abs(u) <= (jacobi.quarter_period if mc > 0.0 else np.inf)]
+    for ui in inside:
+        expected = reference(float(ui), mc, n)
+        values = jacobi.values_at(*(expected[name][0] for name in ("sn", "cn", "dn")))
+        for name in ("am", "sn2_integral"):
+            value, derivative = expected[name]
+            tolerance = TOLERANCE_FACTOR * EPS * (abs(value) + abs(ui) * abs(derivative)) + REFERENCE_ABSOLUTE_ERROR
+            assert abs(getattr(values, name) - value) <= tolerance, (name, ui, getattr(values, name), value)

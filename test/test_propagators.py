@@ -104,6 +104,11 @@ def test_samples_do_not_depend_on_how_they_are_requested(propagator_name):
     blocks = [propagator(chunk) for chunk in np.array_split(TIMES, 7)]
     np.testing.assert_array_equal(np.concatenate([b[0] for b in blocks]), w_all)
     np.testing.assert_array_equal(np.concatenate([b[1] for b in blocks]), q_all)
+    # one sample at a time (a node's block can be a single sample)
+    singles = [make_propagator(INERTIA, OMEGA, Q0, propagator_name, **ACCURATE_SETTINGS[propagator_name])([t])
+               for t in TIMES[:12]]
+    np.testing.assert_array_equal(np.concatenate([s[0] for s in singles]), w_all[:12])
+    np.testing.assert_array_equal(np.concatenate([s[1] for s in singles]), q_all[:12])
     # asking for an earlier time again restarts rather than failing
     w_again, _ = propagator(TIMES[:5])
     np.testing.assert_array_equal(w_again, w_all[:5])

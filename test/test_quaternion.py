@@ -73,3 +73,9 @@ def test_the_single_float_path_agrees_with_the_batched_one(p, q, v, u):
     np.testing.assert_allclose(quaternion.exp_rotation(v), quaternion.exp_rotation(v[None])[0], atol=1e-15)
     np.testing.assert_allclose(quaternion.rotate_inverse(q, quaternion.rotate(q, v)), v, atol=1e-13)
     np.testing.assert_allclose(quaternion.rotate_inverse(q, v), Rotation.from_quat(q).inv().apply(v), atol=1e-13)
+
+
+@given(unit, unit, arrays(np.float64, (3, 4), elements=_component(1)))
+def test_product_matrix_is_the_product_on_both_sides(p, q, x):
+    expected = quaternion.multiply(quaternion.multiply(p, x), q)
+    np.testing.assert_allclose(x @ quaternion.product_matrix(p, q).T, expected, atol=1e-15)

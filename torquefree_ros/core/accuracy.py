@@ -18,10 +18,13 @@ def trajectory_errors(omega, q, omega_ref, q_ref):
     return rate, angle_between(q, q_ref)
 
 
-#: the estimate looks this far ahead (s), and a fixed-step method at most this many steps
-ESTIMATE_HORIZON = 10.0
+#: the estimate follows the motion for this many turns (2 pi / |w0| each): a method's error grows with
+#: the angle turned, not the time (10 s for a body starting at rest); a fixed-step method at most
+#: ESTIMATE_MAX_STEPS steps
+ESTIMATE_TURNS = 2.0
+ESTIMATE_HORIZON_AT_REST = 10.0
 ESTIMATE_MAX_STEPS = 2000
-_ESTIMATE_SAMPLES = 21
+_ESTIMATE_SAMPLES = 101
 
 
 @dataclass(frozen=True)
@@ -33,12 +36,16 @@ class AccuracyEstimate:
     rate_rel: float
     horizon_s: float
     reference: str
+    turns: float = 0.0  # of the initial rate over the horizon
+
 
     def describe(self) -> str:
         if self.reference == EXACT:
             return "exact (closed form: float64 rounding of the inputs)"
+        seconds = f"{self.horizon_s:.3g}" if self.horizon_s < 1000.0 else f"{self.horizon_s:.0f}"
+        turns = f" ({self.turns:.2g} turns)" if self.turns else ""
         return (f"attitude error ~{self.attitude_rad:.1e} rad, rate error ~{self.rate_rel:.1e} (relative) "
-                f"over the first {self.horizon_s:g} s, against {self.reference}")
+                f"over the first {seconds} s{turns}, against {self.reference}")
 
 
 EXACT = "the closed form"
@@ -55,7 +62,7 @@ def estimate_accuracy(propagator) -> AccuracyEstimate:
     if cls.exact:
         return AccuracyEstimate(0.0, 0.0, 0.0, EXACT)
     settings = dict(propagator.settings)
-    horizon = ESTIMATE_HORIZON
+    horizon = estimate_horizon(propagator.omega0_B)
     if "step" in settings:
         horizon = min(horizon, ESTIMATE_MAX_STEPS * settings["step"])
     times = np.linspace(0.0, horizon, _ESTIMATE_SAMPLES)
@@ -74,4 +81,11 @@ def estimate_accuracy(propagator) -> AccuracyEstimate:
         omega_ref, q_ref = cls(*start, propagator.effects, **{**settings, **refined})(times)
         reference = "the same method at tolerances / 100"
     rate, attitude = trajectory_errors(omega, q, omega_ref, q_ref)
-    return AccuracyEstimate(factor * float(attitude.max()), factor * float(rate.max()), horizon, reference)
+    turns = horizon * float(np.linalg.norm(propagator.omega0_B)) / (2.0 * np.pi)
+    return AccuracyEstimate(factor * float(attitude.max()), factor * float(rate.max()), horizon, reference, turns)
+
+
+def estimate_horizon(omega0_B) -> float:
+    """Seconds the estimate looks ahead from this initial rate (before the fixed-step cap)."""
+    speed = float(np.linalg.norm(omega0_B))
+    return ESTIMATE_TURNS * 2.0 * np.pi / speed if speed > 0.0 else ESTIMATE_HORIZON_AT_REST

@@ -24,15 +24,16 @@ hyperbolic and in closed form.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.special import ellipj, elliprf, elliprj
 
-# Newton steps from scipy's (m-parametrised) guess: the guess is good to ~1e-8 or better even when m
-# rounds to 1, and convergence is quadratic, so 4 steps reach rounding level with margin. A fixed
-# count keeps every sample independent of the others in its batch (bit-identical results).
-_NEWTON_STEPS = 4
+# Newton steps from scipy's (m-parametrised) guess. Against mpmath the guess is within 2e-10 (relative,
+# in x) at worst, where m rounds to 1; one step reaches rounding level and the second is margin.
+# A fixed count keeps every sample independent of the others in its batch (bit-identical results).
+_NEWTON_STEPS = 2
 
 
 @dataclass(frozen=True)
@@ -71,19 +72,24 @@ class JacobiElliptic:
         u = np.asarray(u, dtype=float)
         if self.mc == 0.0:
             return self._separatrix(u)
-        K = self.quarter_period
-        half_periods = np.round(u / (2.0 * K))
-        r = u - 2.0 * K * half_periods  # in [-K, K]
-        sign = np.where(r < 0.0, -1.0, 1.0)
+        half_periods = np.round(u / (2.0 * self.quarter_period))
+        r = u - (2.0 * self.quarter_period) * half_periods  # in [-K, K]
         s, c, d, am, integral = self._quarter(np.abs(r))
         parity = 1.0 - 2.0 * np.mod(half_periods, 2.0)  # (-1)^j
         return JacobiValues(
-            sn=parity * sign * s,
+            sn=parity * np.copysign(s, r),
             cn=parity * c,
             dn=d,
-            am=sign * am + np.pi * half_periods,
-            sn2_integral=sign * integral + 2.0 * self.sn2_integral_quarter * half_periods,
+            am=np.copysign(am, r) + np.pi * half_periods,
+            sn2_integral=np.copysign(integral, r) + (2.0 * self.sn2_integral_quarter) * half_periods,
         )
+
+    def values_at(self, sn: float, cn: float, dn: float) -> JacobiValues:
+        """The values at the ``u`` in ``[-K, K]`` where the functions are ``sn``, ``cn >= 0``, ``dn``
+        (scalars): ``am`` and ``S`` from them directly, without finding ``u``."""
+        s2 = sn * sn
+        integral = sn * s2 * float(elliprj(cn * cn, dn * dn, 1.0, 1.0 - self.n * s2)) / 3.0
+        return JacobiValues(sn=sn, cn=cn, dn=dn, am=math.atan2(sn, cn), sn2_integral=integral)
 
     def incomplete_first_kind(self, sn, cn, dn) -> np.ndarray:
         """``u = F(am|m)`` in ``[-K, K]`` from ``sn``, ``cn >= 0``, ``dn`` (inverse of ``__call__``).
@@ -95,47 +101,46 @@ class JacobiElliptic:
         return sn * elliprf(cn * cn, dn * dn, 1.0)
 
     # -- internals ------------------------------------------------------------------------------
-    def _hyperbolic_amplitude(self, u: np.ndarray) -> np.ndarray:
-        """``x = asinh(tan(am(u)))`` for ``0 <= u <= K/2``."""
+    def _first_half(self, u: np.ndarray):
+        """``sn, cn`` and their squares and ``dn^2`` for ``0 <= u <= K/2``, by Newton's method on
+        ``F(am) = u`` in ``x = asinh(tan(am))``, where ``sn = tanh x`` and ``cn = sech x``."""
         _, _, _, phi = ellipj(u, self.m)
         x = np.arcsinh(np.tan(phi))
         mc = self.mc
         for _ in range(_NEWTON_STEPS):
-            t = np.tanh(x)
             ch = np.cosh(x)
+            t = np.tanh(x)
             c2 = 1.0 / (ch * ch)
-            d2 = c2 + mc * t * t
+            d2 = c2 + mc * (t * t)
             # dF/dx = sech(x) / dn, so the Newton step is (F - u) * dn * cosh(x)
-            x = x - (t * elliprf(c2, d2, 1.0) - u) * np.sqrt(d2) * ch
-        return x
-
-    def _first_half(self, u: np.ndarray):
-        x = self._hyperbolic_amplitude(u)
+            x -= (t * elliprf(c2, d2, 1.0) - u) * (np.sqrt(d2) * ch)
         s = np.tanh(x)
         c = 1.0 / np.cosh(x)
-        d = np.sqrt(c * c + self.mc * s * s)
-        return s, c, d
+        s2, c2 = s * s, c * c
+        return s, c, s2, c2, c2 + mc * s2
 
     def _quarter(self, r: np.ndarray):
-        """Values for ``0 <= r <= K``."""
+        """``sn, cn, dn, am, S`` for ``0 <= r <= K``."""
         K, mc, n, kp = self.quarter_period, self.mc, self.n, self.k_prime
         first = r <= 0.5 * K
         # First half directly; second half through v = K - r (both evaluated on [0, K/2]).
         w = np.where(first, r, K - r)
-        s1, c1, d1 = self._first_half(w)
-        s = np.where(first, s1, c1 / d1)
-        c = np.where(first, c1, kp * s1 / d1)
-        d = np.where(first, d1, kp / d1)
+        s1, c1, s1s, c1s, d1s = self._first_half(w)
+        d1 = np.sqrt(d1s)
+        inverse_d1 = 1.0 / d1
+        s = np.where(first, s1, c1 * inverse_d1)
+        c = np.where(first, c1, (kp * s1) * inverse_d1)
+        d = np.where(first, d1, kp * inverse_d1)
         am = np.arctan2(s, c)
         # S on the first half: (1/3) sn^3 R_J(cn^2, dn^2, 1, 1 - n sn^2).
         # On the second half, with v = K - r: sn^2(K - v) / (1 - n sn^2(K - v)) equals
         # (1 - sn^2 v) / ((1 - n)(1 - n' sn^2 v)) for n' = (m - n)/(1 - n), so
         # S(r) = S(K) - [v - (1 - n') S_n'(v)] / (1 - n) with 1 - n' = mc/(1 - n) and
         # 1 - n' sn^2 = cn^2 + mc/(1 - n) sn^2 (no cancellation near sn = 1).
-        p_first = 1.0 - n * s1 * s1
-        p_second = c1 * c1 + mc / (1.0 - n) * s1 * s1
-        rj = elliprj(c1 * c1, d1 * d1, 1.0, np.where(first, p_first, p_second)) * s1**3 / 3.0
-        integral_second = self.sn2_integral_quarter - (w - mc / (1.0 - n) * rj) / (1.0 - n)
+        shifted = mc / (1.0 - n)
+        p = np.where(first, 1.0 - n * s1s, c1s + shifted * s1s)
+        rj = elliprj(c1s, d1s, 1.0, p) * (s1 * s1s) * (1.0 / 3.0)
+        integral_second = (self.sn2_integral_quarter - w / (1.0 - n)) + (shifted / (1.0 - n)) * rj
         return s, c, d, am, np.where(first, rj, integral_second)
 
     def _separatrix(self, u: np.ndarray) -> JacobiValues:

@@ -25,12 +25,13 @@ bounded periodic term, so the quaternion stays continuous over any number of per
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from . import quaternion
-from .elliptic import JacobiElliptic
+from .elliptic import JacobiElliptic, JacobiValues
 from .rigid_body import EQUAL_MOMENTS_RTOL, MotionRegime, RigidBody
 
 
@@ -45,106 +46,123 @@ class Polhode:
     initial_phase: float  # u0
     momentum: float  # |m|
     jacobi: JacobiElliptic
+    initial: JacobiValues  # at u0, from the initial rate itself (scalars)
 
     @property
     def polhode_period(self) -> float:
         return 4.0 * self.jacobi.quarter_period / self.rate
 
-    def rates(self, values) -> np.ndarray:
-        """``omega_S`` from the Jacobi values at ``u = rate t + initial_phase``."""
-        return np.stack([values.cn, values.sn, values.dn], axis=-1) * self.amplitudes
-
 
 def solve_polhode(moments_P: np.ndarray, omega_P: np.ndarray) -> Polhode | None:
     """Choose the solver frame and regime once; ``None`` for a stationary motion (rest, a sphere,
-    or a spin about a principal axis), whose rate is constant."""
-    I = np.asarray(moments_P, dtype=float)
-    w = np.asarray(omega_P, dtype=float)
+    or a spin about a principal axis), whose rate is constant. (Plain float arithmetic: this runs
+    on every reset and for every propagator built, where numpy's per-call cost would dominate.)"""
+    I = [float(v) for v in moments_P]
+    w = [float(v) for v in omega_P]
     # Euler's equations' right-hand side, exactly zero only for a relative equilibrium.
-    if not np.any([(I[1] - I[2]) * w[1] * w[2], (I[2] - I[0]) * w[2] * w[0], (I[0] - I[1]) * w[0] * w[1]]):
+    if not any(((I[1] - I[2]) * w[1] * w[2], (I[2] - I[0]) * w[2] * w[0], (I[0] - I[1]) * w[0] * w[1])):
         return None
-    lo, mid, hi = np.argsort(I, kind="stable")
+    lo, mid, hi = sorted(range(3), key=I.__getitem__)  # stable, like argsort(kind="stable")
     gap_mid = I[lo] * (I[lo] - I[mid]) * w[lo] ** 2 + I[hi] * (I[hi] - I[mid]) * w[hi] ** 2
     axes = (lo, mid, hi) if gap_mid >= 0.0 else (hi, mid, lo)
+    # row i of the solver frame is principal axis axes[i] times signs[i]; a proper rotation
+    signs = [_permutation_sign(axes), 1.0, 1.0]
+    if signs[2] * w[axes[2]] < 0.0:  # rotate the solver frame by pi about its axis 1: m3 > 0
+        signs[1], signs[2] = -signs[1], -signs[2]
+    if signs[0] * w[axes[0]] < 0.0:  # rotate by pi about axis 3: m1(0) >= 0, so u0 lies in [-K, K]
+        signs[0], signs[1] = -signs[0], -signs[1]
     S = np.zeros((3, 3))
-    S[[0, 1, 2], list(axes)] = 1.0
-    if np.linalg.det(S) < 0.0:
-        S[0] = -S[0]
-    J = I[list(axes)]
-    ws = S @ w
-    if ws[2] < 0.0:  # rotate the solver frame by pi about its axis 1: m3 > 0
-        S[1:] = -S[1:]
-    ws = S @ w
-    if ws[0] < 0.0:  # rotate by pi about axis 3: m1(0) >= 0, so u0 lies in [-K, K]
-        S[:2] = -S[:2]
-    ws = S @ w
+    S[[0, 1, 2], list(axes)] = signs
+    J = [I[axis] for axis in axes]
+    ws = [sign * w[axis] for sign, axis in zip(signs, axes)]
     d21, d31, d32 = J[1] - J[0], J[2] - J[0], J[2] - J[1]
-    w1s, w2s, w3s = ws**2
+    w1s, w2s, w3s = (v * v for v in ws)
     P1 = J[1] * d21 * w2s + J[2] * d31 * w3s
     P2 = -J[0] * d21 * w1s + J[2] * d32 * w3s
     P3 = J[0] * d31 * w1s + J[1] * d32 * w2s
     mc = min(max(d31 * P2 / (d32 * P1), 0.0), 1.0)  # >= 0 by the choice of axis 3; clip rounding
     n = -J[2] * d21 / (J[0] * d32)
-    rate = float(np.sqrt(d32 * P1 / (J[0] * J[1] * J[2])))
-    a = np.sqrt(P3 / (J[0] * d31))
-    b = np.copysign(np.sqrt(P3 / (J[1] * d32)), d32)
-    c = np.sqrt(P1 / (J[2] * d31))
+    rate = math.sqrt(d32 * P1 / (J[0] * J[1] * J[2]))
+    a = math.sqrt(P3 / (J[0] * d31))
+    b = math.copysign(math.sqrt(P3 / (J[1] * d32)), d32)
+    c = math.sqrt(P1 / (J[2] * d31))
     jacobi = JacobiElliptic(mc, n)
-    cn0, sn0, dn0 = ws[0] / a, np.clip(ws[1] / b, -1.0, 1.0), ws[2] / c
-    u0 = float(jacobi.incomplete_first_kind(sn0, cn0, dn0))
+    sn0, cn0, dn0 = min(max(ws[1] / b, -1.0), 1.0), ws[0] / a, ws[2] / c
     return Polhode(
         to_solver=S,
-        moments=J,
+        moments=np.array(J),
         amplitudes=np.array([a, b, c]),
         rate=rate,
-        initial_phase=u0,
-        momentum=float(np.linalg.norm(J * ws)),
+        initial_phase=float(jacobi.incomplete_first_kind(sn0, cn0, dn0)),
+        momentum=math.hypot(J[0] * ws[0], J[1] * ws[1], J[2] * ws[2]),
         jacobi=jacobi,
+        initial=jacobi.values_at(sn0, cn0, dn0),
     )
 
 
+def _permutation_sign(axes) -> float:
+    inversions = sum(axes[i] > axes[j] for i in range(3) for j in range(i + 1, 3))
+    return -1.0 if inversions % 2 else 1.0
+
+
 class PolhodeAttitude:
-    """Exact ``(omega_S, q_NS)`` of the solver frame at any times, from ``q_NS(0)``."""
+    """Exact ``(omega_F, q_NF)`` at any times, from ``q_NF(0)``, for a frame F fixed in the body with
+    ``omega_S = solver_from_frame @ omega_F`` (the identity: F is the solver frame itself).
 
-    def __init__(self, polhode: Polhode, q_NS0: np.ndarray):
+    Per sample: ``omega_F = (cn, sn, dn) diag(a, b, c) C`` and ``q_NF = L ⊗ Rz(psi) ⊗ Q(m) ⊗ q_SF``; the
+    constant left and right factors are one 4x4 matrix, and ``Rz(psi) ⊗ Q(m)`` is written out
+    (``Q(m)`` has no z part, ``Rz`` only z and w)."""
+
+    def __init__(self, polhode: Polhode, q_NF0: np.ndarray, solver_from_frame: np.ndarray | None = None):
         self.polhode = polhode
-        J = polhode.moments
-        n = polhode.jacobi.n
+        C = np.eye(3) if solver_from_frame is None else np.asarray(solver_from_frame, dtype=float)
+        J, (a, b, c) = polhode.moments.tolist(), polhode.amplitudes.tolist()
+        self._rate_matrix = polhode.amplitudes[:, None] * C  # omega_F = (cn, sn, dn) @ this
+        self._momentum_amplitudes = (J[0] * a, J[1] * b, J[2] * c)  # m = (cn, sn, dn) * these
+        self._direction = math.copysign(1.0, b)  # sign(J3 - J2)
+        self._lever = (J[0] * a, J[1] * abs(b))
         self._psi_rate = polhode.momentum / J[0]
-        self._psi_integral_gain = polhode.momentum * (J[2] - J[0]) * n / (J[0] * J[2] * polhode.rate)
-        self._direction = np.sign(polhode.amplitudes[1])  # sign(J3 - J2)
-        self._lever = np.array([J[0] * polhode.amplitudes[0], J[1] * abs(polhode.amplitudes[1])])
-        v0 = polhode.jacobi(np.array([polhode.initial_phase]))
-        self._angle0 = self._angle_terms(v0)[0]
-        self._s0 = v0.sn2_integral[0]
-        self._left = quaternion.multiply(q_NS0, quaternion.conjugate(self._shortest_arc(v0)[0]))
+        self._psi_integral_gain = polhode.momentum * (J[2] - J[0]) * polhode.jacobi.n / (J[0] * J[2] * polhode.rate)
+        v0 = polhode.initial
+        self._psi_offset = self._angle_terms(v0) - self._psi_integral_gain * v0.sn2_integral
+        m0 = [amplitude * value for amplitude, value in zip(self._momentum_amplitudes, (v0.cn, v0.sn, v0.dn))]
+        arc0 = np.array([m0[1], -m0[0], 0.0, polhode.momentum + m0[2]])
+        arc0 /= np.linalg.norm(arc0)
+        q_SF = quaternion.from_matrix(C)
+        q_NS0 = quaternion.multiply(q_NF0, quaternion.conjugate(q_SF))
+        left = quaternion.multiply(q_NS0, quaternion.conjugate(arc0))
+        self._frame_change = quaternion.product_matrix(left, q_SF).T
 
-    def _shortest_arc(self, v) -> np.ndarray:
-        """Unit quaternion of the rotation taking ``m/|m|`` (S coordinates) to ``e_z``."""
-        m = self.polhode.rates(v) * self.polhode.moments
-        q = np.stack([m[:, 1], -m[:, 0], np.zeros_like(v.cn), self.polhode.momentum + m[:, 2]], -1)
-        return q / np.linalg.norm(q, axis=-1, keepdims=True)
-
-    def _angle_terms(self, v) -> np.ndarray:
+    def _angle_terms(self, v):
         """Continuous angle of ``(m1, m2)``: ``sign(J3-J2) (am + atan2((B-A) sn cn, A cn^2 + B sn^2))``."""
         A, B = self._lever
-        wobble = np.arctan2((B - A) * v.sn * v.cn, A * v.cn**2 + B * v.sn**2)
+        wobble = np.arctan2((B - A) * (v.sn * v.cn), A * (v.cn * v.cn) + B * (v.sn * v.sn))
         return self._direction * (v.am + wobble)
 
     def __call__(self, t: np.ndarray):
         p = self.polhode
         v = p.jacobi(p.rate * t + p.initial_phase)
-        omega_S = p.rates(v)
-        psi = (
-            self._psi_rate * t
-            + self._psi_integral_gain * (v.sn2_integral - self._s0)
-            - (self._angle_terms(v) - self._angle0)
-        )
+        omega_F = _combine((v.cn, v.sn, v.dn), self._rate_matrix)
+        psi = self._psi_rate * t + self._psi_integral_gain * v.sn2_integral - self._angle_terms(v) + self._psi_offset
         half = 0.5 * psi
-        zero = np.zeros_like(half)
-        about_H = np.stack([zero, zero, np.sin(half), np.cos(half)], axis=-1)
-        q_NS = quaternion.multiply(self._left, quaternion.multiply(about_H, self._shortest_arc(v)))
-        return omega_S, q_NS
+        m_amp = self._momentum_amplitudes
+        m0, m1 = m_amp[0] * v.cn, m_amp[1] * v.sn
+        arc_w = p.momentum + m_amp[2] * v.dn  # m3 > 0: no cancellation
+        # Q(m) = (m2, -m1, 0, |m| + m3) / sqrt(2 |m| (|m| + m3)), its norm in closed form
+        scale = 1.0 / np.sqrt((2.0 * p.momentum) * arc_w)
+        cos_half, sin_half = np.cos(half) * scale, np.sin(half) * scale
+        about_H_arc = (cos_half * m1 + sin_half * m0, sin_half * m1 - cos_half * m0, sin_half * arc_w, cos_half * arc_w)
+        return omega_F, _combine(about_H_arc, self._frame_change)
+
+
+def _combine(columns, matrix: np.ndarray) -> np.ndarray:
+    """``np.stack(columns, -1) @ matrix``, summed element by element rather than by BLAS, whose
+    kernels (and so roundings) change with the number of rows: a sample must not depend on how many
+    were requested with it."""
+    total = columns[0][:, None] * matrix[0]
+    for column, row in zip(columns[1:], matrix[1:]):
+        total += column[:, None] * row
+    return total
 
 
 def _angle(vector: np.ndarray, axial: float, axis: int) -> float:

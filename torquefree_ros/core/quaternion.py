@@ -57,6 +57,17 @@ def multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     )
 
 
+def product_matrix(left: np.ndarray, right: np.ndarray) -> np.ndarray:
+    """The 4x4 matrix ``M`` with ``M x = left ⊗ x ⊗ right`` for any ``x`` (one quaternion each): a
+    fixed frame change on both sides of many quaternions is then one matrix product, ``X @ M.T``."""
+    px, py, pz, pw = np.asarray(left, dtype=float).tolist()
+    qx, qy, qz, qw = np.asarray(right, dtype=float).tolist()
+    # rows: the Hamilton product's components as linear forms in x, for left ⊗ x and for x ⊗ right
+    by_left = np.array([[pw, -pz, py, px], [pz, pw, -px, py], [-py, px, pw, pz], [-px, -py, -pz, pw]])
+    by_right = np.array([[qw, qz, -qy, qx], [-qz, qw, qx, qy], [qy, -qx, qw, qz], [-qx, -qy, -qz, qw]])
+    return by_left @ by_right
+
+
 def conjugate(q: np.ndarray) -> np.ndarray:
     """Inverse rotation of a unit quaternion."""
     return np.asarray(q, dtype=float) * _CONJUGATE

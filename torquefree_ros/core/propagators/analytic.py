@@ -26,17 +26,13 @@ class AnalyticPropagator(Propagator):
         if self.polhode is None:
             self._attitude = None
             return
-        # body -> solver coordinates: omega_S = C omega_B, and q_NB = q_NS ⊗ q_C
-        C = self.polhode.to_solver @ self.body.principal_axes.T
-        self._C = C
-        self._q_C = quaternion.from_matrix(C)
-        q_NS0 = quaternion.multiply(self.q0_NB, quaternion.conjugate(self._q_C))
-        self._attitude = PolhodeAttitude(self.polhode, q_NS0)
+        # body -> solver coordinates: omega_S = C omega_B
+        self._attitude = PolhodeAttitude(self.polhode, self.q0_NB, self.polhode.to_solver @ self.body.principal_axes.T)
 
     def _evaluate(self, times):
         if self._attitude is None:  # stationary: constant rate, rotation about a fixed axis
             omega = np.broadcast_to(self.omega0_B, (times.size, 3)).copy()
             q = quaternion.multiply(self.q0_NB, quaternion.exp_rotation(times[:, None] * self.omega0_B))
             return omega, q, np.empty((times.size, 0))
-        omega_S, q_NS = self._attitude(times)
-        return omega_S @ self._C, quaternion.multiply(q_NS, self._q_C), np.empty((times.size, 0))
+        omega, q = self._attitude(times)
+        return omega, q, np.empty((times.size, 0))

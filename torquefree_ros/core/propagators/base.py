@@ -68,10 +68,12 @@ class Propagator(abc.ABC):
         times = sample_times(times)
         omega, q, x = self._evaluate(times)
         # t = 0 is the initial state itself, not its reconstruction through the solution
-        start = times == 0.0
-        omega[start] = self.omega0_B
-        q[start] = self.q0_NB
-        x[start] = self.x0
+        # (sorted and non-negative: the zeros lead)
+        zeros = int(np.searchsorted(times, 0.0, side="right"))
+        if zeros:
+            omega[:zeros] = self.omega0_B
+            q[:zeros] = self.q0_NB
+            x[:zeros] = self.x0
         return omega, q, x
 
     def momentum_B(self, omega_B, x) -> np.ndarray:
