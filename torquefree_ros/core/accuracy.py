@@ -38,7 +38,6 @@ class AccuracyEstimate:
     reference: str
     turns: float = 0.0  # of the initial rate over the horizon
 
-
     def describe(self) -> str:
         if self.reference == EXACT:
             return "exact (closed form: float64 rounding of the inputs)"
