@@ -18,6 +18,7 @@ from sim_harness import SimHarness, connected_harness, reset_epoch_ns
 from torquefree_ros import RigidBody, propagate
 from torquefree_ros.core.quaternion import to_matrix
 from torquefree_ros.core.scene import default_scene
+from torquefree_ros.sim_node import LATE_WARNING_FRACTION
 from torquefree_ros.sim_parameters import ConfigurationError
 
 REPO = Path(__file__).resolve().parents[1]
@@ -320,15 +321,19 @@ def test_diagnostics_report_the_running_simulation(harness):
     harness.spin_until(ours, what="/diagnostics")
     status = ours()[-1]
     values = {v.key: v.value for v in status.values}
-    assert status.name == "torquefree: simulation" and status.level == status.OK
-    assert values["propagator"] == "analytic" and values["publish_rate"] == "100"
-    assert values["accuracy"] == "exact (closed form: float64 rounding of the inputs)"
-    assert int(values["samples_published"]) > 0 and int(values["late_samples"]) >= 0
-    assert float(values["kinetic_energy"]) == pytest.approx(0.675, rel=1e-15)
+    report = f"{status.name!r} level {status.level!r} {status.message!r}: {values}"  # shown on any failure
+    late, published = int(values["late_samples"]), int(values["samples_published"])
+    # OK unless over 1% went out late, which a loaded machine can cause in the first second
+    expected_level = status.WARN if late > LATE_WARNING_FRACTION * max(published, 1) else status.OK
+    assert status.name == "torquefree: simulation" and status.level == expected_level, report
+    assert values["propagator"] == "analytic" and values["publish_rate"] == "100", report
+    assert values["accuracy"] == "exact (closed form: float64 rounding of the inputs)", report
+    assert published > 0 and late >= 0, report
+    assert float(values["kinetic_energy"]) == pytest.approx(0.675, rel=1e-15), report
     # the exact propagator: invariants drift by rounding only
-    assert abs(float(values["kinetic_energy_drift"])) < 1e-14
-    assert abs(float(values["angular_momentum_drift"])) < 1e-14
-    assert "minor axis polhode" in values["regime"]
+    assert abs(float(values["kinetic_energy_drift"])) < 1e-14, report
+    assert abs(float(values["angular_momentum_drift"])) < 1e-14, report
+    assert "minor axis polhode" in values["regime"], report
 
 
 def test_the_installed_parameter_file_configures_the_node():
