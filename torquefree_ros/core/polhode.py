@@ -107,20 +107,20 @@ def _permutation_sign(axes) -> float:
 
 class PolhodeAttitude:
     """Exact ``(omega_F, q_NF)`` at any times, from ``q_NF(0)``, for a frame F fixed in the body with
-    ``omega_S = solver_from_frame @ omega_F`` (the identity: F is the solver frame itself).
+    ``omega_S = solver_from_frame @ omega_F`` (the propagator's body frame).
 
     Per sample: ``omega_F = (cn, sn, dn) diag(a, b, c) C`` and ``q_NF = L ⊗ Rz(psi) ⊗ Q(m) ⊗ q_SF``; the
     constant left and right factors are one 4x4 matrix, and ``Rz(psi) ⊗ Q(m)`` is written out
     (``Q(m)`` has no z part, ``Rz`` only z and w)."""
 
-    def __init__(self, polhode: Polhode, q_NF0: np.ndarray, solver_from_frame: np.ndarray | None = None):
+    def __init__(self, polhode: Polhode, q_NF0: np.ndarray, solver_from_frame: np.ndarray):
         self.polhode = polhode
-        C = np.eye(3) if solver_from_frame is None else np.asarray(solver_from_frame, dtype=float)
+        C = np.asarray(solver_from_frame, dtype=float)
         J, (a, b, c) = polhode.moments.tolist(), polhode.amplitudes.tolist()
         self._rate_matrix = polhode.amplitudes[:, None] * C  # omega_F = (cn, sn, dn) @ this
         self._momentum_amplitudes = (J[0] * a, J[1] * b, J[2] * c)  # m = (cn, sn, dn) * these
         self._direction = math.copysign(1.0, b)  # sign(J3 - J2)
-        self._lever = (J[0] * a, J[1] * abs(b))
+        self._lever = (self._momentum_amplitudes[0], abs(self._momentum_amplitudes[1]))  # A, B
         self._psi_rate = polhode.momentum / J[0]
         self._psi_integral_gain = polhode.momentum * (J[2] - J[0]) * polhode.jacobi.n / (J[0] * J[2] * polhode.rate)
         v0 = polhode.initial
