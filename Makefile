@@ -1,34 +1,49 @@
 # The two commands: `make run` (the simulator on its built-in default scene) and `make test`.
-# Each creates .venv from PyPI when it is missing (no apt ROS install needed).
+# Each creates .venv from PyPI when it is missing (no apt ROS install needed), with the exact versions
+# pinned in requirements.lock, and installs this package into it (editable), so every console script
+# is in .venv/bin. `make lock` re-resolves the pins from requirements*.txt on purpose, then tests.
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
+PIP := $(PY) -m pip --disable-pip-version-check
 
-.PHONY: run test reference bench bench-node bench-bag clean
+.PHONY: run test lock reference bench bench-node bench-bag clean
 
-$(VENV)/.installed: requirements.txt requirements-test.txt
+$(VENV)/.installed: requirements.txt requirements-test.txt requirements.lock setup.py
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --quiet --disable-pip-version-check -r requirements-test.txt
+	$(PIP) install --quiet -c requirements.lock -r requirements-test.txt
+	$(PIP) install --quiet --no-deps --no-build-isolation -e .
 	touch $@
 
 run: $(VENV)/.installed
-	$(PY) -m torquefree_ros.sim_node $(if $(ARGS),--ros-args $(ARGS))
+	$(VENV)/bin/torquefree_sim $(if $(ARGS),--ros-args $(ARGS))
 
 test: $(VENV)/.installed
 	$(PY) -m pytest
 
+# Newest versions allowed by requirements*.txt, written to requirements.lock, then the tests on them.
+lock:
+	rm -rf $(VENV) .venv-lock
+	$(PYTHON) -m venv .venv-lock
+	.venv-lock/bin/pip install --quiet --disable-pip-version-check -r requirements-test.txt
+	{ echo "# Exact versions for requirements-test.txt (which includes requirements.txt), resolved by"; \
+	  echo "# 'make lock' on $$(date -u +%Y-%m-%d) with $$(.venv-lock/bin/python --version)."; \
+	  .venv-lock/bin/pip freeze --all | grep -v -E '^(pip|torquefree[-_]ros)[= @]'; } > requirements.lock
+	rm -rf .venv-lock
+	$(MAKE) test
+
 reference: $(VENV)/.installed
 	$(PY) tools/make_reference.py --jobs 2
 
-# the work-precision report: docs/bench/{work_precision.csv,work_precision.png,results.md} (~15 min)
+# the work-precision report: docs/bench/{work_precision.csv,work_precision.png,results.md}
 bench: $(VENV)/.installed
-	$(PY) -m torquefree_ros.bench.cli --output-dir docs/bench
+	$(VENV)/bin/torquefree_bench --output-dir docs/bench
 
 bench-node: $(VENV)/.installed
-	$(PY) tools/bench_node.py
+	$(PY) tools/bench_node.py --output docs/bench/node.md
 
 bench-bag: $(VENV)/.installed
-	$(PY) tools/bench_bag.py
+	$(PY) tools/bench_bag.py --output docs/bench/bag.md
 
 clean:
-	rm -rf $(VENV) build install log
+	rm -rf $(VENV) .venv-lock build install log

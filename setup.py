@@ -8,17 +8,21 @@ setup(
     name=package_name,
     version="0.1.0",
     packages=find_packages(exclude=["test", "test.*", "tools"]),
-    package_data={"torquefree_ros.bench": ["hard_cases.json"]},
+    # the scene library ships inside the package, so load_scene("explorer1") works in every install
+    package_data={"torquefree_ros": ["scenes/*.yaml"], "torquefree_ros.bench": ["hard_cases.json"]},
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
         ("share/" + package_name, ["package.xml"]),
         ("share/" + package_name + "/config", glob("config/*.yaml")),
-        ("share/" + package_name + "/config/scenes", glob("config/scenes/*.yaml")),
+        ("share/" + package_name + "/config/scenes", glob("torquefree_ros/scenes/*.yaml")),
     ],
-    install_requires=["setuptools"],
+    # What the package imports at run time, all from PyPI (exact versions: requirements.lock). In a
+    # ROS install the same come from rosdep (package.xml); colcon does not install these.
+    install_requires=["numpy>=1.26", "scipy>=1.11", "PyYAML>=6", "mcap>=1.2",
+                      "ros-jazzy-rclpy[fastrtps]", "ros-jazzy-common-interfaces"],
     # mujoco 4.0.0 on PyPI is a shell around the not-yet-usable mujoco-core; 3.x is the real one
     extras_require={"plot": ["matplotlib>=3.7"], "bench": ["matplotlib>=3.7", "mujoco>=3.1,<4"]},
-    zip_safe=True,
+    zip_safe=False,  # the scene library and bench data are read as files
     maintainer="torquefree_ros maintainers",
     maintainer_email="maintainers@torquefree-ros.invalid",
     description="Exact torque-free rigid-body attitude simulator for ROS 2",
@@ -26,13 +30,13 @@ setup(
     tests_require=["pytest"],
     entry_points={
         "console_scripts": [
-            "torquefree_sim = torquefree_ros.sim_node:main",
-            "torquefree_propagate = torquefree_ros.cli:propagate_main",
-            "torquefree_bag = torquefree_ros.bag_cli:bag_main",
-            "torquefree_record = torquefree_ros.recorder:main",
-            "torquefree_play = torquefree_ros.player:main",
-            "torquefree_plot = torquefree_ros.plot:main",
-            "torquefree_bench = torquefree_ros.bench.cli:main",
+            "torquefree_sim = torquefree_ros.cli.sim:main",
+            "torquefree_propagate = torquefree_ros.cli.propagate:main",
+            "torquefree_bag = torquefree_ros.cli.bag:main",
+            "torquefree_record = torquefree_ros.cli.record:main",
+            "torquefree_play = torquefree_ros.cli.play:main",
+            "torquefree_plot = torquefree_ros.cli.plot:main",
+            "torquefree_bench = torquefree_ros.cli.bench:main",
         ],
     },
 )

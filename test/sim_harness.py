@@ -19,7 +19,7 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from std_srvs.srv import Trigger
 
-from torquefree_ros.sim_node import TorqueFreeSim
+from torquefree_ros.ros.node import TorqueFreeSim
 
 SPIN_TIMEOUT = 20.0  # s; generous for a loaded 2-core CI machine
 

@@ -18,7 +18,7 @@ from bag_checks import (SEPARATOR, mcap_file, metadata, quaternions, read_with_m
                         summary, vectors)
 from torquefree_ros import propagate
 from torquefree_ros.bag import BagError, BagQos, BagReader, BagWriter, message_definition
-from torquefree_ros.bag_cli import bag_main
+from torquefree_ros.cli.bag import main as bag_main
 from torquefree_ros.core.scene import DEFAULT_SCENE_DATA
 
 REPO = Path(__file__).resolve().parent.parent
@@ -261,7 +261,7 @@ def _limit_file_size():
 def test_a_full_disk_is_a_clear_error_and_what_was_written_stays_readable(tmp_path):
     bag = tmp_path / "full"
     process = subprocess.run(
-        [sys.executable, "-m", "torquefree_ros.bag_cli", "default", "--duration", "1000", "--rate", "100",
+        [sys.executable, "-m", "torquefree_ros.cli.bag", "default", "--duration", "1000", "--rate", "100",
          "--output", str(bag)], cwd=REPO, capture_output=True, text=True, timeout=120, preexec_fn=_limit_file_size)
     assert process.returncode == 1, process.stderr
     assert f"bag '{bag}'" in process.stderr and "File too large" in process.stderr
@@ -282,7 +282,7 @@ def test_a_scene_with_outputs_writes_them_as_the_node_publishes_them(tmp_path):
     """The imu library scene: /imu (sensor_msgs/Imu) and /euler_angles beside the samples, read by
     both independent readers, values equal to the core's rows for each sample."""
     from torquefree_ros.core.simulation import Simulation
-    from torquefree_ros.scene_library import resolve_scene
+    from torquefree_ros import load_scene
 
     bag = tmp_path / "imu_bag"
     assert bag_main(["imu", "--duration", "2", "--rate", "50", "--output", str(bag)]) == 0
@@ -290,7 +290,7 @@ def test_a_scene_with_outputs_writes_them_as_the_node_publishes_them(tmp_path):
     assert {t: c.msgtype for t, c in connections.items()} == {
         "/angular_velocity": "geometry_msgs/msg/Vector3Stamped", "/attitude": "geometry_msgs/msg/QuaternionStamped",
         "/imu": "sensor_msgs/msg/Imu", "/euler_angles": "geometry_msgs/msg/Vector3Stamped"}
-    scene = resolve_scene("imu")
+    scene = load_scene("imu")
     block = Simulation(scene.propagator(), 50.0, outputs=scene.outputs).samples(0, 101)
     imu_rows, euler_rows = block.outputs
     imu = [m for _, m in messages["/imu"]]

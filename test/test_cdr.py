@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from rclpy.serialization import deserialize_message, serialize_message
 from rosgraph_msgs.msg import Clock
 
-from torquefree_ros.cdr import encode_stamped_doubles, encode_times
+from torquefree_ros.bag.cdr import encode_stamped_doubles, encode_times
 
 stamps = st.lists(st.integers(0, 2**31 * 10**9 - 1), min_size=1, max_size=20)
 frame_ids = st.text(alphabet=st.characters(blacklist_characters="\x00", blacklist_categories=("Cs",)), max_size=12)

@@ -16,9 +16,10 @@ import pytest
 from bag_checks import metadata, read_with_rosbags, vectors
 from sim_harness import SimHarness
 from torquefree_ros.bag import BagReader
-from torquefree_ros.bag_cli import bag_main, write_scene_bag
+from torquefree_ros.bag.offline import write_scene_bag
+from torquefree_ros.cli.bag import main as bag_main
 from torquefree_ros.core.scene import default_scene
-from torquefree_ros.sim_parameters import ConfigurationError
+from torquefree_ros.ros.parameters import ConfigurationError
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -68,6 +69,10 @@ def test_the_node_records_what_it_publishes_across_a_reset(tmp_path):
     # DDS discovery does not carry history and depth (the graph says unknown / 0); the node knows them
     assert (recorded.history, recorded.depth) == ("keep_last", 10)
     assert metadata(bag)["message_count"] == 3 * published
+    # the bag carries what its plots need: the body's inertia (the reset kept it), as offline bags do
+    from torquefree_ros.plot import bag_inertia
+
+    assert bag_inertia(bag) == [3.0, 2.0, 1.0, 0.0, 0.0, 0.0]
 
 
 def test_record_bag_is_read_only_and_never_overwrites(tmp_path):
@@ -89,7 +94,7 @@ def test_record_bag_is_read_only_and_never_overwrites(tmp_path):
 def _start_recording_node(bag: Path, rate: float = 200.0) -> subprocess.Popen:
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     process = subprocess.Popen(
-        [sys.executable, "-m", "torquefree_ros.sim_node", "--ros-args", "-p", f"publish_rate:={rate}",
+        [sys.executable, "-m", "torquefree_ros.cli.sim", "--ros-args", "-p", f"publish_rate:={rate}",
          "-p", f"record_bag:={bag}"], cwd=REPO, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     for line in process.stderr:
         if "start: " in line:

@@ -11,7 +11,7 @@ from sensor_msgs.msg import Imu
 from sim_harness import connected_harness, reset_epoch_ns, stamp_ns
 
 from torquefree_ros.core.simulation import Simulation
-from torquefree_ros.scene_library import resolve_scene
+from torquefree_ros import load_scene
 
 
 @pytest.fixture
@@ -42,7 +42,7 @@ def test_outputs_publish_only_while_the_scene_names_them(harness):
     harness.spin_until(lambda: len(imu) >= 60 and len(euler) >= 60, what="imu and euler_angles samples")
 
     # every output sample is the core's own for its index k on the run's grid
-    scene = resolve_scene("imu")
+    scene = load_scene("imu")
     epoch = reset_epoch_ns(response)
     stamps = np.array([stamp_ns(m.header.stamp) for m in imu])
     k = (stamps - epoch) * 200 // 10**9

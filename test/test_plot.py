@@ -4,8 +4,8 @@ import sys
 
 import pytest
 
-from torquefree_ros.bag_cli import bag_main
-from torquefree_ros.plot import main as plot_main
+from torquefree_ros.cli.bag import main as bag_main
+from torquefree_ros.cli.plot import main as plot_main
 
 pytest.importorskip("matplotlib")  # the optional extra; requirements-test.txt installs it
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -33,6 +33,21 @@ def test_plots_of_a_bag_use_the_inertia_it_stores(tmp_path):
     (bag / "metadata.yaml").write_text((bag / "metadata.yaml").read_text().replace("torquefree_ros.inertia", "x"))
     assert plot_main([str(bag), "--output-dir", str(tmp_path / "out")]) == 2
     assert plot_main([str(bag), "--inertia", "1", "2", "3", "--output-dir", str(tmp_path / "again")]) == 0
+
+
+def test_a_scene_is_plotted_for_as_long_as_it_says_it_must_be_watched():
+    from torquefree_ros import load_scene
+    from torquefree_ros.plot import runs_from_scene
+
+    explorer1 = load_scene("explorer1")
+    assert explorer1.watch == 900.0  # the damper's story takes about 15 minutes
+    ((_, times, omega),) = runs_from_scene(explorer1, None, 2.0)
+    assert times[-1] == 900.0
+    spin = omega[-200:]  # the last 100 s: the spin about the minor axis (x, I = 0.4) has died away
+    assert abs(spin[:, 0]).max() < 0.05 * abs(omega[0, 0])
+    ((_, times, _),) = runs_from_scene(load_scene("dzhanibekov"), None, 10.0)
+    period = load_scene("dzhanibekov").propagator().body.classify(load_scene("dzhanibekov").angular_velocity)
+    assert times[-1] == pytest.approx(2 * period.polhode_period, abs=0.1)  # no watch: two polhode periods
 
 
 def test_plot_errors_are_named(tmp_path, capsys, monkeypatch):

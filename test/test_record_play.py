@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 from bag_checks import read_with_rosbags
-from torquefree_ros import player, recorder
+from torquefree_ros.cli import play as player, record as recorder
 from torquefree_ros.bag import BagReader
-from torquefree_ros.bag_cli import bag_main
+from torquefree_ros.cli.bag import main as bag_main
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -53,10 +53,10 @@ def _data(bag: Path, topic: str) -> list[bytes]:
 def test_player_to_recorder_round_trip_keeps_every_message_and_the_timing(tmp_path):
     source, copy = tmp_path / "source", tmp_path / "copy"
     assert bag_main(["default", "--duration", "2", "--rate", "50", "--output", str(source)]) == 0
-    rec = _spawn("torquefree_ros.recorder", "--output", str(copy), "--topics", "/angular_velocity", "/attitude",
+    rec = _spawn("torquefree_ros.cli.record", "--output", str(copy), "--topics", "/angular_velocity", "/attitude",
                  "/clock")
     try:
-        play = subprocess.run([sys.executable, "-m", "torquefree_ros.player", str(source), "--rate", "2",
+        play = subprocess.run([sys.executable, "-m", "torquefree_ros.cli.play", str(source), "--rate", "2",
                                "--clock", "50", "--wait-for-subscribers", "20"], cwd=REPO, capture_output=True,
                               text=True, timeout=60)
         assert play.returncode == 0 and "played 202 messages" in play.stderr, play.stderr
@@ -81,10 +81,10 @@ def test_player_to_recorder_round_trip_keeps_every_message_and_the_timing(tmp_pa
 
 def test_recorder_gets_every_sample_the_node_publishes(tmp_path):
     node_bag, recorded = tmp_path / "node_bag", tmp_path / "recorded"
-    rec = _spawn("torquefree_ros.recorder", "--output", str(recorded))  # all topics
+    rec = _spawn("torquefree_ros.cli.record", "--output", str(recorded))  # all topics
     # qos_depth 1000 (5 s at 200 Hz): with the default 10, a reliable keep-last writer overwrites
     # samples a CPU-starved reader has not acknowledged within 50 ms, which is DDS, not the recorder
-    node = _spawn("torquefree_ros.sim_node", "--ros-args", "-p", "publish_rate:=200.0", "-p", "qos_depth:=1000",
+    node = _spawn("torquefree_ros.cli.sim", "--ros-args", "-p", "publish_rate:=200.0", "-p", "qos_depth:=1000",
                   "-p", f"record_bag:={node_bag}")
     try:
         _wait_for_line(rec, "recording /attitude")
@@ -108,11 +108,28 @@ def test_recorder_gets_every_sample_the_node_publishes(tmp_path):
         assert len(published) - (first + len(got)) <= 20  # at most 0.1 s of samples at 200 Hz in flight
 
 
+def test_recorder_resolves_relative_names_and_duration_is_recorded_time(tmp_path):
+    """``--topics angular_velocity`` is ``/angular_velocity`` (the recorder's namespace is ``/``); the
+    1.5 s of ``--duration`` count from the first message, not from start-up (discovery takes time)."""
+    recorded = tmp_path / "recorded"
+    node = _spawn("torquefree_ros.cli.sim", "--ros-args", "-p", "publish_rate:=100.0")
+    try:
+        rec = subprocess.run([sys.executable, "-m", "torquefree_ros.cli.record", "--output", str(recorded),
+                              "--topics", "angular_velocity", "--duration", "1.5"], cwd=REPO, capture_output=True,
+                             text=True, timeout=60)
+    finally:
+        _stop(node)
+    assert rec.returncode == 0, rec.stderr
+    assert [t.name for t in BagReader(recorded).topics] == ["/angular_velocity"]
+    received = np.array([m.log_time_ns for m in BagReader(recorded).messages()]) / 1e9
+    assert 1.4 <= received[-1] - received[0] <= 2.0  # the clock starts with the first message
+
+
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
 def test_a_looping_player_stops_cleanly_on_signals(signum, tmp_path):
     bag = tmp_path / "bag"
     assert bag_main(["default", "--duration", "1", "--rate", "50", "--output", str(bag)]) == 0
-    play = _spawn("torquefree_ros.player", str(bag), "--loop", "--clock", "20")
+    play = _spawn("torquefree_ros.cli.play", str(bag), "--loop", "--clock", "20")
     time.sleep(2.5)
     play.send_signal(signum)
     try:
@@ -136,5 +153,5 @@ def test_player_and_recorder_input_errors(tmp_path, capsys):
     assert recorder.main(["torquefree_record", "--output", str(bag)]) == 1
     assert "already exists" in capsys.readouterr().err
     with pytest.raises(SystemExit):
-        recorder.main(["torquefree_record", "--output", str(tmp_path / "new"), "--topics", "relative"])
-    assert "absolute" in capsys.readouterr().err and not (tmp_path / "new").exists()
+        recorder.main(["torquefree_record", "--output", str(tmp_path / "new"), "--topics", "bad name"])
+    assert "--topics: Invalid topic name" in capsys.readouterr().err and not (tmp_path / "new").exists()

@@ -12,7 +12,7 @@ REPO = Path(__file__).resolve().parents[1]
 
 
 def test_the_default_scene_file_is_the_built_in_default():
-    scene = load_scene(REPO / "config" / "scenes" / "default.yaml")
+    scene = load_scene(REPO / "torquefree_ros" / "scenes" / "default.yaml")
     built_in = default_scene()
     assert (scene.inertia, scene.angular_velocity, scene.orientation, scene.effects, scene.description) == (
         built_in.inertia, built_in.angular_velocity, built_in.orientation, built_in.effects, built_in.description)
@@ -44,7 +44,6 @@ def test_a_minimal_scene_from_the_contract_loads(tmp_path):
         ("body: {inertia: [3, 2, 1]}\ninitial: {angular_velocity: [0, 0, 1]}\neffects: {damper: {}}\n",
          "effects", "expected a list"),
         ("[1, 2, 3]\n", "(top level)", "expected a mapping"),
-        ("body: [unclosed\n", "", "not valid YAML"),
     ],
 )
 def test_bad_scenes_name_the_file_the_field_and_the_reason(tmp_path, text, where, reason):
@@ -55,6 +54,58 @@ def test_bad_scenes_name_the_file_the_field_and_the_reason(tmp_path, text, where
     message = str(error.value)
     assert message.startswith(f"{path}: {where}"), message
     assert reason in message, message
+
+
+@pytest.mark.parametrize("text, line, column, problem", [
+    ("body: {inertia: [3, 2, 1]}\ninitial:\n  angular_velocity: [0, 0, 1\n", 4, 1, "expected ',' or ']'"),
+    ("body: {inertia: [3, 2, 1]}\n\tinitial: {}\n", 2, 1, "found character '\\t'"),
+])
+def test_yaml_syntax_errors_name_the_file_line_and_column(tmp_path, text, line, column, problem):
+    path = tmp_path / "typed.yaml"
+    path.write_text(text)
+    with pytest.raises(SceneError) as error:
+        load_scene(path)
+    message = str(error.value)
+    assert message.startswith(f"{path}:{line}:{column}: not valid YAML: "), message
+    assert problem in message and "<unicode string>" not in message, message
+
+
+HAND_TYPED = [0.2, 0.1, -0.3, 0.927]  # |q| = 0.99966, |q|^2 - 1 = -6.7e-4: four typed digits
+
+
+def test_a_hand_typed_orientation_is_normalised_in_scenes_and_the_api(tmp_path):
+    from torquefree_ros import propagate
+
+    path = tmp_path / "typed.yaml"
+    path.write_text(f"body: {{inertia: [3, 2, 1]}}\ninitial: {{angular_velocity: [0, 0, 1], orientation: {HAND_TYPED}}}\n")
+    expected = np.array(HAND_TYPED) / np.linalg.norm(HAND_TYPED)
+    np.testing.assert_allclose(load_scene(path).orientation, expected, rtol=0, atol=2e-16)
+    _, q = propagate([3, 2, 1], [0, 0, 1], HAND_TYPED, [0.0])
+    np.testing.assert_allclose(q[0], expected, rtol=0, atol=2e-16)
+
+
+def test_an_orientation_unit_to_rounding_is_used_bit_for_bit():
+    """The decision for "the initial state exactly": an input whose norm is 1 to float64 rounding
+    (here |q| may compute as 1 - 1 ulp) is not divided by its norm, so sample 0 equals the input."""
+    from torquefree_ros import propagate
+    from torquefree_ros.core.validation import unit_quaternion
+
+    for angle in np.linspace(0.0, 6.0, 61):
+        q = [0.0, 0.0, float(np.sin(angle)), float(np.cos(angle))]
+        assert unit_quaternion(q).tolist() == q
+        _, q_out = propagate([1, 2, 3], [1e-3, 1.0, 2e-3], q, [0.0])
+        assert q_out[0].tolist() == q
+
+
+@pytest.mark.parametrize("orientation, message", [
+    ([0.0, 0.0, 0.0, 1.006], r"got norm 1.006 \(allowed: \|norm\^2 - 1\| <= 0.01, as tf2\); if \[0, 0, 0, 1\]"),
+    ([1.0, 1.0, 0.0, 0.0], r"got norm 1.41421 .* if \[0.707107, 0.707107, 0, 0\] is the rotation you mean"),
+])
+def test_an_orientation_beyond_tf2s_tolerance_is_refused_with_the_normalised_value(tmp_path, orientation, message):
+    path = tmp_path / "far.yaml"
+    path.write_text(f"body: {{inertia: [3, 2, 1]}}\ninitial: {{angular_velocity: [0, 0, 1], orientation: {orientation}}}\n")
+    with pytest.raises(SceneError, match=f"^{path}: initial.orientation: expected a unit quaternion.*" + message):
+        load_scene(path)
 
 
 def test_a_missing_scene_file_names_the_path():

@@ -1,4 +1,4 @@
-"""The scene library (config/scenes): every scene loads, says what it is in one line, and shows what
+"""The scene library (torquefree_ros/scenes): every scene loads, says what it is in one line, and shows what
 its description promises, checked independently of the code that made the promise."""
 
 from pathlib import Path
@@ -9,9 +9,9 @@ import pytest
 from torquefree_ros.core import quaternion
 from torquefree_ros import load_scene
 from torquefree_ros.core.simulation import Simulation
-from torquefree_ros.scene_library import installed_scenes, resolve_scene
+from torquefree_ros.core.library import library_scenes
 
-LIBRARY = Path(__file__).resolve().parents[1] / "config" / "scenes"
+LIBRARY = Path(__file__).resolve().parents[1] / "torquefree_ros" / "scenes"
 NAMES = ["axisymmetric_coning", "default", "dzhanibekov", "energy_sweep", "explorer1", "gravity_gradient",
          "gyrostat", "imu"]
 TIGHT = {"rtol": 1e-12, "atol": 1e-14}
@@ -23,16 +23,26 @@ def library(name):
 
 def test_the_library_has_every_scene_each_with_a_one_line_description():
     assert sorted(p.stem for p in LIBRARY.glob("*.yaml")) == NAMES
-    assert set(NAMES) <= set(installed_scenes())
+    assert sorted(library_scenes()) == NAMES
     for name in NAMES:
         description = library(name).description
         assert description and "\n" not in description and len(description) < 200, name
 
 
-def test_library_scenes_resolve_by_name_and_unknown_names_list_the_library():
-    assert resolve_scene("dzhanibekov").source.endswith("dzhanibekov.yaml")
+def test_load_scene_takes_library_names_from_any_directory(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # not the repository root: names do not depend on the working directory
+    assert load_scene("dzhanibekov") == library("dzhanibekov")
+    assert load_scene("explorer1").source == str(LIBRARY / "explorer1.yaml")
+    assert load_scene("default").source == "<built-in default>"
     with pytest.raises(ValueError, match=r"'dzanibekov' is neither a file nor a library scene \(library: .*dzhanibekov"):
-        resolve_scene("dzanibekov")
+        load_scene("dzanibekov")
+
+
+def test_a_file_in_the_working_directory_wins_over_a_library_name(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "explorer1").write_text("body: {inertia: [1, 2, 3]}\ninitial: {angular_velocity: [0, 0, 1]}\n")
+    assert load_scene("explorer1").inertia == (1.0, 2.0, 3.0)
+    assert load_scene("./explorer1").inertia == (1.0, 2.0, 3.0)
 
 
 def test_dzhanibekov_flips_at_the_reported_period():

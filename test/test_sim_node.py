@@ -18,8 +18,8 @@ from sim_harness import SimHarness, connected_harness, reset_epoch_ns
 from torquefree_ros import RigidBody, propagate
 from torquefree_ros.core.quaternion import to_matrix
 from torquefree_ros.core.scene import default_scene
-from torquefree_ros.sim_node import LATE_WARNING_FRACTION
-from torquefree_ros.sim_parameters import ConfigurationError
+from torquefree_ros.ros.node import LATE_WARNING_FRACTION
+from torquefree_ros.ros.parameters import ConfigurationError
 
 REPO = Path(__file__).resolve().parents[1]
 DEFAULT = default_scene()
@@ -156,6 +156,28 @@ def test_reset_restarts_from_the_new_parameters(harness, atomically):
     assert_run_is_exact(pairs[start:], NEW_STATE["inertia"], omega0, q0, 200.0)
     assert_run_follows(pairs[:start], DEFAULT)
     assert np.all(np.diff(harness.arrivals) > 0), "stamps went backwards across the reset"
+
+
+@pytest.mark.parametrize("harness", [{"publish_rate": 100.0}], indirect=True)
+def test_reset_summary_names_the_scene_the_member_and_the_overrides_in_force(harness):
+    typed = [0.2, 0.1, -0.3, 0.927]  # hand-typed: accepted and normalised, the summary shows the value used
+    result = harness.set_parameters_atomically(orientation=typed, angular_velocity=[0.1, 0.2, 0.3])
+    assert result.successful, result.reason
+    result = harness.set_parameters_atomically(scene="energy_sweep", sweep_member=8)
+    assert not result.successful and "cannot be combined with angular_velocity" in result.reason
+    result = harness.set_parameters_atomically(scene="energy_sweep", sweep_member=8, angular_velocity=[])
+    assert result.successful, result.reason
+    response = harness.reset()
+    assert response.success, response.message
+    used = ", ".join(f"{x:.9g}" for x in np.array(typed) / np.linalg.norm(typed))
+    assert response.message.startswith("scene 'energy_sweep' (") and "member 8 (energy fraction 1)" in response.message
+    assert f"overrides: orientation [{used}]" in response.message
+    assert f"q0 [{used}]" in response.message
+    result = harness.set_parameters(sweep_member=9)[0]
+    assert not result.successful and result.reason == "sweep_member: the scene has members 0 … 8, got 9"
+    harness.set_parameters_atomically(scene="", sweep_member=-1, angular_velocity=[], orientation=[])
+    response = harness.reset()
+    assert response.message.startswith("the built-in default scene, overrides: none; "), response.message
 
 
 def _has_state(pairs, omega0, q0):
@@ -342,7 +364,12 @@ def test_the_installed_parameter_file_configures_the_node():
     try:
         import yaml
 
+        from torquefree_ros.ros.parameters import SPECS
+
         expected = yaml.safe_load(path.read_text())["/torquefree"]["ros__parameters"]
+        # every parameter that has a default, at its default; the overrides (no default) as comments
+        assert expected == {spec.name: spec.default for spec in SPECS if spec.default is not None}
+        assert all(f"# {spec.name}: " in path.read_text() for spec in SPECS if spec.default is None)
         for name, value in expected.items():
             assert h.node.get_parameter(name).value == value, name
     finally:
@@ -351,7 +378,7 @@ def test_the_installed_parameter_file_configures_the_node():
 
 def _start_node(*ros_args):
     env = dict(os.environ, PYTHONUNBUFFERED="1")
-    return subprocess.Popen([sys.executable, "-m", "torquefree_ros.sim_node", "--ros-args", *ros_args],
+    return subprocess.Popen([sys.executable, "-m", "torquefree_ros.cli.sim", "--ros-args", *ros_args],
                             cwd=REPO, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
@@ -375,3 +402,7 @@ def test_the_process_refuses_bad_start_up_parameters_with_status_1():
     _, stderr = process.communicate(timeout=60)
     assert process.returncode == 1
     assert "inertia" in stderr and "triangle inequality" in stderr and "Traceback" not in stderr
+    process = _start_node("-p", "publish_rate:=0.0")
+    _, stderr = process.communicate(timeout=60)
+    assert process.returncode == 1 and "Traceback" not in stderr
+    assert stderr.count("publish_rate") == 1, stderr  # the refusal names the parameter once

@@ -6,16 +6,17 @@
   of pre-serialized messages with the same chunking (the library's own limit);
 - where the time goes per sample (``torquefree_ros.bench.pipeline``): the exact propagator, CDR
   encoding, bag writing in blocks, and the node's recorder one sample at a time;
-- peak memory (max RSS) of a fresh process writing each bag, beside one that only imports: flat
-  means it does not grow with the duration.
+- peak memory (VmHWM, the process's own high-water mark, reset at exec) of a fresh process writing
+  each bag, beside one that only imports: flat means it does not grow with the duration.
+
+Every timing is repeated (``--repeats``, ours and raw interleaved) and given as median (min–max).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import platform
-import resource
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -23,13 +24,16 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from bench_report import Report, spread  # noqa: E402
 
 RATE = 100.0
 CASES = {"1 min": 60.0, "1 h": 3600.0}
 
 
 def _ours(duration: float, output: Path) -> float:
-    from torquefree_ros.bag_cli import write_scene_bag
+    from torquefree_ros.bag.offline import write_scene_bag
     from torquefree_ros.core.scene import default_scene
 
     started = time.perf_counter()
@@ -62,8 +66,11 @@ def _child(case: str) -> None:
         if case != "imports":
             seconds = _ours(CASES[case], Path(tmp) / "bag")
         else:
-            import torquefree_ros.bag_cli  # noqa: F401
-    print(json.dumps({"seconds": seconds, "max_rss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}))
+            import torquefree_ros.cli.bag  # noqa: F401
+    # not ru_maxrss: Linux keeps it across fork and exec, so it would report the parent's size
+    hwm_kib = next(int(line.split()[1]) for line in Path("/proc/self/status").read_text().splitlines()
+                   if line.startswith("VmHWM:"))
+    print(json.dumps({"seconds": seconds, "max_rss_mib": hwm_kib / 1024}))
 
 
 def _in_child(case: str) -> dict:
@@ -74,6 +81,8 @@ def _in_child(case: str) -> dict:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--child", help=argparse.SUPPRESS)
+    parser.add_argument("--repeats", type=int, default=3, help="runs of each measurement (default: 3)")
+    parser.add_argument("--output", help="also write the report here (make bench-bag: docs/bench/bag.md)")
     args = parser.parse_args()
     if args.child:
         _child(args.child)
@@ -81,33 +90,39 @@ def main() -> int:
     import mcap
     import numpy
 
-    print(f"machine: {platform.processor() or platform.machine()}, {platform.python_implementation()} "
-          f"{platform.python_version()}, numpy {numpy.__version__}, mcap {mcap.__version__ if hasattr(mcap, '__version__') else '?'}")
-    print(f"{'bag':>6} {'samples':>8} {'ours s':>8} {'samples/s':>10} {'raw mcap s':>11} {'raw/ours':>9}")
-    from torquefree_ros.cdr import encode_stamped_doubles
+    from torquefree_ros.bag.cdr import encode_stamped_doubles
 
+    report = Report("Bag writing cost", "make bench-bag")
+    report.add(f"mcap {getattr(mcap, '__version__', '?')}; {args.repeats} runs each, median (min–max); "
+               "a sample = angular_velocity + attitude at 100 Hz")
+    report.add("")
+    report.add("| bag | samples | `torquefree_bag` s | samples/s | raw mcap writer s | raw / ours |")
+    report.add("|---|---|---|---|---|---|")
     for name, duration in CASES.items():
-        with tempfile.TemporaryDirectory() as tmp:
-            ours = _ours(duration, Path(tmp) / "ours")
-            samples = int(duration * RATE) + 1
-            stamps = numpy.arange(samples) * 10_000_000
-            omega = encode_stamped_doubles(stamps, "body", numpy.ones((samples, 3)))
-            q = encode_stamped_doubles(stamps, "world", numpy.ones((samples, 4)))
-            messages = [m for pair in zip(omega, q) for m in pair]
-            del omega, q
-            raw = _raw_mcap(messages, Path(tmp) / "raw.mcap")
-        print(f"{name:>6} {samples:>8} {ours:>8.3f} {samples / ours:>10.0f} {raw:>11.3f} {raw / ours:>9.2f}"
-              f"   (raw: {raw / len(messages) * 1e6:.2f} us/message, ours: {ours / len(messages) * 1e6:.2f})")
+        samples = int(duration * RATE) + 1
+        stamps = numpy.arange(samples) * 10_000_000
+        omega = encode_stamped_doubles(stamps, "body", numpy.ones((samples, 3)))
+        q = encode_stamped_doubles(stamps, "world", numpy.ones((samples, 4)))
+        messages = [m for pair in zip(omega, q) for m in pair]
+        del omega, q
+        ours, raw = [], []
+        for _ in range(args.repeats):
+            with tempfile.TemporaryDirectory() as tmp:
+                ours.append(_ours(duration, Path(tmp) / "ours"))
+                raw.append(_raw_mcap(messages, Path(tmp) / "raw.mcap"))
+        report.add(f"| {name} | {samples:,} | {spread(ours)} | {spread([samples / t for t in ours])} | "
+                   f"{spread(raw)} | {spread([r / o for r, o in zip(raw, ours)])} |")
     from torquefree_ros.bench.pipeline import sample_costs
 
-    costs = sample_costs()
-    print("per sample (us, CPU): " + ", ".join(f"{stage} {cost:.2f}" for stage, cost in costs.items()))
-    baseline = _in_child("imports")
-    print(f"peak memory (max RSS): imports only {baseline['max_rss_mib']:.0f} MiB", end="")
-    for name in CASES:
-        result = _in_child(name)
-        print(f", {name} bag {result['max_rss_mib']:.0f} MiB", end="")
-    print()
+    report.add("")
+    costs = [sample_costs() for _ in range(args.repeats)]
+    report.add("per sample (µs of CPU): " + ", ".join(
+        f"{stage} {spread([c[stage] for c in costs])}" for stage in costs[0]))
+    memory = {case: [_in_child(case)["max_rss_mib"] for _ in range(args.repeats)] for case in ("imports", *CASES)}
+    report.add("peak memory (VmHWM, MiB, a fresh process each): " + ", ".join(
+        f"{'imports only' if case == 'imports' else case + ' bag'} {statistics.median(values):.0f}"
+        for case, values in memory.items()))
+    report.save(args.output)
     return 0
 
 

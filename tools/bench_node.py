@@ -2,21 +2,23 @@
 """Benchmark of the simulator node's ROS layer (a script, not a test): prints what it measured and
 the machine it ran on.
 
-- real time: the highest publish_rate at which fewer than 1 % of samples are late (published more
-  than one period after they were due), with a subscriber in another process receiving both topics;
+- real time: the share of late samples (published more than one period after they were due) at each
+  publish_rate, with a subscriber in another process receiving both topics, beside the machine's own
+  floor: a bare loop that only waits for each deadline the way the node does, at the same rate, run
+  right after, with its late share by the same rule;
 - CPU use of the node process at 100 Hz;
 - samples/s as fast as possible (real_time_factor 0, /clock included);
 - cost per sample, side by side in one run: the core's block evaluation, the CDR encoding, the
   publishes (``torquefree_ros.bench.pipeline``), and, for comparison, rclpy's message-object path.
 
 The node runs in this process (its loop thread plus an executor thread, as under `ros2 run`).
+Every figure is repeated (``--repeats``) and given as median (min–max).
 """
 
 from __future__ import annotations
 
 import argparse
 import os
-import platform
 import subprocess
 import sys
 import threading
@@ -24,6 +26,9 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from bench_report import Report, spread  # noqa: E402
 
 SUBSCRIBER = r"""
 import sys, rclpy
@@ -55,7 +60,7 @@ class NodeUnderTest:
         from rclpy.executors import SingleThreadedExecutor
         from rclpy.parameter import Parameter
 
-        from torquefree_ros.sim_node import TorqueFreeSim
+        from torquefree_ros.ros.node import TorqueFreeSim
 
         self.context = rclpy.Context()
         rclpy.init(context=self.context)
@@ -120,6 +125,22 @@ def measure_run(seconds: float, **parameters) -> dict:
     return {"published": published, "late": late, "cpu": cpu / wall, "wall": wall, "received": received}
 
 
+def sleep_floor(rate: float, seconds: float) -> float:
+    """The share of ticks of a bare loop that wake more than one period after their deadline, waiting
+    as the node's sample loop waits (``threading.Event.wait`` until the deadline) and doing nothing
+    else: what the machine's scheduler alone costs at this rate."""
+    period, wake = 1.0 / rate, threading.Event()
+    ticks = max(1, int(seconds * rate))
+    start, late = time.monotonic(), 0
+    for k in range(ticks):
+        due = start + k * period
+        delay = due - time.monotonic()
+        if delay > 0:
+            wake.wait(delay)
+        late += time.monotonic() - due > period
+    return late / ticks
+
+
 def message_object_cost(samples: int = 20000) -> float:
     """Seconds per sample of the path the node avoids: filling message objects and rclpy publish(msg)."""
     import rclpy
@@ -158,44 +179,53 @@ def message_object_cost(samples: int = 20000) -> float:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--seconds", type=float, default=5.0, help="duration of each run (default 5)")
-    parser.add_argument("--rates", type=float, nargs="+", default=[100, 500, 1000, 2000, 4000, 8000])
+    parser.add_argument("--seconds", type=float, default=5.0, help="duration of each run (default: 5)")
+    parser.add_argument("--rates", type=float, nargs="+", default=[100, 500, 1000, 2000, 4000])
+    parser.add_argument("--repeats", type=int, default=3, help="runs of each measurement (default: 3)")
+    parser.add_argument("--output", help="also write the report here (make bench-node: docs/bench/node.md)")
     args = parser.parse_args(argv)
     _isolate_dds()
-    import numpy
     import rclpy  # noqa: F401
 
-    print(f"machine: {platform.machine()}, {os.cpu_count()} cores, {platform.platform()}; "
-          f"python {platform.python_version()}, numpy {numpy.__version__}, ROS domain {os.environ['ROS_DOMAIN_ID']}")
-
-    print("\nreal time (real_time_factor 1), both topics, a subscriber in another process:")
-    print("| publish_rate (Hz) | published | late | late % | received w/q (whole run) | node CPU (% of a core) |")
-    print("|---|---|---|---|---|---|")
-    sustained = 0.0
+    report = Report("Simulator node cost", "make bench-node")
+    report.add(f"{args.repeats} runs of {args.seconds:g} s each, median (min–max); ROS domain {os.environ['ROS_DOMAIN_ID']}")
+    report.add("")
+    report.add("Real time (real_time_factor 1), both topics, a subscriber in another process. A sample is late when it")
+    report.add("goes out more than one period after its stamp; the sleep floor is a bare loop that only waits for")
+    report.add("each deadline the same way, run right after at the same rate: lateness the node cannot go below.")
+    report.add("")
+    report.add("| publish_rate (Hz) | late samples, % | sleep floor, late ticks % | node CPU, % of a core | received / published |")
+    report.add("|---|---|---|---|---|")
     for rate in args.rates:
-        r = measure_run(args.seconds, publish_rate=float(rate), qos_depth=1000)
-        late_share = r["late"] / max(r["published"], 1)
-        print(f"| {rate:g} | {r['published']} | {r['late']} | {100 * late_share:.2f} | "
-              f"{r['received'][0]}/{r['received'][1]} | {100 * r['cpu']:.1f} |", flush=True)
-        if late_share < 0.01 and r["published"] >= 0.99 * rate * r["wall"]:
-            sustained = max(sustained, rate)
-    print(f"highest rate sustained in real time with < 1 % late samples: {sustained:g} Hz")
+        late, floor, cpu, received = [], [], [], []
+        for _ in range(args.repeats):
+            r = measure_run(args.seconds, publish_rate=float(rate), qos_depth=1000)
+            late.append(100 * r["late"] / max(r["published"], 1))
+            cpu.append(100 * r["cpu"])
+            received.append(min(r["received"]) / max(r["published"], 1))
+            floor.append(100 * sleep_floor(rate, args.seconds))
+        report.add(f"| {rate:g} | {spread(late)} | {spread(floor)} | {spread(cpu)} | "
+                   f"{spread(received)} (the subscriber counts the whole run) |")
 
-    r = measure_run(args.seconds, publish_rate=100.0, real_time_factor=0.0, qos_depth=1000)
-    print(f"\nas fast as possible (real_time_factor 0, /clock published): {r['published'] / r['wall']:.0f} samples/s, "
-          f"subscriber received {r['received'][0]}/{r['received'][1]} (reliable keep-last 1000 drops what it "
-          f"cannot take), node CPU {100 * r['cpu']:.0f} % of a core")
+    throughput = []
+    for _ in range(args.repeats):
+        r = measure_run(args.seconds, publish_rate=100.0, real_time_factor=0.0, qos_depth=1000)
+        throughput.append(r["published"] / r["wall"])
+    report.add("")
+    report.add(f"As fast as possible (real_time_factor 0, /clock published, a subscriber in another process): "
+               f"{spread(throughput)} samples/s.")
 
     from torquefree_ros.bench.pipeline import sample_costs
 
-    costs = sample_costs()
-    print("\ncost per sample (us), blocks of 256, no subscriber, one process (CPU time):")
-    for stage in ("propagate (exact)", "CDR encoding", "node publishes (3 raw, no subscriber)"):
-        print(f"  {stage}: {costs[stage]:.2f}")
-    total = sum(costs[stage] for stage in ("propagate (exact)", "CDR encoding", "node publishes (3 raw, no subscriber)"))
-    print(f"  total: {total:.2f} us -> at most {1e6 / total:.0f} samples/s")
-    print(f"  for comparison, filling message objects and rclpy publish(msg): "
-          f"{1e6 * message_object_cost():.2f} us per sample")
+    stages = ("propagate (exact)", "CDR encoding", "node publishes (3 raw, no subscriber)")
+    costs = [sample_costs() for _ in range(args.repeats)]
+    objects = [1e6 * message_object_cost() for _ in range(args.repeats)]
+    report.add("")
+    report.add("Cost per sample (µs of CPU), blocks of 256, no subscriber, one process: " + ", ".join(
+        f"{stage} {spread([c[stage] for c in costs])}" for stage in stages)
+        + f"; total {spread([sum(c[stage] for stage in stages) for c in costs])}. For comparison, filling message "
+        f"objects and rclpy publish(msg): {spread(objects)}.")
+    report.save(args.output)
     return 0
 
 

@@ -1,4 +1,4 @@
-"""``torquefree_plot BAG_OR_SCENE``: the pictures of seed 000 for a run, as PNG files.
+"""The pictures of seed 000 for a run, as PNG files (``torquefree_plot``, ``cli.plot``).
 
 * ``NAME_rates.png``: the body rates ``w_i(t)``;
 * ``NAME_polhode.png``: the path of ``H`` in body axes on the momentum sphere ``|H| = const``, with
@@ -13,21 +13,16 @@ matplotlib is an optional extra: ``pip install 'torquefree_ros[plot]'``.
 
 from __future__ import annotations
 
-import argparse
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 
-from .bag import BagError
 from .bag.reader import BagReader, bag_information
 from .bag.samples import INERTIA_KEY
-from .cdr import decode_stamped_doubles
+from .bag.cdr import decode_stamped_doubles
 from .core.rigid_body import RigidBody
-from .core.scene import SceneError
 from .core.simulation import Simulation
-from .scene_library import resolve_scene
 
 MAX_SAMPLES = 200_000
 
@@ -48,11 +43,12 @@ def _pyplot():
 
 
 def runs_from_scene(scene, duration: float | None, rate: float):
-    """``(label, times, omega_B)`` per member; the default duration is two polhode periods."""
+    """``(label, times, omega_B)`` per member. The default duration is the scene's ``watch`` (how long
+    its story takes, e.g. a damper's), else two polhode periods."""
     runs = []
     for index, member in enumerate(scene.members()):
         simulation = Simulation(member.propagator(), rate)
-        span = duration
+        span = duration if duration is not None else scene.watch
         if span is None:
             period = simulation.regime.polhode_period
             span = 2.0 * period if math.isfinite(period) and period > 0 else 20.0
@@ -87,89 +83,87 @@ def bag_inertia(path: Path):
 
 
 def draw(runs, body: RigidBody, name: str, output_dir: Path) -> list[Path]:
+    """One run: its three rates, its path with its energy ellipsoid. A family (an energy sweep): one
+    colour per member by its energy ``2T``, with a colour bar instead of a legend."""
     plt = _pyplot()
     output_dir.mkdir(parents=True, exist_ok=True)
+    two_T = [float(2.0 * body.kinetic_energy(omega[0])) for _, _, omega in runs]
+    colour = _energy_colours(plt, two_T)
     written = []
 
-    figure, axes = plt.subplots(figsize=(9, 4.5))
-    for label, times, omega in runs:
+    if len(runs) == 1:
+        figure, axes = plt.subplots(figsize=(9, 4.5))
+        _, times, omega = runs[0]
         for i, style in zip(range(3), ("-", "--", ":")):
-            axes.plot(times, omega[:, i], style, lw=1, label=f"w{i + 1} ({label})" if len(runs) > 1 else f"w{i + 1}")
-    axes.set(xlabel="t (s)", ylabel="body rate (rad/s)", title=f"{name}: body rates")
-    axes.legend(fontsize=7, ncol=3 if len(runs) > 1 else 1)
-    written.append(_save(figure, plt, output_dir / f"{name}_rates.png"))
+            axes.plot(times, omega[:, i], style, lw=1, label=f"w{i + 1}")
+        axes.set(xlabel="t (s)", ylabel="body rate (rad/s)", title=f"{name}: body rates")
+        axes.legend(fontsize=8)
+    else:
+        figure, all_axes = plt.subplots(3, 1, figsize=(9, 7), sharex=True)
+        for (_, times, omega), energy in zip(runs, two_T):
+            for i, axes in enumerate(all_axes):
+                axes.plot(times, omega[:, i], lw=1, color=colour.to_rgba(energy))
+        for i, axes in enumerate(all_axes):
+            axes.set(ylabel=f"w{i + 1} (rad/s)")
+        all_axes[0].set_title(f"{name}: body rates, one colour per energy")
+        all_axes[-1].set(xlabel="t (s)")
+        figure.colorbar(colour, ax=all_axes, label="2T (J)")
+    written.append(_save(figure, plt, output_dir / f"{name}_rates.png", tight=len(runs) == 1))
 
-    figure = plt.figure(figsize=(7, 7))
+    figure = plt.figure(figsize=(7.5, 7))
     axes = figure.add_subplot(projection="3d")
     u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 40), np.linspace(0, np.pi, 20))
-    sphere = np.stack([np.cos(u) * np.sin(v), np.sin(u) * np.sin(v), np.cos(v)])
-    H_first = body.angular_momentum(runs[0][2]) @ body.principal_axes
-    radius = float(np.linalg.norm(H_first[0]))
-    axes.plot_wireframe(*(radius * sphere), color="0.8", lw=0.4)
-    if len(runs) == 1:  # one energy: its ellipsoid, semi-axes sqrt(2 T I_i)
-        two_T = float(2.0 * body.kinetic_energy(runs[0][2][0]))
-        axes.plot_wireframe(*(np.sqrt(two_T * body.moments)[:, None, None] * sphere), color="tab:orange", lw=0.3)
-    for label, _, omega in runs:
+    unit_sphere = np.stack([np.cos(u) * np.sin(v), np.sin(u) * np.sin(v), np.cos(v)])
+    radius = float(np.linalg.norm(body.angular_momentum(runs[0][2][0])))
+    axes.plot_wireframe(*(radius * unit_sphere), color="0.75", lw=0.4)
+    handles = [plt.Line2D([], [], color="0.75", lw=1, label=f"momentum sphere |H| = {radius:.4g}")]
+    reach = radius
+    if len(runs) == 1:  # one energy: its ellipsoid H . I^-1 H = 2T, semi-axes sqrt(2T I_i)
+        semi_axes = np.sqrt(two_T[0] * body.moments)
+        axes.plot_wireframe(*(semi_axes[:, None, None] * unit_sphere), color="tab:orange", lw=0.3)
+        handles.append(plt.Line2D([], [], color="tab:orange", lw=1, label=f"energy ellipsoid 2T = {two_T[0]:.4g} J"))
+        reach = max(reach, float(semi_axes.max()))
+    for (_, _, omega), energy in zip(runs, two_T):
         H_P = body.angular_momentum(omega) @ body.principal_axes
-        axes.plot(*H_P.T, lw=1.5, label=label)
-    axes.set(xlabel="H1", ylabel="H2", zlabel="H3", title=f"{name}: polhode on the momentum sphere")
+        axes.plot(*H_P.T, lw=1.6, color="tab:blue" if len(runs) == 1 else colour.to_rgba(energy))
+    if len(runs) == 1:
+        handles.append(plt.Line2D([], [], color="tab:blue", lw=1.6, label="path of H (polhode)"))
+    else:
+        figure.colorbar(colour, ax=axes, shrink=0.6, label="2T (J) of each path of H")
+    for set_limits in (axes.set_xlim, axes.set_ylim, axes.set_zlim):  # equal scales: a sphere looks round
+        set_limits(-reach, reach)
     axes.set_box_aspect((1, 1, 1))
-    written.append(_save(figure, plt, output_dir / f"{name}_polhode.png"))
+    axes.set(xlabel="H1", ylabel="H2", zlabel="H3", title=f"{name}: polhode on the momentum sphere (principal axes)")
+    axes.legend(handles=handles, loc="upper left", fontsize=8)
+    written.append(_save(figure, plt, output_dir / f"{name}_polhode.png", tight=False))
 
     figure, axes = plt.subplots(1, 3, figsize=(12, 4))
-    for label, times, omega in runs:
+    for (_, times, omega), energy in zip(runs, two_T):
         omega_P = body.to_principal(omega)
         rates = np.gradient(omega_P, times, axis=0)
         for i in range(3):
-            axes[i].plot(omega_P[:, i], rates[:, i], lw=1)
+            axes[i].plot(omega_P[:, i], rates[:, i], lw=1, color=None if len(runs) == 1 else colour.to_rgba(energy))
     for i in range(3):
         axes[i].set(xlabel=f"w{i + 1} (rad/s)", ylabel=f"dw{i + 1}/dt (rad/s^2)",
                     title=f"I{i + 1} = {body.moments[i]:.4g} kg m^2")
     figure.suptitle(f"{name}: phase planes of the Duffing analog (principal axes)")
-    written.append(_save(figure, plt, output_dir / f"{name}_phase.png"))
+    if len(runs) > 1:
+        figure.colorbar(colour, ax=axes, label="2T (J)")
+    written.append(_save(figure, plt, output_dir / f"{name}_phase.png", tight=len(runs) == 1))
     return written
 
 
-def _save(figure, plt, path: Path) -> Path:
-    figure.tight_layout()
+def _energy_colours(plt, two_T):
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import Normalize
+
+    low, high = min(two_T), max(two_T)
+    return ScalarMappable(Normalize(low, high if high > low else low + 1.0), plt.get_cmap("viridis"))
+
+
+def _save(figure, plt, path: Path, tight: bool = True) -> Path:
+    if tight:  # (figures with a colour bar or a 3-D legend lay themselves out)
+        figure.tight_layout()
     figure.savefig(path, dpi=110)
     plt.close(figure)
     return path
-
-
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="torquefree_plot", description=__doc__.splitlines()[0])
-    parser.add_argument("source", help="a bag directory, a scene file, or a library scene name")
-    parser.add_argument("--output-dir", default=".", help="where the PNG files go (default: here)")
-    parser.add_argument("--duration", type=float, help="simulated seconds for a scene (default: two polhode periods)")
-    parser.add_argument("--rate", type=float, default=100.0, help="samples per second for a scene (default 100)")
-    parser.add_argument("--inertia", type=float, nargs="+", help="the body's inertia (3 or 6 numbers) for a bag")
-    args = parser.parse_args(argv)
-    if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
-        parser.error(f"--duration: must be a positive number of seconds, got {args.duration!r}")
-    if not (math.isfinite(args.rate) and args.rate > 0):
-        parser.error(f"--rate: must be a positive number, got {args.rate!r}")
-    source = Path(args.source)
-    try:
-        if (source / "metadata.yaml").is_file():
-            inertia = args.inertia or bag_inertia(source)
-            if inertia is None:
-                raise PlotError(f"bag '{source}': it does not store the body's inertia; give --inertia")
-            body = RigidBody.from_inertia(inertia, "--inertia")
-            runs, name = runs_from_bag(source), source.name
-        else:
-            scene = resolve_scene(args.source)
-            body = RigidBody.from_inertia(args.inertia or scene.inertia, "--inertia")
-            name = Path(scene.source).stem if scene.source.endswith((".yaml", ".yml")) else "default"
-            runs = runs_from_scene(scene, args.duration, args.rate)
-        written = draw(runs, body, name.replace(" ", "_"), Path(args.output_dir))
-    except (PlotError, SceneError, BagError, ValueError) as error:
-        print(f"torquefree_plot: {error}", file=sys.stderr)
-        return 2
-    for path in written:
-        print(path)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Callable, NamedTuple
 
-from ..cdr import encode_stamped_doubles, encode_times
+from .cdr import encode_stamped_doubles, encode_times
 from .qos import BagQos
 from .writer import BagWriter
 

@@ -20,7 +20,7 @@ def sample_costs(samples: int = 20000) -> dict:
 
     from ..bag import BagWriter
     from ..bag.samples import SampleRecorder, encode_block
-    from ..cdr import encode_times
+    from ..bag.cdr import encode_times
     from ..core.scene import default_scene
     from ..core.simulation import Simulation
 
@@ -66,17 +66,3 @@ def sample_costs(samples: int = 20000) -> dict:
                     recorder.write_sample(int(stamps[i]), columns, i)
             costs["bag write, node recorder (per sample)"] = time.process_time() - t5
     return {stage: seconds / samples * 1e6 for stage, seconds in costs.items()}
-
-
-def bag_throughput(duration: float = 600.0) -> dict:
-    """``torquefree_bag`` on the default scene: samples/s for a bag of ``duration`` at 100 Hz."""
-    from ..bag_cli import write_scene_bag
-    from ..core.scene import default_scene
-    from ..core.timing import sample_times
-
-    with tempfile.TemporaryDirectory() as tmp:
-        start = time.process_time()
-        write_scene_bag(default_scene(), Path(tmp) / "bag", duration, RATE)
-        seconds = time.process_time() - start
-    count = sample_times(duration, RATE).shape[0]
-    return {"duration_s": duration, "samples": count, "cpu_s": seconds, "samples_per_s": count / seconds}

@@ -12,6 +12,7 @@ Schema (SI units; every error names the file, the field path and the reason)::
     effects: [- NAME: {parameters}]             # see core.effects; none = torque-free
     accuracy: 1e-10                             # integrator tolerance when an effect needs one
     sweep: {members: 9}                         # optional: a family at the initial |H| (members())
+    watch: 900                                  # optional: seconds its story takes (plots show that long)
 
 An effect that changes the motion makes the scene need a numerical propagator; an output effect
 (``imu``, ``euler_angles``) only adds a topic. A scene that names nothing builds nothing: no effect
@@ -27,7 +28,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from . import bodies
+from . import bodies, library
 from .effects import MotionEffect, OutputEffect, parse_effect
 from .propagators import Propagator, make_propagator
 from .rigid_body import RigidBody
@@ -41,6 +42,7 @@ DEFAULT_SCENE_DATA = {
     "effects": [],
 }
 MIN_ACCURACY, MAX_ACCURACY = 1e-14, 1e-3
+MAX_WATCH = 3600.0  # s: an hour at 100 Hz is 360 001 samples, about what a plot can show
 
 
 class SceneError(ValueError):
@@ -60,6 +62,7 @@ class Scene:
     mass: float | None = None  # kg, for a body made of parts
     center_of_mass: tuple | None = None  # m, in the frame the parts are written in
     sweep_members: int | None = None  # an energy sweep: how many members
+    watch: float | None = None  # s: how long the scene must be watched to show what it is about
 
     @property
     def torque_free(self) -> bool:
@@ -99,9 +102,19 @@ def default_scene() -> Scene:
     return scene_from_mapping(DEFAULT_SCENE_DATA)
 
 
-def load_scene(path) -> Scene:
-    """Read and validate a scene file."""
-    path = Path(path)
+def load_scene(path_or_name) -> Scene:
+    """Read and validate a scene: a file, or the name of a library scene (``explorer1``;
+    ``default`` is the built-in default). An existing file wins over a library name."""
+    path = Path(path_or_name)
+    name = str(path_or_name)
+    if not path.is_file() and library.is_scene_name(name):
+        if name == "default":
+            return default_scene()
+        scenes = library.library_scenes()
+        if name not in scenes:
+            known = ", ".join(sorted(scenes)) or "none installed"
+            raise SceneError(f"scene: '{name}' is neither a file nor a library scene (library: {known})")
+        path = scenes[name]
     try:
         text_ = path.read_text(encoding="utf-8")
     except OSError as error:
@@ -110,6 +123,11 @@ def load_scene(path) -> Scene:
         raise SceneError(f"{path}: not UTF-8 text: {error}") from None
     try:
         data = yaml.load(text_, Loader=_SceneLoader)
+    except yaml.MarkedYAMLError as error:
+        mark = error.problem_mark or error.context_mark
+        where = f"{path}:{mark.line + 1}:{mark.column + 1}" if mark is not None else str(path)
+        what = "; ".join(part for part in (error.context, error.problem) if part)
+        raise SceneError(f"{where}: not valid YAML: {what}") from None
     except yaml.YAMLError as error:
         raise SceneError(f"{path}: not valid YAML: {error}") from None
     return scene_from_mapping(data, source=str(path))
@@ -151,6 +169,7 @@ def scene_from_mapping(data, source: str = "<built-in default>") -> Scene:
         mass=body.get("mass"),
         center_of_mass=body.get("center_of_mass"),
         sweep_members=values["sweep"]["members"] if values["sweep"] else None,
+        watch=values["watch"],
     )
 
 
@@ -196,6 +215,7 @@ _TOP = {
     "effects": Param(listing(parse_effect), []),
     "accuracy": Param(number(MIN_ACCURACY, MAX_ACCURACY), None),
     "sweep": Param(mapping({"members": Param(integer(2, 1000), help="how many initial states, 2 or more")}), None),
+    "watch": Param(number(positive=True, maximum=MAX_WATCH, unit="s"), None),
 }
 
 

@@ -11,14 +11,17 @@ import numpy as np
 _COUNT_RTOL = 1e-12
 
 
-def sample_times(duration: float, rate: float) -> np.ndarray:
-    """``k / rate`` for ``k = 0 ... floor(duration * rate)``, both ends included."""
+def sample_count(duration: float, rate: float) -> int:
+    """How many samples ``k = 0 ... floor(duration * rate)`` there are (both ends included)."""
     if not (math.isfinite(duration) and duration >= 0.0):
         raise ValueError(f"duration: must be a finite number >= 0, got {duration!r}")
     rate = check_rate(rate)
-    product = duration * rate
-    last = math.floor(product * (1.0 + _COUNT_RTOL))
-    return np.arange(last + 1) / rate
+    return math.floor(duration * rate * (1.0 + _COUNT_RTOL)) + 1
+
+
+def sample_times(duration: float, rate: float) -> np.ndarray:
+    """``k / rate`` for ``k = 0 ... floor(duration * rate)``, both ends included."""
+    return np.arange(sample_count(duration, rate)) / check_rate(rate)
 
 
 # A sample period shorter than a microsecond is not a use case; it also keeps every stamp distinct.

@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
 
-# |q| may differ from 1 by this much before it is called "not a unit quaternion" rather than
-# silently renormalised: measured attitudes in YAML files carry about 6 to 9 digits.
-UNIT_QUATERNION_RTOL = 1e-6
+# Hand-typed quaternions: tf2 accepts |q|^2 within 0.01 of 1 and normalises (its
+# QUATERNION_NORMALIZATION_TOLERANCE); the same rule here, so 3-4 typed digits are enough.
+UNIT_QUATERNION_TOLERANCE = 0.01
+# A norm within this many rounding units of 1 is unit to float64 precision (sin/cos, a normalised
+# quaternion printed with repr): such an input is used bit for bit, not divided by 1 +- ulps.
+UNIT_QUATERNION_ROUNDING = 4 * np.finfo(float).eps
 
 
 def finite_vector(value, name: str, lengths: Sequence[int] = (3,)) -> np.ndarray:
@@ -26,16 +30,24 @@ def finite_vector(value, name: str, lengths: Sequence[int] = (3,)) -> np.ndarray
 
 
 def unit_quaternion(value, name: str = "orientation") -> np.ndarray:
-    """An ``(x, y, z, w)`` quaternion, normalised; zero or far-from-unit norms are refused."""
+    """An ``(x, y, z, w)`` quaternion as the rotation it is meant to be.
+
+    The initial state is exactly the input when ``|q|`` is 1 to float64 rounding
+    (``| |q| - 1 | <= 4 eps``): no bit changes. Otherwise ``q / |q|`` when ``| |q|^2 - 1 | <= 0.01``
+    (tf2's rule: hand-typed values such as ``[0.2, 0.1, -0.3, 0.927]``); beyond that the input is
+    refused, with the normalised value in the message. ``|q|`` is ``math.hypot`` (correctly rounded
+    up to one ulp, the same on every machine and numpy version)."""
     q = finite_vector(value, name, (4,))
-    norm = float(np.linalg.norm(q))
+    norm = math.hypot(*q.tolist())
     if norm == 0.0:
         raise ValueError(f"{name}: the zero quaternion is not a rotation")
-    if abs(norm - 1.0) > UNIT_QUATERNION_RTOL:
+    if abs(norm - 1.0) <= UNIT_QUATERNION_ROUNDING:
+        return q
+    if abs(norm * norm - 1.0) > UNIT_QUATERNION_TOLERANCE:
+        normalised = ", ".join(f"{x:.6g}" for x in q / norm)
         raise ValueError(
-            f"{name}: expected a unit quaternion (x, y, z, w), got norm {norm:.9g} "
-            f"(allowed |norm - 1| <= {UNIT_QUATERNION_RTOL:g})"
-        )
+            f"{name}: expected a unit quaternion (x, y, z, w), got norm {norm:.6g} (allowed: |norm^2 - 1| <= "
+            f"{UNIT_QUATERNION_TOLERANCE:g}, as tf2); if [{normalised}] is the rotation you mean, give that")
     return q / norm
 
 

@@ -19,11 +19,11 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from .bag.samples import encode_block
-from .bag.writer import BagError
-from .core.propagators import Propagator
-from .core.simulation import SampleBlock, Simulation
-from .core.timing import restart_epoch_ns
+from ..bag.samples import encode_block
+from ..bag.writer import BagError
+from ..core.propagators import Propagator
+from ..core.simulation import SampleBlock, Simulation
+from ..core.timing import restart_epoch_ns
 
 # Samples computed ahead in one vectorised call: at most MAX_BLOCK, and at most this much wall time
 # of samples (a reset discards the rest). When paced, the block is also kept small enough that
@@ -40,6 +40,7 @@ class RunRequest:
     body_frame: str
     inertial_frame: str
     outputs: tuple = ()  # the scene's output effects: each publishes one more topic
+    configuration: str = ""  # which scene and which parameter overrides describe this run
 
     @property
     def wall_clock(self) -> bool:

@@ -7,19 +7,23 @@ two settings per method."""
 from __future__ import annotations
 
 import argparse
+import datetime
 import os
+import shlex
 import sys
 import time
 from pathlib import Path
 
-from .cases import BENCH_CASES, SMOKE_CASES, load_cases
-from .methods import all_methods
-from .report import case_table, describe_setting, environment, plot, targets, write_csv
-from .sweep import sweep
+from .common import console_command
+from ..bench.cases import BENCH_CASES, SMOKE_CASES, load_cases
+from ..bench.methods import all_methods
+from ..bench.report import case_table, describe_setting, environment, plot, targets, write_csv
+from ..bench.sweep import sweep
 
 DEFAULT_OUTPUT = Path("docs") / "bench"
 
 
+@console_command("torquefree_bench")
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="torquefree_bench", description=__doc__.split("\n\n")[0])
     parser.add_argument("--output-dir", type=Path, default=DEFAULT_OUTPUT, help="default: docs/bench")
@@ -58,6 +62,11 @@ def main(argv=None) -> int:
     sections = [_markdown(measurements, cases, env, plotted)]
     if not args.no_costs:
         sections.append(_costs_markdown(smoke=args.smoke))
+    command = "torquefree_bench " + " ".join(shlex.quote(a) for a in (sys.argv[1:] if argv is None else argv))
+    made = (f"Made by `{command.strip()}` (`make bench`) on {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d} "
+            f"in {(time.monotonic() - started) / 60:.0f} minutes.\n\n")
+    header, _, rest = sections[0].partition("\n\n")
+    sections[0] = f"{header}\n\n{made}{rest}"
     (args.output_dir / "results.md").write_text("\n".join(sections))
     print("\n".join(targets(measurements)))
     print(f"\nwrote {csv_path}, {args.output_dir / 'results.md'}"
@@ -97,8 +106,8 @@ def _markdown(measurements, cases, env, plotted: bool) -> str:
 
 
 def _costs_markdown(smoke: bool) -> str:
-    from .effects_cost import motion_effect_costs, output_costs
-    from .pipeline import bag_throughput, sample_costs
+    from ..bench.effects_cost import motion_effect_costs, output_costs
+    from ..bench.pipeline import sample_costs
 
     lines = ["## What each effect adds", "",
              "A scene computes only the effects it names. Per effect (body of the `imu` scene, RK4 step 10 ms):", "",
@@ -110,9 +119,8 @@ def _costs_markdown(smoke: bool) -> str:
     lines += [f"| {row['output']} | {row['us_per_sample']:.3f} |" for row in output_costs(number=5 if smoke else 20)]
     lines += ["", "## The whole cost of a sample (default scene, 100 Hz)", "", "| stage | µs per sample |", "|---|---|"]
     lines += [f"| {stage} | {cost:.2f} |" for stage, cost in sample_costs(2000 if smoke else 20000).items()]
-    bag = bag_throughput(60.0 if smoke else 600.0)
-    lines += ["", f"Offline bag (`torquefree_bag`, {bag['duration_s']:g} s at 100 Hz, {bag['samples']} samples): "
-                  f"{bag['cpu_s']:.2f} s CPU, {bag['samples_per_s']:,.0f} samples/s.", ""]
+    lines += ["", "The node's real-time figures and the bag writer's throughput are measured by `make bench-node` "
+                  "and `make bench-bag` ([node.md](node.md), [bag.md](bag.md)).", ""]
     return "\n".join(lines)
 
 

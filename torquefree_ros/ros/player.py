@@ -8,22 +8,18 @@ rule, ``ros_qos.offer_for_recorded``); messages go out as the recorded bytes, me
 
 from __future__ import annotations
 
-import argparse
 import math
-import sys
 import threading
 import time
 
-import rclpy
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+import rclpy.duration
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock
 
-from .bag import BagError, BagReader
-from .cdr import encode_times
-from .ros_process import shut_down
-from .ros_qos import message_class, offer_for_recorded
+from ..bag import BagReader
+from ..bag.cdr import encode_times
+from .qos import message_class, offer_for_recorded
 
 ACK_TIMEOUT = 10.0  # s; reliable subscribers get everything before the player exits
 
@@ -93,67 +89,3 @@ class BagPlayer(Node):
             self.publishers_by_topic[message.topic].publish(message.data)
             self.played += 1
 
-
-def _spin(executor) -> None:
-    try:
-        executor.spin()
-    except ExternalShutdownException:
-        pass  # SIGINT / SIGTERM: the main thread stops playing and shuts down
-
-
-def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="torquefree_play",
-                                     description="Replay a rosbag2 MCAP bag onto its topics with the recorded timing.")
-    parser.add_argument("bag", help="bag directory (or .mcap file)")
-    parser.add_argument("--rate", "-r", type=float, default=1.0, help="playback speed multiplier (default 1)")
-    parser.add_argument("--clock", type=float, nargs="?", const=40.0, default=0.0, metavar="HZ",
-                        help="publish the bag's time on /clock (default 40 Hz when given)")
-    parser.add_argument("--loop", "-l", action="store_true", help="start over at the end")
-    parser.add_argument("--topics", nargs="+", metavar="TOPIC", help="only these topics")
-    parser.add_argument("--wait-for-subscribers", type=float, default=0.0, metavar="SECONDS",
-                        help="first wait up to this long until every topic has a subscriber")
-    return parser
-
-
-def main(argv=None) -> int:
-    parser = _parser()
-    args = parser.parse_args(rclpy.utilities.remove_ros_args(sys.argv if argv is None else argv)[1:])
-    if not (math.isfinite(args.rate) and args.rate > 0):
-        parser.error(f"--rate: must be a finite number > 0, got {args.rate!r}")
-    if not (math.isfinite(args.clock) and args.clock >= 0):
-        parser.error(f"--clock: must be a rate in Hz > 0, got {args.clock!r}")
-    try:
-        bag = BagReader(args.bag)
-    except BagError as error:
-        print(f"torquefree_play: {error}", file=sys.stderr)
-        return 1
-    if args.topics:
-        unknown = sorted(set(args.topics) - {t.name for t in bag.topics})
-        if unknown:
-            parser.error(f"--topics: not in the bag: {', '.join(unknown)}")
-    rclpy.init(args=argv)
-    node = executor = spinner = None
-    try:
-        node = BagPlayer(bag, args.rate, args.clock, args.loop, args.topics)
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
-        spinner = threading.Thread(target=_spin, args=(executor,), daemon=True)
-        spinner.start()
-        if args.wait_for_subscribers > 0 and not node.wait_for_subscribers(args.wait_for_subscribers):
-            node.get_logger().warning("not every topic has a subscriber; playing anyway")
-        node.play()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except Exception:
-        if rclpy.ok():
-            raise  # otherwise a signal shut the context down mid-publish: a clean stop
-    finally:
-        if node is not None:
-            node.stop()
-            print(f"{args.bag}: played {node.played} messages", file=sys.stderr)
-        shut_down(executor, node, spinner)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

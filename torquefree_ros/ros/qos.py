@@ -8,7 +8,7 @@ import importlib
 from rclpy.duration import Duration
 from rclpy.qos import (DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSProfile, ReliabilityPolicy)
 
-from .bag.qos import INFINITE_NS, BagQos
+from ..bag.qos import INFINITE_NS, BagQos
 
 # A player keeps at least this many messages per topic for reliable delivery at high rates.
 PLAYER_DEPTH = 1000

@@ -1,33 +1,30 @@
-"""``torquefree_sim``: the attitude simulator node (default name ``torquefree``).
+"""The attitude simulator node ``TorqueFreeSim`` (default name ``torquefree``; ``cli.sim`` runs it).
 
-A thin layer over the dynamics core: parameters (``sim_parameters``) describe a simulation, the
+A thin layer over the dynamics core: parameters (``parameters``) describe a simulation, the
 sample loop (``sample_loop``) publishes it, ``~/reset`` restarts it, ``/diagnostics`` reports it.
 The node computes nothing physical itself.
 """
 
 from __future__ import annotations
 
-import sys
-
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.exceptions import InvalidParameterValueException
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from std_srvs.srv import Trigger
 
-from .bag import BagError, BagWriter
-from .bag.samples import ANGULAR_VELOCITY, ATTITUDE, CLOCK, SampleRecorder, sample_qos
-from .ros_process import shut_down
-from .ros_qos import message_class
+from ..bag import BagError, BagWriter
+from ..bag.samples import ANGULAR_VELOCITY, ATTITUDE, CLOCK, INERTIA_KEY, SampleRecorder, sample_qos
+from ..core.bodies import tensor_elements
+from .parameters import SPEC_BY_NAME, SPECS, ConfigurationError, check_value, rejection, run_request
+from .qos import message_class
 from .sample_loop import RunRequest, SampleLoop
-from .sim_parameters import SPEC_BY_NAME, SPECS, ConfigurationError, check_value, rejection, run_request
 
 DIAGNOSTICS_PERIOD = 1.0  # s
+_INERTIA_CHANGED = "torquefree_ros.inertia_changed_at_a_reset"
 # The share of late samples above which /diagnostics reports a warning.
 LATE_WARNING_FRACTION = 0.01
 
@@ -60,6 +57,10 @@ class _Publishers:
                     message_class(output.message_type), output.topic, self._qos)
                 self._outputs.add(output.topic)
 
+    def topic_names(self) -> list[str]:
+        """Every topic published now, resolved (``/angular_velocity``, ``/attitude``, ...)."""
+        return [publisher.topic_name for publisher in self._by_topic.values()]
+
     def retire(self, request: RunRequest) -> None:
         """Destroy the output publishers ``request`` no longer uses (after the loop took it)."""
         for topic in self._outputs - {output.topic for output in request.outputs}:
@@ -86,7 +87,11 @@ class TorqueFreeSim(Node):
             request = self._run_request()
         except InvalidParameterValueException as error:
             super().destroy_node()
-            raise ConfigurationError(str(error).split("Reason: ", 1)[-1]) from None
+            # rclpy's text is "Invalid parameter value (...) for parameter. Reason: REASON: NAME"; our
+            # reasons already start with the name
+            reason = str(error).split("Reason: ", 1)[-1]
+            name = f": {error.args[0].rsplit(': ', 1)[-1]}" if error.args else ""
+            raise ConfigurationError(reason[: -len(name)] if name and reason.endswith(name) else reason) from None
         except ValueError as error:
             super().destroy_node()
             raise ConfigurationError(str(error)) from None
@@ -102,7 +107,11 @@ class TorqueFreeSim(Node):
         self.create_timer(DIAGNOSTICS_PERIOD, self._publish_diagnostics)
         self._loop = SampleLoop(self._outputs, self.context.ok, self.get_logger(), self._bag)
         simulation = self._loop.start(request)  # last: the first sample is due now
-        self.get_logger().info(f"start: {simulation.summary()}")
+        self._note_inertia(simulation)
+        topics = ", ".join(self._outputs.topic_names())
+        recording = f"recording bag {self._bag.writer.path}" if self._bag is not None else "not recording"
+        self.get_logger().info(f"start: publishing {topics}; {recording}; {request.configuration}; "
+                               f"{simulation.summary()}")
 
     @property
     def sample_loop(self) -> SampleLoop:
@@ -117,6 +126,19 @@ class TorqueFreeSim(Node):
         except BagError as error:
             super().destroy_node()
             raise ConfigurationError(f"record_bag: {error}") from None
+
+    def _note_inertia(self, simulation) -> None:
+        """The bag stores the body's inertia (as torquefree_bag does) so that it can be plotted; a
+        reset that changes the inertia removes it: no single value describes the recording then."""
+        if self._bag is None:
+            return
+        custom = self._bag.writer.metadata.custom_data
+        text = " ".join(repr(x) for x in tensor_elements(simulation.body.tensor))
+        if custom.get(INERTIA_KEY, text) == text and not custom.get(_INERTIA_CHANGED):
+            custom[INERTIA_KEY] = text
+        else:
+            custom.pop(INERTIA_KEY, None)
+            custom[_INERTIA_CHANGED] = "true"
 
     def destroy_node(self):
         if self._loop is not None:
@@ -170,8 +192,9 @@ class TorqueFreeSim(Node):
             self.get_logger().warning(response.message)
             return response
         self._outputs.retire(run)
+        self._note_inertia(simulation)
         response.success = True
-        response.message = simulation.summary()
+        response.message = f"{run.configuration}; {simulation.summary()}"
         self.get_logger().info(f"reset: {response.message}")
         return response
 
@@ -217,31 +240,3 @@ class TorqueFreeSim(Node):
         stamp = loop.clock_now_ns
         array.header.stamp.sec, array.header.stamp.nanosec = divmod(stamp, 1_000_000_000)
         self._diagnostics.publish(array)
-
-
-def main(args=None) -> int:
-    """``ros2 run torquefree_ros torquefree_sim [--ros-args ...]``: exit status 0 on SIGINT/SIGTERM,
-    1 when the parameters do not describe a usable simulation."""
-    rclpy.init(args=args)
-    node = executor = None
-    try:
-        executor = SingleThreadedExecutor()
-        node = TorqueFreeSim()
-        executor.add_node(node)
-        executor.spin()
-    except ConfigurationError as error:
-        rclpy.logging.get_logger("torquefree").fatal(f"cannot start: {error}")
-        return 1
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except Exception:
-        if rclpy.ok():
-            raise
-        # a signal shut the context down while the node was starting: that is a clean stop too
-    finally:
-        shut_down(executor, node)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -13,13 +13,12 @@ from dataclasses import dataclass
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
 from rclpy.parameter import Parameter
 
-from .core import PROPAGATORS
-from .core.rigid_body import RigidBody
-from .core.scene import SceneError, default_scene
-from .core.timing import MAX_RATE, check_rate
-from .core.validation import finite_vector, unit_quaternion
+from ..core import PROPAGATORS
+from ..core.rigid_body import RigidBody
+from ..core.scene import SceneError, default_scene, load_scene
+from ..core.timing import MAX_RATE, check_rate
+from ..core.validation import finite_vector, unit_quaternion
 from .sample_loop import RunRequest
-from .scene_library import resolve_scene
 
 _NUMBER = (Parameter.Type.INTEGER, Parameter.Type.DOUBLE)
 _ARRAY = (Parameter.Type.INTEGER_ARRAY, Parameter.Type.DOUBLE_ARRAY, Parameter.Type.BYTE_ARRAY)
@@ -69,7 +68,12 @@ SPECS = (
                   "not set or [] = the scene's." + _AT_RESET, "3 finite numbers"),
     ParameterSpec("orientation", None,
                   "Initial attitude q_NB (x, y, z, w), body to inertial; overrides the scene; "
-                  "not set or [] = the scene's." + _AT_RESET, "4 finite numbers with norm 1 (within 1e-6)"),
+                  "not set or [] = the scene's; normalised when |q|^2 is within 0.01 of 1 (tf2's rule)." + _AT_RESET,
+                  "4 finite numbers, |q|^2 within 0.01 of 1"),
+    ParameterSpec("sweep_member", -1,
+                  "For an energy-sweep scene (energy_sweep): the member to run, 0 = minimum energy; -1 = the "
+                  "scene's own initial state." + _AT_RESET, "an integer in [-1, members - 1]",
+                  number_range=(-1, 999)),
     ParameterSpec("publish_rate", 100.0, "Samples per simulated second, Hz; sample k is the state at k / rate."
                   + _AT_RESET, f"> 0 and <= {MAX_RATE:g}", number_range=(0.0, MAX_RATE)),
     ParameterSpec("real_time_factor", 1.0,
@@ -115,9 +119,10 @@ def check_value(name: str, parameter: Parameter):
         if name == "angular_velocity":
             return tuple(finite_vector(value, name, (3,)).tolist())
         return tuple(unit_quaternion(value, name).tolist())
-    if name in ("publish_rate", "real_time_factor", "qos_depth"):
-        if kind not in _NUMBER or (name == "qos_depth" and kind != Parameter.Type.INTEGER):
-            wanted = "an integer" if name == "qos_depth" else "a number"
+    if name in ("publish_rate", "real_time_factor", "qos_depth", "sweep_member"):
+        integral = name in ("qos_depth", "sweep_member")
+        if kind not in _NUMBER or (integral and kind != Parameter.Type.INTEGER):
+            wanted = "an integer" if integral else "a number"
             raise ValueError(f"{name}: expected {wanted}, got {_type_name(kind)} {value!r}")
         if name == "publish_rate":
             return check_rate(value, name)
@@ -125,6 +130,10 @@ def check_value(name: str, parameter: Parameter):
             if not 0.0 <= float(value) <= MAX_REAL_TIME_FACTOR:
                 raise ValueError(f"{name}: must lie in [0, {MAX_REAL_TIME_FACTOR:g}], got {value!r}")
             return float(value)
+        if name == "sweep_member":
+            if not -1 <= value <= 999:
+                raise ValueError(f"{name}: must lie in [-1, 999], got {value!r}")
+            return int(value)
         if not 1 <= value <= 10000:
             raise ValueError(f"{name}: must lie in [1, 10000], got {value!r}")
         return int(value)
@@ -142,18 +151,43 @@ def check_value(name: str, parameter: Parameter):
     return value
 
 
+_OVERRIDES = ("inertia", "angular_velocity", "orientation")
+
+
 def run_request(values: dict) -> RunRequest:
     """The run canonical values (``check_value``) describe, the scene filling what is not set.
     Building its propagator checks that the whole state is usable, not only each value alone."""
     try:
-        scene = resolve_scene(values["scene"]) if values["scene"] else default_scene()
+        scene = load_scene(values["scene"]) if values["scene"] else default_scene()
     except SceneError as error:
         message = str(error)
         raise ValueError(message if message.startswith("scene:") else f"scene: {message}") from None
+    member = values["sweep_member"]
+    if member >= 0:
+        if not scene.sweep_members:
+            raise ValueError(f"sweep_member: {member} given, but the scene is not an energy sweep (use -1)")
+        clashing = [key for key in ("inertia", "angular_velocity") if values[key] is not None]
+        if clashing:
+            raise ValueError(f"sweep_member: the member defines the body and its rate, so it cannot be combined "
+                             f"with {' or '.join(clashing)} (set {clashing[0]} to [] first)")
+        if member >= scene.sweep_members:
+            raise ValueError(f"sweep_member: the scene has members 0 … {scene.sweep_members - 1}, got {member}")
+        scene = scene.members()[member]
     propagator = scene.propagator(values["propagator"], inertia=values["inertia"],
                                   angular_velocity=values["angular_velocity"], orientation=values["orientation"])
     return RunRequest(propagator, values["publish_rate"], values["real_time_factor"],
-                      values["body_frame"], values["inertial_frame"], scene.outputs)
+                      values["body_frame"], values["inertial_frame"], scene.outputs, describe(values, scene))
+
+
+def describe(values: dict, scene) -> str:
+    """``scene 'dzhanibekov' (FILE), overrides: inertia [..]`` — what a user needs to know to
+    reproduce the run, including parameters that stay in force after the scene changed."""
+    name = f"scene '{values['scene']}' ({scene.source})" if values["scene"] else "the built-in default scene"
+    if values["sweep_member"] >= 0:
+        name += f" member {values['sweep_member']} ({scene.description.rsplit('(', 1)[-1].rstrip(')')})"
+    overrides = [f"{key} [{', '.join(f'{x:.9g}' for x in values[key])}]" for key in _OVERRIDES
+                 if values[key] is not None]
+    return f"{name}, overrides: {'; '.join(overrides) if overrides else 'none'}"
 
 
 def rejection(error: ValueError) -> SetParametersResult:

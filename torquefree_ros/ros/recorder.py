@@ -9,17 +9,12 @@ every publisher offers it (rosbag2's rule). Log time = reception on the node's c
 
 from __future__ import annotations
 
-import argparse
-import sys
+import time
 
-import rclpy
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 
-from .bag import BagError, BagWriter
-from .bag.writer import COMPRESSIONS
-from .ros_process import shut_down
-from .ros_qos import bag_qos, message_class, request_for_offers
+from ..bag import BagError, BagWriter
+from .qos import bag_qos, message_class, request_for_offers
 
 DISCOVERY_PERIOD = 0.2  # s
 FLUSH_PERIOD = 0.25  # s; a chunk open longer than the writer's chunk_seconds is written out
@@ -34,11 +29,13 @@ class TopicRecorder(Node):
                  **node_options):
         super().__init__("torquefree_record", **node_options)
         self.writer = writer
-        self._wanted = None if topics is None else set(topics)
+        # names resolve as ROS resolves them: relative to the node's namespace, remappings applied
+        self._wanted = None if topics is None else {self.resolve_topic_name(topic) for topic in topics}
         self._include_hidden = include_hidden
         self._recording: dict[str, object] = {}
         self._skipped: set[str] = set()
         self.failure = ""
+        self.first_message_time: float | None = None  # time.monotonic() of the first message written
         self.create_timer(DISCOVERY_PERIOD, self.discover)
         self.create_timer(FLUSH_PERIOD, self._flush_if_due)
         self.discover()
@@ -86,6 +83,8 @@ class TopicRecorder(Node):
     def _write(self, channel: int, data: bytes, info) -> None:
         if self.failure:
             return
+        if self.first_message_time is None:
+            self.first_message_time = time.monotonic()
         try:
             self.writer.write(channel, self.get_clock().now().nanoseconds, data, info["source_timestamp"])
         except BagError as error:
@@ -99,57 +98,3 @@ class TopicRecorder(Node):
             except BagError as error:
                 self.failure = str(error)
                 self.get_logger().error(f"recording stopped: {error}")
-
-
-def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="torquefree_record",
-                                     description="Record topics into a rosbag2 (Jazzy) MCAP bag until Ctrl-C.")
-    parser.add_argument("--output", "-o", required=True, help="bag directory to create")
-    parser.add_argument("--topics", nargs="+", metavar="TOPIC", help="absolute topic names (default: all)")
-    parser.add_argument("--include-hidden-topics", action="store_true", help="with all topics, also hidden ones")
-    parser.add_argument("--overwrite", action="store_true", help="replace an existing bag directory")
-    parser.add_argument("--compression", choices=sorted(COMPRESSIONS), default="none")
-    parser.add_argument("--duration", type=float, help="stop after this many seconds (default: until a signal)")
-    return parser
-
-
-def main(argv=None) -> int:
-    args_without_ros = rclpy.utilities.remove_ros_args(sys.argv if argv is None else argv)[1:]
-    parser = _parser()
-    args = parser.parse_args(args_without_ros)
-    if args.topics and not all(topic.startswith("/") for topic in args.topics):
-        parser.error("--topics: give absolute names starting with '/'")
-    if args.duration is not None and not args.duration > 0:
-        parser.error(f"--duration: must be > 0, got {args.duration!r}")
-    try:
-        writer = BagWriter(args.output, overwrite=args.overwrite, compression=args.compression)
-    except BagError as error:
-        print(f"torquefree_record: {error}", file=sys.stderr)
-        return 1
-    rclpy.init(args=argv)
-    node = executor = None
-    try:
-        executor = SingleThreadedExecutor()
-        node = TopicRecorder(writer, args.topics, args.include_hidden_topics)
-        executor.add_node(node)
-        if args.duration is None:
-            executor.spin()
-        else:
-            stop_at = node.get_clock().now().nanoseconds + int(args.duration * 1e9)
-            while rclpy.ok() and node.get_clock().now().nanoseconds < stop_at:
-                executor.spin_once(timeout_sec=0.1)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        shut_down(executor, node)
-        try:
-            writer.close()
-        except BagError as error:
-            print(f"torquefree_record: {error}", file=sys.stderr)
-            return 1
-    print(f"{args.output}: {writer.message_count} messages", file=sys.stderr)
-    return 1 if node is not None and node.failure else 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,0 +1,41 @@
+"""A stranger's install: the wheel of this checkout into a clean virtual environment (no system
+packages) pulls every runtime dependency, and the documented console scripts and API work there.
+Versions come from requirements.lock; pip's cache makes this take under a minute."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import venv
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+TIMEOUT = 600  # s: a cold pip cache downloads the ROS wheels
+
+
+def _run(argv, cwd, timeout=120):
+    result = subprocess.run([str(a) for a in argv], cwd=cwd, capture_output=True, text=True, timeout=timeout)
+    assert result.returncode == 0, f"{argv}: {result.stdout}\n{result.stderr}"
+    return result
+
+
+def test_the_wheel_installs_into_a_clean_venv_with_every_runtime_dependency(tmp_path):
+    _run([sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps", "--no-build-isolation", "-w",
+          tmp_path / "dist", REPO], cwd=tmp_path, timeout=TIMEOUT)
+    (wheel,) = (tmp_path / "dist").glob("torquefree_ros-*.whl")
+    venv.create(tmp_path / "venv", with_pip=True)  # no --system-site-packages: nothing leaks in
+    bin_dir = tmp_path / "venv" / "bin"
+    # the README's install line with the plot extra, from a wheel instead of the source tree
+    _run([bin_dir / "pip", "install", "--quiet", "--disable-pip-version-check", "-c", REPO / "requirements.lock",
+          f"{wheel}[plot]"], cwd=tmp_path, timeout=TIMEOUT)
+
+    csv = _run([bin_dir / "torquefree_propagate", "--duration", "1", "--rate", "2"], cwd=tmp_path).stdout
+    assert csv.splitlines()[0] == "t,w_x,w_y,w_z,q_x,q_y,q_z,q_w" and len(csv.splitlines()) == 4
+    _run([bin_dir / "torquefree_bag", "explorer1", "--duration", "1", "--rate", "10", "--output", "bag"], cwd=tmp_path)
+    assert sorted(p.name for p in (tmp_path / "bag").iterdir()) == ["bag_0.mcap", "metadata.yaml"]
+    _run([bin_dir / "torquefree_plot", "bag", "--output-dir", "plots"], cwd=tmp_path)
+    assert (tmp_path / "plots" / "bag_polhode.png").stat().st_size > 10_000
+    assert "record_bag (default ''" in _run([bin_dir / "torquefree_sim", "--help"], cwd=tmp_path).stdout
+    api = ("import torquefree_ros as t; s = t.load_scene('dzhanibekov'); "
+           "w, q = t.propagate(s.inertia, s.angular_velocity, s.orientation, [0.0, 1.0]); print(q.shape)")
+    assert _run([bin_dir / "python", "-c", api], cwd=tmp_path).stdout.strip() == "(2, 4)"

@@ -1,0 +1,54 @@
+"""What every benchmark script prints and keeps: the lines it measured, under a header with the
+command that made them, the date and the machine, written to ``--output`` (committed under
+``docs/bench/``) so that every figure the README quotes has its source."""
+
+from __future__ import annotations
+
+import datetime
+import os
+import platform
+import shlex
+import statistics
+import sys
+from pathlib import Path
+
+
+def machine() -> str:
+    model = ""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    import numpy
+
+    return (f"{model or platform.machine()}, {os.cpu_count()} cores, {platform.platform()}; "
+            f"Python {platform.python_version()}, numpy {numpy.__version__}")
+
+
+def spread(values) -> str:
+    """``median (min–max)`` of repeated measurements."""
+    values = sorted(values)
+    return f"{statistics.median(values):.3g} ({values[0]:.3g}–{values[-1]:.3g})"
+
+
+class Report:
+    def __init__(self, title: str, command: str):
+        self.lines: list[str] = []
+        argv = " ".join(shlex.quote(a) for a in sys.argv[1:])
+        self.add(f"# {title}")
+        self.add("")
+        self.add(f"- command: `{command}` (`{Path(sys.argv[0]).as_posix()}{' ' + argv if argv else ''}`)")
+        self.add(f"- date: {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC")
+        self.add(f"- machine: {machine()}")
+        self.add("")
+
+    def add(self, line: str = "") -> None:
+        print(line, flush=True)
+        self.lines.append(line)
+
+    def save(self, path: str | None) -> None:
+        if path:
+            Path(path).write_text("\n".join(self.lines) + "\n")

@@ -1,0 +1,53 @@
+"""``torquefree_plot BAG_OR_SCENE``: body rates, polhode and Duffing phase planes as PNG files."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+from .. import plot
+from ..bag import BagError
+from ..core.rigid_body import RigidBody
+from ..core.scene import SceneError, load_scene
+from .common import console_command
+
+
+@console_command("torquefree_plot")
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="torquefree_plot", description=plot.__doc__.split("\n\n")[0])
+    parser.add_argument("source", help="a bag directory, a scene file, or a library scene name")
+    parser.add_argument("--output-dir", default=".", help="where the PNG files go (default: here)")
+    parser.add_argument("--duration", type=float, help="simulated seconds for a scene (default: two polhode periods)")
+    parser.add_argument("--rate", type=float, default=100.0, help="samples per second for a scene (default 100)")
+    parser.add_argument("--inertia", type=float, nargs="+", help="the body's inertia (3 or 6 numbers) for a bag")
+    args = parser.parse_args(argv)
+    if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
+        parser.error(f"--duration: must be a positive number of seconds, got {args.duration!r}")
+    if not (math.isfinite(args.rate) and args.rate > 0):
+        parser.error(f"--rate: must be a positive number, got {args.rate!r}")
+    source = Path(args.source)
+    try:
+        if (source / "metadata.yaml").is_file():
+            inertia = args.inertia or plot.bag_inertia(source)
+            if inertia is None:
+                raise plot.PlotError(f"bag '{source}': it does not store the body's inertia; give --inertia")
+            body = RigidBody.from_inertia(inertia, "--inertia")
+            runs, name = plot.runs_from_bag(source), source.name
+        else:
+            scene = load_scene(args.source)
+            body = RigidBody.from_inertia(args.inertia or scene.inertia, "--inertia")
+            name = Path(scene.source).stem if scene.source.endswith((".yaml", ".yml")) else "default"
+            runs = plot.runs_from_scene(scene, args.duration, args.rate)
+        written = plot.draw(runs, body, name.replace(" ", "_"), Path(args.output_dir))
+    except (plot.PlotError, SceneError, BagError, ValueError) as error:
+        print(f"torquefree_plot: {error}", file=sys.stderr)
+        return 2
+    for path in written:
+        print(path)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

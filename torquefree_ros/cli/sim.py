@@ -1,0 +1,66 @@
+"""``torquefree_sim``: the attitude simulator node (``ros2 run torquefree_ros torquefree_sim``)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import textwrap
+
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
+
+from ..ros.node import TorqueFreeSim
+from ..ros.parameters import SPECS, ConfigurationError
+from ..ros.process import Spinner, init, shut_down
+from .common import console_command
+
+
+def _parameter_help() -> str:
+    lines = ["parameters (--ros-args -p NAME:=VALUE, or --params-file FILE):"]
+    for spec in SPECS:
+        default = "not set" if spec.default is None else repr(spec.default)
+        flags = ", read-only" if spec.read_only else ""
+        lines.append(f"  {spec.name} (default {default}{flags})")
+        lines += textwrap.wrap(spec.description, 96, initial_indent="      ", subsequent_indent="      ")
+        lines += textwrap.wrap(f"valid: {spec.constraints}", 96, initial_indent="      ", subsequent_indent="      ")
+    return "\n".join(lines)
+
+
+def _parser() -> argparse.ArgumentParser:
+    return argparse.ArgumentParser(
+        prog="torquefree_sim", formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="The torque-free attitude simulator node (default name 'torquefree'). It publishes "
+        "angular_velocity (Vector3Stamped, body frame) and attitude (QuaternionStamped, q_NB), serves ~/reset "
+        "(std_srvs/Trigger) and reports on /diagnostics. Ctrl-C or SIGTERM stop it with exit status 0.",
+        epilog=_parameter_help() + "\n\nexample: torquefree_sim --ros-args -p scene:=dzhanibekov -p publish_rate:=200.0")
+
+
+@console_command("torquefree_sim")
+def main(argv=None) -> int:
+    """Exit status 0 on SIGINT/SIGTERM, 1 when the parameters do not describe a usable simulation,
+    2 on a bad command line."""
+    argv = sys.argv if argv is None else argv
+    _parser().parse_args(rclpy.utilities.remove_ros_args(argv)[1:])  # --help exits here, before any DDS
+    init(argv)
+    node = executor = spinner = None
+    try:
+        executor = SingleThreadedExecutor()  # first: a signal during start-up then finds it whole
+        node = TorqueFreeSim()
+        executor.add_node(node)
+        spinner = Spinner(executor)
+        spinner.start()
+        spinner.wait()
+        if spinner.error is not None:
+            raise spinner.error
+    except ConfigurationError as error:
+        rclpy.logging.get_logger("torquefree").fatal(f"cannot start: {error}")
+        return 1
+    except KeyboardInterrupt:
+        pass
+    finally:
+        shut_down(executor, node, spinner)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,70 @@
+"""The life of a node process, shared by the console scripts.
+
+rclpy's own signal handlers would shut the context down the moment Ctrl-C arrives, so everything
+said while closing (the node's last log lines, a bag's summary) would fail to reach ``/rosout``.
+Instead the executor spins in a helper thread, the main thread waits for SIGINT / SIGTERM (both
+raise ``KeyboardInterrupt`` there), and the context is shut down last, after the node is destroyed.
+"""
+
+from __future__ import annotations
+
+import signal
+import threading
+
+import rclpy
+from rclpy.executors import ExternalShutdownException
+from rclpy.signals import SignalHandlerOptions
+
+
+def init(args=None) -> None:
+    """``rclpy.init`` without rclpy's signal handlers; SIGTERM then ends the process like Ctrl-C."""
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    signal.signal(signal.SIGTERM, _interrupt)
+
+
+def _interrupt(signum, frame):
+    raise KeyboardInterrupt
+
+
+class Spinner(threading.Thread):
+    """Spins ``executor`` in a helper thread until :meth:`stop`; an exception from a callback ends
+    the spin and is kept in ``error`` for the main thread to report. It spins in short slices
+    rather than calling ``executor.spin()``, so that it has left the executor before anyone shuts the
+    executor down (shutting it down under a spinning thread can abort the process in rcl)."""
+
+    SLICE = 0.1  # s: the longest a stop waits for the spin to notice
+
+    def __init__(self, executor):
+        super().__init__(name="spin", daemon=True)
+        self.executor = executor
+        self.error: BaseException | None = None
+        self._stopping = threading.Event()
+
+    def run(self) -> None:
+        try:
+            while not self._stopping.is_set() and self.executor.context.ok():
+                self.executor.spin_once(timeout_sec=self.SLICE)
+        except ExternalShutdownException:
+            pass
+        except BaseException as error:  # noqa: BLE001 - handed to the main thread
+            self.error = error
+
+    def wait(self, timeout: float | None = None) -> None:
+        """Blocks the main thread (interruptibly) until the spin ends or ``timeout`` passes."""
+        self.join(timeout)
+
+    def stop(self) -> None:
+        self._stopping.set()
+        self.join()
+
+
+def shut_down(executor, node, spinner: Spinner | None = None) -> None:
+    """Stop spinning, then shut the executor down, destroy the node (its last log lines still reach
+    /rosout) and shut the context down. Any argument may be None (the process stopped before it)."""
+    if spinner is not None and spinner.is_alive():
+        spinner.stop()
+    if executor is not None:
+        executor.shutdown()
+    if node is not None:
+        node.destroy_node()
+    rclpy.try_shutdown()
