@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import contextlib
 import re
+import tempfile
 import time
 
 import numpy as np
@@ -58,6 +59,9 @@ class SimHarness:
         self.context = rclpy.Context()
         rclpy.init(args=args, context=self.context)
         self.executor = SingleThreadedExecutor(context=self.context)
+        # the tests write scene files under the temporary directory: let the node read them
+        if args is None:  # (a parameter file given in args sets its own)
+            parameters.setdefault("scene_directories", [tempfile.gettempdir()])
         try:
             overrides = [Parameter(name, value=value) for name, value in parameters.items()]
             self.node = TorqueFreeSim(context=self.context, parameter_overrides=overrides, namespace=self.namespace)

@@ -73,24 +73,46 @@ def test_a_closed_pipe_ends_quietly():
     assert result.returncode == 141  # 128 + SIGPIPE, as for any Unix tool cut off by `head`
 
 
-def _interrupt_when_output_appears(argv, sig, tmp_path):
+def _interrupt_when_output_appears(argv, sig, tmp_path, delay=0.5):
     process = subprocess.Popen([str(BIN / argv[0]), *argv[1:]], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                text=True, cwd=tmp_path)
     deadline = time.monotonic() + TIMEOUT
     while not any(tmp_path.rglob("*.mcap")) and time.monotonic() < deadline:
         time.sleep(0.05)
-    time.sleep(0.5)  # well into the work
+    time.sleep(delay)  # into the work
     process.send_signal(sig)
     out, err = process.communicate(timeout=TIMEOUT)
     return process.returncode, out, err
 
 
-@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
-def test_bag_stops_on_a_signal_without_a_traceback(tmp_path, sig):
+@pytest.mark.parametrize("sig, delay", [(signal.SIGINT, 0.0), (signal.SIGINT, 0.37), (signal.SIGTERM, 0.81),
+                                        (signal.SIGTERM, 1.5)], ids=["SIGINT-0", "SIGINT-0.37", "SIGTERM-0.81",
+                                                                     "SIGTERM-1.5"])
+def test_an_interrupted_bag_is_complete_and_says_so(tmp_path, sig, delay):
+    """Ctrl-C / SIGTERM at any moment: the bag closes at the next block with every sample written so
+    far, both independent readers open it and agree with metadata.yaml; exit status 130."""
     status, _, err = _interrupt_when_output_appears(
-        ["torquefree_bag", "default", "--duration", "1e6", "--rate", "1000", "--output", "long"], sig, tmp_path)
+        ["torquefree_bag", "default", "--duration", "1e6", "--rate", "1000", "--output", "long"], sig, tmp_path,
+        delay)
     assert status == 130, err
-    assert "Traceback" not in err and "torquefree_bag: interrupted" in err
+    assert "Traceback" not in err and "torquefree_bag: interrupted: long is a complete bag of the first" in err
+    samples = int(err.split("the first ")[1].split()[0])
+    by_mcap = read_with_mcap(tmp_path / "long")
+    by_rosbags, _ = read_with_rosbags(tmp_path / "long")
+    assert len(by_mcap["/angular_velocity"]) == len(by_rosbags["/attitude"]) == samples > 0
+    from torquefree_ros.bag import BagReader
+
+    reader = BagReader(tmp_path / "long")
+    assert reader.complete and reader.message_count == 2 * samples
+    stamps = [log_time for log_time, _, _ in by_mcap["/angular_velocity"]]
+    assert stamps == [k * 1_000_000 for k in range(samples)]  # a gap-free prefix of the run
+
+
+def test_absurd_bag_sizes_are_refused_before_anything_is_written(tmp_path):
+    result = _run("torquefree_bag", "default", "--duration", "1e9", "--rate", "1e6", "--output", str(tmp_path / "b"))
+    assert result.returncode == 2 and "at most 1e+10" in result.stderr and not (tmp_path / "b").exists()
+    result = _run("torquefree_bag", "default", "--duration", "3e9", "--rate", "1", "--output", str(tmp_path / "b"))
+    assert result.returncode == 2 and "2^31 s" in result.stderr and not (tmp_path / "b").exists()
 
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])

@@ -8,6 +8,7 @@ import os
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -217,7 +218,8 @@ BAD_VALUES = [
     ("orientation", [0.0, 0.0, 0.0, 0.0], "zero quaternion"),
     ("orientation", [0.0, 0.0, 0.0, 2.0], "unit quaternion"),
     ("publish_rate", 0.0, "publish_rate"),
-    ("publish_rate", -10, "in (0, 1e+06]"),
+    ("publish_rate", -10, "in [0.001, 1e+06]"),
+    ("publish_rate", 5e-324, "publish_rate"),
     ("publish_rate", math.nan, "nan"),
     ("real_time_factor", -1.0, "real_time_factor"),
     ("propagator", "rk5", "unknown propagator 'rk5'"),
@@ -226,7 +228,14 @@ BAD_VALUES = [
     ("inertia", [True, False, True], "expected an array of numbers, got bool array"),
     ("body_frame", 7, "expected a string, got integer"),
     ("inertial_frame", "/world", "leading '/'"),
-    ("scene", "/nonexistent/scene.yaml", "cannot read"),
+    ("scene", os.path.join(tempfile.gettempdir(), "no_such_scene.yaml"), "cannot read"),
+    # a file outside scene_directories (the harness gives the temporary directory) is not even read,
+    # so its content is never quoted back
+    ("scene", "/etc/passwd", "nor a file under scene_directories"),
+    ("scene", "/etc/passwd/../../" + "x" * 5000, "at most 4096 characters"),
+    ("body_frame", "a" * 257, "1 to 256 characters"),
+    ("inertial_frame", "world;x", "frame id"),  # (a NUL never arrives: DDS strings end at it)
+    ("body_frame", "my frame", "frame id"),
     ("angular_velocity", [1e200, 1.0, 1.0], "overflows"),
     ("qos_depth", 5, "read-only"),
 ]

@@ -46,10 +46,38 @@ def test_restart_epoch_never_goes_back(now, last, rate, epoch):
     assert restart_epoch_ns(now, last, rate) == epoch
 
 
-@pytest.mark.parametrize("rate", [0.0, -1.0, float("nan"), float("inf"), 2e6, "100", True])
+@pytest.mark.parametrize("rate", [0.0, -1.0, float("nan"), float("inf"), 2e6, "100", True, 5e-324, 9.9e-4])
 def test_bad_rates_are_refused_with_the_name(rate):
     with pytest.raises(ValueError, match=r"^publish_rate: "):
         check_rate(rate, "publish_rate")
+
+
+def test_stamps_past_int32_seconds_are_refused_not_wrapped():
+    simulation = Simulation(make_propagator(INERTIA, OMEGA, Q0), 1e-3, epoch_ns=0)
+    simulation.samples(2_147_483, 1)  # 2147483000 s: the last whole period before 2^31 s
+    with pytest.raises(ValueError, match=r"^sample 2147484: its stamp would pass 2\^31 s"):
+        simulation.samples(2_147_480, 5)
+
+
+def test_a_state_outside_float64_is_refused_before_a_sample_goes_out():
+    with pytest.raises(ValueError, match=r"overflows float64"):
+        make_propagator([1e100, 1e100, 1e100], [1e200, 0.0, 0.0], Q0)
+    with pytest.raises(ValueError, match=r"inertia: entries must lie within ±1e\+100 kg m\^2"):
+        make_propagator([1e308, 1e308, 1e308], [0.0, 0.0, 1.0], Q0)
+
+
+def test_a_too_stiff_scene_stops_within_a_bounded_budget_with_its_reason():
+    import time
+
+    from torquefree_ros.core.scene import scene_from_mapping
+
+    scene = scene_from_mapping({"body": {"inertia": [0.4, 4.6, 4.95]}, "initial": {"angular_velocity": [6, 0.05, 0]},
+                                "effects": [{"damper": {"inertia": 0.05, "damping": 1e9}}]})
+    started = time.process_time()
+    with pytest.raises(RuntimeError, match=r"too stiff for an explicit integrator"):
+        with np.errstate(invalid="ignore", over="ignore"):  # the collapsing steps' own arithmetic
+            Simulation(scene.propagator(), 100.0).samples(0, 2)
+    assert time.process_time() - started < 1.0  # caught within a few steps, not after 1e10 of them
 
 
 def test_summary_names_the_state_and_invariants_are_exact():

@@ -29,9 +29,15 @@ def machine() -> str:
 
 
 def spread(values) -> str:
-    """``median (min–max)`` of repeated measurements."""
+    """``median (min–max)`` of repeated measurements, three significant digits."""
     values = sorted(values)
-    return f"{statistics.median(values):.3g} ({values[0]:.3g}–{values[-1]:.3g})"
+    return f"{_number(statistics.median(values))} ({_number(values[0])}–{_number(values[-1])})"
+
+
+def _number(value: float) -> str:
+    if abs(value) >= 1000:
+        return f"{float(f'{value:.3g}'):,.0f}"
+    return f"{value:.3g}"
 
 
 class Report:

@@ -14,12 +14,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterator, NamedTuple
 
-import yaml
-from mcap.exceptions import McapError
+from mcap.exceptions import EndOfFile, McapError
 from mcap.reader import SeekingReader
 from mcap.records import Channel, Message, Schema
 from mcap.stream_reader import StreamReader
 
+from ..core.safe_files import check_regular_file, clip, load_yaml, read_regular_file
 from .definitions import MessageDefinition
 from .metadata import METADATA_FILE, BagMetadata, TopicRecord, metadata_file_text
 from .qos import BagQos
@@ -48,24 +48,38 @@ def _qos_profiles(channel: Channel, where: str) -> tuple[BagQos, ...]:
     if not text:
         return ()
     try:
-        return tuple(BagQos.from_yaml(item) for item in (yaml.safe_load(text) or []))
-    except (yaml.YAMLError, ValueError, KeyError, TypeError) as error:
+        return tuple(BagQos.from_yaml(item) for item in (load_yaml(text, f"topic '{channel.topic}'") or []))
+    except (ValueError, KeyError, TypeError, AttributeError) as error:
         raise BagError(f"{where}: topic '{channel.topic}': unreadable offered_qos_profiles: {error}") from None
 
 
+MAX_METADATA_BYTES = 16 << 20  # rosbag2's metadata.yaml of a bag with thousands of topics and files still fits
+_READ_ERRORS = (McapError, ValueError, EOFError, struct.error, KeyError, IndexError, TypeError, UnicodeDecodeError)
+
+
 def bag_information(path) -> dict:
-    """The ``rosbag2_bagfile_information`` mapping of a bag directory's ``metadata.yaml``."""
+    """The ``rosbag2_bagfile_information`` mapping of a bag directory's ``metadata.yaml``, read with
+    bounds (a regular file of at most 16 MiB, bounded YAML: ``core.safe_files``)."""
     metadata = Path(path) / METADATA_FILE
     try:
-        return yaml.safe_load(metadata.read_text(encoding="utf-8"))["rosbag2_bagfile_information"]
-    except (OSError, yaml.YAMLError, KeyError, TypeError) as error:
-        raise BagError(f"bag '{path}': unreadable {METADATA_FILE}: {error}") from None
+        text = read_regular_file(metadata, MAX_METADATA_BYTES).decode("utf-8")
+        information = load_yaml(text, str(metadata))["rosbag2_bagfile_information"]
+        if not isinstance(information, dict):
+            raise TypeError("rosbag2_bagfile_information is not a mapping")
+        return information
+    except OSError as error:
+        raise BagError(f"bag '{path}': cannot read {METADATA_FILE}: {error.strerror or error}") from None
+    except UnicodeDecodeError as error:
+        raise BagError(f"bag '{path}': unreadable {METADATA_FILE}: not UTF-8 text (byte {error.start})") from None
+    except (ValueError, KeyError, TypeError) as error:
+        raise BagError(f"bag '{path}': unreadable {METADATA_FILE}: {clip(str(error))}") from None
 
 
 def storage_file(path) -> Path:
     """The ``.mcap`` file of a bag directory (from its metadata, else the only one), or the file itself."""
     path = Path(path)
-    if path.is_file():
+    if path.exists() and not path.is_dir():
+        _check_regular(path, path)
         return path
     if not path.is_dir():
         raise BagError(f"bag '{path}': no such bag directory or file")
@@ -79,27 +93,43 @@ def storage_file(path) -> Path:
             raise BagError(f"bag '{path}': unreadable {METADATA_FILE}: {error}") from None
         if storage != "mcap":
             raise BagError(f"bag '{path}': storage '{storage}' is not supported (only mcap)")
-        if len(files) != 1:
-            raise BagError(f"bag '{path}': {len(files)} storage files; split bags are not supported")
-        return path / Path(files[0]).name
+        if not isinstance(files, list) or len(files) != 1 or not isinstance(files[0], str):
+            raise BagError(f"bag '{path}': {clip(repr(files))} as storage files; one file name is supported")
+        file = path / Path(files[0]).name
+        _check_regular(path, file)
+        return file
     candidates = sorted(path.glob("*.mcap"))
     if len(candidates) != 1:
         raise BagError(f"bag '{path}': expected one .mcap file, found {len(candidates)}")
+    _check_regular(path, candidates[0])
     return candidates[0]
+
+
+def _check_regular(bag: Path, file: Path) -> None:
+    """Special files are refused before anyone opens them (a FIFO would block the reader for good)."""
+    try:
+        check_regular_file(file)
+    except OSError as error:
+        raise BagError(f"bag '{bag}': cannot read '{file}': {error.strerror or error}") from None
+    except ValueError as error:
+        raise BagError(f"bag '{bag}': {error}") from None
 
 
 class BagReader:
     """Topics and messages of a bag; ``complete`` is False for a file that lost its end."""
 
-    def __init__(self, path):
+    def __init__(self, path, scan: bool = False):
+        """``scan``: read record by record even if the file has its summary (to recover a damaged one)."""
         self.path = Path(path)
         self.file_path = storage_file(self.path)
         self._topics: dict[int, BagTopic] = {}
         self.span_ns: tuple[int, int] | None = None  # first and last log time
+        # where and why a scan of a file without its end stopped before the file's end ("" if it did not)
+        self.damage = ""
         try:
             with open(self.file_path, "rb") as stream:
                 self._check_header(stream)
-                self.complete = self._read_summary(stream)
+                self.complete = not scan and self._read_summary(stream)
                 if not self.complete:
                     stream.seek(0)
                     for channel, message in self._scan(stream):
@@ -117,30 +147,40 @@ class BagReader:
         return sum(topic.message_count for topic in self._topics.values())
 
     def messages(self, topics=None) -> Iterator[BagMessage]:
-        """Messages in log-time order (file order for a file without its end), optionally of some topics."""
+        """Messages in log-time order (file order for a file without its end), optionally of some
+        topics. Damage found on the way (a CRC mismatch, a broken record) raises ``BagError`` saying
+        how many messages came before it."""
         wanted = None if topics is None else set(topics)
+        count = 0
         with open(self.file_path, "rb") as stream:
             if self.complete:
-                found = SeekingReader(stream).iter_messages(topics=wanted, log_time_order=True)
+                found = SeekingReader(stream, validate_crcs=True).iter_messages(topics=wanted, log_time_order=True)
                 pairs = ((channel, message) for _, channel, message in found)
             else:
                 pairs = self._scan(stream)
-            for channel, message in pairs:
-                if wanted is None or channel.topic in wanted:
-                    yield BagMessage(channel.topic, message.log_time, message.publish_time, message.data)
+            try:
+                for channel, message in pairs:
+                    if wanted is None or channel.topic in wanted:
+                        count += 1
+                        yield BagMessage(channel.topic, message.log_time, message.publish_time, message.data)
+            except _READ_ERRORS as error:
+                raise BagError(f"bag '{self.path}': damaged after {count} messages "
+                               f"({type(error).__name__}: {clip(str(error))}); the rest is lost. "
+                               f"`torquefree_bag --reindex {self.path}` keeps the readable part") from None
 
     # -- reading -----------------------------------------------------------------------------------
     def _check_header(self, stream) -> None:
         try:
             next(iter(StreamReader(stream, skip_magic=False).records))
-        except (McapError, StopIteration, ValueError, struct.error) as error:
-            raise BagError(f"bag '{self.path}': '{self.file_path.name}' is not an MCAP file ({error})") from None
+        except (StopIteration, *_READ_ERRORS) as error:
+            detail = clip(str(error), 100) or f"{type(error).__name__}: it ends inside its header"
+            raise BagError(f"bag '{self.path}': '{self.file_path.name}' is not an MCAP file ({detail})") from None
         stream.seek(0)
 
     def _read_summary(self, stream) -> bool:
         try:
-            summary = SeekingReader(stream).get_summary()
-        except (McapError, ValueError, EOFError, struct.error):
+            summary = SeekingReader(stream, validate_crcs=True).get_summary()
+        except _READ_ERRORS:
             return False
         if summary is None or summary.statistics is None:
             return False
@@ -178,17 +218,33 @@ class BagReader:
                         self._add_topic(record, schemas.get(record.schema_id), 0)
                 elif isinstance(record, Message) and record.channel_id in channels:
                     yield channels[record.channel_id], record
-        except (McapError, ValueError, EOFError, struct.error):
-            return  # the end of what was written completely
+        except (EOFError, EndOfFile):
+            return  # cut off: the end of what was written completely
+        except _READ_ERRORS as error:
+            # a damaged record (bytes changed, not only cut off): what follows it is lost
+            self.damage = f"{type(error).__name__} at byte {stream.tell():,}: {clip(str(error), 100)}"
 
 
-def reindex(path) -> BagMetadata:
-    """Makes a bag whose recorder died (no summary, maybe a cut-off chunk) complete again: the
-    readable messages are copied, with their schemas, QoS and times, into a complete MCAP file that
-    replaces the old one, and ``metadata.yaml`` is written. A complete bag only gets ``metadata.yaml``."""
+class Reindexed(NamedTuple):
+    metadata: BagMetadata
+    damage: str  # where the file was damaged and what was lost; "" when nothing was
+
+
+def reindex(path) -> Reindexed:
+    """Makes a bag whose recorder died (no summary, maybe a cut-off chunk) or whose file was damaged
+    complete again: the readable messages are copied, with their schemas, QoS and times, into a
+    complete MCAP file that replaces the old one, and ``metadata.yaml`` is written. A complete,
+    undamaged bag (every chunk's CRC is checked) only gets ``metadata.yaml``."""
     bag = Path(path)
     reader = BagReader(bag)
+    damage = ""
     if reader.complete:
+        try:
+            for _ in reader.messages():
+                pass
+        except BagError as error:
+            damage = str(error)
+    if reader.complete and not damage:
         metadata = BagMetadata(reader.file_path.name)
         for topic in reader.topics:
             metadata.topics.append(TopicRecord(topic.name, topic.type, topic.offered_qos_profiles,
@@ -196,7 +252,9 @@ def reindex(path) -> BagMetadata:
         if reader.span_ns is not None:
             metadata.first_time_ns, metadata.last_time_ns = reader.span_ns
         write_atomically(bag / METADATA_FILE, metadata_file_text(metadata))
-        return metadata
+        return Reindexed(metadata, "")
+    if reader.complete:
+        reader = BagReader(bag, scan=True)
     if reader.file_path.parent != bag:
         raise BagError(f"bag '{bag}': give the bag directory to reindex, not the file")
     staging = bag.parent / f".{bag.name}.reindex"
@@ -212,4 +270,7 @@ def reindex(path) -> BagMetadata:
     os.replace(staging / reader.file_path.name, reader.file_path)
     os.replace(staging / METADATA_FILE, bag / METADATA_FILE)
     staging.rmdir()
-    return writer.metadata
+    if reader.damage:
+        damage = (f"damaged ({reader.damage}): {writer.metadata.message_count} messages before it were kept, "
+                  "everything after it is lost")
+    return Reindexed(writer.metadata, damage)

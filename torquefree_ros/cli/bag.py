@@ -14,7 +14,7 @@ from ..bag.writer import COMPRESSIONS
 from ..core import PROPAGATORS
 from ..core.library import library_scenes
 from ..core.scene import SceneError, load_scene
-from .common import Progress, console_command
+from .common import INTERRUPTED, GracefulStop, Progress, console_command
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -59,11 +59,14 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if args.reindex:
         try:
-            metadata = reindex(args.reindex)
+            metadata, damage = reindex(args.reindex)
         except (BagError, OSError) as error:
             print(f"torquefree_bag: {error}", file=sys.stderr)
             return 1
         print(f"{args.reindex}: {metadata.message_count} messages indexed")
+        if damage:
+            print(f"torquefree_bag: {args.reindex}: {damage}", file=sys.stderr)
+            return 1
         return 0
     missing = [flag for flag, value in (("SCENE", args.scene), ("--duration", args.duration),
                                         ("--rate", args.rate), ("--output", args.output)) if value is None]
@@ -77,14 +80,15 @@ def main(argv=None) -> int:
         scene = load_scene(args.scene)
         started = time.perf_counter()
         progress = Progress(args.rate, len(scene.members()))
-        try:
-            metadata = write_scene_bag(
-                scene, args.output, args.duration, args.rate, epoch_ns=round(args.start_time * 1e9),
-                propagator=args.propagator, body_frame=args.body_frame, inertial_frame=args.inertial_frame,
-                namespace=args.namespace, overwrite=args.overwrite, compression=args.compression,
-                progress=progress.report)
-        finally:
-            progress.close()
+        with GracefulStop() as stop:
+            try:
+                metadata = write_scene_bag(
+                    scene, args.output, args.duration, args.rate, epoch_ns=round(args.start_time * 1e9),
+                    propagator=args.propagator, body_frame=args.body_frame, inertial_frame=args.inertial_frame,
+                    namespace=args.namespace, overwrite=args.overwrite, compression=args.compression,
+                    progress=progress.report, stop=stop)
+            finally:
+                progress.close()
     except (SceneError, ValueError) as error:
         parser.error(str(error))
     except BagError as error:
@@ -92,6 +96,10 @@ def main(argv=None) -> int:
         return 1
     elapsed = time.perf_counter() - started
     samples = metadata.topics[0].message_count if metadata.topics else 0
+    if stop.signal is not None:
+        print(f"torquefree_bag: interrupted: {args.output} is a complete bag of the first {samples} samples "
+              f"({metadata.message_count} messages)", file=sys.stderr)
+        return INTERRUPTED
     print(f"{args.output}: {samples} samples ({metadata.message_count} messages) in {elapsed:.2f} s, "
           f"{samples / max(elapsed, 1e-9):.0f} samples/s")
     return 0

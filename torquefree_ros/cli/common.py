@@ -47,6 +47,34 @@ def _interrupt(signum, frame):
     raise KeyboardInterrupt
 
 
+class GracefulStop:
+    """While active, SIGINT and SIGTERM ask the work to stop at its next safe point (``stop()`` turns
+    true) instead of interrupting it anywhere: a file being written is closed whole. A second signal
+    interrupts at once. Outside the main thread it does nothing (signals are delivered there)."""
+
+    def __init__(self):
+        self.signal: int | None = None
+        self._previous = {}
+
+    def __call__(self) -> bool:
+        return self.signal is not None
+
+    def _handle(self, signum, frame):
+        if self.signal is not None:
+            raise KeyboardInterrupt
+        self.signal = signum
+
+    def __enter__(self) -> "GracefulStop":
+        if threading.current_thread() is threading.main_thread():
+            for signum in (signal.SIGINT, signal.SIGTERM):
+                self._previous[signum] = signal.signal(signum, self._handle)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for signum, handler in self._previous.items():
+            signal.signal(signum, handler)
+
+
 class Progress:
     """One status line on stderr (samples/s, simulated time, ETA), rewritten at most twice a second,
     and only when stderr is a terminal: piped or logged output stays clean. ``rate_hz`` converts

@@ -47,12 +47,19 @@ def main(argv=None) -> int:
     except BagError as error:
         print(f"torquefree_play: {error}", file=sys.stderr)
         return 1
+    if not bag.complete:
+        damage = f" ({bag.damage})" if bag.damage else ""
+        print(f"torquefree_play: bag '{args.bag}' is incomplete{damage}: {bag.message_count} readable messages; "
+              f"`torquefree_bag --reindex {args.bag}` makes it complete", file=sys.stderr)
+        if bag.message_count == 0:
+            return 1
     if args.topics:
         unknown = sorted(set(args.topics) - {t.name for t in bag.topics})
         if unknown:
             parser.error(f"--topics: not in the bag: {', '.join(unknown)}")
     init(argv)
     node = executor = spinner = None
+    status = 0 if bag.complete else 1
     try:
         executor = SingleThreadedExecutor()  # first: a signal during start-up then finds it whole
         node = BagPlayer(bag, args.rate, args.clock, args.loop, args.topics)
@@ -64,12 +71,15 @@ def main(argv=None) -> int:
         node.play()
     except KeyboardInterrupt:
         pass
+    except BagError as error:  # damage found while playing: what came before it went out
+        print(f"torquefree_play: {error}", file=sys.stderr)
+        status = 1
     finally:
         if node is not None:
             node.stop()
             print(f"{args.bag}: played {node.played} messages", file=sys.stderr)
         shut_down(executor, node, spinner)
-    return 0
+    return status
 
 
 if __name__ == "__main__":

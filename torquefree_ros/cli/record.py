@@ -28,7 +28,7 @@ def _parser() -> argparse.ArgumentParser:
         description="Record topics into a rosbag2 (Jazzy) MCAP bag until Ctrl-C / SIGTERM (or --duration). "
         "Each topic keeps its publishers' QoS; reliable delivery is asked for only when every publisher offers it.")
     parser.add_argument("--output", "-o", required=True, metavar="BAG_DIR",
-                        help="bag directory to create (required; its parent must exist)")
+                        help="bag directory to create (required; missing parent directories are created)")
     parser.add_argument("--topics", nargs="+", metavar="TOPIC",
                         help="topic names, resolved like ROS names (relative ones in the node's namespace, "
                         "remappings applied); default: every topic that is not hidden")

@@ -45,6 +45,7 @@ class RigidBody:
             tensor = _symmetric_tensor(array, name)
         else:
             values = finite_vector(inertia, name, (3, 6))
+            _check_magnitude(values, name)
             if values.shape[0] == 3:
                 _check_moments(values, name)
                 return cls(np.diag(values), values.copy(), np.eye(3))
@@ -52,6 +53,7 @@ class RigidBody:
             tensor = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
         if not np.all(np.isfinite(tensor)):
             raise ValueError(f"{name}: every entry must be finite")
+        _check_magnitude(tensor, name)
         if not np.any(tensor - np.diag(np.diag(tensor))):
             # Already principal: keep B as the principal frame exactly (no eigen-solver rounding).
             moments = np.diag(tensor).copy()
@@ -163,6 +165,16 @@ def _symmetric_tensor(matrix: np.ndarray, name: str) -> np.ndarray:
     if np.max(np.abs(matrix - matrix.T)) > SYMMETRY_RTOL * scale:
         raise ValueError(f"{name}: an inertia tensor must be symmetric, got {matrix.tolist()}")
     return 0.5 * (matrix + matrix.T)
+
+
+# Sums and products of moments (eigen-solver, triangle check, I_max |H|^2) must stay finite in float64.
+MAX_INERTIA = 1e100  # kg m^2
+
+
+def _check_magnitude(values: np.ndarray, name: str) -> None:
+    if np.max(np.abs(values)) > MAX_INERTIA:
+        raise ValueError(f"{name}: entries must lie within ±{MAX_INERTIA:g} kg m^2 so that float64 sums and products "
+                         f"of them stay finite; this one overflows (largest {np.max(np.abs(values)):g})")
 
 
 def _check_moments(moments: np.ndarray, name: str) -> None:

@@ -29,6 +29,7 @@ import numpy as np
 import yaml
 
 from . import bodies, library
+from .safe_files import clip, load_yaml, read_regular_file
 from .effects import MotionEffect, OutputEffect, parse_effect
 from .propagators import Propagator, make_propagator
 from .rigid_body import RigidBody
@@ -102,40 +103,71 @@ def default_scene() -> Scene:
     return scene_from_mapping(DEFAULT_SCENE_DATA)
 
 
+MAX_SCENE_BYTES = 1 << 20  # a scene is a few hundred bytes; a schedule of thousands of segments still fits
+MAX_PATH_LENGTH = 4096  # PATH_MAX on Linux
+
+
 def load_scene(path_or_name) -> Scene:
     """Read and validate a scene: a file, or the name of a library scene (``explorer1``;
-    ``default`` is the built-in default). An existing file wins over a library name."""
-    path = Path(path_or_name)
+    ``default`` is the built-in default). An existing file wins over a library name. Loading is
+    total: any input gives a Scene or a SceneError naming the file (and line, or field path), in
+    bounded time and memory (``safe_files``: regular files of at most 1 MiB, bounded YAML)."""
     name = str(path_or_name)
-    if not path.is_file() and library.is_scene_name(name):
+    if len(name) > MAX_PATH_LENGTH or "\0" in name:
+        raise SceneError(f"scene: not a usable file name ({len(name)} characters, at most {MAX_PATH_LENGTH}, no NUL)")
+    path = Path(path_or_name)
+    if not _exists(path) and library.is_scene_name(name):
         if name == "default":
             return default_scene()
         scenes = library.library_scenes()
         if name not in scenes:
             known = ", ".join(sorted(scenes)) or "none installed"
-            raise SceneError(f"scene: '{name}' is neither a file nor a library scene (library: {known})")
+            raise SceneError(f"scene: '{clip(name)}' is neither a file nor a library scene (library: {known})")
         path = scenes[name]
     try:
-        text_ = path.read_text(encoding="utf-8")
+        data = read_regular_file(path, MAX_SCENE_BYTES)
     except OSError as error:
-        raise SceneError(f"scene: cannot read {str(path)!r}: {error.strerror or error}") from None
-    except UnicodeDecodeError as error:
-        raise SceneError(f"{path}: not UTF-8 text: {error}") from None
+        raise SceneError(f"scene: cannot read {clip(str(path))!r}: {error.strerror or error}") from None
+    except ValueError as error:
+        raise SceneError(f"scene: {error}") from None
     try:
-        data = yaml.load(text_, Loader=_SceneLoader)
-    except yaml.MarkedYAMLError as error:
-        mark = error.problem_mark or error.context_mark
-        where = f"{path}:{mark.line + 1}:{mark.column + 1}" if mark is not None else str(path)
-        what = "; ".join(part for part in (error.context, error.problem) if part)
-        raise SceneError(f"{where}: not valid YAML: {what}") from None
-    except yaml.YAMLError as error:
-        raise SceneError(f"{path}: not valid YAML: {error}") from None
-    return scene_from_mapping(data, source=str(path))
+        text_ = data.decode("utf-8")
+    except UnicodeDecodeError as error:
+        raise SceneError(f"{path}: not UTF-8 text (byte {error.start})") from None
+    try:
+        document = load_yaml(text_, str(path), _SceneLoader)
+    except ValueError as error:
+        raise SceneError(str(error)) from None
+    return scene_from_mapping(document, source=str(path))
+
+
+def _exists(path: Path) -> bool:
+    try:
+        return path.exists()
+    except (OSError, ValueError):  # a name too long for the file system is not a file
+        return False
 
 
 class _SceneLoader(yaml.SafeLoader):
     """YAML 1.2 numbers: PyYAML follows YAML 1.1, where ``1e-3`` and ``3.986e14`` (no dot or no
-    exponent sign) are strings, a trap in a file of SI values."""
+    exponent sign) are strings, a trap in a file of SI values. A key given twice is an error (PyYAML
+    would silently keep the last)."""
+
+    def construct_mapping(self, node, deep=False):
+        seen = {}
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=True)
+            try:
+                hash(key)
+            except TypeError:
+                raise yaml.constructor.ConstructorError(None, None, "a mapping key must be a plain value",
+                                                        key_node.start_mark) from None
+            if key in seen:
+                raise yaml.constructor.ConstructorError(
+                    f"while reading the mapping at line {node.start_mark.line + 1}", node.start_mark,
+                    f"duplicate key {clip(repr(key), 60)} (first at line {seen[key].line + 1})", key_node.start_mark)
+            seen[key] = key_node.start_mark
+        return super().construct_mapping(node, deep=deep)
 
 
 _SceneLoader.add_implicit_resolver(

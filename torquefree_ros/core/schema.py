@@ -37,14 +37,32 @@ class Param:
     help: str = ""
 
 
+MAX_SHOWN = 80  # characters of a bad value quoted in an error: enough to recognise it, never a flood
+
+
+def shown(value) -> str:
+    """``repr(value)``, clipped: a bad value in an error message stays one readable line."""
+    text = repr(value)
+    return text if len(text) <= MAX_SHOWN else text[:MAX_SHOWN] + f"… ({len(text)} characters)"
+
+
 def child(path: str, key) -> str:
     if isinstance(key, int):
         return f"{path}[{key}]"
-    return f"{path}.{key}" if path else str(key)
+    key = str(key)
+    return f"{path}.{key if len(key) <= MAX_SHOWN else shown(key)}" if path else (key if len(key) <= MAX_SHOWN else shown(key))
 
 
 def _is_number(value) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _finite(value) -> bool:
+    """A finite real number as float64 (an integer of 400 digits is not: float() overflows)."""
+    try:
+        return math.isfinite(float(value))
+    except OverflowError:
+        return False
 
 
 def _type_name(value) -> str:
@@ -58,14 +76,14 @@ def number(minimum: float | None = None, maximum: float | None = None, *, positi
     suffix = f" {unit}" if unit else ""
 
     def check(value, path):
-        if not _is_number(value) or not math.isfinite(value):
-            raise FieldError(path, f"expected a finite number{suffix}, got {value!r}")
+        if not _is_number(value) or not _finite(value):
+            raise FieldError(path, f"expected a finite number{suffix}, got {shown(value)}")
         if positive and value <= 0:
-            raise FieldError(path, f"must be > 0{suffix}, got {value!r}")
+            raise FieldError(path, f"must be > 0{suffix}, got {shown(value)}")
         if minimum is not None and value < minimum:
-            raise FieldError(path, f"must be >= {minimum:g}{suffix}, got {value!r}")
+            raise FieldError(path, f"must be >= {minimum:g}{suffix}, got {shown(value)}")
         if maximum is not None and value > maximum:
-            raise FieldError(path, f"must be <= {maximum:g}{suffix}, got {value!r}")
+            raise FieldError(path, f"must be <= {maximum:g}{suffix}, got {shown(value)}")
         return float(value)
 
     return check
@@ -74,9 +92,9 @@ def number(minimum: float | None = None, maximum: float | None = None, *, positi
 def integer(minimum: int | None = None, maximum: int | None = None) -> Checker:
     def check(value, path):
         if not isinstance(value, int) or isinstance(value, bool):
-            raise FieldError(path, f"expected an integer, got {value!r}")
+            raise FieldError(path, f"expected an integer, got {shown(value)}")
         if (minimum is not None and value < minimum) or (maximum is not None and value > maximum):
-            raise FieldError(path, f"must lie in [{minimum}, {maximum}], got {value!r}")
+            raise FieldError(path, f"must lie in [{minimum}, {maximum}], got {shown(value)}")
         return value
 
     return check
@@ -85,7 +103,7 @@ def integer(minimum: int | None = None, maximum: int | None = None) -> Checker:
 def text(*, allow_empty: bool = False) -> Checker:
     def check(value, path):
         if not isinstance(value, str) or (not allow_empty and not value.strip()):
-            raise FieldError(path, f"expected a{'' if allow_empty else ' non-empty'} string, got {value!r}")
+            raise FieldError(path, f"expected a{'' if allow_empty else ' non-empty'} string, got {shown(value)}")
         return value
 
     return check
@@ -93,7 +111,7 @@ def text(*, allow_empty: bool = False) -> Checker:
 
 def boolean(value, path):
     if not isinstance(value, bool):
-        raise FieldError(path, f"expected true or false, got {value!r}")
+        raise FieldError(path, f"expected true or false, got {shown(value)}")
     return value
 
 
@@ -104,7 +122,7 @@ def topic_name(value, path):
     """A ROS topic name (relative or absolute; tokens of letters, digits and '_', not starting with
     a digit)."""
     if not isinstance(value, str) or not _TOPIC.match(value):
-        raise FieldError(path, f"expected a ROS topic name such as 'imu' or '/sensors/imu', got {value!r}")
+        raise FieldError(path, f"expected a ROS topic name such as 'imu' or '/sensors/imu', got {shown(value)}")
     return value
 
 
@@ -113,7 +131,7 @@ def choice(*options: str) -> Checker:
         if value not in options:
             close = difflib.get_close_matches(str(value), options, n=1)
             hint = f"; did you mean {close[0]!r}?" if close else ""
-            raise FieldError(path, f"expected one of {', '.join(options)}, got {value!r}{hint}")
+            raise FieldError(path, f"expected one of {', '.join(options)}, got {shown(value)}{hint}")
         return value
 
     return check
@@ -126,14 +144,16 @@ def vector(*lengths: int, unit: str = "", positive: bool = False) -> Checker:
     def check(value, path):
         if not isinstance(value, (list, tuple)) or not all(_is_number(x) for x in value):
             raise FieldError(path, f"expected a list of {wanted} numbers{f' ({unit})' if unit else ''}, "
-                                   f"got {value!r}")
+                                   f"got {shown(value)}")
         if len(value) not in lengths:
             raise FieldError(path, f"expected {wanted} numbers, got {len(value)}")
+        if not all(_finite(x) for x in value):
+            raise FieldError(path, f"every entry must be finite, got {shown(list(value))}")
         array = np.asarray(value, dtype=float)
         if not np.all(np.isfinite(array)):
-            raise FieldError(path, f"every entry must be finite, got {list(value)!r}")
+            raise FieldError(path, f"every entry must be finite, got {shown(list(value))}")
         if positive and np.any(array <= 0):
-            raise FieldError(path, f"every entry must be > 0, got {list(value)!r}")
+            raise FieldError(path, f"every entry must be > 0, got {shown(list(value))}")
         return array
 
     return check
@@ -202,5 +222,5 @@ def one_key(value, path: str, known, what: str) -> tuple[str, Any]:
     if name not in known:
         close = difflib.get_close_matches(str(name), tuple(known), n=1)
         hint = f"; did you mean {close[0]!r}?" if close else ""
-        raise FieldError(path, f"unknown {what} {name!r}{hint} (known: {', '.join(sorted(known))})")
+        raise FieldError(path, f"unknown {what} {shown(name)}{hint} (known: {', '.join(sorted(known))})")
     return name, ({} if parameters is None else parameters)

@@ -18,6 +18,9 @@ from .propagators import Propagator
 from .timing import check_rate, stamps_ns
 
 
+MAX_STAMP_S = 2**31  # builtin_interfaces/Time.sec is an int32
+
+
 @dataclass(frozen=True)
 class SampleBlock:
     first: int  # index k of the first sample
@@ -62,7 +65,14 @@ class Simulation:
 
     def samples(self, first: int, count: int) -> SampleBlock:
         times = np.arange(first, first + count) / self.rate
+        if count and self.epoch_ns / 1e9 + times[-1] >= MAX_STAMP_S:
+            raise ValueError(f"sample {first + count - 1}: its stamp would pass 2^31 s, the end of "
+                             "builtin_interfaces/Time (int32 seconds)")
         omega, q, internal = self.propagator.states(times)
+        if not (np.all(np.isfinite(omega)) and np.all(np.isfinite(q))):
+            bad = int(np.argmin(np.all(np.isfinite(omega), axis=1) & np.all(np.isfinite(q), axis=1)))
+            raise ValueError(f"the state at t = {times[bad]:g} s is not finite: this body and initial state leave "
+                             f"float64's range (propagator {self.propagator.describe()})")
         outputs = tuple(stream.rows(first, times, omega, q) for stream in self._streams)
         return SampleBlock(first, times, stamps_ns(self.epoch_ns, times), omega, q, internal, outputs)
 

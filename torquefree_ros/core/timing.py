@@ -26,15 +26,17 @@ def sample_times(duration: float, rate: float) -> np.ndarray:
 
 # A sample period shorter than a microsecond is not a use case; it also keeps every stamp distinct.
 MAX_RATE = 1e6
+# Nor is one longer than 1000 s; below it, nanosecond stamp arithmetic (1e9 / rate) leaves int64.
+MIN_RATE = 1e-3
 
 
 def check_rate(rate, name: str = "rate") -> float:
-    """A sample rate in Hz: a finite number in (0, MAX_RATE]."""
+    """A sample rate in Hz: a finite number in [MIN_RATE, MAX_RATE]."""
     if isinstance(rate, bool) or not isinstance(rate, (int, float, np.integer, np.floating)):
         raise ValueError(f"{name}: expected a number (Hz), got {rate!r}")
     rate = float(rate)
-    if not (math.isfinite(rate) and 0.0 < rate <= MAX_RATE):
-        raise ValueError(f"{name}: must be a finite number in (0, {MAX_RATE:g}] Hz, got {rate!r}")
+    if not (math.isfinite(rate) and MIN_RATE <= rate <= MAX_RATE):
+        raise ValueError(f"{name}: must be a finite number in [{MIN_RATE:g}, {MAX_RATE:g}] Hz, got {rate!r}")
     return rate
 
 

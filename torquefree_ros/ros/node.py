@@ -19,7 +19,8 @@ from std_srvs.srv import Trigger
 from ..bag import BagError, BagWriter
 from ..bag.samples import ANGULAR_VELOCITY, ATTITUDE, CLOCK, INERTIA_KEY, SampleRecorder, sample_qos
 from ..core.bodies import tensor_elements
-from .parameters import SPEC_BY_NAME, SPECS, ConfigurationError, check_value, rejection, run_request
+from .guarded_parameters import GuardedParameterService, clip
+from .parameters import SPEC_BY_NAME, SPECS, ConfigurationError, ScenePolicy, check_value, rejection, run_request
 from .qos import message_class
 from .sample_loop import RunRequest, SampleLoop
 
@@ -75,7 +76,9 @@ class TorqueFreeSim(Node):
 
     def __init__(self, node_name: str = "torquefree", **node_options):
         # Undeclared names reach our on-set callback, whose reason names them (rclpy's does not).
-        super().__init__(node_name, allow_undeclared_parameters=True, **node_options)
+        # rclpy's own parameter services end the spin on a malformed request; ours answer it
+        super().__init__(node_name, allow_undeclared_parameters=True, start_parameter_services=False,
+                         **node_options)
         self._declared = False
         self._loop: SampleLoop | None = None
         self._bag: SampleRecorder | None = None
@@ -84,6 +87,8 @@ class TorqueFreeSim(Node):
             for spec in SPECS:
                 self.declare_parameter(spec.name, spec.default, spec.descriptor())
             self._declared = True
+            self._scenes = ScenePolicy(self.get_parameter("scene").value,
+                                       self.get_parameter("scene_directories").value)
             request = self._run_request()
         except InvalidParameterValueException as error:
             super().destroy_node()
@@ -96,6 +101,7 @@ class TorqueFreeSim(Node):
             super().destroy_node()
             raise ConfigurationError(str(error)) from None
 
+        GuardedParameterService(self)
         depth = self.get_parameter("qos_depth").value
         writer = self._open_bag()
         self._outputs = _Publishers(self, depth)
@@ -169,14 +175,21 @@ class TorqueFreeSim(Node):
             for parameter in parameters:
                 if parameter.name not in SPEC_BY_NAME and not self.has_parameter(parameter.name):
                     known = ", ".join(spec.name for spec in SPECS)
-                    raise ValueError(f"{parameter.name}: not a parameter of this node (parameters: {known})")
+                    raise ValueError(f"{clip(parameter.name, 60)}: not a parameter of this node (parameters: {known})")
             if self._declared:
+                for parameter in parameters:
+                    if parameter.name == "scene":
+                        self._scenes.check(check_value("scene", parameter))
                 self._run_request(parameters)
             else:  # declaring: the others are not there yet to form a whole configuration
                 for parameter in parameters:
                     check_value(parameter.name, parameter)
         except ValueError as error:
             return rejection(error)
+        except Exception as error:  # noqa: BLE001 - a callback must not end the node
+            self.get_logger().error(clip(f"parameters refused on an unexpected error: {type(error).__name__}: {error}"))
+            return rejection(ValueError(f"{parameters[0].name if parameters else 'parameters'}: cannot be used "
+                                        f"({type(error).__name__})"))
         return SetParametersResult(successful=True)
 
     # -- reset -------------------------------------------------------------------------------------
@@ -185,10 +198,11 @@ class TorqueFreeSim(Node):
             run = self._run_request()
             self._outputs.ensure(run)
             simulation = self._loop.restart(run)
-        except (ValueError, RuntimeError) as error:
+        except Exception as error:  # noqa: BLE001 - ValueError: an unusable state; anything else must not end the node
             self._outputs.retire(self._loop.request)
             response.success = False
-            response.message = f"reset refused, the running simulation continues unchanged: {error}"
+            reason = str(error) if isinstance(error, (ValueError, RuntimeError)) else f"{type(error).__name__}: {error}"
+            response.message = clip(f"reset refused, the running simulation continues unchanged: {reason}")
             self.get_logger().warning(response.message)
             return response
         self._outputs.retire(run)

@@ -8,7 +8,10 @@ reason then names the parameter, and an integer is accepted where a number is me
 
 from __future__ import annotations
 
+import os
+import re
 from dataclasses import dataclass
+from pathlib import Path
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
 from rclpy.parameter import Parameter
@@ -16,8 +19,12 @@ from rclpy.parameter import Parameter
 from ..core import PROPAGATORS
 from ..core.rigid_body import RigidBody
 from ..core.scene import SceneError, default_scene, load_scene
-from ..core.timing import MAX_RATE, check_rate
+from ..core.simulation import Simulation
+from ..core.timing import MAX_RATE, MIN_RATE, check_rate
 from ..core.validation import finite_vector, unit_quaternion
+from ..core.library import is_scene_name, library_scenes
+from ..core.schema import shown
+from .guarded_parameters import refusal
 from .sample_loop import RunRequest
 
 _NUMBER = (Parameter.Type.INTEGER, Parameter.Type.DOUBLE)
@@ -55,10 +62,23 @@ class ParameterSpec:
 
 
 _AT_RESET = " Takes effect at the next ~/reset."
+MAX_FRAME_LENGTH = 256
+# tf2 and REP 105 frame ids: letters, digits, '_', '-', '.', '/' separating names, no leading '/'
+_FRAME = re.compile(r"^[A-Za-z0-9_.\-]+(/[A-Za-z0-9_.\-]+)*$")
+_FRAME_RULE = (f"1 to {MAX_FRAME_LENGTH} characters: letters, digits, '_', '-', '.', and '/' between names; "
+               "no leading '/'")
+MAX_PATH_LENGTH = 4096
 SPECS = (
     ParameterSpec("scene", "", "Path of a scene file (YAML), or the name of a library scene (dzhanibekov, "
-                  "explorer1, ...); empty = the built-in default scene." + _AT_RESET,
-                  "a readable, valid scene file or a library scene name, or empty"),
+                  "explorer1, ...); empty = the built-in default scene. Once running, only library names, the "
+                  "start-up scene and files under scene_directories are accepted." + _AT_RESET,
+                  "a library scene name, the start-up scene, or a regular file of at most 1 MiB under "
+                  "scene_directories; or empty"),
+    ParameterSpec("scene_directories", [""],
+                  "Directories whose scene files (and subdirectories') the scene parameter may name while the "
+                  "node runs; read at start-up only, so no participant on the domain can widen it. "
+                  "[''] = none (library names and the start-up scene only).",
+                  "absolute or relative directory paths", read_only=True),
     ParameterSpec("inertia", None,
                   "Principal moments [I1, I2, I3] or tensor [Ixx, Iyy, Izz, Ixy, Ixz, Iyz], kg m^2; "
                   "overrides the scene; not set or [] = the scene's." + _AT_RESET,
@@ -75,15 +95,15 @@ SPECS = (
                   "scene's own initial state." + _AT_RESET, "an integer in [-1, members - 1]",
                   number_range=(-1, 999)),
     ParameterSpec("publish_rate", 100.0, "Samples per simulated second, Hz; sample k is the state at k / rate."
-                  + _AT_RESET, f"> 0 and <= {MAX_RATE:g}", number_range=(0.0, MAX_RATE)),
+                  + _AT_RESET, f">= {MIN_RATE:g} and <= {MAX_RATE:g}", number_range=(MIN_RATE, MAX_RATE)),
     ParameterSpec("real_time_factor", 1.0,
                   "1 = wall-clock pace with wall-clock stamps; other values pace simulated time at this "
                   "multiple of wall time and publish /clock; 0 = as fast as possible." + _AT_RESET,
                   f">= 0 and <= {MAX_REAL_TIME_FACTOR:g}", number_range=(0.0, MAX_REAL_TIME_FACTOR)),
     ParameterSpec("body_frame", "body", "header.frame_id of angular_velocity (the body frame)." + _AT_RESET,
-                  "a non-empty frame id without a leading '/'"),
+                  _FRAME_RULE),
     ParameterSpec("inertial_frame", "world", "header.frame_id of attitude (the inertial frame)." + _AT_RESET,
-                  "a non-empty frame id without a leading '/'"),
+                  _FRAME_RULE),
     ParameterSpec("propagator", "auto",
                   "auto (the exact solution for a torque-free scene, DOP853 at the scene's accuracy when an effect "
                   "changes the motion) or a registered propagator." + _AT_RESET,
@@ -102,13 +122,17 @@ SPEC_BY_NAME = {spec.name: spec for spec in SPECS}
 def check_value(name: str, parameter: Parameter):
     """The parameter's value in canonical form, or ``ValueError`` naming it and the reason."""
     kind, value = parameter.type_, parameter.value
+    if name == "scene_directories":
+        if kind != Parameter.Type.STRING_ARRAY:
+            raise ValueError(f"{name}: expected an array of strings, got {_type_name(kind)} {shown(value)}")
+        return tuple(v for v in value if v)
     if kind == Parameter.Type.NOT_SET:
         if SPEC_BY_NAME[name].default is None:
             return None
         raise ValueError(f"{name}: cannot be unset")
     if name in ("inertia", "angular_velocity", "orientation"):
         if kind not in _ARRAY:
-            raise ValueError(f"{name}: expected an array of numbers, got {_type_name(kind)} {value!r}")
+            raise ValueError(f"{name}: expected an array of numbers, got {_type_name(kind)} {shown(value)}")
         if len(value) == 0:
             return None  # the scene's value
         if kind == Parameter.Type.BYTE_ARRAY:
@@ -123,32 +147,58 @@ def check_value(name: str, parameter: Parameter):
         integral = name in ("qos_depth", "sweep_member")
         if kind not in _NUMBER or (integral and kind != Parameter.Type.INTEGER):
             wanted = "an integer" if integral else "a number"
-            raise ValueError(f"{name}: expected {wanted}, got {_type_name(kind)} {value!r}")
+            raise ValueError(f"{name}: expected {wanted}, got {_type_name(kind)} {shown(value)}")
         if name == "publish_rate":
             return check_rate(value, name)
         if name == "real_time_factor":
             if not 0.0 <= float(value) <= MAX_REAL_TIME_FACTOR:
-                raise ValueError(f"{name}: must lie in [0, {MAX_REAL_TIME_FACTOR:g}], got {value!r}")
+                raise ValueError(f"{name}: must lie in [0, {MAX_REAL_TIME_FACTOR:g}], got {shown(value)}")
             return float(value)
         if name == "sweep_member":
             if not -1 <= value <= 999:
-                raise ValueError(f"{name}: must lie in [-1, 999], got {value!r}")
+                raise ValueError(f"{name}: must lie in [-1, 999], got {shown(value)}")
             return int(value)
         if not 1 <= value <= 10000:
-            raise ValueError(f"{name}: must lie in [1, 10000], got {value!r}")
+            raise ValueError(f"{name}: must lie in [1, 10000], got {shown(value)}")
         return int(value)
     if kind != Parameter.Type.STRING:
-        raise ValueError(f"{name}: expected a string, got {_type_name(kind)} {value!r}")
+        raise ValueError(f"{name}: expected a string, got {_type_name(kind)} {shown(value)}")
     if name in ("scene", "record_bag"):
+        if len(value) > MAX_PATH_LENGTH or "\0" in value:
+            raise ValueError(f"{name}: expected a path of at most {MAX_PATH_LENGTH} characters without NUL, "
+                             f"got {len(value)} characters")
         return value
     if name == "propagator":
         if value != "auto" and value not in PROPAGATORS:
             known = ", ".join(["auto", *sorted(PROPAGATORS)])
-            raise ValueError(f"{name}: unknown propagator {value!r} (known: {known})")
+            raise ValueError(f"{name}: unknown propagator {shown(value)} (known: {known})")
         return value
-    if not value or value.startswith("/") or any(c.isspace() for c in value):
-        raise ValueError(f"{name}: expected a non-empty frame id without a leading '/' or spaces, got {value!r}")
+    if len(value) > MAX_FRAME_LENGTH or not _FRAME.match(value):
+        raise ValueError(f"{name}: expected a frame id of {_FRAME_RULE}, got {shown(value)}")
     return value
+
+
+class ScenePolicy:
+    """Which scene files a remote caller may name, fixed at start-up: library names, the start-up
+    scene and regular files below ``directories`` (symbolic links resolved first, so a link cannot
+    lead out). Anything else is refused without reading it, so no refusal quotes a file it should not."""
+
+    def __init__(self, start_up_scene: str, directories):
+        self.start_up = start_up_scene
+        self.directories = tuple(Path(os.path.realpath(d)) for d in directories if d)
+
+    def check(self, scene: str) -> None:
+        if not scene or scene == self.start_up or (is_scene_name(scene) and scene in {*library_scenes(), "default"}):
+            return
+        try:
+            real = Path(os.path.realpath(scene))
+        except (OSError, ValueError):
+            real = None
+        if real is not None and any(real.is_relative_to(d) for d in self.directories):
+            return
+        where = ", ".join(str(d) for d in self.directories) or "none given"
+        raise ValueError(f"scene: {shown(scene)} is not a library scene ({', '.join(sorted(library_scenes()))}) "
+                         f"nor a file under scene_directories ({where}; set at start-up)")
 
 
 _OVERRIDES = ("inertia", "angular_velocity", "orientation")
@@ -175,6 +225,12 @@ def run_request(values: dict) -> RunRequest:
         scene = scene.members()[member]
     propagator = scene.propagator(values["propagator"], inertia=values["inertia"],
                                   angular_velocity=values["angular_velocity"], orientation=values["orientation"])
+    # the first sample period, computed now: a scene too stiff or outside float64 fails here, with
+    # its reason, rather than in the sample loop after the run was accepted
+    try:
+        Simulation(propagator, values["publish_rate"], outputs=scene.outputs).samples(0, 2)
+    except RuntimeError as error:
+        raise ValueError(f"propagator: {error}") from None
     return RunRequest(propagator, values["publish_rate"], values["real_time_factor"],
                       values["body_frame"], values["inertial_frame"], scene.outputs, describe(values, scene))
 
@@ -191,7 +247,7 @@ def describe(values: dict, scene) -> str:
 
 
 def rejection(error: ValueError) -> SetParametersResult:
-    return SetParametersResult(successful=False, reason=str(error))
+    return refusal(str(error))
 
 
 def _type_name(kind: Parameter.Type) -> str:

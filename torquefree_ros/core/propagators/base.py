@@ -96,7 +96,7 @@ def _check_representable(body: RigidBody, omega_B: np.ndarray) -> None:
     # The solvers form products like I_max * |H|^2; they must stay finite in float64.
     with np.errstate(over="ignore", invalid="ignore"):
         momentum_squared = float(np.sum(body.angular_momentum(omega_B) ** 2))
-        scale = momentum_squared * float(np.max(body.moments)) ** 2
+        scale = np.float64(momentum_squared) * np.max(body.moments) ** 2  # float64: inf, not OverflowError
     if not np.isfinite(scale):
         raise ValueError(
             f"angular_velocity: the state {omega_B.tolist()} with moments {body.moments.tolist()} "

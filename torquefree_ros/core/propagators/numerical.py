@@ -161,11 +161,16 @@ class DOP853Propagator(Propagator):
 
     name = "dop853"
     options = {"rtol": 1e-10, "atol": 1e-12}
+    # An explicit method whose step collapses far below the motion's own time scale is stability-
+    # limited by stiff effects (a damper with damping 1e9): it would take ~forever, so it stops.
+    MIN_STEP_PER_TURN = 1e-7
 
     def __init__(self, body, angular_velocity, orientation, effects=(), **options):
         super().__init__(body, angular_velocity, orientation, effects, **options)
         self.rtol = _positive_option(self.settings, "rtol")
         self.atol = _positive_option(self.settings, "atol")
+        speed = float(np.linalg.norm(self.omega0_B))
+        self.min_step = self.MIN_STEP_PER_TURN * min(1.0, 2.0 * math.pi / speed if speed > 0 else 1.0)
         self._restart()
 
     def _rhs(self, t, y):
@@ -185,6 +190,10 @@ class DOP853Propagator(Propagator):
             message = solver.step()
             if solver.status == "failed":
                 raise RuntimeError(f"dop853 failed at t = {solver.t}: {message}")
+            if solver.step_size < self.min_step and solver.status != "finished":
+                raise RuntimeError(
+                    f"dop853: the step fell to {solver.step_size:.2g} s at t = {solver.t:.6g} s, under {self.min_step:.2g} s "
+                    f"(1e-7 of a turn): the scene's effects are too stiff for an explicit integrator")
         return solver
 
     def _begin_segment(self, t0: float, y0: np.ndarray):
