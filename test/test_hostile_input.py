@@ -255,3 +255,22 @@ def test_a_cut_bag_plays_what_is_readable_and_exits_1(good_bag, capsys, keep):
     assert status == 1 and "Traceback" not in err, err
     first = err.splitlines()[0]  # then, for the half bag, "played N messages": what was readable went out
     assert ("is incomplete" in first and "--reindex" in first) or "it ends inside its header" in first, err
+
+
+def test_bag_tools_refuse_a_name_too_long_for_the_file_system(tmp_path, capsys):
+    from torquefree_ros.cli.bag import main as bag_main
+    from torquefree_ros.cli.record import main as record_main
+
+    name = str(tmp_path / ("b" * 300))
+    assert bag_main(["default", "--duration", "1", "--rate", "10", "--output", name]) == 1
+    assert record_main(["torquefree_record", "--output", name]) == 1
+    err = capsys.readouterr().err
+    assert err.count("File name too long") == 2 and "Traceback" not in err
+
+
+def test_an_output_topic_too_long_for_dds_is_a_scene_error(tmp_path):
+    path = tmp_path / "topic.yaml"
+    path.write_text("body: {inertia: [3, 2, 1]}\ninitial: {angular_velocity: [0, 0, 1]}\n"
+                    f"effects:\n  - euler_angles: {{topic: {'t' * 300}}}\n")
+    with pytest.raises(SceneError, match=r"effects\[0\]\.euler_angles\.topic: expected a ROS topic name"):
+        load_scene(path)

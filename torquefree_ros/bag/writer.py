@@ -49,7 +49,11 @@ def prepare_bag_directory(path, overwrite: bool = False) -> Path:
     path = Path(path)
     if not path.name or path.name in (".", ".."):
         raise BagError(f"bag '{path}': give a directory name for the bag")
-    if path.exists() or path.is_symlink():
+    try:
+        exists = path.exists() or path.is_symlink()
+    except OSError as error:  # a name too long for the file system
+        raise BagError(f"bag '{str(path)[:120]}…': cannot be created: {error.strerror or error}") from None
+    if exists:
         if not overwrite:
             raise BagError(f"bag '{path}': already exists; choose another name or overwrite it explicitly")
         if not _is_bag_directory(path):

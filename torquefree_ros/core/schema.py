@@ -120,8 +120,8 @@ _TOPIC = re.compile(r"^~?/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*$")
 
 def topic_name(value, path):
     """A ROS topic name (relative or absolute; tokens of letters, digits and '_', not starting with
-    a digit)."""
-    if not isinstance(value, str) or not _TOPIC.match(value):
+    a digit; at most 256 characters, a limit DDS implementations share)."""
+    if not isinstance(value, str) or len(value) > 256 or not _TOPIC.match(value):
         raise FieldError(path, f"expected a ROS topic name such as 'imu' or '/sensors/imu', got {shown(value)}")
     return value
 
