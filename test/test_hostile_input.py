@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 import string
+import tempfile
 import time
 
 import pytest
@@ -57,7 +58,9 @@ def _raw(name, kind, **fields):
     (_raw("inertia", ParameterType.PARAMETER_DOUBLE_ARRAY, double_array_value=[1e308, 1e308, 1e308]), "overflows"),
     (_raw("inertial_frame", ParameterType.PARAMETER_STRING, string_value="w" * 1_000_000), "frame id"),
     (_raw("scene", ParameterType.PARAMETER_STRING, string_value="/dev/zero"), "scene_directories"),
-    (_raw("scene", ParameterType.PARAMETER_STRING, string_value="s" * 256), "nor a file under scene_directories"),
+    (_raw("scene", ParameterType.PARAMETER_STRING, string_value="/" + "s" * 256), "nor a file under scene_directories"),
+    (_raw("scene", ParameterType.PARAMETER_STRING, string_value=os.path.join(tempfile.gettempdir(), "s" * 256)),
+     "cannot read"),  # inside scene_directories: read, and refused for its name (ENAMETOOLONG)
 ])
 def test_malformed_parameter_messages_are_refused_and_the_node_keeps_publishing(harness, message, reason):
     for service_type, service in ((SetParameters, "set_parameters"), (SetParametersAtomically, "set_parameters_atomically")):
