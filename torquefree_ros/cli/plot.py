@@ -16,12 +16,18 @@ from .common import console_command
 
 @console_command("torquefree_plot")
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="torquefree_plot", description=plot.__doc__.split("\n\n")[0])
-    parser.add_argument("source", help="a bag directory, a scene file, or a library scene name")
-    parser.add_argument("--output-dir", default=".", help="where the PNG files go (default: here)")
-    parser.add_argument("--duration", type=float, help="simulated seconds for a scene (default: two polhode periods)")
-    parser.add_argument("--rate", type=float, default=100.0, help="samples per second for a scene (default 100)")
-    parser.add_argument("--inertia", type=float, nargs="+", help="the body's inertia (3 or 6 numbers) for a bag")
+    parser = argparse.ArgumentParser(prog="torquefree_plot", description="Draw a scene (simulated) or a bag (as recorded): NAME_rates.png (body rates), "
+                                     "NAME_polhode.png (H on the momentum sphere with the energy ellipsoid) and NAME_phase.png "
+                                     "(the Duffing phase planes). Needs matplotlib: pip install '.[plot]'.")
+    parser.add_argument("source", metavar="BAG_OR_SCENE", help="a bag directory, a scene file, or a library scene name")
+    parser.add_argument("--output-dir", default=".", metavar="DIR",
+                        help="where the PNG files go, created if missing (default: the current directory)")
+    parser.add_argument("--duration", type=float, metavar="SECONDS",
+                        help="simulated time for a scene, s (default: the scene's watch, else two polhode periods)")
+    parser.add_argument("--rate", type=float, default=100.0, metavar="HZ",
+                        help="samples per simulated second for a scene, Hz (default: 100)")
+    parser.add_argument("--inertia", type=float, nargs="+", metavar="I",
+                        help="for a bag that does not store it: 3 principal moments or 6 tensor elements, kg m^2")
     args = parser.parse_args(argv)
     if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
         parser.error(f"--duration: must be a positive number of seconds, got {args.duration!r}")
