@@ -25,7 +25,9 @@ test: $(VENV)/.installed
 lock:
 	rm -rf $(VENV) .venv-lock
 	$(PYTHON) -m venv .venv-lock
-	.venv-lock/bin/pip install --quiet --disable-pip-version-check -r requirements-test.txt
+	sed '/^-c /d' requirements-test.txt > .venv-lock/requirements-test.txt  # the same list, without the old pins
+	cp requirements.txt .venv-lock/
+	.venv-lock/bin/pip install --quiet --disable-pip-version-check -r .venv-lock/requirements-test.txt
 	{ echo "# Exact versions for requirements-test.txt (which includes requirements.txt), resolved by"; \
 	  echo "# 'make lock' on $$(date -u +%Y-%m-%d) with $$(.venv-lock/bin/python --version)."; \
 	  .venv-lock/bin/pip freeze --all | grep -v -E '^(pip|torquefree[-_]ros)[= @]'; } > requirements.lock
