@@ -277,3 +277,52 @@ def test_an_output_topic_too_long_for_dds_is_a_scene_error(tmp_path):
                     f"effects:\n  - euler_angles: {{topic: {'t' * 300}}}\n")
     with pytest.raises(SceneError, match=r"effects\[0\]\.euler_angles\.topic: expected a ROS topic name"):
         load_scene(path)
+
+
+# -- a full disk at close ---------------------------------------------------------------------------------
+
+def _one_sample_writer(path):
+    from torquefree_ros.bag import BagWriter
+
+    writer = BagWriter(path)
+    channel = writer.add_topic("/clock", "rosgraph_msgs/msg/Clock")
+    writer.write(channel, 5, b"\x00\x01\x00\x00" + bytes(8))
+    return writer
+
+
+def _no_space(*args, **kwargs):
+    raise OSError(28, "No space left on device")
+
+
+def test_no_room_for_metadata_says_the_mcap_is_whole_and_how_to_repair(tmp_path, monkeypatch):
+    from torquefree_ros.bag import BagError, BagReader, writer as writer_module
+    from torquefree_ros.cli.bag import main as bag_main
+
+    writer = _one_sample_writer(tmp_path / "bag")
+    monkeypatch.setattr(writer_module, "write_atomically", _no_space)
+    with pytest.raises(BagError) as error:
+        writer.close()
+    message = str(error.value)
+    assert "'bag_0.mcap' is complete, but metadata.yaml could not be written (No space left on device)" in message
+    assert "chunk" not in message and f"torquefree_bag --reindex {tmp_path / 'bag'}" in message
+    monkeypatch.undo()
+    assert bag_main(["--reindex", str(tmp_path / "bag")]) == 0
+    assert BagReader(tmp_path / "bag").message_count == 1 and (tmp_path / "bag" / "metadata.yaml").is_file()
+
+
+def test_no_room_to_rebuild_after_a_write_error_gives_the_repair_command(tmp_path, monkeypatch):
+    from torquefree_ros.bag import BagError, BagReader, reader as reader_module
+    from torquefree_ros.cli.bag import main as bag_main
+
+    writer = _one_sample_writer(tmp_path / "bag")
+    writer.flush()  # the sample's chunk is on disk
+    monkeypatch.setattr(writer._mcap, "finish", _no_space)
+    monkeypatch.setattr(reader_module, "reindex", _no_space)  # the rebuilt copy finds no room either
+    with pytest.raises(BagError) as error:
+        writer.close()
+    message = str(error.value)
+    assert "could not be completed now (No space left on device)" in message
+    assert f"free some space, then run `torquefree_bag --reindex {tmp_path / 'bag'}`" in message
+    monkeypatch.undo()
+    assert bag_main(["--reindex", str(tmp_path / "bag")]) == 0
+    assert BagReader(tmp_path / "bag").complete and BagReader(tmp_path / "bag").message_count == 1

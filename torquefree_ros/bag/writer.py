@@ -215,10 +215,15 @@ class BagWriter:
                 self._mcap.add_metadata("rosbag2", {"serialized_metadata": dump(self._metadata.to_yaml()).rstrip("\n")})
                 self._mcap.finish()
                 self._stream.close()
-                write_atomically(self.path / METADATA_FILE, metadata_file_text(self._metadata))
-                return
             except OSError as error:
                 self._failure = self._io_error(error).args[0]
+            else:
+                try:
+                    write_atomically(self.path / METADATA_FILE, metadata_file_text(self._metadata))
+                except OSError as error:  # the .mcap is whole; only the small YAML file is missing
+                    raise BagError(f"bag '{self.path}': '{self.file_path.name}' is complete, but {METADATA_FILE} "
+                                   f"could not be written ({error.strerror or error}); {_REPAIR.format(self.path)}") from None
+                return
         try:
             self._stream.close()
         except OSError:
@@ -227,8 +232,10 @@ class BagWriter:
 
         try:
             reindex(self.path)
-        except (BagError, OSError):
-            pass
+        except (BagError, OSError) as error:  # e.g. no room for the rebuilt copy on the same full disk
+            detail = error.strerror if isinstance(error, OSError) and error.strerror else str(error)
+            raise BagError(f"{self._failure}; the bag could not be completed now ({detail}): "
+                           f"{_REPAIR.format(self.path)}") from None
         raise BagError(self._failure)
 
     def __enter__(self) -> "BagWriter":
@@ -255,6 +262,9 @@ class BagWriter:
         self._failure = (f"bag '{self.path}': cannot write '{self.file_path.name}': {reason}; the chunks "
                          f"written before stay readable, the last open chunk is lost")
         return BagError(self._failure)
+
+
+_REPAIR = "free some space, then run `torquefree_bag --reindex {}` to make it a complete bag"
 
 
 def write_atomically(path: Path, text: str) -> None:
