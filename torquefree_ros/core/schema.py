@@ -16,6 +16,7 @@ from typing import Any, Callable
 import numpy as np
 
 from . import validation
+from .safe_files import clip
 
 Checker = Callable[[Any, str], Any]
 REQUIRED = object()
@@ -42,15 +43,14 @@ MAX_SHOWN = 80  # characters of a bad value quoted in an error: enough to recogn
 
 def shown(value) -> str:
     """``repr(value)``, clipped: a bad value in an error message stays one readable line."""
-    text = repr(value)
-    return text if len(text) <= MAX_SHOWN else text[:MAX_SHOWN] + f"… ({len(text)} characters)"
+    return clip(repr(value), MAX_SHOWN)
 
 
 def child(path: str, key) -> str:
     if isinstance(key, int):
         return f"{path}[{key}]"
-    key = str(key)
-    return f"{path}.{key if len(key) <= MAX_SHOWN else shown(key)}" if path else (key if len(key) <= MAX_SHOWN else shown(key))
+    key = clip(str(key), MAX_SHOWN)
+    return f"{path}.{key}" if path else key
 
 
 def _is_number(value) -> bool:

@@ -15,16 +15,14 @@ from rclpy.exceptions import ParameterNotDeclaredException
 from rclpy.parameter import Parameter
 from rclpy.parameter_service import ParameterService
 
+from ..core.safe_files import clip
+
 MAX_NAME_LENGTH = 256  # characters of a parameter name; ours are a dozen
 MAX_REASON_LENGTH = 400  # characters of a refusal sent back: one readable line, never megabytes
 
 
-def clip(text: str, limit: int = MAX_REASON_LENGTH) -> str:
-    return text if len(text) <= limit else text[:limit] + f"… ({len(text)} characters)"
-
-
 def refusal(reason: str) -> SetParametersResult:
-    return SetParametersResult(successful=False, reason=clip(reason))
+    return SetParametersResult(successful=False, reason=clip(reason, MAX_REASON_LENGTH))
 
 
 def parameter_from_message(message) -> Parameter:
@@ -71,7 +69,7 @@ def _answer_always(method):
         try:
             return method(self, request, response)
         except Exception as error:  # noqa: BLE001 - a callback must not end the executor's spin
-            self._logger.error(clip(f"parameter request not served: {type(error).__name__}: {error}"))
+            self._logger.error(clip(f"parameter request not served: {type(error).__name__}: {error}", MAX_REASON_LENGTH))
             return type(response)()
 
     return guarded

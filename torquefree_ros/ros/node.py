@@ -19,7 +19,8 @@ from std_srvs.srv import Trigger
 from ..bag import BagError, BagWriter
 from ..bag.samples import ANGULAR_VELOCITY, ATTITUDE, CLOCK, INERTIA_KEY, SampleRecorder, sample_qos
 from ..core.bodies import tensor_elements
-from .guarded_parameters import GuardedParameterService, clip
+from ..core.safe_files import clip
+from .guarded_parameters import MAX_REASON_LENGTH, GuardedParameterService
 from .parameters import SPEC_BY_NAME, SPECS, ConfigurationError, ScenePolicy, check_value, rejection, run_request
 from .qos import message_class
 from .sample_loop import RunRequest, SampleLoop
@@ -187,7 +188,8 @@ class TorqueFreeSim(Node):
         except ValueError as error:
             return rejection(error)
         except Exception as error:  # noqa: BLE001 - a callback must not end the node
-            self.get_logger().error(clip(f"parameters refused on an unexpected error: {type(error).__name__}: {error}"))
+            self.get_logger().error(clip(f"parameters refused on an unexpected error: {type(error).__name__}: {error}",
+                                         MAX_REASON_LENGTH))
             return rejection(ValueError(f"{parameters[0].name if parameters else 'parameters'}: cannot be used "
                                         f"({type(error).__name__})"))
         return SetParametersResult(successful=True)
@@ -202,7 +204,8 @@ class TorqueFreeSim(Node):
             self._outputs.retire(self._loop.request)
             response.success = False
             reason = str(error) if isinstance(error, (ValueError, RuntimeError)) else f"{type(error).__name__}: {error}"
-            response.message = clip(f"reset refused, the running simulation continues unchanged: {reason}")
+            response.message = clip(f"reset refused, the running simulation continues unchanged: {reason}",
+                                    MAX_REASON_LENGTH)
             self.get_logger().warning(response.message)
             return response
         self._outputs.retire(run)

@@ -18,7 +18,7 @@ from rclpy.parameter import Parameter
 
 from ..core import PROPAGATORS
 from ..core.rigid_body import RigidBody
-from ..core.scene import SceneError, default_scene, load_scene
+from ..core.scene import MAX_PATH_LENGTH, SceneError, default_scene, load_scene
 from ..core.simulation import Simulation
 from ..core.timing import MAX_RATE, MIN_RATE, check_rate
 from ..core.validation import finite_vector, unit_quaternion
@@ -67,7 +67,6 @@ MAX_FRAME_LENGTH = 256
 _FRAME = re.compile(r"^[A-Za-z0-9_.\-]+(/[A-Za-z0-9_.\-]+)*$")
 _FRAME_RULE = (f"1 to {MAX_FRAME_LENGTH} characters: letters, digits, '_', '-', '.', and '/' between names; "
                "no leading '/'")
-MAX_PATH_LENGTH = 4096
 SPECS = (
     ParameterSpec("scene", "", "Path of a scene file (YAML), or the name of a library scene (dzhanibekov, "
                   "explorer1, ...); empty = the built-in default scene. Once running, only library names, the "

@@ -8,7 +8,6 @@ raise ``KeyboardInterrupt`` there), and the context is shut down last, after the
 
 from __future__ import annotations
 
-import signal
 import threading
 
 import rclpy
@@ -17,13 +16,9 @@ from rclpy.signals import SignalHandlerOptions
 
 
 def init(args=None) -> None:
-    """``rclpy.init`` without rclpy's signal handlers; SIGTERM then ends the process like Ctrl-C."""
+    """``rclpy.init`` without rclpy's signal handlers (``cli.common.console_command`` has already
+    made SIGTERM end the process like Ctrl-C)."""
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    signal.signal(signal.SIGTERM, _interrupt)
-
-
-def _interrupt(signum, frame):
-    raise KeyboardInterrupt
 
 
 class Spinner(threading.Thread):
