@@ -1,5 +1,5 @@
 """Hostile input: malformed parameter messages and fuzzed parameter values sent over DDS, and
-mutated scene files. Every input gets a clear refusal (or a Scene) in bounded time and size, and the
+mutated scene files (damaged bags: test_bag_damage.py). Every input gets a clear refusal (or a Scene) in bounded time and size, and the
 node keeps publishing. Budgets are fixed (hypothesis ``max_examples``) so CI time is bounded."""
 
 from __future__ import annotations
@@ -16,6 +16,7 @@ from rcl_interfaces.msg import Parameter as ParameterMessage
 from rcl_interfaces.msg import ParameterType, ParameterValue
 from rcl_interfaces.srv import GetParameters, SetParameters, SetParametersAtomically
 
+from hostile_yaml import billion_laughs
 from sim_harness import connected_harness
 from torquefree_ros.core.scene import MAX_SCENE_BYTES, Scene, SceneError, load_scene
 from torquefree_ros.ros.guarded_parameters import MAX_REASON_LENGTH
@@ -126,15 +127,8 @@ def _load(tmp_path, text: str):
         assert time.monotonic() - started < 5.0
 
 
-def _billion_laughs(levels: int = 12) -> str:
-    """Each level a list of ten aliases of the one before: 10^12 values once expanded."""
-    lines = ["a0: &a0 [1, 1, 1, 1, 1, 1, 1, 1, 1, 1]"]
-    lines += [f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 10)}]" for i in range(1, levels)]
-    return "\n".join(lines) + "\n"
-
-
 @pytest.mark.parametrize("text, reason", [
-    (_billion_laughs(), "too large once its aliases are expanded"),
+    (billion_laughs(), "too large once its aliases are expanded"),
     ("body: " + "[" * 5000 + "]" * 5000 + "\n", "nested too deeply"),
     (SCENE.replace("[3.0, 2.0, 1.0]", "[3" + "0" * 400 + ", 2, 1]"), "body.inertia: every entry must be finite"),
     (SCENE + "body: {inertia: [1, 2, 3]}\n", "duplicate key 'body' (first at line 2)"),
@@ -185,144 +179,9 @@ def test_mutated_scene_files_give_a_scene_or_a_scene_error(tmp_path, mutations):
         assert block.omega_B.shape == (3, 3)
 
 
-# -- damaged bags ---------------------------------------------------------------------------------------
-
-@pytest.fixture
-def good_bag(tmp_path):
-    from torquefree_ros.cli.bag import main as bag_main
-
-    bag = tmp_path / "good"
-    # 300 s at 100 Hz: 4 chunks of 1 MiB, so a flipped byte in the second leaves the first whole
-    assert bag_main(["default", "--duration", "300", "--rate", "100", "--output", str(bag)]) == 0
-    return bag
-
-
-def _play(bag, capsys):
-    from torquefree_ros.cli.play import main as play_main
-
-    status = play_main(["torquefree_play", str(bag), "--rate", "1000"])
-    return status, capsys.readouterr().err
-
-
-@pytest.mark.parametrize("metadata, reason", [
-    (b"\xff\xfe\x00junk", "not UTF-8 text"),
-    (_billion_laughs().encode(), "too large once its aliases are expanded"),
-    (b"rosbag2_bagfile_information: [1, 2]\n", "unreadable metadata.yaml"),
-])
-def test_players_and_reindex_refuse_a_damaged_metadata_file_in_one_line(good_bag, capsys, metadata, reason):
-    from torquefree_ros.cli.bag import main as bag_main
-
-    (good_bag / "metadata.yaml").write_bytes(metadata)
-    started = time.monotonic()
-    status, err = _play(good_bag, capsys)
-    assert status == 1 and reason in err and "Traceback" not in err and len(err.splitlines()) == 1, err
-    assert bag_main(["--reindex", str(good_bag)]) == 1
-    assert reason in capsys.readouterr().err
-    assert time.monotonic() - started < 5.0
-
-
-def test_a_fifo_in_place_of_the_mcap_file_is_refused_not_opened(good_bag, capsys):
-    (good_bag / "good_0.mcap").unlink()
-    os.mkfifo(good_bag / "good_0.mcap")
-    status, err = _play(good_bag, capsys)
-    assert status == 1 and "is not a regular file" in err
-
-
-def test_flipped_bytes_are_reported_with_what_was_lost_and_reindex_keeps_the_rest(good_bag, capsys):
-    from bag_checks import read_with_mcap, read_with_rosbags
-    from torquefree_ros.bag import BagError, BagReader
-    from torquefree_ros.cli.bag import main as bag_main
-
-    data = bytearray((good_bag / "good_0.mcap").read_bytes())
-    data[len(data) // 3] ^= 0xFF  # inside a chunk's records
-    (good_bag / "good_0.mcap").write_bytes(bytes(data))
-    with pytest.raises(BagError, match=r"damaged after \d+ messages .*the rest is lost.*--reindex"):
-        for _ in BagReader(good_bag).messages():
-            pass
-    assert bag_main(["--reindex", str(good_bag)]) == 1  # it repaired, and says what was lost
-    err = capsys.readouterr().err
-    assert "damaged (" in err and "messages before it were kept, everything after it is lost" in err
-    kept = BagReader(good_bag)
-    assert kept.complete and 0 < kept.message_count < 2 * 30001
-    assert sum(len(v) for v in read_with_mcap(good_bag).values()) == kept.message_count
-    assert sum(len(v) for v in read_with_rosbags(good_bag)[0].values()) == kept.message_count
-
-
-@pytest.mark.parametrize("keep", [0.5, 0.0], ids=["half", "header-only"])
-def test_a_cut_bag_plays_what_is_readable_and_exits_1(good_bag, capsys, keep):
-    path = good_bag / "good_0.mcap"
-    data = path.read_bytes()
-    path.write_bytes(data[: max(int(len(data) * keep), 8 + 30)])  # magic + a header record at least
-    (good_bag / "metadata.yaml").unlink()
-    status, err = _play(good_bag, capsys)
-    assert status == 1 and "Traceback" not in err, err
-    first = err.splitlines()[0]  # then, for the half bag, "played N messages": what was readable went out
-    assert ("is incomplete" in first and "--reindex" in first) or "it ends inside its header" in first, err
-
-
-def test_bag_tools_refuse_a_name_too_long_for_the_file_system(tmp_path, capsys):
-    from torquefree_ros.cli.bag import main as bag_main
-    from torquefree_ros.cli.record import main as record_main
-
-    name = str(tmp_path / ("b" * 300))
-    assert bag_main(["default", "--duration", "1", "--rate", "10", "--output", name]) == 1
-    assert record_main(["torquefree_record", "--output", name]) == 1
-    err = capsys.readouterr().err
-    assert err.count("File name too long") == 2 and "Traceback" not in err
-
-
 def test_an_output_topic_too_long_for_dds_is_a_scene_error(tmp_path):
     path = tmp_path / "topic.yaml"
     path.write_text("body: {inertia: [3, 2, 1]}\ninitial: {angular_velocity: [0, 0, 1]}\n"
                     f"effects:\n  - euler_angles: {{topic: {'t' * 300}}}\n")
     with pytest.raises(SceneError, match=r"effects\[0\]\.euler_angles\.topic: expected a ROS topic name"):
         load_scene(path)
-
-
-# -- a full disk at close ---------------------------------------------------------------------------------
-
-def _one_sample_writer(path):
-    from torquefree_ros.bag import BagWriter
-
-    writer = BagWriter(path)
-    channel = writer.add_topic("/clock", "rosgraph_msgs/msg/Clock")
-    writer.write(channel, 5, b"\x00\x01\x00\x00" + bytes(8))
-    return writer
-
-
-def _no_space(*args, **kwargs):
-    raise OSError(28, "No space left on device")
-
-
-def test_no_room_for_metadata_says_the_mcap_is_whole_and_how_to_repair(tmp_path, monkeypatch):
-    from torquefree_ros.bag import BagError, BagReader, writer as writer_module
-    from torquefree_ros.cli.bag import main as bag_main
-
-    writer = _one_sample_writer(tmp_path / "bag")
-    monkeypatch.setattr(writer_module, "write_atomically", _no_space)
-    with pytest.raises(BagError) as error:
-        writer.close()
-    message = str(error.value)
-    assert "'bag_0.mcap' is complete, but metadata.yaml could not be written (No space left on device)" in message
-    assert "chunk" not in message and f"torquefree_bag --reindex {tmp_path / 'bag'}" in message
-    monkeypatch.undo()
-    assert bag_main(["--reindex", str(tmp_path / "bag")]) == 0
-    assert BagReader(tmp_path / "bag").message_count == 1 and (tmp_path / "bag" / "metadata.yaml").is_file()
-
-
-def test_no_room_to_rebuild_after_a_write_error_gives_the_repair_command(tmp_path, monkeypatch):
-    from torquefree_ros.bag import BagError, BagReader, reader as reader_module
-    from torquefree_ros.cli.bag import main as bag_main
-
-    writer = _one_sample_writer(tmp_path / "bag")
-    writer.flush()  # the sample's chunk is on disk
-    monkeypatch.setattr(writer._mcap, "finish", _no_space)
-    monkeypatch.setattr(reader_module, "reindex", _no_space)  # the rebuilt copy finds no room either
-    with pytest.raises(BagError) as error:
-        writer.close()
-    message = str(error.value)
-    assert "could not be completed now (No space left on device)" in message
-    assert f"free some space, then run `torquefree_bag --reindex {tmp_path / 'bag'}`" in message
-    monkeypatch.undo()
-    assert bag_main(["--reindex", str(tmp_path / "bag")]) == 0
-    assert BagReader(tmp_path / "bag").complete and BagReader(tmp_path / "bag").message_count == 1

@@ -282,6 +282,20 @@ def test_an_atomic_set_with_one_bad_value_changes_nothing(shared_harness):
     assert shared_harness.get_parameter("inertia") is None  # still "the scene's"
 
 
+def test_a_run_needing_too_many_steps_per_sample_is_refused_at_once(shared_harness):
+    from torquefree_ros.ros.parameters import MAX_STEPS_PER_SAMPLE
+
+    started = time.monotonic()
+    # rk4's 1 ms step at 0.05 Hz: 20 000 steps per sample, over the node's bound
+    result = shared_harness.set_parameters_atomically(propagator="rk4", publish_rate=0.05)
+    assert time.monotonic() - started < 5.0
+    assert not result.successful
+    assert f"rk4: reaching t = 20 s needs more than {MAX_STEPS_PER_SAMPLE:,} steps" in result.reason, result.reason
+    assert shared_harness.get_parameter("propagator") == "auto"
+    last = shared_harness.pairs()[-1][0]
+    assert_run_follows(shared_harness.wait_samples(3, after=last), DEFAULT)
+
+
 def test_reset_refuses_a_scene_that_became_unusable(shared_harness, tmp_path):
     h = shared_harness
     scene = tmp_path / "scene.yaml"
@@ -321,7 +335,11 @@ def test_reset_storm_never_tears_a_sample(harness):
         result = harness.set_parameters_atomically(**state)
         assert result.successful, result.reason
         assert harness.reset().success
-    last = harness.node.sample_loop.last_stamp_ns
+    # the reset answers once the loop took the new run, maybe before its sample 0 went out
+    loop = harness.node.sample_loop
+    harness.spin_until(lambda: loop.last is not None and loop.last.simulation is loop.simulation,
+                       what="the last run's first sample")
+    last = loop.last_stamp_ns
     harness.spin_until(lambda: max(harness.omega, default=0) >= last and max(harness.q, default=0) >= last,
                        what="the last sample")
     pairs = harness.pairs()
@@ -404,6 +422,26 @@ def test_the_process_exits_cleanly_on_signals(signum):
         process.kill()
     assert process.returncode == 0, stderr
     assert "Traceback" not in stderr
+
+
+def test_a_signal_stops_the_process_while_each_sample_costs_most_of_a_second():
+    # rk4 with effects at 0.1 Hz, as fast as possible: 10 000 steps (~0.7 s) per sample. Blocks of
+    # samples are kept to about 0.25 s of work, so the stop waits for one sample, not for 256.
+    process = _start_node("-p", "scene:=gyrostat", "-p", "propagator:=rk4", "-p", "publish_rate:=0.1",
+                          "-p", "real_time_factor:=0.0")
+    try:
+        for line in process.stderr:
+            if "start: " in line:
+                break
+        time.sleep(2.0)  # inside the run's expensive samples
+        process.send_signal(signal.SIGINT)
+        started = time.monotonic()
+        _, stderr = process.communicate(timeout=30)
+        stopped_after = time.monotonic() - started
+    finally:
+        process.kill()
+    assert process.returncode == 0 and "Traceback" not in stderr, stderr
+    assert stopped_after < 5.0
 
 
 def test_the_process_refuses_bad_start_up_parameters_with_status_1():

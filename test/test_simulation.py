@@ -80,6 +80,39 @@ def test_a_too_stiff_scene_stops_within_a_bounded_budget_with_its_reason():
     assert time.process_time() - started < 1.0  # caught within a few steps, not after 1e10 of them
 
 
+@pytest.mark.parametrize("method", ["rk4", "lie_rk4", "dop853"])
+def test_a_step_budget_per_sample_bounds_the_work_before_it_is_done(method):
+    """The node's bound (``max_steps_per_sample``): a sample needing more steps than it allows is
+    refused, a fixed step before any work, an adaptive one as soon as it is over; samples within it
+    are unchanged; the estimate of the accuracy stays bounded work too (it says what it skipped)."""
+    import time
+
+    from torquefree_ros.core.propagators import StepBudgetExceeded
+    from torquefree_ros.core.scene import load_scene
+
+    scene = load_scene("gyrostat")
+    free, bounded = scene.propagator(method), scene.propagator(method)
+    bounded.max_steps_per_sample = 100 if method != "dop853" else 3
+    times = np.array([0.0, 0.05, 0.1])  # 50 steps of 1 ms apart; dop853 takes 1-2 steps there
+    np.testing.assert_array_equal(bounded(times)[0], free(times)[0])
+    started = time.process_time()
+    with pytest.raises(StepBudgetExceeded, match=rf"{method}: reaching t = 1000 s needs more than "
+                                                 rf"{bounded.max_steps_per_sample} steps from the sample before"):
+        bounded([0.0, 1000.0])
+    assert time.process_time() - started < 0.5
+    assert free.max_steps_per_sample is None  # offline use is unbounded unless asked
+
+
+def test_an_accuracy_estimate_over_its_step_bound_says_so():
+    from torquefree_ros.core.scene import scene_from_mapping
+
+    # a stiff damper: dop853 at 1e-12 takes ~10^4 steps over the estimate's two turns
+    scene = scene_from_mapping({"body": {"inertia": [0.4, 4.6, 4.95]}, "initial": {"angular_velocity": [6, 0.05, 0]},
+                                "effects": [{"damper": {"inertia": 0.05, "damping": 1e3}}], "accuracy": 1e-12})
+    accuracy = Simulation(scene.propagator(), 100.0).accuracy
+    assert accuracy.startswith("not estimated (dop853 needs more than 5,000 steps over the first"), accuracy
+
+
 def test_summary_names_the_state_and_invariants_are_exact():
     simulation = Simulation(make_propagator(INERTIA, OMEGA, Q0), 100.0, epoch_ns=1_500_000_000)
     summary = simulation.summary()

@@ -8,6 +8,7 @@
   encoding, bag writing in blocks, and the node's recorder one sample at a time;
 - peak memory (VmHWM, the process's own high-water mark, reset at exec) of a fresh process writing
   each bag, beside one that only imports: flat means it does not grow with the duration.
+  ``--day`` measures only that, for one bag of 24 h at 1 kHz (86.4 million samples, ~15 GB, ~20 min).
 
 Every timing is repeated (``--repeats``, ours and raw interleaved) and given as median (min–max).
 """
@@ -30,14 +31,16 @@ from bench_report import Report, spread  # noqa: E402
 
 RATE = 100.0
 CASES = {"1 min": 60.0, "1 h": 3600.0}
+DAY = "24 h at 1 kHz"  # --day: (duration s, rate Hz) below
+DAY_BAG = (86_400.0, 1_000.0)
 
 
-def _ours(duration: float, output: Path) -> float:
+def _ours(duration: float, output: Path, rate: float = RATE) -> float:
     from torquefree_ros.bag.offline import write_scene_bag
     from torquefree_ros.core.scene import default_scene
 
     started = time.perf_counter()
-    write_scene_bag(default_scene(), output, duration, RATE)
+    write_scene_bag(default_scene(), output, duration, rate)
     return time.perf_counter() - started
 
 
@@ -62,19 +65,23 @@ def _raw_mcap(messages: list[bytes], output: Path) -> float:
 def _child(case: str) -> None:
     """One measurement in a fresh process, so that its peak memory is its own."""
     with tempfile.TemporaryDirectory() as tmp:
-        seconds = 0.0
-        if case != "imports":
-            seconds = _ours(CASES[case], Path(tmp) / "bag")
-        else:
+        seconds, size = 0.0, 0
+        if case == "imports":
             import torquefree_ros.cli.bag  # noqa: F401
+        else:
+            duration, rate = DAY_BAG if case == DAY else (CASES[case], RATE)
+            seconds = _ours(duration, Path(tmp) / "bag", rate)
+            size = sum(f.stat().st_size for f in (Path(tmp) / "bag").iterdir())
     # not ru_maxrss: Linux keeps it across fork and exec, so it would report the parent's size
     hwm_kib = next(int(line.split()[1]) for line in Path("/proc/self/status").read_text().splitlines()
                    if line.startswith("VmHWM:"))
-    print(json.dumps({"seconds": seconds, "max_rss_mib": hwm_kib / 1024}))
+    print(json.dumps({"seconds": seconds, "bytes": size, "max_rss_mib": hwm_kib / 1024}))
 
 
 def _in_child(case: str) -> dict:
-    out = subprocess.run([sys.executable, __file__, "--child", case], capture_output=True, text=True, check=True)
+    out = subprocess.run([sys.executable, __file__, "--child", case], capture_output=True, text=True)
+    if out.returncode:
+        raise SystemExit(f"--child {case!r} failed:\n{out.stderr}")
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
@@ -83,10 +90,14 @@ def main() -> int:
     parser.add_argument("--child", help=argparse.SUPPRESS)
     parser.add_argument("--repeats", type=int, default=3, help="runs of each measurement (default: 3)")
     parser.add_argument("--output", help="also write the report here (make bench-bag: docs/bench/bag.md)")
+    parser.add_argument("--day", action="store_true",
+                        help=f"only the peak memory of one {DAY} bag, beside imports only (~20 min)")
     args = parser.parse_args()
     if args.child:
         _child(args.child)
         return 0
+    if args.day:
+        return _day(args.output)
     import mcap
     import numpy
 
@@ -123,6 +134,23 @@ def main() -> int:
         f"{'imports only' if case == 'imports' else case + ' bag'} {statistics.median(values):.0f}"
         for case, values in memory.items()))
     report.save(args.output)
+    return 0
+
+
+def _day(output: str | None) -> int:
+    report = Report(f"Bag writing memory, {DAY}", "make bench-bag-day")
+    imports = _in_child("imports")
+    day = _in_child(DAY)
+    samples = int(DAY_BAG[0] * DAY_BAG[1]) + 1
+    report.add(f"`torquefree_bag default --duration {DAY_BAG[0]:.0f} --rate {DAY_BAG[1]:.0f}` "
+               "(write_scene_bag in a fresh process), one run")
+    report.add("")
+    report.add("| process | peak memory (VmHWM, MiB) | samples | bag size (GB) | s | samples/s |")
+    report.add("|---|---|---|---|---|---|")
+    report.add(f"| imports only | {imports['max_rss_mib']:.0f} | | | | |")
+    report.add(f"| {DAY} bag | {day['max_rss_mib']:.0f} | {samples:,} | {day['bytes'] / 1e9:.1f} | "
+               f"{day['seconds']:.0f} | {samples / day['seconds']:,.0f} |")
+    report.save(output)
     return 0
 
 

@@ -3,6 +3,11 @@
 A complete file is read through its summary and indexes. A file without a footer (a killed
 recorder, a full disk) is scanned record by record up to its last complete chunk; :func:`reindex`
 then copies what is readable into a complete file and writes its ``metadata.yaml``.
+
+Every CRC the file carries is checked: each chunk's as its messages are read, the summary's when the
+file is opened (a summary that does not match is not trusted: the file is scanned instead), and the
+data section's (which covers the message indexes, the header and the metadata records between the
+chunks) by :func:`reindex`.
 """
 
 from __future__ import annotations
@@ -10,14 +15,16 @@ from __future__ import annotations
 import os
 import shutil
 import struct
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterator, NamedTuple
 
 from mcap.exceptions import EndOfFile, McapError
 from mcap.reader import SeekingReader
-from mcap.records import Channel, Message, Schema
-from mcap.stream_reader import StreamReader
+from mcap.records import Channel, DataEnd, Message, Schema
+from mcap.stream_reader import CRCValidationError, StreamReader
+from mcap.writer import MCAP0_MAGIC
 
 from ..core.safe_files import check_regular_file, clip, load_yaml, read_regular_file
 from .definitions import MessageDefinition
@@ -54,7 +61,71 @@ def _qos_profiles(channel: Channel, where: str) -> tuple[BagQos, ...]:
 
 
 MAX_METADATA_BYTES = 16 << 20  # rosbag2's metadata.yaml of a bag with thousands of topics and files still fits
-_READ_ERRORS = (McapError, ValueError, EOFError, struct.error, KeyError, IndexError, TypeError, UnicodeDecodeError)
+# OSError: a damaged offset seeks before the file's start
+_READ_ERRORS = (McapError, ValueError, EOFError, struct.error, KeyError, IndexError, TypeError, UnicodeDecodeError,
+                OSError)
+_MAGIC_BYTES = 8
+_FOOTER = struct.Struct("<BQQQI")  # opcode, record length, summary_start, summary_offset_start, summary_crc
+_DATA_END = struct.Struct("<BQI")  # opcode, record length, data_section_crc
+_CRC_BLOCK = 1 << 20
+
+_OUTSIDE_DAMAGE = "bytes between its chunks are damaged (the data section CRC does not match)"
+
+
+class _BoundedReads:
+    """A bag file whose reads never ask for more than is left in it: a damaged length field then
+    reads short (mcap says EndOfFile) instead of allocating the gigabytes it claims."""
+
+    def __init__(self, file):
+        self._file = file
+        self.size = os.fstat(file.fileno()).st_size
+        self._position = file.tell()
+
+    def read(self, length: int = -1) -> bytes:
+        left = max(self.size - self._position, 0)
+        data = self._file.read(left if length is None or length < 0 else min(length, left))
+        self._position += len(data)
+        return data
+
+    def seek(self, offset: int, whence: int = os.SEEK_SET) -> int:
+        self._position = self._file.seek(offset, whence)
+        return self._position
+
+    def tell(self) -> int:
+        return self._position
+
+    def seekable(self) -> bool:
+        return True
+
+    def __enter__(self) -> "_BoundedReads":
+        return self
+
+    def __exit__(self, *_) -> None:
+        self._file.close()
+
+    def crc32(self, start: int, end: int) -> int:
+        self.seek(start)
+        crc = 0
+        while self._position < end:
+            block = self.read(min(_CRC_BLOCK, end - self._position))
+            if not block:
+                break
+            crc = zlib.crc32(block, crc)
+        return crc
+
+    def footer(self) -> tuple[int, int] | None:
+        """(summary_start, summary_crc) of the footer and magic that end the file, None if they do not."""
+        if self.size < 2 * _MAGIC_BYTES + _FOOTER.size:
+            return None
+        self.seek(self.size - _MAGIC_BYTES - _FOOTER.size)
+        opcode, length, summary_start, _, summary_crc = _FOOTER.unpack(self.read(_FOOTER.size))
+        if (opcode, length) != (0x02, _FOOTER.size - 9) or self.read(_MAGIC_BYTES) != MCAP0_MAGIC:
+            return None
+        return summary_start, summary_crc
+
+
+def _open(path: Path) -> _BoundedReads:
+    return _BoundedReads(open(path, "rb"))
 
 
 def bag_information(path) -> dict:
@@ -126,8 +197,10 @@ class BagReader:
         self.span_ns: tuple[int, int] | None = None  # first and last log time
         # where and why a scan of a file without its end stopped before the file's end ("" if it did not)
         self.damage = ""
+        # damage that lost no message (the summary, the bytes between the chunks); reindex repairs it
+        self.repairable = ""
         try:
-            with open(self.file_path, "rb") as stream:
+            with _open(self.file_path) as stream:
                 self._check_header(stream)
                 self.complete = not scan and self._read_summary(stream)
                 if not self.complete:
@@ -152,7 +225,7 @@ class BagReader:
         how many messages came before it."""
         wanted = None if topics is None else set(topics)
         count = 0
-        with open(self.file_path, "rb") as stream:
+        with _open(self.file_path) as stream:
             if self.complete:
                 found = SeekingReader(stream, validate_crcs=True).iter_messages(topics=wanted, log_time_order=True)
                 pairs = ((channel, message) for _, channel, message in found)
@@ -168,6 +241,25 @@ class BagReader:
                                f"({type(error).__name__}: {clip(str(error))}); the rest is lost. "
                                f"`torquefree_bag --reindex {self.path}` keeps the readable part") from None
 
+    def check_data_section(self) -> str:
+        """The data section CRC of a complete file, which also covers the bytes no chunk CRC does
+        (message indexes, header, metadata records): what did not match, or "" (also when the writer
+        left it 0). Reads the file once."""
+        with _open(self.file_path) as stream:
+            footer = stream.footer()
+            if footer is None:
+                return ""
+            data_end = (footer[0] or stream.size - _MAGIC_BYTES - _FOOTER.size) - _DATA_END.size
+            if data_end < _MAGIC_BYTES:
+                return ""
+            stream.seek(data_end)
+            opcode, length, crc = _DATA_END.unpack(stream.read(_DATA_END.size))
+            if (opcode, length) != (0x0F, 4):
+                return "the record before its summary is not a whole DataEnd record"
+            if crc == 0 or stream.crc32(0, data_end) == crc:
+                return ""
+        return _OUTSIDE_DAMAGE
+
     # -- reading -----------------------------------------------------------------------------------
     def _check_header(self, stream) -> None:
         try:
@@ -177,8 +269,17 @@ class BagReader:
             raise BagError(f"bag '{self.path}': '{self.file_path.name}' is not an MCAP file ({detail})") from None
         stream.seek(0)
 
-    def _read_summary(self, stream) -> bool:
+    def _read_summary(self, stream: _BoundedReads) -> bool:
         try:
+            footer = stream.footer()
+            if footer is None:
+                return False  # cut off, or its end is damaged: scanned
+            if footer[0] and footer[1]:
+                summary_start, summary_crc = footer
+                if stream.crc32(summary_start, stream.size - _MAGIC_BYTES - 4) != summary_crc:
+                    self.repairable = "its summary is damaged (CRC mismatch)"
+                    return False
+            stream.seek(0)
             summary = SeekingReader(stream, validate_crcs=True).get_summary()
         except _READ_ERRORS:
             return False
@@ -220,6 +321,11 @@ class BagReader:
                     yield channels[record.channel_id], record
         except (EOFError, EndOfFile):
             return  # cut off: the end of what was written completely
+        except CRCValidationError as error:
+            if isinstance(error.record, DataEnd):  # every chunk before it was whole
+                self.repairable = _OUTSIDE_DAMAGE
+            else:
+                self.damage = f"CRCValidationError at byte {stream.tell():,}: {clip(str(error), 100)}"
         except _READ_ERRORS as error:
             # a damaged record (bytes changed, not only cut off): what follows it is lost
             self.damage = f"{type(error).__name__} at byte {stream.tell():,}: {clip(str(error), 100)}"
@@ -228,23 +334,27 @@ class BagReader:
 class Reindexed(NamedTuple):
     metadata: BagMetadata
     damage: str  # where the file was damaged and what was lost; "" when nothing was
+    repaired: str = ""  # damage that lost no message, now repaired; "" when there was none
 
 
 def reindex(path) -> Reindexed:
     """Makes a bag whose recorder died (no summary, maybe a cut-off chunk) or whose file was damaged
     complete again: the readable messages are copied, with their schemas, QoS and times, into a
     complete MCAP file that replaces the old one, and ``metadata.yaml`` is written. A complete,
-    undamaged bag (every chunk's CRC is checked) only gets ``metadata.yaml``."""
+    undamaged bag (every CRC is checked) only gets ``metadata.yaml``."""
     bag = Path(path)
     reader = BagReader(bag)
     damage = ""
+    repaired = reader.repairable
     if reader.complete:
         try:
             for _ in reader.messages():
                 pass
         except BagError as error:
             damage = str(error)
-    if reader.complete and not damage:
+        if not damage:
+            repaired = reader.check_data_section()
+    if reader.complete and not damage and not repaired:
         metadata = BagMetadata(reader.file_path.name)
         for topic in reader.topics:
             metadata.topics.append(TopicRecord(topic.name, topic.type, topic.offered_qos_profiles,
@@ -253,7 +363,7 @@ def reindex(path) -> Reindexed:
             metadata.first_time_ns, metadata.last_time_ns = reader.span_ns
         write_atomically(bag / METADATA_FILE, metadata_file_text(metadata))
         return Reindexed(metadata, "")
-    if reader.complete:
+    if damage:
         reader = BagReader(bag, scan=True)
     if reader.file_path.parent != bag:
         raise BagError(f"bag '{bag}': give the bag directory to reindex, not the file")
@@ -273,4 +383,4 @@ def reindex(path) -> Reindexed:
     if reader.damage:
         damage = (f"damaged ({reader.damage}): {writer.metadata.message_count} messages before it were kept, "
                   "everything after it is lost")
-    return Reindexed(writer.metadata, damage)
+    return Reindexed(writer.metadata, damage, "" if damage else repaired or reader.repairable)

@@ -103,7 +103,10 @@ class BagWriter:
         self._closed = False
         try:
             self._stream = open(self.file_path, "xb")
-            self._mcap = Writer(self._stream, chunk_size=chunk_bytes, compression=COMPRESSIONS[compression])
+            # the data section CRC (rosbag2's `enableDataCRC`) also covers the message indexes between
+            # the chunks, which no chunk CRC does: reindex can then tell that nothing was changed
+            self._mcap = Writer(self._stream, chunk_size=chunk_bytes, compression=COMPRESSIONS[compression],
+                                enable_data_crcs=True)
             self._mcap.start(profile="ros2", library=LIBRARY)
         except OSError as error:
             raise self._io_error(error) from None

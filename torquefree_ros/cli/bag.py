@@ -59,11 +59,13 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if args.reindex:
         try:
-            metadata, damage = reindex(args.reindex)
+            metadata, damage, repaired = reindex(args.reindex)
         except (BagError, OSError) as error:
             print(f"torquefree_bag: {error}", file=sys.stderr)
             return 1
         print(f"{args.reindex}: {metadata.message_count} messages indexed")
+        if repaired:
+            print(f"{args.reindex}: repaired: {repaired}; no message was lost")
         if damage:
             print(f"torquefree_bag: {args.reindex}: {damage}", file=sys.stderr)
             return 1

@@ -48,7 +48,8 @@ def main(argv=None) -> int:
         print(f"torquefree_play: {error}", file=sys.stderr)
         return 1
     if not bag.complete:
-        damage = f" ({bag.damage})" if bag.damage else ""
+        why = bag.damage or bag.repairable
+        damage = f" ({why})" if why else ""
         print(f"torquefree_play: bag '{args.bag}' is incomplete{damage}: {bag.message_count} readable messages; "
               f"`torquefree_bag --reindex {args.bag}` makes it complete", file=sys.stderr)
         if bag.message_count == 0:

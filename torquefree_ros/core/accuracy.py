@@ -25,6 +25,9 @@ ESTIMATE_TURNS = 2.0
 ESTIMATE_HORIZON_AT_REST = 10.0
 ESTIMATE_MAX_STEPS = 2000
 _ESTIMATE_SAMPLES = 101
+#: an adaptive method's steps between two of the estimate's samples (scenes in the library take 1-2):
+#: the estimate is bounded work wherever it runs (the node computes it during a reset)
+ESTIMATE_STEPS_PER_SAMPLE = 50
 
 
 @dataclass(frozen=True)
@@ -55,7 +58,7 @@ def estimate_accuracy(propagator) -> AccuracyEstimate:
     instances (the given one is not advanced): against the exact solution when no effect changes the
     motion, else against the same method refined (half the step, with Richardson's factor for its
     order; or tolerances / 100)."""
-    from .propagators import propagator_class
+    from .propagators import StepBudgetExceeded, propagator_class
 
     cls = type(propagator)
     if cls.exact:
@@ -66,18 +69,29 @@ def estimate_accuracy(propagator) -> AccuracyEstimate:
         horizon = min(horizon, ESTIMATE_MAX_STEPS * settings["step"])
     times = np.linspace(0.0, horizon, _ESTIMATE_SAMPLES)
     start = (propagator.body, propagator.omega0_B, propagator.q0_NB)
-    omega, q = cls(*start, propagator.effects, **settings)(times)
+
+    def run(cls, effects=(), **options):
+        fresh = cls(*start, effects, **options)
+        if "step" not in settings:  # a fixed step's work is bounded by the horizon's cap
+            fresh.max_steps_per_sample = ESTIMATE_STEPS_PER_SAMPLE
+        try:
+            return fresh(times)
+        except StepBudgetExceeded:
+            raise RuntimeError(f"{cls.name} needs more than {ESTIMATE_STEPS_PER_SAMPLE * (times.size - 1):,} "
+                               f"steps over the first {horizon:.3g} s") from None
+
+    omega, q = run(cls, propagator.effects, **settings)
     factor = 1.0
     if propagator.dynamics.torque_free:
-        omega_ref, q_ref = propagator_class("analytic")(*start)(times)
+        omega_ref, q_ref = run(propagator_class("analytic"))
         reference = "the exact solution"
     elif "step" in settings:
-        omega_ref, q_ref = cls(*start, propagator.effects, **{**settings, "step": settings["step"] / 2})(times)
+        omega_ref, q_ref = run(cls, propagator.effects, **{**settings, "step": settings["step"] / 2})
         factor = 2.0**cls.order / (2.0**cls.order - 1.0)
         reference = "the same method at half the step (Richardson)"
     else:
         refined = {key: value / 100.0 for key, value in settings.items() if key in ("rtol", "atol")}
-        omega_ref, q_ref = cls(*start, propagator.effects, **{**settings, **refined})(times)
+        omega_ref, q_ref = run(cls, propagator.effects, **{**settings, **refined})
         reference = "the same method at tolerances / 100"
     rate, attitude = trajectory_errors(omega, q, omega_ref, q_ref)
     turns = horizon * float(np.linalg.norm(propagator.omega0_B)) / (2.0 * np.pi)

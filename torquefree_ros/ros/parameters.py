@@ -201,6 +201,9 @@ class ScenePolicy:
 
 
 _OVERRIDES = ("inertia", "angular_velocity", "orientation")
+#: integrator steps one sample may take in the node (~1 s of the slowest method, rk4 with effects):
+#: a sample loop, a reset and a shutdown then never wait long for one sample
+MAX_STEPS_PER_SAMPLE = 10_000
 
 
 def run_request(values: dict) -> RunRequest:
@@ -224,8 +227,9 @@ def run_request(values: dict) -> RunRequest:
         scene = scene.members()[member]
     propagator = scene.propagator(values["propagator"], inertia=values["inertia"],
                                   angular_velocity=values["angular_velocity"], orientation=values["orientation"])
-    # the first sample period, computed now: a scene too stiff or outside float64 fails here, with
-    # its reason, rather than in the sample loop after the run was accepted
+    propagator.max_steps_per_sample = MAX_STEPS_PER_SAMPLE
+    # the first sample period, computed now: a scene too stiff (or too many steps per sample) or outside
+    # float64 fails here, with its reason, rather than in the sample loop after the run was accepted
     try:
         Simulation(propagator, values["publish_rate"], outputs=scene.outputs).samples(0, 2)
     except RuntimeError as error:

@@ -27,7 +27,9 @@ from ..core.timing import restart_epoch_ns
 
 # Samples computed ahead in one vectorised call: at most MAX_BLOCK, and at most this much wall time
 # of samples (a reset discards the rest). When paced, the block is also kept small enough that
-# computing it fits in one period, so it does not make the next sample late (see _Run.adapt).
+# computing it fits in one period, so it does not make the next sample late; as fast as possible,
+# that computing it takes about BLOCK_WALL_SECONDS at most, so a reset or a stop never waits longer
+# (see _Run.adapt).
 MAX_BLOCK = 256
 BLOCK_WALL_SECONDS = 0.25
 
@@ -67,8 +69,9 @@ class _Run:
                             if request.real_time_factor else 0.0)
         samples_per_wall_second = request.publish_rate * (request.real_time_factor or float("inf"))
         self.max_block = int(min(MAX_BLOCK, max(1.0, samples_per_wall_second * BLOCK_WALL_SECONDS)))
-        # Paced runs start with a one-sample block: its cost is the fixed cost of a block.
-        self.block_size = 1 if self.period_wall else self.max_block
+        # Start with a one-sample block: paced, its cost is the fixed cost of a block; as fast as
+        # possible, blocks then double while they stay well inside BLOCK_WALL_SECONDS.
+        self.block_size = 1
         self.fixed_cost: float | None = None
         self.sample_cost: float | None = None
         self.next_index = 0
@@ -93,8 +96,12 @@ class _Run:
         self.block = block
         self.next_index += len(block)
         self.position = 0
+        cost = time.perf_counter() - started
         if self.period_wall:
-            self.adapt(len(block), time.perf_counter() - started)
+            self.adapt(len(block), cost)
+        else:
+            fitting = BLOCK_WALL_SECONDS * len(block) / max(cost, 1e-9)
+            self.block_size = int(min(self.max_block, 2 * len(block), max(1.0, fitting)))
 
     def adapt(self, size: int, cost: float) -> None:
         """Model a block's cost as fixed + size * per_sample. The largest block whose cost fits in
@@ -233,7 +240,7 @@ class SampleLoop:
             if run.block is None or run.position == len(run.block):
                 try:
                     run.refill()
-                except (ValueError, ArithmeticError) as error:
+                except (ValueError, ArithmeticError, RuntimeError) as error:  # RuntimeError: a step bound
                     self._fail(f"cannot compute samples {run.next_index}..: {error}")
                     continue
                 publishers = [self._publishers.get(column.topic) for column in run.columns]

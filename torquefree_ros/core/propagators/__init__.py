@@ -1,9 +1,10 @@
 """Propagator registry: every propagator behind one interface, looked up by name."""
 
 from . import analytic, numerical  # noqa: F401  (registers the propagators)
-from .base import PROPAGATORS, Propagator, propagator_class
+from .base import PROPAGATORS, Propagator, StepBudgetExceeded, propagator_class
 
-__all__ = ["PROPAGATORS", "ATOL_PER_RTOL", "DEFAULT_ACCURACY", "Propagator", "propagator_class", "make_propagator"]
+__all__ = ["PROPAGATORS", "ATOL_PER_RTOL", "DEFAULT_ACCURACY", "Propagator", "StepBudgetExceeded",
+           "propagator_class", "make_propagator"]
 
 #: the integrator tolerance (relative, per step) of ``auto`` for a scene with effects
 DEFAULT_ACCURACY = 1e-10

@@ -27,6 +27,10 @@ class Propagator(abc.ABC):
 
     name: ClassVar[str]
     exact: ClassVar[bool] = False
+    #: integrator steps allowed from one requested time to the next (None: unbounded). The node sets
+    #: it so that no sample can hold its loop (and a reset or a shutdown) for long; over it, the
+    #: evaluation raises :class:`StepBudgetExceeded` with the reason.
+    max_steps_per_sample: int | None = None
     supports_effects: ClassVar[bool] = True
     #: option name -> default; anything else given to the constructor is an error
     options: ClassVar[dict] = {}
@@ -90,6 +94,17 @@ class Propagator(abc.ABC):
     def describe(self) -> str:
         settings = ", ".join(f"{k}={v:g}" for k, v in self.settings.items())
         return f"{self.name}({settings})" if settings else self.name
+
+
+class StepBudgetExceeded(RuntimeError):
+    """A sample needs more integrator steps than ``Propagator.max_steps_per_sample``."""
+
+    def __init__(self, propagator: Propagator, t: float, step: float | None = None):
+        size = f" (the step is {step:.2g} s)" if step is not None else ""
+        super().__init__(
+            f"{propagator.name}: reaching t = {t:.6g} s needs more than {propagator.max_steps_per_sample:,} steps "
+            f"from the sample before{size}, the bound per sample that keeps the node responsive: raise the "
+            "sample rate, or relax the accuracy (a longer step, looser tolerances)")
 
 
 def _check_representable(body: RigidBody, omega_B: np.ndarray) -> None:

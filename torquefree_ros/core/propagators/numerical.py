@@ -20,7 +20,7 @@ import numpy as np
 from scipy.integrate import DOP853
 
 from .. import quaternion
-from .base import Propagator, register
+from .base import Propagator, StepBudgetExceeded, register
 
 
 def _positive_option(settings: dict, key: str) -> float:
@@ -86,6 +86,9 @@ class FixedStepPropagator(Propagator):
             j, partial = self._grid_point(t)
             if j < self._grid_index:
                 self._restart()
+            budget = self.max_steps_per_sample
+            if budget is not None and j - self._grid_index > budget:
+                raise StepBudgetExceeded(self, t, self.step)
             while self._grid_index < j:
                 self._y = self._advance(self._grid_index * self.step, self._y, self.step)
                 self._grid_index += 1
@@ -182,7 +185,12 @@ class DOP853Propagator(Propagator):
     def _advance_past(self, t: float):
         """Step until the solver's last step reaches ``t``; returns the solver."""
         solver = self._solver
+        budget = self.max_steps_per_sample
+        steps = 0
         while solver.t < t:
+            steps += 1
+            if budget is not None and steps > budget:
+                raise StepBudgetExceeded(self, t, solver.step_size)
             if solver.status == "finished":  # at a breakpoint: a new segment from here
                 self._begin_segment(solver.t, solver.y)
                 solver = self._solver
