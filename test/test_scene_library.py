@@ -12,8 +12,8 @@ from torquefree_ros.core.simulation import Simulation
 from torquefree_ros.core.library import library_scenes
 
 LIBRARY = Path(__file__).resolve().parents[1] / "torquefree_ros" / "scenes"
-NAMES = ["axisymmetric_coning", "default", "dzhanibekov", "energy_sweep", "explorer1", "gravity_gradient",
-         "gyrostat", "imu"]
+NAMES = ["axisymmetric_coning", "default", "dzhanibekov", "energy_sweep", "estimator", "explorer1",
+         "gravity_gradient", "gyrostat", "imu"]
 TIGHT = {"rtol": 1e-12, "atol": 1e-14}
 
 

@@ -3,7 +3,8 @@ writing them to a bag. One source for the node (which publishes and records them
 ``torquefree_bag``: the same topics, types, QoS, stamps and bytes.
 
 A sample is ``/clock`` (on a clock of our own), ``angular_velocity``, ``attitude``, then the
-scene's outputs (``imu``, ``euler_angles``) in the order the scene names them; only those exist.
+scene's outputs (``imu``, ``euler_angles``, ``pose``, ``star_tracker``) in the order the scene names them;
+only those exist.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ INERTIA_KEY = "torquefree_ros.inertia"
 class SampleColumn(NamedTuple):
     topic: str  # as the node names it: relative, or absolute for /clock
     type_name: str
-    messages: list  # CDR bytes, one per sample of the block
+    messages: list  # CDR bytes, one per sample of the block (None: this sample does not go out on it)
 
 
 def sample_qos(depth: int = 10) -> BagQos:
@@ -45,9 +46,15 @@ def encode_block(block, body_frame: str, inertial_frame: str, outputs=(), clock:
     columns = [SampleColumn(CLOCK[0], CLOCK[1], encode_times(stamps))] if clock else []
     columns.append(SampleColumn(*ANGULAR_VELOCITY, encode_stamped_doubles(stamps, body_frame, block.omega_B)))
     columns.append(SampleColumn(*ATTITUDE, encode_stamped_doubles(stamps, inertial_frame, block.q_NB)))
-    for output, rows in zip(outputs, block.outputs):
+    for output, rows, positions in zip(outputs, block.outputs, block.output_positions or (None,) * len(outputs)):
         frame = body_frame if output.frame == "body" else inertial_frame
-        columns.append(SampleColumn(output.topic, output.message_type, encode_stamped_doubles(stamps, frame, rows)))
+        if positions is None:
+            messages = encode_stamped_doubles(stamps, frame, rows)
+        else:  # an output at a rate of its own: None where it does not go out
+            messages = [None] * len(stamps)
+            for position, message in zip(positions.tolist(), encode_stamped_doubles(stamps[positions], frame, rows)):
+                messages[position] = message
+        columns.append(SampleColumn(output.topic, output.message_type, messages))
     return tuple(columns)
 
 

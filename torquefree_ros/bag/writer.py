@@ -150,8 +150,8 @@ class BagWriter:
                         None if publish_time_ns is None else (publish_time_ns,))
 
     def write_rows(self, channel_ids, log_times_ns, columns, publish_times_ns=None) -> None:
-        """Row ``i`` writes ``columns[j][i]`` on ``channel_ids[j]`` for every ``j``, all with
-        ``log_times_ns[i]``: the messages of one sample stay together and in time order."""
+        """Row ``i`` writes ``columns[j][i]`` on ``channel_ids[j]`` for every ``j`` (none where it is
+        None), all with ``log_times_ns[i]``: the messages of one sample stay together and in time order."""
         self._check_open()
         times = [int(t) for t in log_times_ns]
         if not times:
@@ -167,11 +167,12 @@ class BagWriter:
         try:
             for i, log_time in enumerate(times):
                 for channel_id, payloads in zip(channel_ids, columns):
-                    add(channel_id, log_time, payloads[i], published[i])
+                    if payloads[i] is not None:
+                        add(channel_id, log_time, payloads[i], published[i])
         except OSError as error:
             raise self._io_error(error) from None
-        for channel_id in channel_ids:
-            self._records[channel_id].message_count += len(times)
+        for channel_id, payloads in zip(channel_ids, columns):
+            self._records[channel_id].message_count += len(times) - sum(p is None for p in payloads)
         metadata = self._metadata
         first, last = min(times), max(times)
         metadata.first_time_ns = first if metadata.first_time_ns is None else min(first, metadata.first_time_ns)

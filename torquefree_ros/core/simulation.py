@@ -2,8 +2,10 @@
 
 Sample ``k`` after a (re)start is the state at exactly ``t_k = k / rate``, stamped
 ``epoch + t_k`` in integer nanoseconds. Samples come in vectorised blocks; for a given propagator a
-sample does not depend on how the blocks were cut. The scene's outputs (``imu``, ``euler_angles``)
-are computed with the samples, and only when the scene names them.
+sample does not depend on how the blocks were cut. The scene's outputs (``imu``, ``pose``, ...)
+are computed with the samples, and only when the scene names them; an output with a ``rate`` of
+its own goes out on samples ``k = 0, n, 2n, ...`` (``n`` = rate / its rate), its stream seeing only
+those, numbered ``j = k / n``.
 """
 
 from __future__ import annotations
@@ -29,7 +31,10 @@ class SampleBlock:
     omega_B: np.ndarray  # (N, 3) rad/s, body frame
     q_NB: np.ndarray  # (N, 4) (x, y, z, w), body in inertial
     internal: np.ndarray  # (N, state_size): the effects' own states (a damper's rate)
-    outputs: tuple = ()  # one (N, width) float64 array per output, in Simulation.outputs order
+    outputs: tuple = ()  # one (n, width) float64 array per output, in Simulation.outputs order
+    # per output: the block positions its rows belong to (an output with a rate of its own goes out
+    # on every n-th sample only), None when it has a row for every sample
+    output_positions: tuple = ()
 
     def __len__(self) -> int:
         return self.times.shape[0]
@@ -53,7 +58,8 @@ class Simulation:
         self.rate = check_rate(rate, rate_name)
         self.epoch_ns = int(epoch_ns)
         self.outputs = tuple(outputs)
-        self._streams = tuple(output.stream(self.rate) for output in self.outputs)
+        self._every = tuple(output.every(self.rate, rate_name) for output in self.outputs)
+        self._streams = tuple(output.stream(self.rate / every) for output, every in zip(self.outputs, self._every))
         omega0, x0 = propagator.omega0_B, propagator.x0
         self.kinetic_energy0 = float(propagator.energy(omega0, x0))
         self.momentum0 = float(np.linalg.norm(propagator.momentum_B(omega0, x0)))
@@ -73,8 +79,18 @@ class Simulation:
             bad = int(np.argmin(np.all(np.isfinite(omega), axis=1) & np.all(np.isfinite(q), axis=1)))
             raise ValueError(f"the state at t = {times[bad]:g} s is not finite: this body and initial state leave "
                              f"float64's range (propagator {self.propagator.describe()})")
-        outputs = tuple(stream.rows(first, times, omega, q) for stream in self._streams)
-        return SampleBlock(first, times, stamps_ns(self.epoch_ns, times), omega, q, internal, outputs)
+        outputs, positions = [], []
+        for stream, every in zip(self._streams, self._every):
+            if every == 1:
+                outputs.append(stream.rows(first, times, omega, q))
+                positions.append(None)
+                continue
+            start = -(-first // every) * every  # the block's first sample k with k % every == 0
+            picked = np.arange(start - first, count, every)
+            outputs.append(stream.rows(start // every, times[picked], omega[picked], q[picked]))
+            positions.append(picked)
+        return SampleBlock(first, times, stamps_ns(self.epoch_ns, times), omega, q, internal, tuple(outputs),
+                           tuple(positions))
 
     def invariants(self, omega_B, internal=None) -> Invariants:
         """Energy and momentum (body + effects) of a sample and their drift since the (re)start.

@@ -231,7 +231,7 @@ def run_request(values: dict) -> RunRequest:
     # the first sample period, computed now: a scene too stiff (or too many steps per sample) or outside
     # float64 fails here, with its reason, rather than in the sample loop after the run was accepted
     try:
-        Simulation(propagator, values["publish_rate"], outputs=scene.outputs).samples(0, 2)
+        Simulation(propagator, values["publish_rate"], rate_name="publish_rate", outputs=scene.outputs).samples(0, 2)
     except RuntimeError as error:
         raise ValueError(f"propagator: {error}") from None
     return RunRequest(propagator, values["publish_rate"], values["real_time_factor"],

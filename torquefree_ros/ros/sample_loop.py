@@ -256,7 +256,9 @@ class SampleLoop:
                 if -delay > run.period_wall:
                     self.late += 1
             for publisher, column in zip(publishers, run.columns):
-                publisher.publish(column.messages[i])
+                message = column.messages[i]
+                if message is not None:  # None: an output at a rate of its own skips this sample
+                    publisher.publish(message)
             if self._recorder is not None:
                 self._record(stamp, run.columns, i)
             run.position = i + 1

@@ -20,7 +20,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from ..schema import FieldError, Param, child, fields, one_key
+from ..schema import FieldError, Param, child, fields, number, one_key
 
 #: effect name -> class; filled by the modules that define effects
 EFFECTS: dict[str, type["Effect"]] = {}
@@ -83,15 +83,30 @@ class MotionEffect(Effect):
 
 class OutputEffect(Effect):
     """Derives one topic from the samples. ``topic``, ``message_type``; ``frame`` is ``body`` or
-    ``inertial`` (the frame id the node uses for it). :meth:`stream` starts the output for a run."""
+    ``inertial`` (the frame id the node uses for it). :meth:`stream` starts the output for a run.
+    Every output may set its own ``rate`` (``RATE``): it then goes out on every n-th sample."""
 
     changes_motion = False
     message_type: ClassVar[str]
     frame: ClassVar[str]
+    RATE = Param(number(positive=True, unit="Hz"), None, "its own rate; must divide the sample rate")
 
     @property
     def topic(self) -> str:
         return self.values.get("topic") or self.name
+
+    def every(self, rate: float, rate_name: str = "rate") -> int:
+        """``n``: the output goes out on samples ``k = 0, n, 2n, ...`` of a run at ``rate`` Hz (1
+        without a rate of its own); a rate that does not divide ``rate`` is a ``ValueError``."""
+        own = self.values.get("rate")
+        if own is None:
+            return 1
+        ratio = rate / own
+        n = round(ratio)
+        if n < 1 or abs(ratio - n) > 1e-9 * ratio:
+            raise ValueError(f"{self.name}.rate: {own:g} Hz must divide {rate_name} {rate:g} Hz into a whole "
+                             f"number of samples, got {ratio:.6g}")
+        return n
 
     @abc.abstractmethod
     def stream(self, rate: float) -> "OutputStream": ...

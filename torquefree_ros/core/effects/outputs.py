@@ -7,6 +7,15 @@
 draws come from a seeded PCG64 stream consumed in sample order, so sample ``k`` is the same however
 the samples are cut into blocks, live or offline.
 
+``pose`` is the attitude as ``geometry_msgs/PoseStamped`` (inertial frame, zero position, ``q_NB``),
+what the 3-D panels of RViz and Foxglove draw.
+
+``star_tracker`` measures the attitude: ``q_meas = q_NB ⊗ exp(n / 2)`` with ``n`` a rotation vector
+in the body frame, ``n = sigma_cross (g1 e1 + g2 e2) + sigma_about g3 b`` (``b`` the boresight,
+``e1, e2`` across it, ``g`` standard normal), published as ``sensor_msgs/Imu`` with only the
+orientation filled and its covariance ``E[n n^T]`` (rad^2, body axes), the others ``-1`` (REP 145).
+Its draws are seeded and consumed in sample order like the ``imu``'s.
+
 ``euler_angles`` are the 3-2-1 angles of seed 000 (yaw psi about z, then pitch theta about the new
 y, then roll phi about the new x) of ``[BN] = R(q_NB)^T``, published as Vector3Stamped
 ``(x, y, z) = (roll, pitch, yaw)`` in rad.
@@ -14,10 +23,12 @@ y, then roll phi about the new x) of ``[BN] = R(q_NB)^T``, published as Vector3S
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .. import quaternion
-from ..schema import Param, integer, number, topic_name, vector
+from ..schema import FieldError, Param, child, integer, number, topic_name, vector
 from .base import OutputEffect, OutputStream, register
 
 # sensor_msgs/Imu after its header: orientation [0:4], its covariance [4:13], angular_velocity
@@ -38,6 +49,7 @@ class Imu(OutputEffect):
         "initial_bias": Param(vector(3, unit="rad/s"), np.zeros(3)),
         "seed": Param(integer(0, 2**63 - 1), 0),
         "topic": Param(topic_name, "imu"),
+        "rate": OutputEffect.RATE,
     }
 
     def stream(self, rate):
@@ -94,7 +106,7 @@ class EulerAngles(OutputEffect):
     summary = "3-2-1 (yaw, pitch, roll) Euler angles of the attitude, as Vector3Stamped (roll, pitch, yaw)"
     message_type = "geometry_msgs/msg/Vector3Stamped"
     frame = "inertial"
-    parameters = {"topic": Param(topic_name, "euler_angles")}
+    parameters = {"topic": Param(topic_name, "euler_angles"), "rate": OutputEffect.RATE}
 
     def stream(self, rate):
         return _EulerStream()
@@ -113,3 +125,98 @@ def roll_pitch_yaw(q_NB) -> np.ndarray:
     pitch = -np.arcsin(np.clip(R[..., 2, 0], -1.0, 1.0))
     roll = np.arctan2(R[..., 2, 1], R[..., 2, 2])
     return np.stack([roll, pitch, yaw], axis=-1)
+
+
+@register
+class Pose(OutputEffect):
+    name = "pose"
+    summary = "geometry_msgs/PoseStamped of the attitude (inertial frame, zero position), for 3-D panels"
+    message_type = "geometry_msgs/msg/PoseStamped"
+    frame = "inertial"
+    parameters = {"topic": Param(topic_name, "pose"), "rate": OutputEffect.RATE}
+
+    def stream(self, rate):
+        return _PoseStream()
+
+
+class _PoseStream(OutputStream):
+    def rows(self, first, times, omega_B, q_NB):
+        rows = np.zeros((times.shape[0], 7))  # position (x, y, z), orientation (x, y, z, w)
+        rows[:, 3:] = q_NB
+        return rows
+
+
+ARCSEC = math.pi / (180.0 * 3600.0)
+
+
+@register
+class StarTracker(OutputEffect):
+    name = "star_tracker"
+    summary = ("sensor_msgs/Imu with only the orientation: the attitude turned by a seeded noise rotation, "
+               "1-sigma across and about the boresight (arcsec), covariance filled (REP 145)")
+    message_type = "sensor_msgs/msg/Imu"
+    frame = "body"
+    parameters = {
+        "cross_boresight_noise": Param(number(minimum=0.0, unit="arcsec"), 0.0),
+        "about_boresight_noise": Param(number(minimum=0.0, unit="arcsec"), 0.0),
+        "boresight": Param(vector(3), np.array([0.0, 0.0, 1.0])),
+        "seed": Param(integer(0, 2**63 - 1), 0),
+        "topic": Param(topic_name, "star_tracker"),
+        "rate": OutputEffect.RATE,
+    }
+
+    @classmethod
+    def from_parameters(cls, values, path):
+        length = float(np.linalg.norm(values["boresight"]))
+        if not length > 0.0:
+            raise FieldError(child(path, "boresight"), "must not be the zero vector")
+        return cls(**{**values, "boresight": values["boresight"] / length})
+
+    def noise_axes(self) -> np.ndarray:
+        """Columns ``e1, e2, b``: a right-handed body-frame basis whose third axis is the boresight."""
+        b = self.values["boresight"]
+        helper = np.eye(3)[int(np.argmin(np.abs(b)))]  # the body axis least aligned with b
+        e1 = np.cross(b, helper)
+        e1 /= np.linalg.norm(e1)
+        return np.column_stack([e1, np.cross(b, e1), b])
+
+    def noise_sigmas(self) -> np.ndarray:
+        """1-sigma (rad) along ``e1, e2, b``."""
+        cross, about = self.values["cross_boresight_noise"], self.values["about_boresight_noise"]
+        return np.array([cross, cross, about]) * ARCSEC
+
+    def covariance(self) -> np.ndarray:
+        """``E[n n^T]`` (rad^2) in body axes."""
+        axes = self.noise_axes()
+        return axes @ np.diag(self.noise_sigmas() ** 2) @ axes.T
+
+    def stream(self, rate):
+        return _StarTrackerStream(self)
+
+
+class _StarTrackerStream(OutputStream):
+    def __init__(self, tracker: StarTracker):
+        self.seed = tracker.values["seed"]
+        self.scaled_axes = tracker.noise_axes() * tracker.noise_sigmas()  # n = scaled_axes @ g
+        self.template = np.zeros(IMU_ROW)
+        self.template[4:13] = tracker.covariance().ravel()
+        self.template[16] = NOT_PROVIDED  # angular velocity not provided
+        self.template[28] = NOT_PROVIDED  # linear acceleration not provided
+        self._restart()
+
+    def _restart(self):
+        self.rng = np.random.Generator(np.random.PCG64(self.seed))
+        self.next_index = 0
+
+    def rows(self, first, times, omega_B, q_NB):
+        count = times.shape[0]
+        if first < self.next_index:
+            self._restart()
+        if first > self.next_index:
+            self.rng.standard_normal((first - self.next_index, 3))  # skipped samples consume their draws
+        normals = self.rng.standard_normal((count, 3))
+        self.next_index = first + count
+        rows = np.tile(self.template, (count, 1))
+        if count:
+            rows[:, 0:4] = quaternion.multiply(q_NB, quaternion.exp_rotation(normals @ self.scaled_axes.T))
+        return rows
