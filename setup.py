@@ -9,7 +9,7 @@ setup(
     version="0.1.0",
     packages=find_packages(exclude=["test", "test.*", "tools"]),
     # the scene library ships inside the package, so load_scene("explorer1") works in every install
-    package_data={"torquefree_ros": ["scenes/*.yaml"], "torquefree_ros.bench": ["hard_cases.json"]},
+    package_data={"torquefree_ros": ["scenes/*.yaml", "interfaces/*/msg/*"], "torquefree_ros.bench": ["hard_cases.json"]},
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
         ("share/" + package_name, ["package.xml"]),

@@ -133,6 +133,7 @@ def _load(tmp_path, text: str):
     (SCENE.replace("[3.0, 2.0, 1.0]", "[3" + "0" * 400 + ", 2, 1]"), "body.inertia: every entry must be finite"),
     (SCENE + "body: {inertia: [1, 2, 3]}\n", "duplicate key 'body' (first at line 2)"),
     (SCENE.replace("seed: 42", "seed: 0b"), ""),
+    (SCENE.replace("seed: 42", "seed: !!int "), "a value cannot be read (IndexError"),  # found by hypothesis
     (SCENE.replace("accuracy: 1.0e-9", "accuracy: 0o99"), ""),
     ("\x00\x01binary", "not valid YAML"),
 ])

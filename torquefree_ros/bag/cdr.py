@@ -38,9 +38,7 @@ def encode_stamped_doubles(stamps_ns, frame_id: str, values) -> list[bytes]:
     (``x, y, z, w``).
     """
     values = np.asarray(values, dtype=np.float64)
-    frame = frame_id.encode("utf-8")
-    if b"\x00" in frame:
-        raise ValueError("frame_id: must not contain NUL characters")
+    frame = _frame_bytes(frame_id, "frame_id")
     sec, nanosec = _stamp_fields(stamps_ns)
     text_end = 12 + len(frame) + 1  # offsets from the end of the encapsulation header
     data_offset = -(-text_end // 8) * 8
@@ -61,6 +59,45 @@ def encode_stamped_doubles(stamps_ns, frame_id: str, values) -> list[bytes]:
     records["frame_id"] = np.void(frame + b"\x00")
     records["data"] = values
     return _split(records)
+
+
+def encode_transforms(stamps_ns, frame_id: str, child_frame_id: str, values) -> list[bytes]:
+    """``tf2_msgs/TFMessage`` holding one ``geometry_msgs/TransformStamped`` per row: a sequence
+    length (1), the Header with ``frame_id`` and ``stamps_ns[i]``, ``child_frame_id``, then the row's
+    7 float64s (translation ``x, y, z``, rotation ``x, y, z, w``)."""
+    values = np.asarray(values, dtype=np.float64)
+    frame, child = _frame_bytes(frame_id, "frame_id"), _frame_bytes(child_frame_id, "child_frame_id")
+    sec, nanosec = _stamp_fields(stamps_ns)
+    # offsets from the end of the encapsulation header: count, sec, nanosec, length, frame_id, then
+    # child_frame_id's length on a 4-byte boundary, its bytes, the doubles on an 8-byte boundary
+    child_length_at = -(-(16 + len(frame) + 1) // 4) * 4
+    data_at = -(-(child_length_at + 4 + len(child) + 1) // 8) * 8
+    record = np.dtype({
+        "names": ["encapsulation", "count", "sec", "nanosec", "length", "frame_id", "child_length", "child",
+                  "data"],
+        "formats": ["V4", "<u4", "<i4", "<u4", "<u4", f"V{len(frame) + 1}", "<u4", f"V{len(child) + 1}",
+                    ("<f8", (7,))],
+        "offsets": [0, 4, 8, 12, 16, 20, 4 + child_length_at, 8 + child_length_at, 4 + data_at],
+        "itemsize": 4 + data_at + 8 * 7,
+    })
+    records = np.zeros(values.shape[0], dtype=record)
+    records["encapsulation"] = np.void(CDR_LE)
+    records["count"] = 1
+    records["sec"] = sec
+    records["nanosec"] = nanosec
+    records["length"] = len(frame) + 1
+    records["frame_id"] = np.void(frame + b"\x00")
+    records["child_length"] = len(child) + 1
+    records["child"] = np.void(child + b"\x00")
+    records["data"] = values
+    return _split(records)
+
+
+def _frame_bytes(frame_id: str, name: str) -> bytes:
+    frame = frame_id.encode("utf-8")
+    if b"\x00" in frame:
+        raise ValueError(f"{name}: must not contain NUL characters")
+    return frame
 
 
 def encode_times(stamps_ns) -> list[bytes]:

@@ -5,7 +5,8 @@ every dependency, depth first, each dependency once, in sorted order of the name
 ``.msg`` file, after a line of 80 ``=`` and ``MSG: <name as written>``. Without a ``.msg`` file it
 falls back to the ``.idl`` files (``IDL:`` headers, the root included). The type hash (``RIHS01_…``)
 comes from the ``.json`` type description installed beside the ``.msg``. No rclpy import: the offline
-bag tools need only the ament index.
+bag tools need only the ament index. Interfaces every ROS install has but the PyPI wheels lack
+(``tf2_msgs``) are vendored under ``torquefree_ros/interfaces``, used only when not installed.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ _PRIMITIVES = frozenset({"bool", "byte", "char", "float32", "float64", "int8", "
 _NAME = r"[a-zA-Z][a-zA-Z0-9_]*"
 _TYPE_NAME = re.compile(rf"^({_NAME})/(?:({_NAME})/)?({_NAME})$")
 _DELIMITER = "=" * 80 + "\n"
+VENDORED_INTERFACES = Path(__file__).resolve().parents[1] / "interfaces"
 _MAX_DEPTH = 50
 
 
@@ -61,6 +63,9 @@ def share_directory(package: str) -> Path:
     share = Path(sys.prefix) / "share" / package
     if share.is_dir():
         return share
+    vendored = VENDORED_INTERFACES / package  # what a ROS install has and the wheels lack (tf2_msgs)
+    if vendored.is_dir():
+        return vendored
     raise DefinitionError(f"package '{package}' is not installed (not in the ament index nor in {share.parent})")
 
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from typing import Callable, NamedTuple
 
-from .cdr import encode_stamped_doubles, encode_times
+from .cdr import encode_stamped_doubles, encode_times, encode_transforms
 from .qos import BagQos
 from .writer import BagWriter
 
@@ -48,11 +48,17 @@ def encode_block(block, body_frame: str, inertial_frame: str, outputs=(), clock:
     columns.append(SampleColumn(*ATTITUDE, encode_stamped_doubles(stamps, inertial_frame, block.q_NB)))
     for output, rows, positions in zip(outputs, block.outputs, block.output_positions or (None,) * len(outputs)):
         frame = body_frame if output.frame == "body" else inertial_frame
+        if output.transform:
+            def encode(times, rows=rows):
+                return encode_transforms(times, frame, body_frame, rows)
+        else:
+            def encode(times, rows=rows, frame=frame):
+                return encode_stamped_doubles(times, frame, rows)
         if positions is None:
-            messages = encode_stamped_doubles(stamps, frame, rows)
+            messages = encode(stamps)
         else:  # an output at a rate of its own: None where it does not go out
             messages = [None] * len(stamps)
-            for position, message in zip(positions.tolist(), encode_stamped_doubles(stamps[positions], frame, rows)):
+            for position, message in zip(positions.tolist(), encode(stamps[positions])):
                 messages[position] = message
         columns.append(SampleColumn(output.topic, output.message_type, messages))
     return tuple(columns)

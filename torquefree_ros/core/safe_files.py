@@ -61,7 +61,7 @@ def load_yaml(text: str, where: str, loader_class=yaml.SafeLoader):
         raise ValueError(f"{where}: not valid YAML: {clip(str(error))}") from None
     except RecursionError:
         raise ValueError(f"{where}: not valid YAML: nested too deeply (more than {MAX_YAML_DEPTH} levels)") from None
-    except (KeyError, TypeError, OverflowError) as error:  # PyYAML's constructors on odd scalars
+    except (KeyError, IndexError, TypeError, OverflowError) as error:  # PyYAML's constructors on odd scalars
         raise ValueError(f"{where}: not valid YAML: a value cannot be read ({type(error).__name__}: "
                          f"{clip(str(error))})") from None
     except ValueError as error:

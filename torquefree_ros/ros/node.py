@@ -119,6 +119,8 @@ class TorqueFreeSim(Node):
         recording = f"recording bag {self._bag.writer.path}" if self._bag is not None else "not recording"
         self.get_logger().info(f"start: publishing {topics}; {recording}; {request.configuration}; "
                                f"{simulation.summary()}")
+        if request.left_out:
+            self.get_logger().warning(request.left_out)
 
     @property
     def sample_loop(self) -> SampleLoop:
@@ -213,6 +215,9 @@ class TorqueFreeSim(Node):
         response.success = True
         response.message = f"{run.configuration}; {simulation.summary()}"
         self.get_logger().info(f"reset: {response.message}")
+        if run.left_out:
+            response.message += f"; {run.left_out}"
+            self.get_logger().warning(run.left_out)
         return response
 
     # -- diagnostics -------------------------------------------------------------------------------

@@ -25,6 +25,7 @@ from ..core.validation import finite_vector, unit_quaternion
 from ..core.library import is_scene_name, library_scenes
 from ..core.schema import shown
 from .guarded_parameters import refusal
+from .qos import message_class
 from .sample_loop import RunRequest
 
 _NUMBER = (Parameter.Type.INTEGER, Parameter.Type.DOUBLE)
@@ -225,17 +226,32 @@ def run_request(values: dict) -> RunRequest:
         if member >= scene.sweep_members:
             raise ValueError(f"sweep_member: the scene has members 0 … {scene.sweep_members - 1}, got {member}")
         scene = scene.members()[member]
+    # an output whose message type this Python lacks (tf2_msgs from PyPI) is left out, and said so
+    outputs = tuple(output for output in scene.outputs if _installed(output.message_type))
+    missing = [f"{output.name} ({output.message_type})" for output in scene.outputs if output not in outputs]
     propagator = scene.propagator(values["propagator"], inertia=values["inertia"],
                                   angular_velocity=values["angular_velocity"], orientation=values["orientation"])
     propagator.max_steps_per_sample = MAX_STEPS_PER_SAMPLE
     # the first sample period, computed now: a scene too stiff (or too many steps per sample) or outside
     # float64 fails here, with its reason, rather than in the sample loop after the run was accepted
     try:
-        Simulation(propagator, values["publish_rate"], rate_name="publish_rate", outputs=scene.outputs).samples(0, 2)
+        Simulation(propagator, values["publish_rate"], rate_name="publish_rate", outputs=outputs).samples(0, 2)
     except RuntimeError as error:
         raise ValueError(f"propagator: {error}") from None
-    return RunRequest(propagator, values["publish_rate"], values["real_time_factor"],
-                      values["body_frame"], values["inertial_frame"], scene.outputs, describe(values, scene))
+    left_out = ""
+    if missing:
+        left_out = (f"not published: {', '.join(missing)} (its message package is not installed here; every "
+                    "ROS 2 install has it, and torquefree_bag writes it to bags without it)")
+    return RunRequest(propagator, values["publish_rate"], values["real_time_factor"], values["body_frame"],
+                      values["inertial_frame"], outputs, describe(values, scene), left_out)
+
+
+def _installed(type_name: str) -> bool:
+    try:
+        message_class(type_name)
+        return True
+    except ValueError:
+        return False
 
 
 def describe(values: dict, scene) -> str:

@@ -43,6 +43,7 @@ class RunRequest:
     inertial_frame: str
     outputs: tuple = ()  # the scene's output effects: each publishes one more topic
     configuration: str = ""  # which scene and which parameter overrides describe this run
+    left_out: str = ""  # the scene's outputs this Python cannot publish, and why ("" when none)
 
     @property
     def wall_clock(self) -> bool:

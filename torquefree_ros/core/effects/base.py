@@ -89,6 +89,8 @@ class OutputEffect(Effect):
     changes_motion = False
     message_type: ClassVar[str]
     frame: ClassVar[str]
+    #: True for a transform (parent ``frame``, child the body frame); else a Header and float64s
+    transform: ClassVar[bool] = False
     RATE = Param(number(positive=True, unit="Hz"), None, "its own rate; must divide the sample rate")
 
     @property

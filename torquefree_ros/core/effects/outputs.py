@@ -7,6 +7,9 @@
 draws come from a seeded PCG64 stream consumed in sample order, so sample ``k`` is the same however
 the samples are cut into blocks, live or offline.
 
+``tf`` is the attitude as ``tf2_msgs/TFMessage`` on ``/tf``: one transform per sample, parent the
+inertial frame, child the body frame, rotation ``q_NB``, zero translation (REP 105).
+
 ``pose`` is the attitude as ``geometry_msgs/PoseStamped`` (inertial frame, zero position, ``q_NB``),
 what the 3-D panels of RViz and Foxglove draw.
 
@@ -125,6 +128,19 @@ def roll_pitch_yaw(q_NB) -> np.ndarray:
     pitch = -np.arcsin(np.clip(R[..., 2, 0], -1.0, 1.0))
     roll = np.arctan2(R[..., 2, 1], R[..., 2, 2])
     return np.stack([roll, pitch, yaw], axis=-1)
+
+
+@register
+class Tf(OutputEffect):
+    name = "tf"
+    summary = "tf2_msgs/TFMessage on /tf: inertial frame -> body frame, rotation q_NB, zero translation"
+    message_type = "tf2_msgs/msg/TFMessage"
+    frame = "inertial"  # the parent; the child is the body frame
+    transform = True
+    parameters = {"topic": Param(topic_name, "/tf"), "rate": OutputEffect.RATE}
+
+    def stream(self, rate):
+        return _PoseStream()  # the same row: translation (zero), rotation q_NB
 
 
 @register
