@@ -97,10 +97,10 @@ def test_tf_at_a_rate_of_its_own(tmp_path):
 
 
 def test_a_node_without_tf2_msgs_leaves_tf_out_and_says_so(tmp_path):
-    pytest.importorskip("rclpy")
     try:
         import tf2_msgs  # noqa: F401
-        pytest.skip("tf2_msgs is installed here: the node publishes /tf")
+        # a ROS install: the node publishes /tf then, which this test cannot see (issue 16: live /tf test)
+        pytest.skip("tf2_msgs is installed here: the node publishes /tf instead of leaving it out")
     except ImportError:
         pass
     from sim_harness import connected_harness

@@ -47,21 +47,22 @@ def encode_block(block, body_frame: str, inertial_frame: str, outputs=(), clock:
     columns.append(SampleColumn(*ANGULAR_VELOCITY, encode_stamped_doubles(stamps, body_frame, block.omega_B)))
     columns.append(SampleColumn(*ATTITUDE, encode_stamped_doubles(stamps, inertial_frame, block.q_NB)))
     for output, rows, positions in zip(outputs, block.outputs, block.output_positions or (None,) * len(outputs)):
-        frame = body_frame if output.frame == "body" else inertial_frame
-        if output.transform:
-            def encode(times, rows=rows):
-                return encode_transforms(times, frame, body_frame, rows)
-        else:
-            def encode(times, rows=rows, frame=frame):
-                return encode_stamped_doubles(times, frame, rows)
         if positions is None:
-            messages = encode(stamps)
+            messages = _encode_output(output, stamps, rows, body_frame, inertial_frame)
         else:  # an output at a rate of its own: None where it does not go out
             messages = [None] * len(stamps)
-            for position, message in zip(positions.tolist(), encode(stamps[positions])):
+            encoded = _encode_output(output, stamps[positions], rows, body_frame, inertial_frame)
+            for position, message in zip(positions.tolist(), encoded):
                 messages[position] = message
         columns.append(SampleColumn(output.topic, output.message_type, messages))
     return tuple(columns)
+
+
+def _encode_output(output, stamps, rows, body_frame: str, inertial_frame: str) -> list[bytes]:
+    frame = body_frame if output.frame == "body" else inertial_frame
+    if output.transform:  # parent: the output's frame; child: the body
+        return encode_transforms(stamps, frame, body_frame, rows)
+    return encode_stamped_doubles(stamps, frame, rows)
 
 
 class SampleRecorder:

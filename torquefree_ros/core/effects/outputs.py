@@ -26,6 +26,7 @@ y, then roll phi about the new x) of ``[BN] = R(q_NB)^T``, published as Vector3S
 
 from __future__ import annotations
 
+import abc
 import math
 
 import numpy as np
@@ -59,10 +60,33 @@ class Imu(OutputEffect):
         return _ImuStream(self, rate)
 
 
-class _ImuStream(OutputStream):
+class _SeededStream(OutputStream):
+    """Draws from a seeded PCG64 stream consumed in sample order: a sample's draws are the same
+    however samples are requested (skipped samples consume theirs; asking earlier restarts)."""
+
+    def __init__(self, seed: int):
+        self.seed = seed
+        self._restart()
+
+    def _restart(self):
+        self.rng = np.random.Generator(np.random.PCG64(self.seed))
+        self.next_index = 0
+
+    def _seek(self, first: int) -> None:
+        """Make sample ``first`` the next to draw for."""
+        if first < self.next_index:
+            self._restart()
+        if first > self.next_index:
+            self._draw(first - self.next_index)
+
+    @abc.abstractmethod
+    def _draw(self, count: int):
+        """The draws of the next ``count`` samples (advances ``next_index``)."""
+
+
+class _ImuStream(_SeededStream):
     def __init__(self, imu: Imu, rate: float):
         values = imu.values
-        self.seed = values["seed"]
         self.white_sigma = values["gyro_noise_density"] * np.sqrt(rate)
         self.walk_sigma = values["gyro_bias_random_walk"] / np.sqrt(rate)
         self.initial_bias = np.asarray(values["initial_bias"], float)
@@ -70,11 +94,10 @@ class _ImuStream(OutputStream):
         self.template[4] = NOT_PROVIDED  # orientation not provided
         self.template[16:25] = np.diag(np.full(3, self.white_sigma ** 2)).ravel()
         self.template[28] = NOT_PROVIDED  # linear acceleration not provided
-        self._restart()
+        super().__init__(values["seed"])
 
     def _restart(self):
-        self.rng = np.random.Generator(np.random.PCG64(self.seed))
-        self.next_index = 0
+        super()._restart()
         self.bias = self.initial_bias.copy()  # b_(k-1) of the next sample
 
     def _draw(self, count: int):
@@ -91,10 +114,7 @@ class _ImuStream(OutputStream):
 
     def rows(self, first, times, omega_B, q_NB):
         count = times.shape[0]
-        if first < self.next_index:
-            self._restart()
-        if first > self.next_index:
-            self._draw(first - self.next_index)  # skipped samples still consume their draws
+        self._seek(first)
         if count == 0:
             return np.empty((0, IMU_ROW))
         white, bias = self._draw(count)
@@ -210,29 +230,23 @@ class StarTracker(OutputEffect):
         return _StarTrackerStream(self)
 
 
-class _StarTrackerStream(OutputStream):
+class _StarTrackerStream(_SeededStream):
     def __init__(self, tracker: StarTracker):
-        self.seed = tracker.values["seed"]
         self.scaled_axes = tracker.noise_axes() * tracker.noise_sigmas()  # n = scaled_axes @ g
         self.template = np.zeros(IMU_ROW)
         self.template[4:13] = tracker.covariance().ravel()
         self.template[16] = NOT_PROVIDED  # angular velocity not provided
         self.template[28] = NOT_PROVIDED  # linear acceleration not provided
-        self._restart()
+        super().__init__(tracker.values["seed"])
 
-    def _restart(self):
-        self.rng = np.random.Generator(np.random.PCG64(self.seed))
-        self.next_index = 0
+    def _draw(self, count: int):
+        self.next_index += count
+        return self.rng.standard_normal((count, 3))
 
     def rows(self, first, times, omega_B, q_NB):
-        count = times.shape[0]
-        if first < self.next_index:
-            self._restart()
-        if first > self.next_index:
-            self.rng.standard_normal((first - self.next_index, 3))  # skipped samples consume their draws
-        normals = self.rng.standard_normal((count, 3))
-        self.next_index = first + count
-        rows = np.tile(self.template, (count, 1))
-        if count:
+        self._seek(first)
+        normals = self._draw(times.shape[0])
+        rows = np.tile(self.template, (times.shape[0], 1))
+        if times.shape[0]:
             rows[:, 0:4] = quaternion.multiply(q_NB, quaternion.exp_rotation(normals @ self.scaled_axes.T))
         return rows

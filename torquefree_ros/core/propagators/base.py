@@ -99,11 +99,10 @@ class Propagator(abc.ABC):
 class StepBudgetExceeded(RuntimeError):
     """A sample needs more integrator steps than ``Propagator.max_steps_per_sample``."""
 
-    def __init__(self, propagator: Propagator, t: float, step: float | None = None):
-        size = f" (the step is {step:.2g} s)" if step is not None else ""
+    def __init__(self, propagator: Propagator, t: float, step: float):
         super().__init__(
             f"{propagator.name}: reaching t = {t:.6g} s needs more than {propagator.max_steps_per_sample:,} steps "
-            f"from the sample before{size}, the bound per sample that keeps the node responsive: raise the "
+            f"from the sample before (the step is {step:.2g} s), the bound per sample that keeps the node responsive: raise the "
             "sample rate, or relax the accuracy (a longer step, looser tolerances)")
 
 
