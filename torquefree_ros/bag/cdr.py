@@ -112,6 +112,70 @@ def encode_times(stamps_ns) -> list[bytes]:
     return _split(records)
 
 
+class CdrTemplate:
+    """A message of a fixed layout written once, numbers as placeholders; a block of messages is
+    that many copies with the numbers put in at the offsets recorded while writing. Messages of one
+    template share their strings and sequence lengths, hence their padding and offsets."""
+
+    def __init__(self):
+        self._buffer = bytearray(CDR_LE)
+        self._fields: dict[str, tuple[int, np.dtype, int]] = {}  # name -> offset, type, count
+        self._stamps: list[tuple[str, str]] = []
+
+    def _put(self, dtype: str, values, name: str | None = None) -> None:
+        dtype = np.dtype(dtype)
+        values = np.atleast_1d(np.asarray(values, dtype=dtype))
+        self._buffer += bytes(-(len(self._buffer) - 4) % dtype.itemsize)  # aligned from the header's end
+        if name is not None:
+            if name in self._fields:
+                raise ValueError(f"template field '{name}' written twice")
+            self._fields[name] = (len(self._buffer), dtype, values.size)
+        self._buffer += values.tobytes()
+
+    def int32(self, value: int = 0, name: str | None = None) -> None:
+        self._put("<i4", value, name)
+
+    def uint32(self, value: int = 0, name: str | None = None) -> None:
+        self._put("<u4", value, name)
+
+    def float32(self, values, name: str | None = None) -> None:
+        self._put("<f4", values, name)
+
+    def float64(self, values, name: str | None = None) -> None:
+        self._put("<f8", values, name)
+
+    def boolean(self, value: bool) -> None:
+        self._put("u1", int(value))
+
+    def string(self, text: str, field: str = "string") -> None:
+        data = _frame_bytes(text, field)
+        self.uint32(len(data) + 1)
+        self._buffer += data + b"\x00"
+
+    def stamp(self, name: str) -> None:
+        """A ``builtin_interfaces/Time`` that :meth:`fill` sets to each message's stamp."""
+        self.int32(0, f"{name}.sec")
+        self.uint32(0, f"{name}.nanosec")
+        self._stamps.append((f"{name}.sec", f"{name}.nanosec"))
+
+    def fill(self, stamps_ns, columns: dict) -> list[bytes]:
+        """One message per stamp: every stamp field set to it, ``columns[name][i]`` into field
+        ``name`` of message ``i``; fields not given keep the template's values."""
+        sec, nanosec = _stamp_fields(stamps_ns)
+        count = sec.shape[0]
+        messages = np.tile(np.frombuffer(bytes(self._buffer), dtype=np.uint8), (count, 1))
+        values = dict(columns)
+        for sec_name, nanosec_name in self._stamps:
+            values[sec_name], values[nanosec_name] = sec, nanosec
+        for name, column in values.items():
+            offset, dtype, width = self._fields[name]
+            column = np.ascontiguousarray(np.broadcast_to(np.asarray(column, dtype=dtype).reshape(count, -1),
+                                                          (count, width)))
+            messages[:, offset:offset + dtype.itemsize * width] = column.view(np.uint8)
+        raw, size = messages.tobytes(), messages.shape[1]
+        return [raw[start:start + size] for start in range(0, len(raw), size)]
+
+
 def decode_stamped_doubles(message: bytes, width: int) -> tuple[int, str, np.ndarray]:
     """``(stamp_ns, frame_id, values)`` of a message laid out as :func:`encode_stamped_doubles` writes
     it (a Header, then ``width`` float64s): the inverse, for tools that read bags without rclpy."""

@@ -3,7 +3,7 @@ writing them to a bag. One source for the node (which publishes and records them
 ``torquefree_bag``: the same topics, types, QoS, stamps and bytes.
 
 A sample is ``/clock`` (on a clock of our own), ``angular_velocity``, ``attitude``, then the
-scene's outputs (``imu``, ``euler_angles``, ``pose``, ``star_tracker``) in the order the scene names them;
+scene's outputs (``imu``, ``pose``, ``markers``, ...) in the order the scene names them;
 only those exist.
 """
 
@@ -12,6 +12,7 @@ from __future__ import annotations
 from typing import Callable, NamedTuple
 
 from .cdr import encode_stamped_doubles, encode_times, encode_transforms
+from .markers import encode_markers
 from .qos import BagQos
 from .writer import BagWriter
 
@@ -60,8 +61,10 @@ def encode_block(block, body_frame: str, inertial_frame: str, outputs=(), clock:
 
 def _encode_output(output, stamps, rows, body_frame: str, inertial_frame: str) -> list[bytes]:
     frame = body_frame if output.frame == "body" else inertial_frame
-    if output.transform:  # parent: the output's frame; child: the body
+    if output.layout == "transform":  # parent: the output's frame; child: the body
         return encode_transforms(stamps, frame, body_frame, rows)
+    if output.layout == "markers":
+        return encode_markers(stamps, frame, rows)
     return encode_stamped_doubles(stamps, frame, rows)
 
 

@@ -51,11 +51,13 @@ def motion_effect_costs(number: int = 2000) -> list[dict]:
 def output_costs(number: int = 20) -> list[dict]:
     """Per output effect: µs per sample, computed for blocks of 256 samples at 100 Hz."""
     times = np.arange(_BLOCK) / 100.0
-    omega, q = make_propagator(*BODY)(times)
+    propagator = make_propagator(*BODY)
+    omega, q = propagator(times)
+    internal = np.empty((_BLOCK, 0))
     rows = []
     for label, entry in OUTPUTS.items():
-        stream = parse_effect(entry, "effects[0]").stream(100.0)
+        stream = parse_effect(entry, "effects[0]").stream(100.0, propagator)
         first = iter(range(0, 10**9, _BLOCK))  # fresh sample indices: a stream consumes its noise in order
-        cost = _best_us(lambda: stream.rows(next(first), times, omega, q), number) / _BLOCK
+        cost = _best_us(lambda: stream.rows(next(first), times, omega, q, internal), number) / _BLOCK
         rows.append({"output": label, "us_per_sample": cost})
     return rows

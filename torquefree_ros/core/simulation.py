@@ -59,7 +59,7 @@ class Simulation:
         self.epoch_ns = int(epoch_ns)
         self.outputs = tuple(outputs)
         self._every = tuple(output.every(self.rate, rate_name) for output in self.outputs)
-        self._streams = tuple(output.stream(self.rate / every) for output, every in zip(self.outputs, self._every))
+        self._streams = tuple(output.stream(self.rate / every, propagator) for output, every in zip(self.outputs, self._every))
         omega0, x0 = propagator.omega0_B, propagator.x0
         self.kinetic_energy0 = float(propagator.energy(omega0, x0))
         self.momentum0 = float(np.linalg.norm(propagator.momentum_B(omega0, x0)))
@@ -82,12 +82,12 @@ class Simulation:
         outputs, positions = [], []
         for stream, every in zip(self._streams, self._every):
             if every == 1:
-                outputs.append(stream.rows(first, times, omega, q))
+                outputs.append(stream.rows(first, times, omega, q, internal))
                 positions.append(None)
                 continue
             start = -(-first // every) * every  # the block's first sample k with k % every == 0
             picked = np.arange(start - first, count, every)
-            outputs.append(stream.rows(start // every, times[picked], omega[picked], q[picked]))
+            outputs.append(stream.rows(start // every, times[picked], omega[picked], q[picked], internal[picked]))
             positions.append(picked)
         return SampleBlock(first, times, stamps_ns(self.epoch_ns, times), omega, q, internal, tuple(outputs),
                            tuple(positions))

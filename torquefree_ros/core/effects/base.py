@@ -41,6 +41,17 @@ class Effect(abc.ABC):
         """Build from checked ``values``; cross-field rules raise ``FieldError`` under ``path``."""
         return cls(**values)
 
+    def __eq__(self, other) -> bool:
+        """Equal when of the same kind with the same parameters (scenes loaded twice compare equal)."""
+        if type(other) is not type(self):
+            return NotImplemented
+        return self.values.keys() == other.values.keys() and all(
+            np.array_equal(value, other.values[key]) if isinstance(value, np.ndarray) else value == other.values[key]
+            for key, value in self.values.items())
+
+    def __hash__(self) -> int:
+        return hash((type(self), tuple(self.values)))
+
     def describe(self) -> str:
         shown = ", ".join(f"{key}={_short(value)}" for key, value in self.values.items() if value is not None)
         return f"{self.name}({shown})"
@@ -89,8 +100,9 @@ class OutputEffect(Effect):
     changes_motion = False
     message_type: ClassVar[str]
     frame: ClassVar[str]
-    #: True for a transform (parent ``frame``, child the body frame); else a Header and float64s
-    transform: ClassVar[bool] = False
+    #: the message's form: "doubles" (a Header, then the row's float64s), "transform" (parent
+    #: ``frame``, child the body frame) or "markers" (a MarkerArray drawn from the row)
+    layout: ClassVar[str] = "doubles"
     RATE = Param(number(positive=True, unit="Hz"), None, "its own rate; must divide the sample rate")
 
     @property
@@ -111,16 +123,18 @@ class OutputEffect(Effect):
         return n
 
     @abc.abstractmethod
-    def stream(self, rate: float) -> "OutputStream": ...
+    def stream(self, rate: float, propagator) -> "OutputStream":
+        """The output of one run at ``rate`` Hz of ``propagator`` (its body, initial state, invariants)."""
 
 
 class OutputStream(abc.ABC):
-    """Per run: ``rows(first, times, omega_B, q_NB)`` gives one row of float64 per sample, the
-    message's fields after its header in declaration order. Rows depend only on the sample index and
-    the scene, never on how samples are cut into blocks."""
+    """Per run: ``rows(first, times, omega_B, q_NB, internal)`` gives one row of float64 per sample
+    (``internal``: the effects' own states), the message's numbers in the order its layout reads them.
+    Rows depend only on the sample index and the scene, never on how samples are cut into blocks."""
 
     @abc.abstractmethod
-    def rows(self, first: int, times: np.ndarray, omega_B: np.ndarray, q_NB: np.ndarray) -> np.ndarray: ...
+    def rows(self, first: int, times: np.ndarray, omega_B: np.ndarray, q_NB: np.ndarray,
+             internal: np.ndarray) -> np.ndarray: ...
 
 
 def register(cls):

@@ -19,6 +19,13 @@ in the body frame, ``n = sigma_cross (g1 e1 + g2 e2) + sigma_about g3 b`` (``b``
 orientation filled and its covariance ``E[n n^T]`` (rad^2, body axes), the others ``-1`` (REP 145).
 Its draws are seeded and consumed in sample order like the ``imu``'s.
 
+``markers`` draws the motion for RViz/Foxglove as ``visualization_msgs/MarkerArray`` in the inertial
+frame (no ``/tf`` needed): the uniform box with the body's principal moments (sides
+``d_i ~ sqrt(J_j + J_k - J_i)``, the longest ``size`` m), oriented by its principal axes, and arrows
+from its centre along ``w`` and ``H``. Box and ``w`` change every sample; ``H`` is constant when the
+scene conserves it, so it is re-sent only about once per simulated ``momentum_interval`` (for viewers
+that join or seek late), else every sample.
+
 ``euler_angles`` are the 3-2-1 angles of seed 000 (yaw psi about z, then pitch theta about the new
 y, then roll phi about the new x) of ``[BN] = R(q_NB)^T``, published as Vector3Stamped
 ``(x, y, z) = (roll, pitch, yaw)`` in rad.
@@ -33,7 +40,7 @@ import numpy as np
 
 from .. import quaternion
 from ..schema import FieldError, Param, child, integer, number, topic_name, vector
-from .base import OutputEffect, OutputStream, register
+from .base import MOMENTUM, OutputEffect, OutputStream, register
 
 # sensor_msgs/Imu after its header: orientation [0:4], its covariance [4:13], angular_velocity
 # [13:16], its covariance [16:25], linear_acceleration [25:28], its covariance [28:37]
@@ -56,7 +63,7 @@ class Imu(OutputEffect):
         "rate": OutputEffect.RATE,
     }
 
-    def stream(self, rate):
+    def stream(self, rate, propagator):
         return _ImuStream(self, rate)
 
 
@@ -112,7 +119,7 @@ class _ImuStream(_SeededStream):
         self.next_index += count
         return self.white_sigma * normals[:, :3], bias
 
-    def rows(self, first, times, omega_B, q_NB):
+    def rows(self, first, times, omega_B, q_NB, internal):
         count = times.shape[0]
         self._seek(first)
         if count == 0:
@@ -131,12 +138,12 @@ class EulerAngles(OutputEffect):
     frame = "inertial"
     parameters = {"topic": Param(topic_name, "euler_angles"), "rate": OutputEffect.RATE}
 
-    def stream(self, rate):
+    def stream(self, rate, propagator):
         return _EulerStream()
 
 
 class _EulerStream(OutputStream):
-    def rows(self, first, times, omega_B, q_NB):
+    def rows(self, first, times, omega_B, q_NB, internal):
         return roll_pitch_yaw(q_NB)
 
 
@@ -156,10 +163,10 @@ class Tf(OutputEffect):
     summary = "tf2_msgs/TFMessage on /tf: inertial frame -> body frame, rotation q_NB, zero translation"
     message_type = "tf2_msgs/msg/TFMessage"
     frame = "inertial"  # the parent; the child is the body frame
-    transform = True
+    layout = "transform"
     parameters = {"topic": Param(topic_name, "/tf"), "rate": OutputEffect.RATE}
 
-    def stream(self, rate):
+    def stream(self, rate, propagator):
         return _PoseStream()  # the same row: translation (zero), rotation q_NB
 
 
@@ -171,12 +178,12 @@ class Pose(OutputEffect):
     frame = "inertial"
     parameters = {"topic": Param(topic_name, "pose"), "rate": OutputEffect.RATE}
 
-    def stream(self, rate):
+    def stream(self, rate, propagator):
         return _PoseStream()
 
 
 class _PoseStream(OutputStream):
-    def rows(self, first, times, omega_B, q_NB):
+    def rows(self, first, times, omega_B, q_NB, internal):
         rows = np.zeros((times.shape[0], 7))  # position (x, y, z), orientation (x, y, z, w)
         rows[:, 3:] = q_NB
         return rows
@@ -226,7 +233,7 @@ class StarTracker(OutputEffect):
         axes = self.noise_axes()
         return axes @ np.diag(self.noise_sigmas() ** 2) @ axes.T
 
-    def stream(self, rate):
+    def stream(self, rate, propagator):
         return _StarTrackerStream(self)
 
 
@@ -243,10 +250,77 @@ class _StarTrackerStream(_SeededStream):
         self.next_index += count
         return self.rng.standard_normal((count, 3))
 
-    def rows(self, first, times, omega_B, q_NB):
+    def rows(self, first, times, omega_B, q_NB, internal):
         self._seek(first)
         normals = self._draw(times.shape[0])
         rows = np.tile(self.template, (times.shape[0], 1))
         if times.shape[0]:
             rows[:, 0:4] = quaternion.multiply(q_NB, quaternion.exp_rotation(normals @ self.scaled_axes.T))
+        return rows
+
+
+@register
+class Markers(OutputEffect):
+    name = "markers"
+    summary = ("visualization_msgs/MarkerArray in the inertial frame: the body's inertia box on its principal "
+               "axes, arrows along w and H (H re-sent at a low rate while constant)")
+    message_type = "visualization_msgs/msg/MarkerArray"
+    frame = "inertial"
+    layout = "markers"
+    parameters = {
+        "size": Param(number(positive=True, unit="m"), 1.0, "the box's longest side"),
+        "angular_velocity_scale": Param(number(positive=True, unit="m/(rad/s)"), None,
+                                        "arrow length per rad/s; default: the initial w is size long"),
+        "momentum_scale": Param(number(positive=True, unit="m/(kg m^2/s)"), None,
+                                "arrow length per kg m^2/s; default: the initial H is 1.25 size long"),
+        "momentum_interval": Param(number(positive=True, unit="s"), 1.0,
+                                   "simulated time between re-sends of a constant H"),
+        "topic": Param(topic_name, "markers"),
+        "rate": OutputEffect.RATE,
+    }
+
+    def box_sides(self, body) -> np.ndarray:
+        """Sides of the uniform box with the body's principal moments, along ``body.principal_axes``:
+        ``d_i^2 = 6 (J_j + J_k - J_i) / m``, scaled so the longest is ``size``; a side of a rod or a
+        plate (zero by the triangle inequality's edge) is drawn ``size / 100`` thick."""
+        J = body.moments
+        squared = np.maximum(J.sum() - 2.0 * J, 0.0)
+        sides = np.sqrt(squared / squared.max())
+        return self.values["size"] * np.maximum(sides, MIN_SIDE)
+
+    def stream(self, rate, propagator):
+        return _MarkerStream(self, rate, propagator)
+
+
+MIN_SIDE = 0.01  # of the longest side: what a rod's or a plate's thin sides are drawn as
+# a markers row: box orientation (x, y, z, w) [0:4] and sides [4:7], the tips of the w [7:10] and H
+# [10:13] arrows (inertial frame, from the box's centre), 1.0 when the H arrow goes out [13]
+MARKER_ROW = 14
+
+
+class _MarkerStream(OutputStream):
+    def __init__(self, markers: Markers, rate: float, propagator):
+        values, body = markers.values, propagator.body
+        size = values["size"]
+        self.q_BP = quaternion.from_matrix(body.principal_axes)
+        self.sides = markers.box_sides(body)
+        omega0, x0 = propagator.omega0_B, propagator.x0
+        self.momentum_B = propagator.momentum_B
+        w0 = float(np.linalg.norm(omega0))
+        h0 = float(np.linalg.norm(propagator.momentum_B(omega0, x0)))
+        self.omega_scale = values["angular_velocity_scale"] or (size / w0 if w0 > 0.0 else size)
+        self.momentum_scale = values["momentum_scale"] or (1.25 * size / h0 if h0 > 0.0 else size)
+        constant = MOMENTUM in propagator.conserved
+        self.momentum_every = max(1, round(values["momentum_interval"] * rate)) if constant else 1
+
+    def rows(self, first, times, omega_B, q_NB, internal):
+        count = times.shape[0]
+        rows = np.empty((count, MARKER_ROW))
+        if count == 0:
+            return rows
+        rows[:, 0:4] = quaternion.multiply(q_NB, self.q_BP)
+        rows[:, 4:7] = self.sides
+        rows[:, 7:10] = self.omega_scale * quaternion.rotate(q_NB, omega_B)
+        rows[:, 10:13] = self.momentum_scale * quaternion.rotate(q_NB, self.momentum_B(omega_B, internal))
+        rows[:, 13] = (np.arange(first, first + count) % self.momentum_every) == 0
         return rows

@@ -1,0 +1,215 @@
+"""The ``markers`` output: the box's geometry is the uniform box of the body's principal moments on
+its principal axes; the arrows are w and H in the inertial frame (H constant, re-sent at a low rate
+only while the scene conserves it); the encoding decodes in rclpy and is rosbags' own byte for byte;
+bags (both independent readers) and the live node carry what the core computes."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from torquefree_ros.bag.markers import encode_markers
+from torquefree_ros.core import quaternion
+from torquefree_ros.core.effects.outputs import MARKER_ROW
+from torquefree_ros.core.scene import SceneError, scene_from_mapping
+from torquefree_ros.core.simulation import Simulation
+
+RATE = 50.0
+GENERIC_TENSOR = [4.0, 3.0, 2.5, 0.3, -0.2, 0.4]  # Ixx, Iyy, Izz, Ixy, Ixz, Iyz: principal axes tilted
+ORIENTATION = [0.1, -0.3, 0.2, math.sqrt(0.86)]
+
+
+def _simulation(body, angular_velocity, *effects, rate=RATE):
+    scene = scene_from_mapping({"body": body, "initial": {"angular_velocity": angular_velocity,
+                                                          "orientation": ORIENTATION},
+                                "effects": list(effects)})
+    return Simulation(scene.propagator(), rate, outputs=scene.outputs)
+
+
+def _box_inertia_N(row):
+    """The inertia tensor (per unit mass, inertial frame) of the uniform box a marker row draws."""
+    a2, b2, c2 = row[4:7] ** 2
+    box = np.diag([b2 + c2, a2 + c2, a2 + b2]) / 12.0
+    R = quaternion.to_matrix(row[0:4])
+    return R @ box @ R.T
+
+
+@pytest.mark.parametrize("inertia", [GENERIC_TENSOR, [2.0, 3.0, 4.0], [5.0, 1.0, 5.0], [1.0, 1.0, 1.0]])
+def test_the_box_has_the_bodys_principal_moments_on_its_principal_axes(inertia):
+    simulation = _simulation({"inertia": inertia}, [0.4, -1.0, 0.7], {"markers": {"size": 2.0}})
+    block = simulation.samples(0, 200)
+    (rows,) = block.outputs
+    assert rows.shape == (200, MARKER_ROW)
+    assert rows[:, 4:7].max(axis=1) == pytest.approx(2.0, rel=1e-15)  # the longest side is `size`
+    J_B = simulation.body.tensor
+    for row, q in zip(rows[::37], block.q_NB[::37]):
+        R = quaternion.to_matrix(q)
+        J_N = R @ J_B @ R.T  # the body's inertia now, inertial frame
+        box = _box_inertia_N(row)
+        np.testing.assert_allclose(box / np.trace(box), J_N / np.trace(J_N), rtol=0, atol=1e-14)
+
+
+@pytest.mark.parametrize("inertia, thin", [([1.0, 2.0, 3.0], 2), ([1e-6, 1.0, 1.0], [1, 2])])
+def test_a_plate_or_a_rod_is_drawn_one_percent_thick(inertia, thin):
+    (rows,) = _simulation({"inertia": inertia}, [0.0, 1.0, 0.0], {"markers": {}}).samples(0, 3).outputs
+    sides = rows[0, 4:7]
+    assert sides.max() == 1.0
+    np.testing.assert_array_equal(sides[thin], 0.01)
+
+
+def test_the_arrows_are_w_and_h_in_the_inertial_frame_with_the_default_scales():
+    simulation = _simulation({"inertia": GENERIC_TENSOR}, [0.4, -1.0, 0.7], {"markers": {"size": 2.0}})
+    block = simulation.samples(0, 500)
+    (rows,) = block.outputs
+    body = simulation.body
+    w_N = quaternion.rotate(block.q_NB, block.omega_B)
+    h_N = body.angular_momentum_inertial(block.omega_B, block.q_NB)
+    w0, h0 = np.linalg.norm(block.omega_B[0]), np.linalg.norm(h_N[0])
+    np.testing.assert_allclose(rows[:, 7:10], w_N * (2.0 / w0), rtol=0, atol=1e-14)
+    np.testing.assert_allclose(rows[:, 10:13], h_N * (2.5 / h0), rtol=0, atol=1e-14)
+    assert np.linalg.norm(rows[0, 7:10]) == pytest.approx(2.0, rel=1e-15)  # the initial w: `size` long
+    # torque-free: the H arrow stands still while the w arrow wanders round it
+    np.testing.assert_allclose(rows[:, 10:13], np.broadcast_to(rows[0, 10:13], (500, 3)), rtol=0, atol=1e-13)
+    assert np.ptp(rows[:, 7:10], axis=0).max() > 0.5
+
+
+def test_explicit_scales_are_lengths_per_unit():
+    simulation = _simulation({"inertia": [2.0, 3.0, 4.0]}, [0.4, -1.0, 0.7],
+                             {"markers": {"angular_velocity_scale": 0.5, "momentum_scale": 0.1}})
+    block = simulation.samples(0, 10)
+    (rows,) = block.outputs
+    np.testing.assert_allclose(np.linalg.norm(rows[:, 7:10], axis=1), 0.5 * np.linalg.norm(block.omega_B, axis=1),
+                               rtol=1e-15)
+    h = simulation.body.angular_momentum(block.omega_B)
+    np.testing.assert_allclose(np.linalg.norm(rows[:, 10:13], axis=1), 0.1 * np.linalg.norm(h, axis=1), rtol=1e-14)
+
+
+def test_a_constant_h_goes_out_once_per_interval_however_blocks_are_cut():
+    simulation = _simulation({"inertia": [2.0, 3.0, 4.0]}, [0.4, -1.0, 0.7], {"markers": {"momentum_interval": 0.5}})
+    whole = simulation.samples(0, 120).outputs[0]
+    np.testing.assert_array_equal(np.flatnonzero(whole[:, 13]), [0, 25, 50, 75, 100])
+    cut = np.vstack([simulation.samples(first, 7).outputs[0] for first in range(0, 120, 7)])[:120]
+    np.testing.assert_array_equal(cut, whole)
+
+
+def test_h_goes_out_with_every_sample_when_a_torque_changes_it():
+    damped = _simulation({"inertia": [0.4, 4.6, 4.95]}, [6.0, 0.05, 0.0],
+                         {"damper": {"inertia": 0.05, "damping": 0.01}}, {"markers": {}})
+    assert np.flatnonzero(damped.samples(0, 120).outputs[0][:, 13]).tolist() == [0, 50, 100]  # H_N is conserved
+    torqued = _simulation({"inertia": [2.0, 3.0, 4.0]}, [0.4, -1.0, 0.7],
+                          {"external_torque": {"torque": [0.0, 0.0, 0.5]}}, {"markers": {}})
+    rows = torqued.samples(0, 60).outputs[0]
+    assert np.all(rows[:, 13] == 1.0)
+    assert np.linalg.norm(rows[-1, 10:13] - rows[0, 10:13]) > 1e-3
+
+
+@pytest.mark.parametrize("parameters, reason", [
+    ({"size": 0}, r"effects\[0\]\.markers\.size: must be > 0 m, got 0"),
+    ({"momentum_interval": -1}, r"effects\[0\]\.markers\.momentum_interval: must be > 0 s"),
+    ({"angular_velocity_scale": "big"}, r"effects\[0\]\.markers\.angular_velocity_scale: expected a finite number"),
+    ({"colour": 1}, r"effects\[0\]\.markers\.colour: unknown key"),
+])
+def test_marker_parameters_are_checked_with_the_field_path(parameters, reason):
+    with pytest.raises(SceneError, match=reason):
+        _simulation({"inertia": [2.0, 3.0, 4.0]}, [0.0, 1.0, 0.0], {"markers": parameters})
+
+
+def _decoded_fields(marker):
+    return (marker.header.frame_id, marker.ns, marker.id, marker.type, marker.action,
+            [marker.pose.position.x, marker.pose.position.y, marker.pose.position.z],
+            [marker.pose.orientation.x, marker.pose.orientation.y, marker.pose.orientation.z, marker.pose.orientation.w],
+            [marker.scale.x, marker.scale.y, marker.scale.z], [[p.x, p.y, p.z] for p in marker.points],
+            marker.lifetime.sec, marker.lifetime.nanosec, marker.frame_locked)
+
+
+def _rows(count=4):
+    simulation = _simulation({"inertia": GENERIC_TENSOR}, [0.4, -1.0, 0.7], {"markers": {"momentum_interval": 0.04}})
+    block = simulation.samples(0, count)
+    return block.stamps_ns + 1_700_000_000_123_456_789, block.outputs[0]
+
+
+@pytest.mark.parametrize("frame_id", ["world", "w", "a_much_longer_inertial_frame_name"])
+def test_the_encoding_decodes_in_rclpy_and_is_byte_for_byte_rosbags_own(frame_id):
+    from rclpy.serialization import deserialize_message
+    from rosbags.typesys import Stores, get_typestore
+    from visualization_msgs.msg import Marker, MarkerArray
+
+    store = get_typestore(Stores.ROS2_JAZZY)
+    stamps, rows = _rows()
+    messages = encode_markers(stamps, frame_id, rows)
+    assert rows[:, 13].tolist() == [1.0, 0.0, 1.0, 0.0]  # both layouts: with and without the H arrow
+    for stamp, row, message in zip(stamps, rows, messages):
+        markers = deserialize_message(message, MarkerArray).markers
+        assert [m.ns for m in markers] == ["body", "angular_velocity", "angular_momentum"][:3 if row[13] else 2]
+        assert {m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in markers} == {stamp}
+        box, arrows = markers[0], markers[1:]
+        longest = row[4:7].max()
+        assert _decoded_fields(box) == (frame_id, "body", 0, Marker.CUBE, Marker.ADD, [0.0] * 3, row[0:4].tolist(),
+                                        row[4:7].tolist(), [], 0, 0, False)
+        for arrow, tip, (shaft, head) in zip(arrows, (row[7:10], row[10:13]), ((0.03, 0.07), (0.02, 0.05))):
+            assert _decoded_fields(arrow) == (frame_id, arrow.ns, 0, Marker.ARROW, Marker.ADD, [0.0] * 3,
+                                              [0.0, 0.0, 0.0, 1.0], [shaft * longest, head * longest, 0.0],
+                                              [[0.0] * 3, tip.tolist()], 0, 0, False)
+            assert arrow.color.a == 1.0 and not arrow.text and not arrow.mesh_resource and not arrow.colors
+        assert 0.0 < box.color.a < 1.0  # see-through: the arrows inside stay visible
+        decoded = store.deserialize_cdr(message, "visualization_msgs/msg/MarkerArray")
+        assert store.serialize_cdr(decoded, "visualization_msgs/msg/MarkerArray") == message
+
+
+def test_a_bag_carries_markers_as_the_core_computes_them_in_both_independent_readers(tmp_path):
+    from bag_checks import read_with_mcap, read_with_rosbags, stamp_ns
+
+    from torquefree_ros import load_scene
+    from torquefree_ros.cli.bag import main as bag_main
+
+    bag = tmp_path / "dzhanibekov"
+    assert bag_main(["dzhanibekov", "--duration", "2", "--rate", "50", "--output", str(bag),
+                     "--inertial-frame", "odom"]) == 0
+    scene = load_scene("dzhanibekov")
+    block = Simulation(scene.propagator(), 50.0, outputs=scene.outputs).samples(0, 101)
+    (rows,) = [rows for output, rows in zip(scene.outputs, block.outputs) if output.name == "markers"]
+    messages, connections = read_with_rosbags(bag)
+    assert connections["/markers"].msgtype == "visualization_msgs/msg/MarkerArray"
+    arrays = [m.markers for _, m in messages["/markers"]]
+    assert [stamp_ns(a[0].header) for a in arrays] == block.stamps_ns.tolist()
+    assert [len(a) for a in arrays] == [3 if flag else 2 for flag in rows[:, 13]]
+    assert {m.header.frame_id for a in arrays for m in a} == {"odom"}
+    np.testing.assert_array_equal([[a[0].pose.orientation.x, a[0].pose.orientation.y, a[0].pose.orientation.z,
+                                    a[0].pose.orientation.w] for a in arrays], rows[:, 0:4])
+    np.testing.assert_array_equal([[a[1].points[1].x, a[1].points[1].y, a[1].points[1].z] for a in arrays],
+                                  rows[:, 7:10])
+    decoded = read_with_mcap(bag)["/markers"]  # mcap-ros2 decodes from the bag's own schema text
+    assert [m.ns for m in decoded[50][2].markers] == ["body", "angular_velocity", "angular_momentum"]
+    assert decoded[50][2].markers[2].points[1].z == rows[50, 12]
+
+
+def test_the_node_publishes_markers_as_the_core_computes_them():
+    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+    from sim_harness import connected_harness, reset_epoch_ns, stamp_ns
+    from visualization_msgs.msg import MarkerArray
+
+    from torquefree_ros import load_scene
+
+    qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10000, reliability=ReliabilityPolicy.RELIABLE)
+    with connected_harness(publish_rate=100.0) as harness:
+        arrays = []
+        harness.client.create_subscription(MarkerArray, "markers", arrays.append, qos)
+        assert harness.set_parameters(scene="dzhanibekov")[0].successful
+        response = harness.reset()
+        assert response.success, response.message
+        epoch = reset_epoch_ns(response)
+        harness.spin_until(lambda: sum(stamp_ns(a.markers[0].header.stamp) >= epoch for a in arrays) >= 150,
+                           what="150 marker arrays")
+    arrays = [a for a in arrays if stamp_ns(a.markers[0].header.stamp) >= epoch]
+    k = (np.array([stamp_ns(a.markers[0].header.stamp) for a in arrays]) - epoch) * 100 // 10**9
+    scene = load_scene("dzhanibekov")
+    block = Simulation(scene.propagator(), 100.0, epoch, outputs=scene.outputs).samples(0, int(k.max()) + 1)
+    (rows,) = [rows for output, rows in zip(scene.outputs, block.outputs) if output.name == "markers"]
+    assert [len(a.markers) for a in arrays] == [3 if k_ % 100 == 0 else 2 for k_ in k]  # H once per second
+    np.testing.assert_array_equal([[a.markers[0].pose.orientation.x, a.markers[0].pose.orientation.y,
+                                    a.markers[0].pose.orientation.z, a.markers[0].pose.orientation.w]
+                                   for a in arrays], rows[k, 0:4])
+    np.testing.assert_array_equal([[a.markers[1].points[1].x, a.markers[1].points[1].y, a.markers[1].points[1].z]
+                                   for a in arrays], rows[k, 7:10])

@@ -1,0 +1,52 @@
+"""The live /tf round trip through rclpy: the node publishes tf2_msgs/TFMessage on /tf and a client
+subscribed with tf2_msgs' own class receives the attitude bit for bit (parent the inertial frame,
+child the body frame, zero translation, the samples' stamps).
+
+Needs tf2_msgs for Python: a ROS install has it; here test_tf.py builds it with the rosidl toolchain
+from PyPI and runs this file in a process that has it (the libraries must be on the path at start).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("tf2_msgs.msg", reason="needs tf2_msgs for Python; test_tf.py builds it and runs this file")
+
+
+def test_the_node_publishes_tf_that_a_tf2_msgs_subscriber_receives_bit_for_bit(tmp_path):
+    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+    from sim_harness import connected_harness, reset_epoch_ns, stamp_ns
+    from tf2_msgs.msg import TFMessage
+
+    from torquefree_ros import load_scene
+    from torquefree_ros.core.simulation import Simulation
+
+    scene_file = tmp_path / "tf_scene.yaml"
+    scene_file.write_text("body: {inertia: [3.0, 2.0, 1.0]}\ninitial: {angular_velocity: [0.001, 1.0, 0.001]}\n"
+                          "effects:\n  - tf: {}\n")
+    qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10000, reliability=ReliabilityPolicy.RELIABLE)
+    with connected_harness(publish_rate=100.0, body_frame="satellite",
+                           scene_directories=[str(tmp_path)]) as harness:
+        received = []
+        harness.client.create_subscription(TFMessage, "/tf", received.append, qos)
+        assert harness.set_parameters(scene=str(scene_file))[0].successful
+        response = harness.reset()
+        assert response.success and "not published" not in response.message, response.message
+        epoch = reset_epoch_ns(response)
+        harness.spin_until(lambda: len([t for m in received for t in m.transforms
+                                         if stamp_ns(t.header.stamp) >= epoch]) >= 100, what="100 transforms")
+        transforms = [t for m in received for t in m.transforms if stamp_ns(t.header.stamp) >= epoch]
+        assert all(len(m.transforms) == 1 for m in received)
+        types = dict(harness.node.get_publisher_names_and_types_by_node(harness.node.get_name(),
+                                                                         harness.node.get_namespace()))
+        assert types["/tf"] == ["tf2_msgs/msg/TFMessage"]  # absolute: outside the node's namespace
+    k = (np.array([stamp_ns(t.header.stamp) for t in transforms]) - epoch) * 100 // 10**9
+    np.testing.assert_array_equal(np.diff(k), 1)  # every sample, in order
+    block = Simulation(load_scene(scene_file).propagator(), 100.0, epoch).samples(0, int(k.max()) + 1)
+    assert {(t.header.frame_id, t.child_frame_id) for t in transforms} == {("world", "satellite")}
+    np.testing.assert_array_equal([stamp_ns(t.header.stamp) for t in transforms], block.stamps_ns[k])
+    np.testing.assert_array_equal([[t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z,
+                                    t.transform.rotation.w] for t in transforms], block.q_NB[k])
+    assert all(t.transform.translation.x == t.transform.translation.y == t.transform.translation.z == 0.0
+               for t in transforms)

@@ -1,0 +1,90 @@
+"""The ``markers`` output's ``visualization_msgs/MarkerArray``, encoded a block at a time from its rows
+(:data:`~torquefree_ros.core.effects.outputs.MARKER_ROW`): the box (a CUBE), then ARROWs from the
+box's centre along ``w`` and, on the samples that carry it, ``H``, all in the inertial frame. Each
+marker has its own namespace and id 0, so every message replaces the last; lifetime 0 keeps the ``H``
+arrow between its re-sends. Arrows are given by start and end points (scale: shaft and head
+diameters; head length 0, so viewers size the head from the length), which RViz, Foxglove and
+Lichtblick all draw. numpy only, like :mod:`.cdr`.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+from .cdr import CdrTemplate
+
+CUBE, ARROW, ADD = 1, 0, 0  # visualization_msgs/Marker constants
+# (namespace, marker type, RGBA, shaft and head diameter as fractions of the box's longest side)
+BODY = ("body", CUBE, (0.62, 0.66, 0.72, 0.55), None)
+ANGULAR_VELOCITY = ("angular_velocity", ARROW, (0.90, 0.25, 0.20, 1.0), (0.03, 0.07))
+ANGULAR_MOMENTUM = ("angular_momentum", ARROW, (0.20, 0.45, 0.95, 1.0), (0.02, 0.05))
+
+
+def _marker(template: CdrTemplate, frame_id: str, style) -> None:
+    namespace, marker_type, color, _ = style
+    template.stamp(namespace)
+    template.string(frame_id, "frame_id")
+    template.string(namespace, "ns")
+    template.int32(0)  # id
+    template.int32(marker_type)
+    template.int32(ADD)
+    template.float64([0.0, 0.0, 0.0])  # pose.position
+    template.float64([0.0, 0.0, 0.0, 1.0], f"{namespace}.orientation")
+    template.float64([0.0, 0.0, 0.0], f"{namespace}.scale")
+    template.float32(color)
+    template.int32(0), template.uint32(0)  # lifetime: forever (until replaced)
+    template.boolean(False)  # frame_locked
+    if marker_type == ARROW:
+        template.uint32(2)  # points: start, end
+        template.float64([0.0, 0.0, 0.0])
+        template.float64([0.0, 0.0, 0.0], f"{namespace}.tip")
+    else:
+        template.uint32(0)
+    template.uint32(0)  # colors
+    template.string("")  # texture_resource
+    template.int32(0), template.uint32(0), template.string("")  # texture.header
+    template.string("")  # texture.format
+    template.uint32(0)  # texture.data
+    template.uint32(0)  # uv_coordinates
+    template.string("")  # text
+    template.string("")  # mesh_resource
+    template.string("")  # mesh_file.filename
+    template.uint32(0)  # mesh_file.data
+    template.boolean(False)  # mesh_use_embedded_materials
+
+
+@functools.lru_cache(maxsize=16)
+def _template(frame_id: str, with_momentum: bool) -> CdrTemplate:
+    styles = (BODY, ANGULAR_VELOCITY) + ((ANGULAR_MOMENTUM,) if with_momentum else ())
+    template = CdrTemplate()
+    template.uint32(len(styles))
+    for style in styles:
+        _marker(template, frame_id, style)
+    return template
+
+
+def _columns(rows: np.ndarray, with_momentum: bool) -> dict:
+    longest = rows[:, 4:7].max(axis=1, keepdims=True)
+    columns = {"body.orientation": rows[:, 0:4], "body.scale": rows[:, 4:7]}
+    arrows = ((ANGULAR_VELOCITY, rows[:, 7:10]),) + (((ANGULAR_MOMENTUM, rows[:, 10:13]),) if with_momentum else ())
+    for (namespace, _, _, (shaft, head)), tip in arrows:
+        columns[f"{namespace}.scale"] = longest * np.array([shaft, head, 0.0])
+        columns[f"{namespace}.tip"] = tip
+    return columns
+
+
+def encode_markers(stamps_ns, frame_id: str, rows) -> list[bytes]:
+    """One MarkerArray per row; rows with their last column set carry the ``H`` arrow too."""
+    rows = np.asarray(rows, dtype=np.float64)
+    stamps_ns = np.asarray(stamps_ns, dtype=np.int64)
+    messages: list = [None] * rows.shape[0]
+    with_momentum = rows[:, 13] != 0.0
+    for flag in (False, True):
+        picked = np.flatnonzero(with_momentum == flag)
+        if picked.size:
+            encoded = _template(frame_id, flag).fill(stamps_ns[picked], _columns(rows[picked], flag))
+            for position, message in zip(picked.tolist(), encoded):
+                messages[position] = message
+    return messages
