@@ -7,7 +7,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 PIP := $(PY) -m pip --disable-pip-version-check
 
-.PHONY: run test lock reference bench bench-node bench-bag bench-bag-day clean
+.PHONY: run test lock reference bench bench-node bench-bag bench-bag-day bench-lockstep clean
 
 $(VENV)/.installed: requirements.txt requirements-test.txt requirements.lock setup.py
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -43,6 +43,10 @@ bench: $(VENV)/.installed
 
 bench-node: $(VENV)/.installed
 	$(PY) tools/bench_node.py --output docs/bench/node.md
+
+# closed loop: lock-step round trips with a controller in another process, and the cost of a step
+bench-lockstep: $(VENV)/.installed
+	$(PY) tools/bench_lockstep.py --output docs/bench/lockstep.md
 
 bench-bag: $(VENV)/.installed
 	$(PY) tools/bench_bag.py --output docs/bench/bag.md

@@ -12,7 +12,7 @@ from torquefree_ros.core.simulation import Simulation
 from torquefree_ros.core.library import library_scenes
 
 LIBRARY = Path(__file__).resolve().parents[1] / "torquefree_ros" / "scenes"
-NAMES = ["axisymmetric_coning", "default", "dzhanibekov", "energy_sweep", "estimator", "explorer1",
+NAMES = ["axisymmetric_coning", "default", "detumble", "dzhanibekov", "energy_sweep", "estimator", "explorer1",
          "gravity_gradient", "gyrostat", "imu"]
 TIGHT = {"rtol": 1e-12, "atol": 1e-14}
 

@@ -3,16 +3,53 @@
 No DDS: the samples come from the same ``Simulation`` and CDR encoder as the node's, so the bag holds
 what the node would publish for that scene and rate (sample ``k = 0 … floor(S·HZ)`` at stamp
 ``epoch + k / HZ``). An energy sweep writes every member, member ``j`` under ``NAMESPACE/member_j``.
+
+A scene that takes torque commands can be re-simulated under the commands a bag recorded (the node
+records them, each logged at the sample it held from): each is offered to the run's hold as if it had
+arrived at its log time, under the node's rules, so the samples equal the recorded ones bit for bit.
 """
 
 from __future__ import annotations
 
-from typing import Callable
+from typing import Callable, NamedTuple
+
+import numpy as np
 
 from ..core.simulation import MAX_STAMP_S, Simulation
 from ..core.timing import sample_count
-from .samples import INERTIA_KEY, SampleRecorder, encode_block, resolve_topic, sample_qos
-from .writer import BagWriter
+from .cdr import decode_stamped_doubles
+from .reader import BagReader
+from .samples import INERTIA_KEY, SampleRecorder, encode_block, encode_command, resolve_topic, sample_qos
+from .writer import BagError, BagWriter
+
+WRENCH_STAMPED = "geometry_msgs/msg/WrenchStamped"
+
+
+class RecordedCommand(NamedTuple):
+    log_time_ns: int
+    stamp_ns: int
+    frame_id: str
+    force: np.ndarray
+    torque: np.ndarray
+
+
+def read_commands(bag, topic: str) -> list[RecordedCommand]:
+    """The ``geometry_msgs/WrenchStamped`` messages of ``topic`` in a bag, in log-time order."""
+    reader = bag if isinstance(bag, BagReader) else BagReader(bag)
+    types = {t.name: t.type for t in reader.topics}
+    if topic not in types:
+        raise BagError(f"bag '{reader.path}': no topic '{topic}' (topics: {', '.join(sorted(types)) or 'none'})")
+    if types[topic] != WRENCH_STAMPED:
+        raise BagError(f"bag '{reader.path}': topic '{topic}' is {types[topic]}, not {WRENCH_STAMPED}")
+    commands = []
+    for message in reader.messages([topic]):
+        try:
+            stamp, frame, values = decode_stamped_doubles(message.data, 6)
+        except (ValueError, UnicodeDecodeError) as error:
+            raise BagError(f"bag '{reader.path}': a message on '{topic}' at {message.log_time_ns} ns is not a "
+                           f"WrenchStamped ({error})") from None
+        commands.append(RecordedCommand(message.log_time_ns, stamp, frame, values[:3], values[3:]))
+    return commands
 
 BLOCK = 4096  # samples computed, encoded and written per step: memory stays flat at any duration
 MAX_SAMPLES = 10**10  # per stream: ~1 TB of bag; more is a typo (1e9 s at 1 MHz), refused up front
@@ -25,11 +62,15 @@ def member_namespace(namespace: str, index: int) -> str:
 def write_scene_bag(scene, output, duration: float, rate: float, *, epoch_ns: int = 0, propagator: str = "auto",
                     body_frame: str = "body", inertial_frame: str = "world", namespace: str = "/",
                     overwrite: bool = False, compression: str = "none", qos_depth: int = 10,
-                    progress: Callable[[int, int], None] | None = None, stop: Callable[[], bool] | None = None):
+                    progress: Callable[[int, int], None] | None = None, stop: Callable[[], bool] | None = None,
+                    commands_bag=None):
     """Writes samples ``0 … floor(duration·rate)`` of ``scene`` (of each member of a sweep); returns
     the bag's metadata. Everything is checked, and the output created, before the first sample is
     computed. ``progress(samples_done, samples_total)`` is called after each block; when ``stop()``
-    turns true the bag is closed there, complete, with the samples written so far."""
+    turns true the bag is closed there, complete, with the samples written so far. ``commands_bag``:
+    the commands it recorded on each ``torque_command`` effect's topic (in ``namespace``) drive the
+    scene; those logged before ``epoch_ns`` belong to an earlier run and are left out. The commands
+    that hold go into the bag too."""
     count = sample_count(duration, rate)
     if count > MAX_SAMPLES:
         raise ValueError(f"duration: {duration:g} s at {rate:g} Hz is {count:.3g} samples; at most {MAX_SAMPLES:.0e} "
@@ -38,10 +79,13 @@ def write_scene_bag(scene, output, duration: float, rate: float, *, epoch_ns: in
         raise ValueError(f"duration: the last stamp would be {epoch_ns / 1e9 + (count - 1) / rate:.6g} s, past what "
                          f"builtin_interfaces/Time holds (2^31 s)")
     members = scene.members()
-    simulations = [Simulation(member.propagator(propagator), rate, epoch_ns, outputs=scene.outputs)
-                   for member in members]
     namespaces = ([member_namespace(namespace, j) for j in range(len(members))] if scene.sweep_members
                   else [namespace])
+    simulations = [Simulation(member.propagator(propagator), rate, epoch_ns, outputs=scene.outputs)
+                   for member in members]
+    if commands_bag is not None:
+        for simulation, ns in zip(simulations, namespaces):
+            _drive(simulation, commands_bag, ns, body_frame, inertial_frame)
     custom = {"torquefree_ros.scene": scene.source,
               "torquefree_ros.summary": " | ".join(s.summary() for s in simulations),
               INERTIA_KEY: " ".join(repr(float(x)) for x in scene.inertia)}
@@ -56,6 +100,23 @@ def write_scene_bag(scene, output, duration: float, rate: float, *, epoch_ns: in
                 block = simulation.samples(first, size)
                 recorder.write_block(block.stamps_ns,
                                      encode_block(block, body_frame, inertial_frame, simulation.outputs))
+                for effect, hold in simulation.command_holds:
+                    for command in hold.commands:
+                        if first <= command.start < first + size:
+                            recorder.write_message(effect.topic, effect.message_type, hold.stamp_ns(command.start),
+                                                   encode_command(command))
             if progress is not None:
                 progress((first + size) * len(simulations), total)
     return writer.metadata
+
+
+def _drive(simulation: Simulation, bag, namespace: str, body_frame: str, inertial_frame: str) -> None:
+    holds = simulation.command_holds
+    if not holds:
+        raise ValueError("commands: the scene takes no commands (it names no torque_command effect)")
+    for effect, hold in holds:
+        hold.frame_id = body_frame if effect.values["frame"] == "body" else inertial_frame
+        for command in read_commands(bag, resolve_topic(effect.topic, namespace)):
+            if command.log_time_ns >= simulation.epoch_ns:
+                hold.receive(command.stamp_ns, command.torque, command.force, command.frame_id,
+                             arrival_ns=command.log_time_ns)

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 from typing import Callable, NamedTuple
 
+import numpy as np
+
 from .cdr import encode_stamped_doubles, encode_times, encode_transforms
 from .markers import encode_markers
 from .qos import BagQos
@@ -68,6 +70,13 @@ def _encode_output(output, stamps, rows, body_frame: str, inertial_frame: str) -
     return encode_stamped_doubles(stamps, frame, rows)
 
 
+def encode_command(command) -> bytes:
+    """A received torque command as ``geometry_msgs/WrenchStamped`` (its own stamp, frame, force and
+    torque), for the bag."""
+    values = np.concatenate([command.force, command.torque])[np.newaxis]
+    return encode_stamped_doubles([command.stamp_ns], command.frame_id, values)[0]
+
+
 class SampleRecorder:
     """Writes sample columns on ``writer``; a topic's channel is added the first time it is written.
 
@@ -95,6 +104,15 @@ class SampleRecorder:
         """Sample ``i``: every column's message ``i``, in column order, logged at the sample's stamp."""
         self.writer.write_rows([self._channel(column) for column in columns], stamps_ns,
                                [column.messages for column in columns])
+
+    def declare(self, topic: str, type_name: str) -> None:
+        """A topic that is not a sample column (a command input): in the bag from the start of the
+        run that has it, with or without messages."""
+        self._channel(SampleColumn(topic, type_name, []))
+
+    def write_message(self, topic: str, type_name: str, log_stamp_ns: int, data: bytes) -> None:
+        """One message of a topic that is not a sample column (a received command)."""
+        self.writer.write_rows([self._channel(SampleColumn(topic, type_name, []))], (log_stamp_ns,), [(data,)])
 
     def write_sample(self, stamp_ns: int, columns, index: int) -> None:
         """Sample ``index`` of the block ``columns`` belong to (the node records as it publishes)."""

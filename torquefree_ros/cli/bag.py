@@ -7,6 +7,7 @@ import argparse
 import math
 import sys
 import time
+from decimal import Decimal, InvalidOperation
 
 from ..bag import BagError, reindex
 from ..bag.offline import write_scene_bag
@@ -15,6 +16,13 @@ from ..core import PROPAGATORS
 from ..core.library import library_scenes
 from ..core.scene import SceneError, load_scene
 from .common import INTERRUPTED, GracefulStop, Progress, console_command
+
+
+def _seconds(text: str) -> Decimal:
+    try:
+        return Decimal(text)
+    except InvalidOperation:
+        raise argparse.ArgumentTypeError(f"expected a number of seconds, got {text!r}") from None
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -38,8 +46,8 @@ def _parser() -> argparse.ArgumentParser:
     options.add_argument("--overwrite", action="store_true", help="replace an existing bag directory (only a bag)")
     options.add_argument("--compression", choices=sorted(COMPRESSIONS), default="none",
                          help="MCAP chunk compression (default: none, like rosbag2)")
-    options.add_argument("--start-time", type=float, default=0.0, metavar="SECONDS",
-                         help="stamp of sample 0, s since the epoch (default: 0)")
+    options.add_argument("--start-time", type=_seconds, default=Decimal(0), metavar="SECONDS",
+                         help="stamp of sample 0, s since the epoch, read to the nanosecond (default: 0)")
     options.add_argument("--propagator", default="auto", choices=["auto", *sorted(PROPAGATORS)],
                          help="default: auto (the exact solution unless an effect changes the motion)")
     options.add_argument("--body-frame", default="body", metavar="FRAME",
@@ -47,6 +55,11 @@ def _parser() -> argparse.ArgumentParser:
     options.add_argument("--inertial-frame", default="world", metavar="FRAME",
                          help="header.frame_id of attitude (default: world)")
     options.add_argument("--namespace", default="/", help="namespace of the topics (default: /)")
+    options.add_argument("--commands", metavar="BAG_DIR",
+                         help="re-simulate a scene with a torque_command effect under the commands this bag recorded "
+                         "on its topic (in --namespace), each offered at its log time under the node's rules: with "
+                         "the recording's --rate and --start-time (its first stamp), the samples equal the recorded "
+                         "ones bit for bit; commands logged before --start-time are left out")
     options.add_argument("--reindex", metavar="BAG_DIR",
                          help="instead of simulating: rebuild the summary and metadata.yaml of a bag whose "
                          "recorder died, from its .mcap file")
@@ -75,7 +88,7 @@ def main(argv=None) -> int:
     if missing:
         parser.error(f"missing {', '.join(missing)}")
     if not math.isfinite(args.start_time) or args.start_time < 0 or args.start_time >= 2**31:
-        parser.error(f"--start-time: must be in [0, 2^31) s, got {args.start_time!r}")
+        parser.error(f"--start-time: must be in [0, 2^31) s, got '{args.start_time}'")
     if not args.namespace.startswith("/"):
         parser.error(f"--namespace: must start with '/', got {args.namespace!r}")
     try:
@@ -85,7 +98,8 @@ def main(argv=None) -> int:
         with GracefulStop() as stop:
             try:
                 metadata = write_scene_bag(
-                    scene, args.output, args.duration, args.rate, epoch_ns=round(args.start_time * 1e9),
+                    scene, args.output, args.duration, args.rate,
+                    epoch_ns=int((args.start_time * 10**9).to_integral_value()), commands_bag=args.commands,
                     propagator=args.propagator, body_frame=args.body_frame, inertial_frame=args.inertial_frame,
                     namespace=args.namespace, overwrite=args.overwrite, compression=args.compression,
                     progress=progress.report, stop=stop)

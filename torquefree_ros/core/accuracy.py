@@ -8,6 +8,8 @@ import numpy as np
 
 from .quaternion import angle_between
 
+RTOL_FLOOR = 100 * float(np.finfo(float).eps)  # the smallest rtol scipy's Runge-Kutta solvers take
+
 
 def trajectory_errors(omega, q, omega_ref, q_ref):
     """Per sample: relative rate error ``|w - w_ref| / |w_ref|`` (absolute where ``w_ref = 0``) and
@@ -91,8 +93,11 @@ def estimate_accuracy(propagator) -> AccuracyEstimate:
         reference = "the same method at half the step (Richardson)"
     else:
         refined = {key: value / 100.0 for key, value in settings.items() if key in ("rtol", "atol")}
-        omega_ref, q_ref = run(cls, propagator.effects, **{**settings, **refined})
         reference = "the same method at tolerances / 100"
+        if refined.get("rtol", RTOL_FLOOR) < RTOL_FLOOR:  # scipy would raise it (with a warning)
+            refined["rtol"] = RTOL_FLOOR
+            reference += f" (rtol at scipy's floor {RTOL_FLOOR:.2g})"
+        omega_ref, q_ref = run(cls, propagator.effects, **{**settings, **refined})
     rate, attitude = trajectory_errors(omega, q, omega_ref, q_ref)
     turns = horizon * float(np.linalg.norm(propagator.omega0_B)) / (2.0 * np.pi)
     return AccuracyEstimate(factor * float(attitude.max()), factor * float(rate.max()), horizon, reference, turns)

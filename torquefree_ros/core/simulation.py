@@ -57,6 +57,10 @@ class Simulation:
         self.propagator = propagator
         self.rate = check_rate(rate, rate_name)
         self.epoch_ns = int(epoch_ns)
+        if propagator.dynamics.holds_per_sample:  # commands change the torque at sample times only
+            propagator.stop_at_samples(self.rate)
+        for _, hold in self.command_holds:
+            hold.start(self.rate, self.epoch_ns)
         self.outputs = tuple(outputs)
         self._every = tuple(output.every(self.rate, rate_name) for output in self.outputs)
         self._streams = tuple(output.stream(self.rate / every, propagator) for output, every in zip(self.outputs, self._every))
@@ -68,6 +72,12 @@ class Simulation:
     @property
     def body(self):
         return self.propagator.body
+
+    @property
+    def command_holds(self) -> tuple:
+        """``(effect, hold)`` of each effect that takes commands (``torque_command``), in scene order."""
+        return tuple((effect, effect.hold) for effect in self.propagator.effects
+                     if getattr(effect, "hold", None) is not None)
 
     def samples(self, first: int, count: int) -> SampleBlock:
         times = np.arange(first, first + count) / self.rate

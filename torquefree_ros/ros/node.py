@@ -20,6 +20,7 @@ from ..bag import BagError, BagWriter
 from ..bag.samples import ANGULAR_VELOCITY, ATTITUDE, CLOCK, INERTIA_KEY, SampleRecorder, sample_qos
 from ..core.bodies import tensor_elements
 from ..core.safe_files import clip
+from .commands import CommandInputs, command_diagnostics
 from .guarded_parameters import MAX_REASON_LENGTH, GuardedParameterService
 from .parameters import SPEC_BY_NAME, SPECS, ConfigurationError, ScenePolicy, check_value, rejection, run_request
 from .qos import message_class
@@ -106,9 +107,11 @@ class TorqueFreeSim(Node):
         depth = self.get_parameter("qos_depth").value
         writer = self._open_bag()
         self._outputs = _Publishers(self, depth)
+        self._commands = CommandInputs(self, depth, self._command_holds)
         if writer is not None:
-            self._bag = SampleRecorder(writer, self._outputs.resolved, sample_qos(depth))
+            self._bag = SampleRecorder(writer, self._resolved, sample_qos(depth))
         self._outputs.ensure(request)
+        self._commands.ensure(request)
         self.create_service(Trigger, "~/reset", self._on_reset)
         self._diagnostics = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.create_timer(DIAGNOSTICS_PERIOD, self._publish_diagnostics)
@@ -116,8 +119,10 @@ class TorqueFreeSim(Node):
         simulation = self._loop.start(request)  # last: the first sample is due now
         self._note_inertia(simulation)
         topics = ", ".join(self._outputs.topic_names())
+        commands = ", ".join(self._commands.topic_names())
+        listening = f"; taking commands on {commands}" + (" in lock-step" if request.lockstep else "") if commands else ""
         recording = f"recording bag {self._bag.writer.path}" if self._bag is not None else "not recording"
-        self.get_logger().info(f"start: publishing {topics}; {recording}; {request.configuration}; "
+        self.get_logger().info(f"start: publishing {topics}{listening}; {recording}; {request.configuration}; "
                                f"{simulation.summary()}")
         if request.left_out:
             self.get_logger().warning(request.left_out)
@@ -125,6 +130,13 @@ class TorqueFreeSim(Node):
     @property
     def sample_loop(self) -> SampleLoop:
         return self._loop
+
+    def _command_holds(self) -> tuple:
+        simulation = self._loop.simulation if self._loop is not None else None
+        return simulation.command_holds if simulation is not None else ()
+
+    def _resolved(self, topic: str) -> str:
+        return self._commands.resolved(topic) or self._outputs.resolved(topic)
 
     def _open_bag(self) -> BagWriter | None:
         path = self.get_parameter("record_bag").value
@@ -201,9 +213,11 @@ class TorqueFreeSim(Node):
         try:
             run = self._run_request()
             self._outputs.ensure(run)
+            self._commands.ensure(run)
             simulation = self._loop.restart(run)
         except Exception as error:  # noqa: BLE001 - ValueError: an unusable state; anything else must not end the node
             self._outputs.retire(self._loop.request)
+            self._commands.retire(self._loop.request)
             response.success = False
             reason = str(error) if isinstance(error, (ValueError, RuntimeError)) else f"{type(error).__name__}: {error}"
             response.message = clip(f"reset refused, the running simulation continues unchanged: {reason}",
@@ -211,6 +225,7 @@ class TorqueFreeSim(Node):
             self.get_logger().warning(response.message)
             return response
         self._outputs.retire(run)
+        self._commands.retire(run)
         self._note_inertia(simulation)
         response.success = True
         response.message = f"{run.configuration}; {simulation.summary()}"
@@ -246,6 +261,10 @@ class TorqueFreeSim(Node):
                 # where the scene conserves a quantity its drift is the propagator's error
                 conserved=", ".join(sorted(invariants.conserved)) or "none (the effects change both)",
             )
+        command_values, command_warning = command_diagnostics(
+            simulation.command_holds, last.index if last is not None and last.simulation is simulation else None,
+            loop.missed_steps, loop.request.lockstep)
+        values.update(command_values)
         if self._bag is not None:
             values["record_bag"] = str(self._bag.writer.path)
             values["messages_recorded"] = str(self._bag.writer.message_count)
@@ -253,6 +272,8 @@ class TorqueFreeSim(Node):
             status.level, status.message = DiagnosticStatus.ERROR, loop.failure
         elif loop.recording_failure:
             status.level, status.message = DiagnosticStatus.ERROR, f"recording stopped: {loop.recording_failure}"
+        elif command_warning:
+            status.level, status.message = DiagnosticStatus.WARN, command_warning
         elif loop.late > LATE_WARNING_FRACTION * max(loop.published, 1):
             status.level, status.message = DiagnosticStatus.WARN, "more than 1% of samples published late"
         else:

@@ -110,6 +110,16 @@ SPECS = (
                   "one of: " + ", ".join(["auto", *sorted(PROPAGATORS)])),
     ParameterSpec("qos_depth", 10, "History depth of the reliable publishers (read at start-up only).",
                   "an integer in [1, 10000]", read_only=True, number_range=(1, 10000)),
+    ParameterSpec("lockstep", False,
+                  "Closed loop in lock-step (read at start-up only): after publishing sample k the node waits for "
+                  "the controller's torque_command stamped t_k (or later), applies it over [t_k, t_k+1), then "
+                  "computes sample k+1; so the same controller gives the same samples whatever the load. Runs on a "
+                  "clock of its own (/clock); real_time_factor then only caps the pace (0 = as fast as the "
+                  "controller answers).", "true or false", read_only=True),
+    ParameterSpec("lockstep_timeout", 1.0,
+                  "Lock-step: wall seconds to wait for the controller's answer before going on with the command in "
+                  "force (counted as a missed step in /diagnostics)." + _AT_RESET, "> 0 and <= 3600",
+                  number_range=(0.0, 3600.0)),
     ParameterSpec("record_bag", "",
                   "Bag directory (rosbag2 MCAP) to record every published sample into; empty = no recording. "
                   "Read at start-up only, so no participant on the domain can make the node write elsewhere.",
@@ -143,7 +153,11 @@ def check_value(name: str, parameter: Parameter):
         if name == "angular_velocity":
             return tuple(finite_vector(value, name, (3,)).tolist())
         return tuple(unit_quaternion(value, name).tolist())
-    if name in ("publish_rate", "real_time_factor", "qos_depth", "sweep_member"):
+    if name == "lockstep":
+        if kind != Parameter.Type.BOOL:
+            raise ValueError(f"{name}: expected true or false, got {_type_name(kind)} {shown(value)}")
+        return bool(value)
+    if name in ("publish_rate", "real_time_factor", "qos_depth", "sweep_member", "lockstep_timeout"):
         integral = name in ("qos_depth", "sweep_member")
         if kind not in _NUMBER or (integral and kind != Parameter.Type.INTEGER):
             wanted = "an integer" if integral else "a number"
@@ -153,6 +167,10 @@ def check_value(name: str, parameter: Parameter):
         if name == "real_time_factor":
             if not 0.0 <= float(value) <= MAX_REAL_TIME_FACTOR:
                 raise ValueError(f"{name}: must lie in [0, {MAX_REAL_TIME_FACTOR:g}], got {shown(value)}")
+            return float(value)
+        if name == "lockstep_timeout":
+            if not 0.0 < float(value) <= 3600.0:
+                raise ValueError(f"{name}: must lie in (0, 3600] s, got {shown(value)}")
             return float(value)
         if name == "sweep_member":
             if not -1 <= value <= 999:
@@ -243,7 +261,8 @@ def run_request(values: dict) -> RunRequest:
         left_out = (f"not published: {', '.join(missing)} (its message package is not installed here; every "
                     "ROS 2 install has it, and torquefree_bag writes it to bags without it)")
     return RunRequest(propagator, values["publish_rate"], values["real_time_factor"], values["body_frame"],
-                      values["inertial_frame"], outputs, describe(values, scene), left_out)
+                      values["inertial_frame"], outputs, describe(values, scene), left_out, values["lockstep"],
+                      values["lockstep_timeout"])
 
 
 def _installed(type_name: str) -> bool:

@@ -8,6 +8,12 @@ Pacing: with ``real_time_factor == 1`` stamps are wall-clock time and sample ``k
 the wall clock reaches its stamp; a late loop catches up without skipping and counts the samples it
 published more than one period after they were due. Any other factor runs a clock of our own,
 published on ``/clock`` just before each sample (0 = as fast as possible).
+
+Closed loop (a scene with ``torque_command``): samples are computed one at a time, when due, after
+the torque over the interval before them is sealed (commands arriving later hold from the next
+interval); in lock-step the loop first waits for the controller's answer to the last sample (a
+command stamped at or after it), at most ``lockstep_timeout`` wall seconds, and always runs on its
+own clock. The commands that hold go into the bag, logged at the sample they hold from.
 """
 
 from __future__ import annotations
@@ -19,11 +25,11 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from ..bag.samples import encode_block
+from ..bag.samples import encode_block, encode_command
 from ..bag.writer import BagError
 from ..core.propagators import Propagator
 from ..core.simulation import SampleBlock, Simulation
-from ..core.timing import restart_epoch_ns
+from ..core.timing import restart_epoch_ns, stamps_ns
 
 # Samples computed ahead in one vectorised call: at most MAX_BLOCK, and at most this much wall time
 # of samples (a reset discards the rest). When paced, the block is also kept small enough that
@@ -44,10 +50,12 @@ class RunRequest:
     outputs: tuple = ()  # the scene's output effects: each publishes one more topic
     configuration: str = ""  # which scene and which parameter overrides describe this run
     left_out: str = ""  # the scene's outputs this Python cannot publish, and why ("" when none)
+    lockstep: bool = False  # wait for the controller's answer to each sample (a clock of our own)
+    lockstep_timeout: float = 1.0  # wall s to wait for it before going on with the command in force
 
     @property
     def wall_clock(self) -> bool:
-        return self.real_time_factor == 1.0
+        return self.real_time_factor == 1.0 and not self.lockstep
 
 
 class LastSample(NamedTuple):
@@ -79,6 +87,14 @@ class _Run:
         self.block: SampleBlock | None = None
         self.columns: tuple = ()  # bag.samples.SampleColumn per topic, in publishing order
         self.position = 0
+        self.holds = simulation.command_holds  # closed loop: (effect, hold) per command input
+        if self.holds:
+            self.max_block = 1  # each sample computed when due, under the commands received by then
+            for effect, hold in self.holds:
+                hold.frame_id = request.body_frame if effect.values["frame"] == "body" else request.inertial_frame
+
+    def stamp_of(self, index: int) -> int:
+        return int(stamps_ns(self.simulation.epoch_ns, np.array([index / self.simulation.rate]))[0])
 
     def deadline(self, stamp_ns: int) -> float | None:
         """Monotonic time at which the sample is due, or None when not paced."""
@@ -98,6 +114,8 @@ class _Run:
         self.next_index += len(block)
         self.position = 0
         cost = time.perf_counter() - started
+        if self.holds:
+            return
         if self.period_wall:
             self.adapt(len(block), cost)
         else:
@@ -146,6 +164,7 @@ class SampleLoop:
         self.last: LastSample | None = None
         self.published = 0
         self.late = 0
+        self.missed_steps = 0  # lock-step: samples computed without the controller's answer
         self.failure = ""
 
     # -- called from the executor thread ---------------------------------------------------------
@@ -208,7 +227,12 @@ class SampleLoop:
         simulation = Simulation(request.propagator, request.publish_rate, epoch, rate_name="publish_rate",
                                 outputs=request.outputs)
         self.failure = ""
-        return _Run(request, simulation)
+        self.missed_steps = 0
+        run = _Run(request, simulation)
+        for effect, _ in run.holds:  # command topics are in the bag from the run that takes them
+            if self._recorder is not None:
+                self._to_bag(lambda recorder: recorder.declare(effect.topic, effect.message_type))
+        return run
 
     def _take_pending(self) -> bool:
         with self._lock:
@@ -239,6 +263,8 @@ class SampleLoop:
             self._take_pending()
             run = self._run
             if run.block is None or run.position == len(run.block):
+                if run.holds and not self._close_interval(run):
+                    continue  # a restart or a stop is pending, or the sample is not due yet
                 try:
                     run.refill()
                 except (ValueError, ArithmeticError, RuntimeError) as error:  # RuntimeError: a step bound
@@ -266,13 +292,54 @@ class SampleLoop:
             self.published += 1
             self.last = LastSample(run.simulation, block.first + i, stamp, block.omega_B[i], block.internal[i])
 
-    def _record(self, stamp: int, columns, index: int) -> None:
+    def _close_interval(self, run: _Run) -> bool:
+        """Closed loop: fix the torque over ``[t_n-1, t_n)`` before sample ``n`` is computed: when
+        ``n`` is due (paced), once the controller answered ``n - 1`` (lock-step). False when the
+        wait was cut short (a restart, a stop, or not due yet): the loop checks again."""
+        n = run.next_index
+        if n == 0:
+            return True
+        deadline = run.deadline(run.stamp_of(n))
+        if deadline is not None:
+            delay = deadline - time.monotonic()
+            if delay > 0.0:
+                if self._wake.wait(delay):
+                    self._wake.clear()
+                return False
+        if run.request.lockstep:
+            answer = run.stamp_of(n - 1)
+            answered = all(hold.wait_for(answer, run.request.lockstep_timeout, self._wake.is_set)
+                           for _, hold in run.holds)
+            if self._wake.is_set():
+                self._wake.clear()
+                return False
+            if not answered:
+                self.missed_steps += 1
+        for effect, hold in run.holds:
+            sealed = hold.seal(n - 1)
+            if sealed and self._recorder is not None:
+                self._record_commands(effect, hold, sealed)
+        return True
+
+    def _to_bag(self, write: Callable) -> None:
+        """``write(recorder)``; if the bag fails, recording stops and publishing goes on."""
         try:
-            self._recorder.write_sample(stamp, columns, index)
+            write(self._recorder)
         except BagError as error:
             self.recording_failure = str(error)
             self._recorder = None
             self._logger.error(f"recording stopped, publishing goes on: {error}")
+
+    def _record(self, stamp: int, columns, index: int) -> None:
+        self._to_bag(lambda recorder: recorder.write_sample(stamp, columns, index))
+
+    def _record_commands(self, effect, hold, commands) -> None:
+        """The commands that start holding, logged at the stamp of the sample they hold from."""
+        def write(recorder):
+            for command in commands:
+                recorder.write_message(effect.topic, effect.message_type, hold.stamp_ns(command.start),
+                                       encode_command(command))
+        self._to_bag(write)
 
     def _fail(self, reason: str) -> None:
         """Stop publishing until a restart arrives; the node stays up and reports the reason."""

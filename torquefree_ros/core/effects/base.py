@@ -60,6 +60,8 @@ class Effect(abc.ABC):
 class MotionEffect(Effect):
     changes_motion = True
     uses_attitude: ClassVar[bool] = False
+    #: the torque changes only at sample times (a command held from sample to sample)
+    holds_per_sample: ClassVar[bool] = False
     state_size: ClassVar[int] = 0
     conserves: ClassVar[frozenset] = frozenset()
 

@@ -80,6 +80,15 @@ class Propagator(abc.ABC):
             x[:zeros] = self.x0
         return omega, q, x
 
+    def stop_at_samples(self, rate: float) -> None:
+        """Make every sample time ``k / rate`` a breakpoint (a scene whose torque is held from sample
+        to sample: a controller's command), and start over from the initial state."""
+        self.dynamics.sample_rate = float(rate)
+        self._restart()
+
+    def _restart(self) -> None:
+        """Forget any progress: the next evaluation starts from the initial state."""
+
     def momentum_B(self, omega_B, x) -> np.ndarray:
         """Total angular momentum, body + effects, body frame."""
         return self.dynamics.momentum_B(np.asarray(omega_B, float), np.asarray(x, float))

@@ -9,6 +9,9 @@ effects this is the torque-free right-hand side alone (no loop over effects).
 
 from __future__ import annotations
 
+import bisect
+import math
+
 import numpy as np
 
 from ..effects import ENERGY, MOMENTUM, invariants_conserved
@@ -30,6 +33,24 @@ class Dynamics:
         self.state_size = offset
         self.breakpoints = tuple(sorted({t for effect in self.effects for t in effect.breakpoints()}))
         self.conserved = invariants_conserved(self.effects)
+        #: an effect whose torque changes only at sample times (a controller's command) makes every
+        #: sample time ``k / sample_rate`` a breakpoint; the simulation sets the rate
+        self.holds_per_sample = any(effect.holds_per_sample for effect in self.effects)
+        self.sample_rate: float | None = None
+
+    def next_breakpoint(self, t: float) -> float:
+        """The first breakpoint after ``t`` (``inf`` when none)."""
+        index = bisect.bisect_right(self.breakpoints, t)
+        following = self.breakpoints[index] if index < len(self.breakpoints) else math.inf
+        rate = self.sample_rate
+        if rate is not None:
+            k = math.floor(t * rate) + 1  # the sample time k / rate just after t, as samples compute it
+            while k > 1 and (k - 1) / rate > t:
+                k -= 1
+            while k / rate <= t:
+                k += 1
+            following = min(following, k / rate)
+        return following
 
     @property
     def torque_free(self) -> bool:

@@ -13,7 +13,6 @@ never falls inside a step.
 from __future__ import annotations
 
 import abc
-import bisect
 import math
 
 import numpy as np
@@ -58,13 +57,11 @@ class FixedStepPropagator(Propagator):
 
     def _advance(self, t: float, y: np.ndarray, h: float) -> np.ndarray:
         """``advance`` over ``[t, t + h]``, split at the breakpoints inside it."""
-        breakpoints = self.dynamics.breakpoints
         end = t + h
-        index = bisect.bisect_right(breakpoints, t)
-        while index < len(breakpoints) and breakpoints[index] < end:
-            y = self.advance(t, y, breakpoints[index] - t)
-            t = breakpoints[index]
-            index += 1
+        breakpoint = self.dynamics.next_breakpoint(t)
+        while breakpoint < end:
+            y = self.advance(t, y, breakpoint - t)
+            t, breakpoint = breakpoint, self.dynamics.next_breakpoint(breakpoint)
         return self.advance(t, y, end - t)
 
     def _grid_point(self, t: float) -> tuple[int, float]:
@@ -180,7 +177,10 @@ class DOP853Propagator(Propagator):
         return self.dynamics.derivative(t, y, self._segment_start)
 
     def _restart(self):
-        self._begin_segment(0.0, np.concatenate([self.omega0_B, self.q0_NB, self.x0]))
+        # the first segment's solver is made when the first step is due, not now: scipy evaluates
+        # the right-hand side as it is made, and a commanded torque may only be known by then
+        self._solver = _SegmentStart(0.0, np.concatenate([self.omega0_B, self.q0_NB, self.x0]))
+        self._segment_start = self._step_start = 0.0
 
     def _advance_past(self, t: float):
         """Step until the solver's last step reaches ``t``; returns the solver."""
@@ -205,10 +205,9 @@ class DOP853Propagator(Propagator):
         return solver
 
     def _begin_segment(self, t0: float, y0: np.ndarray):
-        """A solver that ends at the next breakpoint (none: it steps freely)."""
-        breakpoints = self.dynamics.breakpoints
-        index = bisect.bisect_right(breakpoints, t0)
-        bound = breakpoints[index] if index < len(breakpoints) else np.inf
+        """A solver that ends at the next breakpoint (none: it steps freely). Made when its first step
+        is due (scipy evaluates the right-hand side at ``t0`` as it is made)."""
+        bound = self.dynamics.next_breakpoint(t0)
         self._segment_start = t0
         self._solver = DOP853(self._rhs, t0, y0, t_bound=bound, rtol=self.rtol, atol=self.atol)
         self._step_start = t0
@@ -232,3 +231,12 @@ class DOP853Propagator(Propagator):
                 i = end
         q = out[:, 3:7]
         return out[:, :3], q / np.linalg.norm(q, axis=1, keepdims=True), out[:, 7:]
+
+
+class _SegmentStart:
+    """Where the next segment starts, before its solver exists: a finished solver's ``t`` and ``y``."""
+
+    status = "finished"
+
+    def __init__(self, t: float, y: np.ndarray):
+        self.t, self.y = t, y

@@ -1,0 +1,192 @@
+"""Closing the loop through the node: an in-process PD (rate-damping) controller detumbles a body in
+lock-step as the closed loop predicts; two runs are bit-identical; the recorded commands re-simulate
+offline into the very same samples; without lock-step the hold times out to zero and /diagnostics
+warns; malformed commands are counted there; a scene without the effect has no subscription."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+SPHERE = 2.0  # kg m^2: w x Jw = 0, so the held torque -K w_k gives w_k+1 = (1 - K h / J) w_k exactly
+GAIN = 0.5  # N m s
+RATE = 20.0
+OMEGA0 = [0.4, -0.3, 0.5]
+
+
+def _scene(tmp_path, inertia=(SPHERE, SPHERE, SPHERE), extra=""):
+    path = tmp_path / "plant.yaml"
+    path.write_text(f"body: {{inertia: {list(inertia)}}}\ninitial: {{angular_velocity: {OMEGA0}}}\n"
+                    f"effects:\n  - torque_command: {{timeout: 0.5{extra}}}\naccuracy: 1.0e-12\n")
+    return path
+
+
+class RateDamper:
+    """The controller under test: answers each angular_velocity sample with ``-K w``, stamped with the
+    sample's stamp, in the body frame. The node must take commands already (its start-up scene)."""
+
+    def __init__(self, harness, gain=GAIN):
+        from geometry_msgs.msg import Vector3Stamped, WrenchStamped
+        from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+        qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+        self.gain, self.message = gain, WrenchStamped
+        self.publisher = harness.client.create_publisher(WrenchStamped, "torque_command", qos)
+        harness.client.create_subscription(Vector3Stamped, "angular_velocity", self.answer, qos)
+        harness.spin_until(lambda: self.publisher.get_subscription_count() > 0, what="the node's command input")
+
+    def answer(self, sample) -> None:
+        command = self.message()
+        command.header.stamp, command.header.frame_id = sample.header.stamp, "body"
+        v = sample.vector
+        command.wrench.torque.x, command.wrench.torque.y, command.wrench.torque.z = (
+            -self.gain * v.x, -self.gain * v.y, -self.gain * v.z)
+        self.publisher.publish(command)
+
+
+def _run(harness, scene, count):
+    """Reset into ``scene`` and collect its first ``count`` samples; returns (epoch, w, q)."""
+    from sim_harness import reset_epoch_ns
+
+    assert harness.set_parameters(scene=str(scene))[0].successful
+    response = harness.reset()
+    assert response.success, response.message
+    epoch = reset_epoch_ns(response)
+    period = round(1e9 / RATE)
+    stamps = [epoch + k * period for k in range(count)]
+    harness.spin_until(lambda: all(s in harness.omega and s in harness.q for s in stamps), timeout=60.0,
+                       what=f"{count} closed-loop samples")
+    return epoch, np.array([harness.omega[s] for s in stamps]), np.array([harness.q[s] for s in stamps])
+
+
+def test_lockstep_detumbles_as_predicted_reproducibly_and_replays_offline_bit_for_bit(tmp_path):
+    from bag_checks import read_with_rosbags, stamp_ns
+    from sim_harness import connected_harness
+
+    from torquefree_ros.cli.bag import main as bag_main
+
+    scene = _scene(tmp_path)
+    recorded = tmp_path / "live"
+    count = 120
+    with connected_harness(publish_rate=RATE, real_time_factor=0.0, lockstep=True, lockstep_timeout=20.0,
+                           record_bag=str(recorded), scene=str(scene)) as harness:
+        RateDamper(harness)
+        namespace = harness.node.get_namespace()
+        epoch, omega, q = _run(harness, scene, count)
+        _, omega_again, q_again = _run(harness, scene, count)
+        loop = harness.node.sample_loop
+        assert loop.request.lockstep and loop.missed_steps == 0
+    # the closed loop's prediction: |w_k| = |w_0| (1 - K h / J)^k, along w_0
+    factor = 1.0 - GAIN / (RATE * SPHERE)
+    k = np.arange(count)
+    np.testing.assert_allclose(omega, np.outer(factor ** k, OMEGA0), rtol=1e-12, atol=0)
+    assert np.linalg.norm(omega[-1]) < 0.25 * np.linalg.norm(OMEGA0)
+    # the same controller, the same samples, bit for bit
+    np.testing.assert_array_equal(omega_again, omega)
+    np.testing.assert_array_equal(q_again, q)
+
+    # the bag holds the commands; re-simulated offline from them, the first run comes out bit for bit
+    messages, _ = read_with_rosbags(recorded)
+    commands = [m for _, m in messages[f"{namespace}/torque_command"] if stamp_ns(m.header) >= epoch]
+    assert len(commands) >= count - 1 and {m.header.frame_id for m in commands} == {"body"}
+    replay = tmp_path / "replay"
+    assert bag_main([str(scene), "--commands", str(recorded), "--namespace", namespace, "--rate", str(RATE),
+                     "--duration", str((count - 1) / RATE), "--start-time", f"{epoch / 1e9:.9f}",
+                     "--output", str(replay)]) == 0
+    replayed, _ = read_with_rosbags(replay)
+    w = replayed[f"{namespace}/angular_velocity"]
+    assert [stamp_ns(m.header) for _, m in w] == [epoch + round(j * 1e9 / RATE) for j in range(count)]
+    np.testing.assert_array_equal([[m.vector.x, m.vector.y, m.vector.z] for _, m in w], omega)
+    attitude = replayed[f"{namespace}/attitude"]
+    np.testing.assert_array_equal([[m.quaternion.x, m.quaternion.y, m.quaternion.z, m.quaternion.w]
+                                   for _, m in attitude], q)
+    replayed_commands = [m for _, m in replayed[f"{namespace}/torque_command"]]
+    assert [stamp_ns(m.header) for m in replayed_commands] == [stamp_ns(m.header) for m in commands][:count]
+    assert [m.wrench.torque.x for m in replayed_commands] == [m.wrench.torque.x for m in commands][:count]
+
+
+def test_a_triaxial_body_loses_energy_every_sample_within_the_closed_loop_bounds(tmp_path):
+    from sim_harness import connected_harness
+
+    from torquefree_ros.core.rigid_body import RigidBody
+
+    scene = _scene(tmp_path, inertia=(1.0, 2.0, 3.0))
+    with connected_harness(publish_rate=RATE, real_time_factor=0.0, lockstep=True, lockstep_timeout=20.0,
+                           scene=str(scene)) as harness:
+        RateDamper(harness)
+        _, omega, _ = _run(harness, scene, 80)
+    energy = RigidBody.from_inertia([1.0, 2.0, 3.0]).kinetic_energy(omega)
+    assert np.all(np.diff(energy) < 0.0)  # dT/dt = w . tau = -K |w|^2 < 0
+    # 2T / J_max <= |w|^2 <= 2T / J_min: T falls between exp(-2K t / J_min) and exp(-2K t / J_max)
+    # (1 % for the hold lagging the continuous law)
+    t = np.arange(80) / RATE
+    ratio = energy / energy[0]
+    assert np.all(ratio <= 1.01 * np.exp(-2.0 * GAIN * t / 3.0))
+    assert np.all(ratio >= 0.99 * np.exp(-2.0 * GAIN * t / 1.0))
+    assert ratio[-1] < 0.25
+
+
+def test_without_lockstep_the_hold_times_out_and_diagnostics_say_why(tmp_path):
+    from geometry_msgs.msg import WrenchStamped
+    from sim_harness import connected_harness
+
+    with connected_harness(publish_rate=50.0) as harness:
+        publisher = harness.client.create_publisher(WrenchStamped, "torque_command", 10)
+        assert harness.set_parameters(scene=str(_scene(tmp_path)))[0].successful
+        response = harness.reset()
+        assert response.success, response.message
+        harness.spin_until(lambda: publisher.get_subscription_count() > 0, what="the node's command input")
+        bad = WrenchStamped()
+        bad.header.frame_id = "body"
+        bad.wrench.torque.x = math.nan
+        publisher.publish(bad)
+        good = WrenchStamped()
+        good.header.frame_id = "body"
+        good.header.stamp = harness.node.get_clock().now().to_msg()
+        good.wrench.torque.z = 0.01
+        good.wrench.force.x = 1.0  # ignored, and said so
+        publisher.publish(good)
+        topic = "torque_command"
+
+        def status():
+            for array in reversed(harness.diagnostics):
+                values = {v.key: v.value for v in array.status[0].values}
+                if values.get(f"{topic}.accepted") == "1":
+                    return array.status[0], values
+            return None, {}
+
+        harness.spin_until(lambda: status()[0] is not None and "no command for 0.5 s" in status()[0].message,
+                           timeout=20.0, what="the timeout warning")
+        level, values = status()
+        assert level.level == level.WARN
+        assert values[f"{topic}.refused"] == "not finite 1"
+        assert values[f"{topic}.torque"] == "zero (no command in force)"
+        assert values[f"{topic}.force"].startswith("ignored")
+        hold = harness.node.sample_loop.simulation.command_holds[0][1]
+        assert [c.torque.tolist() for c in hold.commands] == [[0.0, 0.0, 0.01]]
+
+
+def test_a_scene_without_the_effect_has_no_command_subscription(tmp_path):
+    from sim_harness import connected_harness
+
+    with connected_harness(publish_rate=50.0) as harness:
+        def subscribed():
+            return {name for name, _ in harness.node.get_subscriber_names_and_types_by_node(
+                harness.node.get_name(), harness.node.get_namespace())}
+        assert not any(name.endswith("/torque_command") for name in subscribed())
+        assert harness.set_parameters(scene=str(_scene(tmp_path)))[0].successful
+        assert harness.reset().success
+        assert f"{harness.node.get_namespace()}/torque_command" in subscribed()
+        assert harness.set_parameters(scene="default")[0].successful
+        assert harness.reset().success
+        assert not any(name.endswith("/torque_command") for name in subscribed())
+
+
+def test_lockstep_is_read_only():
+    from sim_harness import connected_harness
+
+    with connected_harness(publish_rate=50.0) as harness:
+        (result,) = harness.set_parameters(lockstep=True)
+        assert not result.successful and "read-only" in result.reason

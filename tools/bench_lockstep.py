@@ -1,0 +1,161 @@
+#!/usr/bin/env python3
+"""Benchmark of the closed loop in lock-step (a script, not a test): prints what it measured and the
+machine it ran on.
+
+- round trips per second: the node (this process, lock-step, as fast as the controller answers, the
+  ``detumble`` library scene) and a rate-damping controller in another process that answers every
+  angular_velocity sample with a WrenchStamped; a round trip is one sample out and its answer in;
+- per step, side by side in one run: the node's own work (offering the command to the hold, sealing
+  the interval, computing the sample with DOP853 across the hold, CDR encoding), and rclpy's
+  costs it cannot avoid: publishing a raw sample, taking one message from a subscription.
+
+Every figure is repeated (``--repeats``) and given as median (min–max).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from bench_node import NodeUnderTest, _isolate_dds  # noqa: E402
+from bench_report import Report, spread  # noqa: E402
+
+CONTROLLER = r"""
+import rclpy
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from geometry_msgs.msg import Vector3Stamped, WrenchStamped
+rclpy.init()
+node = rclpy.create_node("bench_controller")
+qos = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
+publisher = node.create_publisher(WrenchStamped, "torque_command", qos)
+command = WrenchStamped()
+command.header.frame_id = "body"
+def answer(sample):
+    command.header.stamp = sample.header.stamp
+    v, t = sample.vector, command.wrench.torque
+    t.x, t.y, t.z = -0.01 * v.x, -0.01 * v.y, -0.01 * v.z
+    publisher.publish(command)
+node.create_subscription(Vector3Stamped, "angular_velocity", answer, qos)
+print("ready", flush=True)
+try:
+    rclpy.spin(node)
+except BaseException:
+    pass
+"""
+
+
+def round_trips(seconds: float) -> dict:
+    controller = subprocess.Popen([sys.executable, "-c", CONTROLLER], stdout=subprocess.PIPE, text=True)
+    try:
+        assert controller.stdout.readline().strip() == "ready"
+        node = NodeUnderTest(scene="detumble", lockstep=True, real_time_factor=0.0, lockstep_timeout=0.2)
+    except BaseException:
+        controller.kill()
+        raise
+    try:
+        samples = node.node._outputs.angular_velocity
+        commands = node.node._commands._subscriptions["torque_command"]
+        deadline = time.monotonic() + 20.0
+        while not (samples.get_subscription_count() and commands.get_publisher_count()):
+            if time.monotonic() > deadline:
+                raise RuntimeError("the controller was not discovered")
+            time.sleep(0.01)
+        loop = node.node.sample_loop
+        time.sleep(1.5)  # past the start-up run's unanswered first samples (each waits lockstep_timeout)
+        published0, missed0 = loop.published, loop.missed_steps
+        cpu0, wall0 = time.process_time(), time.monotonic()
+        time.sleep(seconds)
+        cpu, wall = time.process_time() - cpu0, time.monotonic() - wall0
+        published, missed = loop.published - published0, loop.missed_steps - missed0
+    finally:
+        node.close()
+        controller.send_signal(2)
+        controller.communicate(timeout=20)
+    return {"rate": published / wall, "missed": missed, "cpu": cpu / wall}
+
+
+def step_costs(steps: int = 2000) -> dict:
+    """Seconds per lock-step step of the node's own work, and of rclpy's publish and take."""
+    import numpy as np
+    import rclpy
+    from geometry_msgs.msg import Vector3Stamped
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+
+    from torquefree_ros import load_scene
+    from torquefree_ros.bag.samples import encode_block
+    from torquefree_ros.core.simulation import Simulation
+
+    scene = load_scene("detumble")
+    simulation = Simulation(scene.propagator(), 100.0, outputs=scene.outputs)
+    ((_, hold),) = simulation.command_holds
+    hold.frame_id = "body"
+    block = simulation.samples(0, 1)
+    started = time.perf_counter()
+    for n in range(1, steps + 1):
+        w = block.omega_B[0]
+        hold.receive(hold.stamp_ns(n - 1), -0.01 * w, frame_id="body")
+        hold.seal(n - 1)
+        block = simulation.samples(n, 1)
+        encode_block(block, "body", "world", simulation.outputs, clock=True)
+    node_cost = (time.perf_counter() - started) / steps
+
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    node = rclpy.create_node("bench_rclpy", context=context)
+    qos = QoSProfile(depth=steps, reliability=ReliabilityPolicy.RELIABLE)
+    publisher = node.create_publisher(Vector3Stamped, "bench_take", qos)
+    subscription = node.create_subscription(Vector3Stamped, "bench_take", lambda m: None, qos)
+    message = encode_block(block, "body", "world")[0].messages[0]
+    deadline = time.monotonic() + 20.0
+    while publisher.get_subscription_count() == 0 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    started = time.perf_counter()
+    for _ in range(steps):
+        publisher.publish(message)
+    publish_cost = (time.perf_counter() - started) / steps
+    time.sleep(0.5)  # let every message arrive
+    taken, started = 0, time.perf_counter()
+    while subscription.handle.take_message(subscription.msg_type, subscription.raw) is not None:
+        taken += 1
+    take_cost = (time.perf_counter() - started) / max(taken, 1)
+    node.destroy_node()
+    context.try_shutdown()
+    assert np.isfinite(node_cost) and taken > steps // 2, taken
+    return {"node": node_cost, "publish": publish_cost, "take": take_cost}
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seconds", type=float, default=5.0, help="duration of each round-trip run (default: 5)")
+    parser.add_argument("--repeats", type=int, default=3, help="runs of each measurement (default: 3)")
+    parser.add_argument("--output", help="also write the report here (make bench-lockstep: docs/bench/lockstep.md)")
+    args = parser.parse_args(argv)
+    _isolate_dds()
+
+    report = Report("Closed loop in lock-step", "make bench-lockstep")
+    report.add(f"{args.repeats} runs, median (min–max); ROS domain {os.environ['ROS_DOMAIN_ID']}")
+    report.add("")
+    runs = [round_trips(args.seconds) for _ in range(args.repeats)]
+    report.add(f"Round trips per second (library scene `detumble` at 100 Hz, DOP853 at 1e-10 across each hold, the "
+               f"controller in another process, {args.seconds:g} s each): {spread([r['rate'] for r in runs])}; "
+               f"missed steps {spread([r['missed'] for r in runs])}; the node's process CPU "
+               f"{spread([100 * r['cpu'] for r in runs])} % of a core.")
+    report.add("")
+    costs = [step_costs() for _ in range(args.repeats)]
+    report.add("Per step, µs, in one process: the node's own work (command into the hold, seal, one sample "
+               f"computed, CDR encoded) {spread([1e6 * c['node'] for c in costs])}; rclpy publishing one raw "
+               f"sample {spread([1e6 * c['publish'] for c in costs])}; rclpy taking one message "
+               f"{spread([1e6 * c['take'] for c in costs])}.")
+    report.save(args.output)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

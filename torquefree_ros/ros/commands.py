@@ -1,0 +1,93 @@
+"""The node's command inputs: a subscription per ``torque_command`` effect the scene names (none
+otherwise), handing each ``geometry_msgs/WrenchStamped`` to the running simulation's hold
+(``core.effects.commands``), which accepts it or refuses it with a counted reason."""
+
+from __future__ import annotations
+
+from typing import Callable
+
+from geometry_msgs.msg import WrenchStamped
+from rclpy.node import Node
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+from .sample_loop import RunRequest
+
+
+def command_effects(request: RunRequest | None) -> dict:
+    """topic -> effect, for the effects of ``request`` that take commands."""
+    if request is None:
+        return {}
+    return {effect.topic: effect for effect in request.propagator.effects if getattr(effect, "hold", None)}
+
+
+class CommandInputs:
+    """``holds()`` gives the running simulation's ``(effect, hold)`` pairs; a command goes to the hold
+    of the effect on its topic. Refusals and an ignored force are logged once per run and reason."""
+
+    def __init__(self, node: Node, depth: int, holds: Callable[[], tuple]):
+        self._node = node
+        self._holds = holds
+        self._qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth, reliability=ReliabilityPolicy.RELIABLE)
+        self._subscriptions: dict = {}
+        self._logged: set = set()  # (id of the hold, what) already said
+
+    def ensure(self, request: RunRequest) -> None:
+        for topic in command_effects(request):
+            if topic not in self._subscriptions:
+                self._subscriptions[topic] = self._node.create_subscription(
+                    WrenchStamped, topic, lambda message, topic=topic: self._receive(topic, message), self._qos)
+
+    def retire(self, request: RunRequest | None) -> None:
+        for topic in set(self._subscriptions) - set(command_effects(request)):
+            self._node.destroy_subscription(self._subscriptions.pop(topic))
+
+    def resolved(self, topic: str) -> str | None:
+        subscription = self._subscriptions.get(topic)
+        return subscription.topic_name if subscription is not None else None
+
+    def topic_names(self) -> list[str]:
+        return [subscription.topic_name for subscription in self._subscriptions.values()]
+
+    def _receive(self, topic: str, message: WrenchStamped) -> None:
+        stamp = message.header.stamp.sec * 1_000_000_000 + message.header.stamp.nanosec
+        torque, force = message.wrench.torque, message.wrench.force
+        for effect, hold in self._holds():
+            if effect.topic != topic:
+                continue
+            accepted, reason = hold.receive(stamp, (torque.x, torque.y, torque.z), (force.x, force.y, force.z),
+                                            message.header.frame_id)
+            if not accepted:
+                self._once(hold, reason.split(":", 1)[0], f"{topic}: command refused ({reason}); further refusals "
+                           "for this reason are only counted (/diagnostics)")
+            elif hold.force_seen:
+                self._once(hold, "force", f"{topic}: wrench.force is ignored: only the torque acts on the body")
+
+    def _once(self, hold, what: str, text: str) -> None:
+        key = (id(hold), what)
+        if key not in self._logged:
+            self._logged.add(key)
+            self._node.get_logger().warning(text)
+
+
+def command_diagnostics(holds, last_index: int | None, missed_steps: int, lockstep: bool) -> tuple[dict, str]:
+    """Diagnostic values of the command inputs and a warning ("" when none): no command for
+    ``timeout`` (the torque is zero), refusals, missed lock-step answers."""
+    values, warnings = {}, []
+    for effect, hold in holds:
+        prefix = f"{effect.topic}."
+        refused = ", ".join(f"{reason} {count}" for reason, count in sorted(hold.refused.items()))
+        values[prefix + "accepted"] = str(hold.accepted)
+        values[prefix + "refused"] = refused or "0"
+        if last_index is not None:
+            command = hold.in_force(last_index)
+            values[prefix + "torque"] = ("zero (no command in force)" if command is None
+                                         else " ".join(f"{x:.9g}" for x in command.torque))
+            if hold.timed_out(last_index):
+                warnings.append(f"{effect.topic}: no command for {effect.values['timeout']:g} s: the torque is zero")
+        if hold.force_seen:
+            values[prefix + "force"] = "ignored (only the torque acts)"
+    if lockstep:
+        values["lockstep_missed_steps"] = str(missed_steps)
+        if missed_steps:
+            warnings.append(f"lock-step: {missed_steps} samples computed without the controller's answer")
+    return values, "; ".join(warnings)
