@@ -3,9 +3,9 @@
 Importing the package does not import rclpy: the dynamics core is usable without ROS.
 """
 
-from .core import PROPAGATORS, MotionRegime, RigidBody, make_propagator, propagate
+from .core import PROPAGATORS, MotionRegime, RigidBody, make_propagator, propagate, propagate_batch
 from .core.scene import Scene, SceneError, load_scene
 
 __version__ = "0.1.0"
 __all__ = ["PROPAGATORS", "MotionRegime", "RigidBody", "Scene", "SceneError", "load_scene", "make_propagator",
-           "propagate", "__version__"]
+           "propagate", "propagate_batch", "__version__"]

@@ -11,6 +11,9 @@ numpy only: no ROS import, so the offline bag tools can use it too.
 
 from __future__ import annotations
 
+import operator
+from collections.abc import Sequence
+
 import numpy as np
 
 CDR_LE = b"\x00\x01\x00\x00"
@@ -25,13 +28,39 @@ def _stamp_fields(stamps_ns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return sec, nanosec
 
 
-def _split(records: np.ndarray) -> list[bytes]:
-    raw = records.tobytes()
-    size = records.dtype.itemsize
-    return [raw[start : start + size] for start in range(0, len(raw), size)]
+class MessageBlock(Sequence):
+    """Messages of one size in one buffer, as the vectorised encoders make them: ``block[i]`` is
+    message ``i``'s bytes (made when asked: the node publishes one at a time), while the bag writer
+    takes the whole buffer at once (``bag.bulk``)."""
+
+    __slots__ = ("buffer", "size")
+
+    def __init__(self, buffer: bytes, size: int):
+        self.buffer, self.size = buffer, size
+
+    def __len__(self) -> int:
+        return len(self.buffer) // self.size if self.size else 0
+
+    def __getitem__(self, index):
+        if isinstance(index, slice):
+            return [self[i] for i in range(*index.indices(len(self)))]
+        index = operator.index(index)
+        count = len(self)
+        if index < 0:
+            index += count
+        if not 0 <= index < count:
+            raise IndexError("message index out of range")
+        return self.buffer[index * self.size:(index + 1) * self.size]
+
+    def count(self, value) -> int:
+        return 0 if value is None else super().count(value)  # never None: no scan for it
 
 
-def encode_stamped_doubles(stamps_ns, frame_id: str, values) -> list[bytes]:
+def _split(records: np.ndarray) -> MessageBlock:
+    return MessageBlock(records.tobytes(), records.dtype.itemsize)
+
+
+def encode_stamped_doubles(stamps_ns, frame_id: str, values) -> MessageBlock:
     """One message per row: a Header with ``frame_id`` and ``stamps_ns[i]``, then the row's float64s.
 
     Rows of 3 give ``geometry_msgs/Vector3Stamped``, rows of 4 ``geometry_msgs/QuaternionStamped``
@@ -61,7 +90,7 @@ def encode_stamped_doubles(stamps_ns, frame_id: str, values) -> list[bytes]:
     return _split(records)
 
 
-def encode_transforms(stamps_ns, frame_id: str, child_frame_id: str, values) -> list[bytes]:
+def encode_transforms(stamps_ns, frame_id: str, child_frame_id: str, values) -> MessageBlock:
     """``tf2_msgs/TFMessage`` holding one ``geometry_msgs/TransformStamped`` per row: a sequence
     length (1), the Header with ``frame_id`` and ``stamps_ns[i]``, ``child_frame_id``, then the row's
     7 float64s (translation ``x, y, z``, rotation ``x, y, z, w``)."""
@@ -100,7 +129,7 @@ def _frame_bytes(frame_id: str, name: str) -> bytes:
     return frame
 
 
-def encode_times(stamps_ns) -> list[bytes]:
+def encode_times(stamps_ns) -> MessageBlock:
     """``builtin_interfaces/Time`` alone: the layout of ``rosgraph_msgs/Clock``."""
     sec, nanosec = _stamp_fields(stamps_ns)
     record = np.dtype({"names": ["encapsulation", "sec", "nanosec"], "formats": ["V4", "<i4", "<u4"],
@@ -158,7 +187,7 @@ class CdrTemplate:
         self.uint32(0, f"{name}.nanosec")
         self._stamps.append((f"{name}.sec", f"{name}.nanosec"))
 
-    def fill(self, stamps_ns, columns: dict) -> list[bytes]:
+    def fill(self, stamps_ns, columns: dict) -> MessageBlock:
         """One message per stamp: every stamp field set to it, ``columns[name][i]`` into field
         ``name`` of message ``i``; fields not given keep the template's values."""
         sec, nanosec = _stamp_fields(stamps_ns)
@@ -172,8 +201,7 @@ class CdrTemplate:
             column = np.ascontiguousarray(np.broadcast_to(np.asarray(column, dtype=dtype).reshape(count, -1),
                                                           (count, width)))
             messages[:, offset:offset + dtype.itemsize * width] = column.view(np.uint8)
-        raw, size = messages.tobytes(), messages.shape[1]
-        return [raw[start:start + size] for start in range(0, len(raw), size)]
+        return MessageBlock(messages.tobytes(), messages.shape[1])
 
 
 def decode_stamped_doubles(message: bytes, width: int) -> tuple[int, str, np.ndarray]:

@@ -18,14 +18,19 @@ import shutil
 import time
 from pathlib import Path
 
+import numpy as np
+
 from mcap.writer import CompressionType, Writer
 
 from .. import __version__
+from . import bulk
 from .definitions import DefinitionError, MessageDefinition, message_definition
 from .metadata import METADATA_FILE, BagMetadata, TopicRecord, dump, metadata_file_text
 from .qos import BagQos
 
 CHUNK_BYTES = 1024 * 1024
+# a batch of at least this many messages goes in through ``bulk`` (numpy); fewer, one by one
+BULK_MESSAGES = 64
 CHUNK_SECONDS = 1.0
 COMPRESSIONS = {"none": CompressionType.NONE, "zstd": CompressionType.ZSTD}
 LIBRARY = f"torquefree_ros {__version__} (python mcap writer, rosbag2_storage_mcap layout)"
@@ -108,6 +113,7 @@ class BagWriter:
             self._mcap = Writer(self._stream, chunk_size=chunk_bytes, compression=COMPRESSIONS[compression],
                                 enable_data_crcs=True)
             self._mcap.start(profile="ros2", library=LIBRARY)
+            self._bulk = bulk.supported(self._mcap)
         except OSError as error:
             raise self._io_error(error) from None
 
@@ -153,28 +159,33 @@ class BagWriter:
         """Row ``i`` writes ``columns[j][i]`` on ``channel_ids[j]`` for every ``j`` (none where it is
         None), all with ``log_times_ns[i]``: the messages of one sample stay together and in time order."""
         self._check_open()
-        times = [int(t) for t in log_times_ns]
-        if not times:
+        rows = len(log_times_ns)
+        if not rows:
             return
-        published = times if publish_times_ns is None else [int(t) for t in publish_times_ns]
         for channel_id, payloads in zip(channel_ids, columns):
             if channel_id not in self._records:
                 raise BagError(f"bag '{self.path}': write on unknown channel {channel_id} (add_topic first)")
-            if len(payloads) != len(times):
-                raise BagError(f"bag '{self.path}': channel {channel_id}: {len(payloads)} messages for "
-                               f"{len(times)} times")
-        add = self._mcap.add_message
+            if len(payloads) != rows:
+                raise BagError(f"bag '{self.path}': channel {channel_id}: {len(payloads)} messages for {rows} times")
         try:
-            for i, log_time in enumerate(times):
-                for channel_id, payloads in zip(channel_ids, columns):
-                    if payloads[i] is not None:
-                        add(channel_id, log_time, payloads[i], published[i])
+            if self._bulk and rows * len(columns) >= BULK_MESSAGES:
+                times = np.asarray(log_times_ns, dtype=np.int64)
+                bulk.add_rows(self._mcap, channel_ids, times, columns, publish_times_ns)
+                first, last = int(times.min()), int(times.max())
+            else:  # a few messages (the node's recorder, a sample at a time): one by one
+                times = [int(t) for t in log_times_ns]
+                published = times if publish_times_ns is None else [int(t) for t in publish_times_ns]
+                add = self._mcap.add_message
+                for i, log_time in enumerate(times):
+                    for channel_id, payloads in zip(channel_ids, columns):
+                        if payloads[i] is not None:
+                            add(channel_id, log_time, payloads[i], published[i])
+                first, last = min(times), max(times)
         except OSError as error:
             raise self._io_error(error) from None
         for channel_id, payloads in zip(channel_ids, columns):
-            self._records[channel_id].message_count += len(times) - sum(p is None for p in payloads)
+            self._records[channel_id].message_count += rows - payloads.count(None)
         metadata = self._metadata
-        first, last = min(times), max(times)
         metadata.first_time_ns = first if metadata.first_time_ns is None else min(first, metadata.first_time_ns)
         metadata.last_time_ns = last if metadata.last_time_ns is None else max(last, metadata.last_time_ns)
         now = time.monotonic()

@@ -15,4 +15,8 @@ def propagate(inertia, angular_velocity, orientation, times, propagator="auto", 
     return make_propagator(inertia, angular_velocity, orientation, propagator, **options)(times)
 
 
-__all__ = ["PROPAGATORS", "MotionRegime", "Propagator", "RigidBody", "make_propagator", "propagate"]
+from .batch import propagate_batch  # noqa: E402  (after propagate, which it documents itself against)
+
+
+__all__ = ["PROPAGATORS", "MotionRegime", "Propagator", "RigidBody", "make_propagator", "propagate",
+           "propagate_batch"]

@@ -1,0 +1,55 @@
+"""``propagate_batch``: each body exactly as ``propagate`` gives it alone (bit for bit), regimes mixed
+in one batch; shapes and bad input, named by body."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from torquefree_ros import propagate, propagate_batch
+
+# (inertia, w0): generic, axisymmetric, on and near the separatrix, sphere, pure spins, rest, a tensor
+BODIES = [
+    ([3.0, 2.0, 1.0, 0.0, 0.0, 0.0], [0.3, 0.2, 1.0]),
+    ([2.0, 2.0, 1.0, 0.0, 0.0, 0.0], [0.4, -0.1, 0.9]),
+    ([1.0, 2.0, 3.0, 0.0, 0.0, 0.0], [1.0, 0.0, 1.0]),  # H^2 = 2 T I2: on the separatrix
+    ([1.0, 2.0, 3.0, 0.0, 0.0, 0.0], [1.0, 1e-8, 1.0]),
+    ([5.0, 5.0, 5.0, 0.0, 0.0, 0.0], [0.1, 0.2, 0.3]),
+    ([1.0, 2.0, 3.0, 0.0, 0.0, 0.0], [0.0, 2.0, 0.0]),  # pure spin about the intermediate axis
+    ([1.0, 2.0, 3.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0]),  # at rest
+    ([4.0, 3.0, 2.5, 0.3, -0.2, 0.4], [0.5, -1.0, 0.7]),
+]
+
+
+def test_each_body_is_what_propagate_gives_alone_bit_for_bit():
+    inertia = np.array([b[0] for b in BODIES])
+    omega0 = np.array([b[1] for b in BODIES])
+    rng = np.random.default_rng(5)
+    orientation = rng.normal(size=(len(BODIES), 4))
+    orientation /= np.linalg.norm(orientation, axis=1, keepdims=True)
+    times = np.linspace(0.0, 50.0, 101)
+    omega, q = propagate_batch(inertia, omega0, orientation, times)
+    assert omega.shape == (len(BODIES), 101, 3) and q.shape == (len(BODIES), 101, 4)
+    for i in range(len(BODIES)):
+        alone = propagate(inertia[i], omega0[i], orientation[i], times)
+        np.testing.assert_array_equal(omega[i], alone[0])
+        np.testing.assert_array_equal(q[i], alone[1])
+
+
+def test_a_numerical_propagator_and_its_options_pass_through():
+    omega, q = propagate_batch([[3.0, 2.0, 1.0]] * 2, [[0.3, 0.2, 1.0], [0.1, 0.0, 0.5]], [[0, 0, 0, 1]] * 2,
+                               [0.0, 0.5, 1.0], propagator="rk4", step=1e-3)
+    alone = propagate([3.0, 2.0, 1.0], [0.1, 0.0, 0.5], [0, 0, 0, 1], [0.0, 0.5, 1.0], propagator="rk4", step=1e-3)
+    np.testing.assert_array_equal(omega[1], alone[0])
+
+
+@pytest.mark.parametrize("inertia, omega, orientation, reason", [
+    ([[1, 2, 3]], [[0, 0, 1], [0, 0, 1]], [[0, 0, 0, 1]], r"angular_velocity: 2 rows for 1 bodies"),
+    ([[1, 2, 3, 4]], [[0, 0, 1]], [[0, 0, 0, 1]], r"inertia: expected shape \(N, 3 or 6\), got \(1, 4\)"),
+    ([[1, 2, 3]], [[0, 0, 1]], [[0, 0, 1]], r"orientation: expected shape \(N, 4\)"),
+    ([[1, 2, 3], [1, 2, 30]], [[0, 0, 1]] * 2, [[0, 0, 0, 1]] * 2, r"body 1: inertia: .*triangle inequality"),
+    ([[1, 2, 3]], [[0, float("nan"), 1]], [[0, 0, 0, 1]], r"body 0: angular_velocity: "),
+])
+def test_bad_input_names_the_array_and_the_body(inertia, omega, orientation, reason):
+    with pytest.raises(ValueError, match=reason):
+        propagate_batch(inertia, omega, orientation, [0.0, 1.0])
