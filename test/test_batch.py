@@ -53,3 +53,21 @@ def test_a_numerical_propagator_and_its_options_pass_through():
 def test_bad_input_names_the_array_and_the_body(inertia, omega, orientation, reason):
     with pytest.raises(ValueError, match=reason):
         propagate_batch(inertia, omega, orientation, [0.0, 1.0])
+
+
+def test_a_dispersed_campaign_in_several_stacked_groups_is_bit_for_bit_the_loop(monkeypatch):
+    from torquefree_ros.core import batch
+
+    monkeypatch.setattr(batch, "GROUP_ELEMENTS", 7 * 40)  # groups of 7 bodies: several, one short
+    rng = np.random.default_rng(11)
+    count = 50
+    inertia = [2.0, 3.0, 4.0] * (1.0 + 0.03 * rng.standard_normal((count, 3)))
+    omega0 = rng.normal(0.0, 2.0, (count, 3))
+    orientation = rng.normal(size=(count, 4))
+    orientation /= np.linalg.norm(orientation, axis=1, keepdims=True)
+    times = np.concatenate([[0.0, 0.0], np.sort(rng.uniform(0.0, 1e4, 38))])  # t = 0 twice; long horizons
+    omega, q = propagate_batch(inertia, omega0, orientation, times)
+    for i in range(count):
+        alone = propagate(inertia[i], omega0[i], orientation[i], times)
+        np.testing.assert_array_equal(omega[i], alone[0])
+        np.testing.assert_array_equal(q[i], alone[1])

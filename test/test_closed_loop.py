@@ -190,3 +190,36 @@ def test_lockstep_is_read_only():
     with connected_harness(publish_rate=50.0) as harness:
         (result,) = harness.set_parameters(lockstep=True)
         assert not result.successful and "read-only" in result.reason
+
+
+@pytest.mark.parametrize("lockstep", [True, False], ids=["lockstep", "paced"])
+def test_a_second_ctrl_c_while_closing_still_closes_the_bag_and_exits_cleanly(tmp_path, lockstep):
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+
+    from bag_checks import metadata
+
+    bag = tmp_path / "closing"
+    process = subprocess.Popen(
+        [sys.executable, "-m", "torquefree_ros.cli.sim", "--ros-args", "-p", "scene:=detumble",
+         "-p", f"lockstep:={str(lockstep).lower()}", "-p", "real_time_factor:=0.0", "-p", f"record_bag:={bag}"],
+        cwd=Path(__file__).resolve().parents[1], env=dict(os.environ, PYTHONUNBUFFERED="1"),
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        for line in process.stderr:
+            if "start: " in line:
+                break
+        time.sleep(1.0)
+        process.send_signal(signal.SIGINT)
+        time.sleep(0.02)  # the first one is being handled: the node is closing
+        process.send_signal(signal.SIGINT)
+        _, stderr = process.communicate(timeout=30)
+    finally:
+        process.kill()
+    assert process.returncode == 0, stderr
+    assert "terminate called" not in stderr and "Traceback" not in stderr, stderr
+    assert metadata(bag)["message_count"] > 0  # closed: metadata.yaml written, the summary in place

@@ -90,14 +90,25 @@ def test_a_command_holds_from_the_first_sample_at_or_after_its_stamp():
     ([0.0, 0.0, 2e6], [0.0] * 3, "body", "too large"),
     ([0.0, 0.0, 0.1], [0.0] * 3, "world", "wrong frame"),
     ([0.0, 0.0, 0.1], [0.0] * 3, "", "wrong frame"),
+    ([0.0, 0.0, 0.1], [0.0] * 3, "x" * 100_000, "wrong frame"),
 ])
 def test_malformed_commands_are_refused_counted_and_never_reach_the_state(torque, force, frame_id, reason):
     simulation, hold = _simulation()
     untouched, _ = _simulation()
     accepted, text = hold.receive(0, torque, force, frame_id)
-    assert not accepted and text.startswith(reason + ":")
+    assert not accepted and text.startswith(reason + ":") and len(text) < 300
     assert dict(hold.refused) == {reason: 1} and not hold.commands
     np.testing.assert_array_equal(simulation.samples(0, 8).omega_B, untouched.samples(0, 8).omega_B)
+
+
+@pytest.mark.parametrize("stamp_ns", [-2**31 * 10**9, 0, (2**31 - 1) * 10**9 + 999_999_999])
+def test_stamps_at_the_ends_of_builtin_time_hold_where_the_rule_says(stamp_ns):
+    simulation, hold = _simulation(epoch_ns=1_000_000_000)
+    assert hold.receive(stamp_ns, [0.0, 0.0, 0.1], frame_id="body")[0]
+    expected = hold.index_at_or_after(stamp_ns)
+    assert hold.commands[0].start == expected
+    assert hold.stamp_ns(expected) >= stamp_ns and (expected == 0 or hold.stamp_ns(expected - 1) < stamp_ns)
+    assert np.all(np.isfinite(simulation.samples(0, 3).omega_B))
 
 
 def test_live_one_sample_at_a_time_equals_the_replay_of_its_commands_bit_for_bit():

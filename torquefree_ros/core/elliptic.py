@@ -72,6 +72,21 @@ class JacobiElliptic:
         u = np.asarray(u, dtype=float)
         if self.mc == 0.0:
             return self._separatrix(u)
+        return self._periodic(u)
+
+    @staticmethod
+    def stack(jacobis) -> "JacobiElliptic":
+        """Many parameters at once (``mc > 0`` each): every constant a column ``(N, 1)``, so that
+        ``u`` of shape ``(N, M)`` gives row ``i`` exactly as ``jacobis[i](u[i])`` would (the same
+        elementwise operations)."""
+        stacked = object.__new__(_Stacked)
+        for name in ("mc", "m", "n", "k_prime", "quarter_period", "sn2_integral_quarter"):
+            setattr(stacked, name, np.array([[getattr(j, name)] for j in jacobis], dtype=float))
+        if not np.all(stacked.mc > 0.0):
+            raise ValueError("stack: only parameters off the separatrix (mc > 0)")
+        return stacked
+
+    def _periodic(self, u: np.ndarray) -> JacobiValues:
         half_periods = np.round(u / (2.0 * self.quarter_period))
         r = u - (2.0 * self.quarter_period) * half_periods  # in [-K, K]
         s, c, d, am, integral = self._quarter(np.abs(r))
@@ -160,3 +175,10 @@ class JacobiElliptic:
             carlson = tanh**3 * elliprj(c2, c2, 1.0, 1.0 - self.n * tanh * tanh) / 3.0  # inf once sech^2 underflows
         s = np.where(a < 1.0, carlson, (u - bounded) / (1.0 - self.n))
         return JacobiValues(sn=tanh, cn=sech, dn=sech.copy(), am=np.arctan2(tanh, sech), sn2_integral=s)
+
+
+class _Stacked(JacobiElliptic):
+    """:meth:`JacobiElliptic.stack`'s result: the periodic case only."""
+
+    def __call__(self, u) -> JacobiValues:
+        return self._periodic(np.asarray(u, dtype=float))

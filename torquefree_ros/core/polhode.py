@@ -100,6 +100,16 @@ def solve_polhode(moments_P: np.ndarray, omega_P: np.ndarray) -> Polhode | None:
     )
 
 
+@dataclass(frozen=True)
+class _StackedPolhode:
+    """What :meth:`PolhodeAttitude.__call__` reads of a polhode, as columns over bodies."""
+
+    jacobi: JacobiElliptic
+    rate: np.ndarray
+    initial_phase: np.ndarray
+    momentum: np.ndarray
+
+
 def _permutation_sign(axes) -> float:
     inversions = sum(axes[i] > axes[j] for i in range(3) for j in range(i + 1, 3))
     return -1.0 if inversions % 2 else 1.0
@@ -133,6 +143,28 @@ class PolhodeAttitude:
         left = quaternion.multiply(q_NS0, quaternion.conjugate(arc0))
         self._frame_change = quaternion.product_matrix(left, q_SF).T
 
+    @staticmethod
+    def stack(attitudes) -> "PolhodeAttitude":
+        """Many bodies off the separatrix at once: called with times ``(M,)`` it gives ``(N, M, 3)``
+        rates and ``(N, M, 4)`` attitudes, body ``i`` exactly as ``attitudes[i]`` gives it alone."""
+        def column(values):
+            return np.array(values, dtype=float)[:, None]
+
+        polhodes = [a.polhode for a in attitudes]
+        stacked = object.__new__(PolhodeAttitude)
+        stacked.polhode = _StackedPolhode(JacobiElliptic.stack([p.jacobi for p in polhodes]),
+                                          column([p.rate for p in polhodes]),
+                                          column([p.initial_phase for p in polhodes]),
+                                          column([p.momentum for p in polhodes]))
+        stacked._rate_matrix = np.stack([a._rate_matrix for a in attitudes])
+        stacked._frame_change = np.stack([a._frame_change for a in attitudes])
+        stacked._momentum_amplitudes = tuple(column(values) for values in zip(*(a._momentum_amplitudes
+                                                                                  for a in attitudes)))
+        stacked._lever = tuple(column(values) for values in zip(*(a._lever for a in attitudes)))
+        for name in ("_direction", "_psi_rate", "_psi_integral_gain", "_psi_offset"):
+            setattr(stacked, name, column([getattr(a, name) for a in attitudes]))
+        return stacked
+
     def _angle_terms(self, v):
         """Continuous angle of ``(m1, m2)``: ``sign(J3-J2) (am + atan2((B-A) sn cn, A cn^2 + B sn^2))``."""
         A, B = self._lever
@@ -158,10 +190,11 @@ class PolhodeAttitude:
 def _combine(columns, matrix: np.ndarray) -> np.ndarray:
     """``np.stack(columns, -1) @ matrix``, summed element by element rather than by BLAS, whose
     kernels (and so roundings) change with the number of rows: a sample must not depend on how many
-    were requested with it."""
-    total = columns[0][:, None] * matrix[0]
-    for column, row in zip(columns[1:], matrix[1:]):
-        total += column[:, None] * row
+    were requested with it. Columns ``(M,)`` with a matrix ``(k, l)``, or ``(N, M)`` with ``(N, k, l)``
+    (a stack of bodies: the same operations, row by row)."""
+    total = columns[0][..., None] * matrix[..., None, 0, :]
+    for i, column in enumerate(columns[1:], start=1):
+        total += column[..., None] * matrix[..., None, i, :]
     return total
 
 

@@ -8,6 +8,8 @@ raise ``KeyboardInterrupt`` there), and the context is shut down last, after the
 
 from __future__ import annotations
 
+import contextlib
+import signal
 import threading
 
 import rclpy
@@ -55,11 +57,34 @@ class Spinner(threading.Thread):
 
 def shut_down(executor, node, spinner: Spinner | None = None) -> None:
     """Stop spinning, then shut the executor down, destroy the node (its last log lines still reach
-    /rosout) and shut the context down. Any argument may be None (the process stopped before it)."""
-    if spinner is not None and spinner.is_alive():
-        spinner.stop()
-    if executor is not None:
-        executor.shutdown()
-    if node is not None:
-        node.destroy_node()
-    rclpy.try_shutdown()
+    /rosout) and shut the context down. Any argument may be None (the process stopped before it).
+    A second Ctrl-C or SIGTERM meanwhile is ignored: cut short, the bag would lose its end and rcl
+    would abort the process on half-destroyed objects."""
+    with _interrupts_ignored():
+        if spinner is not None and spinner.is_alive():
+            spinner.stop()
+        if executor is not None:
+            executor.shutdown()
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+
+
+@contextlib.contextmanager
+def _interrupts_ignored():
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    signals = (signal.SIGINT, signal.SIGTERM)
+    previous = [signal.getsignal(number) for number in signals]
+    for number in signals:  # a Python no-op, not SIG_IGN: one already pending then runs it harmlessly
+        signal.signal(number, _ignore)
+    try:
+        yield
+    finally:
+        for number, handler in zip(signals, previous):
+            signal.signal(number, handler)
+
+
+def _ignore(signum, frame) -> None:
+    pass

@@ -29,6 +29,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .. import quaternion
+from ..safe_files import clip
 from ..schema import Param, choice, number, topic_name
 from .base import MotionEffect, register
 
@@ -152,7 +153,7 @@ class CommandHold:
         if np.max(np.abs(torque)) > self.max_torque:
             return f"too large: a torque component exceeds max_torque {self.max_torque:g} N m"
         if frame_id != self.frame_id:
-            return f"wrong frame: header.frame_id is {frame_id!r}, the command's frame is {self.frame_id!r}"
+            return f"wrong frame: header.frame_id is {clip(repr(frame_id), 80)}, the command's frame is {self.frame_id!r}"
         if self.commands and stamp_ns < self.commands[-1].stamp_ns:
             return "stale: stamped before the latest accepted command"
         return ""
