@@ -101,6 +101,20 @@ def test_malformed_commands_are_refused_counted_and_never_reach_the_state(torque
     np.testing.assert_array_equal(simulation.samples(0, 8).omega_B, untouched.samples(0, 8).omega_B)
 
 
+@pytest.mark.parametrize("rate", [0.3, 7.0, 100.0, 1000.0, 999_999.0])
+def test_the_hold_stamps_samples_as_the_simulation_does(rate):
+    from torquefree_ros.core.timing import stamps_ns
+
+    scene = scene_from_mapping({"body": {"inertia": INERTIA}, "initial": {"angular_velocity": OMEGA0},
+                                "effects": [{"torque_command": {}}]})
+    simulation = Simulation(scene.propagator(), rate, epoch_ns=1_700_000_000_123_456_789)
+    ((_, hold),) = simulation.command_holds
+    k = np.unique(np.geomspace(1, 1e9, 300).astype(np.int64))
+    expected = stamps_ns(simulation.epoch_ns, k / rate)
+    assert [hold.stamp_ns(int(i)) for i in k] == expected.tolist()
+    assert [hold.index_at_or_after(int(s)) for s in expected] == k.tolist()
+
+
 @pytest.mark.parametrize("stamp_ns", [-2**31 * 10**9, 0, (2**31 - 1) * 10**9 + 999_999_999])
 def test_stamps_at_the_ends_of_builtin_time_hold_where_the_rule_says(stamp_ns):
     simulation, hold = _simulation(epoch_ns=1_000_000_000)

@@ -115,7 +115,7 @@ def _drive(simulation: Simulation, bag, namespace: str, body_frame: str, inertia
     if not holds:
         raise ValueError("commands: the scene takes no commands (it names no torque_command effect)")
     for effect, hold in holds:
-        hold.frame_id = body_frame if effect.values["frame"] == "body" else inertial_frame
+        hold.frame_id = effect.frame_id(body_frame, inertial_frame)
         for command in read_commands(bag, resolve_topic(effect.topic, namespace)):
             if command.log_time_ns >= simulation.epoch_ns:
                 hold.receive(command.stamp_ns, command.torque, command.force, command.frame_id,

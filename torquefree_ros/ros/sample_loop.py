@@ -91,7 +91,7 @@ class _Run:
         if self.holds:
             self.max_block = 1  # each sample computed when due, under the commands received by then
             for effect, hold in self.holds:
-                hold.frame_id = request.body_frame if effect.values["frame"] == "body" else request.inertial_frame
+                hold.frame_id = effect.frame_id(request.body_frame, request.inertial_frame)
 
     def stamp_of(self, index: int) -> int:
         return int(stamps_ns(self.simulation.epoch_ns, np.array([index / self.simulation.rate]))[0])

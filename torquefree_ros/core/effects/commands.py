@@ -70,6 +70,10 @@ class TorqueCommand(MotionEffect):
     def topic(self) -> str:
         return self.values["topic"]
 
+    def frame_id(self, body_frame: str, inertial_frame: str) -> str:
+        """The ``header.frame_id`` its commands must carry."""
+        return inertial_frame if self.inertial else body_frame
+
     def bound(self, tensor):
         """A copy with a hold of its own: every propagator (every run) starts without commands."""
         bound = copy.copy(self)
