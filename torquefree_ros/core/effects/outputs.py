@@ -320,7 +320,9 @@ class _MarkerStream(OutputStream):
             return rows
         rows[:, 0:4] = quaternion.multiply(q_NB, self.q_BP)
         rows[:, 4:7] = self.sides
-        rows[:, 7:10] = self.omega_scale * quaternion.rotate(q_NB, omega_B)
-        rows[:, 10:13] = self.momentum_scale * quaternion.rotate(q_NB, self.momentum_B(omega_B, internal))
+        to_inertial = quaternion.to_matrix(q_NB)  # once for both arrows (quaternion.rotate's product)
+        rows[:, 7:10] = self.omega_scale * np.einsum("...ij,...j->...i", to_inertial, omega_B)
+        rows[:, 10:13] = self.momentum_scale * np.einsum("...ij,...j->...i", to_inertial,
+                                                         self.momentum_B(omega_B, internal))
         rows[:, 13] = (np.arange(first, first + count) % self.momentum_every) == 0
         return rows
