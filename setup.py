@@ -30,11 +30,11 @@ setup(
     tests_require=["pytest"],
     entry_points={
         "console_scripts": [
-            "torquefree_sim = torquefree_ros.cli.sim:main",
+            "torquefree_sim = torquefree_ros.cli.sim:run",
             "torquefree_propagate = torquefree_ros.cli.propagate:main",
             "torquefree_bag = torquefree_ros.cli.bag:main",
-            "torquefree_record = torquefree_ros.cli.record:main",
-            "torquefree_play = torquefree_ros.cli.play:main",
+            "torquefree_record = torquefree_ros.cli.record:run",
+            "torquefree_play = torquefree_ros.cli.play:run",
             "torquefree_plot = torquefree_ros.cli.plot:main",
             "torquefree_bench = torquefree_ros.cli.bench:main",
         ],

@@ -15,7 +15,7 @@ from rclpy.validate_topic_name import validate_topic_name
 
 from ..bag import BagError, BagWriter
 from ..bag.writer import COMPRESSIONS
-from ..ros.process import Spinner, init, shut_down
+from ..ros.process import Spinner, init, process_main, shut_down
 from ..ros.recorder import TopicRecorder
 from .common import console_command
 
@@ -93,5 +93,8 @@ def _recorded_for(node: TopicRecorder, duration: float) -> bool:
     return node.first_message_time is not None and time.monotonic() - node.first_message_time >= duration
 
 
+# the console script (setup.py) and `python -m`: the process ends right after a clean shutdown
+run = process_main(main)
+
 if __name__ == "__main__":
-    sys.exit(main())
+    run()

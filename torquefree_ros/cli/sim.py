@@ -11,7 +11,7 @@ from rclpy.executors import SingleThreadedExecutor
 
 from ..ros.node import TorqueFreeSim
 from ..ros.parameters import SPECS, ConfigurationError
-from ..ros.process import Spinner, init, shut_down
+from ..ros.process import Spinner, init, process_main, shut_down
 from .common import console_command
 
 
@@ -62,5 +62,8 @@ def main(argv=None) -> int:
     return 0
 
 
+# the console script (setup.py) and `python -m`: the process ends right after a clean shutdown
+run = process_main(main)
+
 if __name__ == "__main__":
-    sys.exit(main())
+    run()

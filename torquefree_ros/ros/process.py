@@ -9,7 +9,9 @@ raise ``KeyboardInterrupt`` there), and the context is shut down last, after the
 from __future__ import annotations
 
 import contextlib
+import os
 import signal
+import sys
 import threading
 
 import rclpy
@@ -88,3 +90,22 @@ def _interrupts_ignored():
 
 def _ignore(signum, frame) -> None:
     pass
+
+
+def exit_process(status: int):
+    """End a ROS script's process with ``status`` once it has closed everything (node, bag, context),
+    skipping the interpreter's finalization: there the DDS library's static objects can be destroyed
+    while one of its threads still runs, and the C++ runtime aborts ("terminate called without an
+    active exception", seen about once in several hundred clean Ctrl-C exits in the test suite)."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(status)
+
+
+def process_main(main):
+    """The console-script entry of a ROS script: ``main()``, then :func:`exit_process`. (``main``
+    itself returns normally, for callers in a process of their own.)"""
+    def run():
+        exit_process(main())
+    run.__doc__ = main.__doc__
+    return run
