@@ -44,6 +44,8 @@ def pytest_configure(config):
     keep discovery on this machine."""
     global _domain_lock
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    # a node subprocess that dies of a signal (SIGABRT from the C++ runtime) prints its Python stacks
+    os.environ["PYTHONFAULTHANDLER"] = "1"
     for domain in range(1, 102):  # 0..101 is the portable range; 0 is everyone's default
         lock = open(os.path.join(tempfile.gettempdir(), f"torquefree_ros_domain_{domain}.lock"), "w")
         try:
