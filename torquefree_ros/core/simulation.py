@@ -16,6 +16,7 @@ from functools import cached_property
 import numpy as np
 
 from .accuracy import estimate_accuracy
+from .effects.commands import command_inputs
 from .propagators import Propagator
 from .timing import check_rate, stamps_ns
 
@@ -76,8 +77,7 @@ class Simulation:
     @property
     def command_holds(self) -> tuple:
         """``(effect, hold)`` of each effect that takes commands (``torque_command``), in scene order."""
-        return tuple((effect, effect.hold) for effect in self.propagator.effects
-                     if getattr(effect, "hold", None) is not None)
+        return tuple((effect, effect.hold) for effect in command_inputs(self.propagator.effects))
 
     def samples(self, first: int, count: int) -> SampleBlock:
         times = np.arange(first, first + count) / self.rate

@@ -10,6 +10,7 @@ from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
+from ..core.effects.commands import command_inputs
 from .sample_loop import RunRequest
 
 
@@ -17,7 +18,7 @@ def command_effects(request: RunRequest | None) -> dict:
     """topic -> effect, for the effects of ``request`` that take commands."""
     if request is None:
         return {}
-    return {effect.topic: effect for effect in request.propagator.effects if getattr(effect, "hold", None)}
+    return {effect.topic: effect for effect in command_inputs(request.propagator.effects)}
 
 
 class CommandInputs:

@@ -120,7 +120,9 @@ class TorqueFreeSim(Node):
         self._note_inertia(simulation)
         topics = ", ".join(self._outputs.topic_names())
         commands = ", ".join(self._commands.topic_names())
-        listening = f"; taking commands on {commands}" + (" in lock-step" if request.lockstep else "") if commands else ""
+        listening = ""
+        if commands:
+            listening = f"; taking commands on {commands}" + (" in lock-step" if request.lockstep else "")
         recording = f"recording bag {self._bag.writer.path}" if self._bag is not None else "not recording"
         self.get_logger().info(f"start: publishing {topics}{listening}; {recording}; {request.configuration}; "
                                f"{simulation.summary()}")

@@ -85,6 +85,11 @@ class TorqueCommand(MotionEffect):
         return quaternion.rotate_inverse(q_NB, torque) if self.inertial else torque
 
 
+def command_inputs(effects) -> tuple:
+    """The effects among ``effects`` (a propagator's, bound) that take commands, each with its hold."""
+    return tuple(effect for effect in effects if getattr(effect, "hold", None) is not None)
+
+
 class CommandHold:
     """The commands of one run and the torque they hold on each sample interval. ``start(rate,
     epoch_ns)`` puts it on the run's sample grid. Thread-safe: commands arrive on one thread while
