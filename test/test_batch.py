@@ -71,3 +71,46 @@ def test_a_dispersed_campaign_in_several_stacked_groups_is_bit_for_bit_the_loop(
         alone = propagate(inertia[i], omega0[i], orientation[i], times)
         np.testing.assert_array_equal(omega[i], alone[0])
         np.testing.assert_array_equal(q[i], alone[1])
+
+
+def _random_bodies(rng, count, tensors):
+    """Dispersed bodies with some exact symmetries, spins about an axis and rest mixed in."""
+    moments = np.sort(rng.uniform(2.0, 4.0, (count, 3)), axis=1)  # within the triangle inequality
+    moments[::7, 1] = moments[::7, 0]  # axisymmetric (oblate)
+    moments[3::7, 1] = moments[3::7, 2]  # axisymmetric (prolate)
+    omega = rng.normal(0.0, 1.5, (count, 3))
+    omega[5::11] = [0.0, 0.7, 0.0]  # a pure spin about an axis
+    omega[6::13] = 0.0  # at rest
+    if not tensors:
+        return moments, omega
+    rotations = np.linalg.qr(rng.normal(size=(count, 3, 3)))[0]
+    tensor = rotations @ (moments[:, :, None] * np.eye(3)) @ np.swapaxes(rotations, 1, 2)
+    return tensor[:, [0, 1, 2, 0, 0, 1], [0, 1, 2, 1, 2, 2]], omega
+
+
+@pytest.mark.parametrize("tensors", [False, True])
+def test_random_campaigns_with_symmetries_are_bit_for_bit_the_loop(tensors):
+    """The constants computed in columns (floats for one body) agree to the last bit for any mix."""
+    rng = np.random.default_rng(23 + tensors)
+    inertia, omega0 = _random_bodies(rng, 120, tensors)
+    orientation = rng.normal(size=(120, 4))
+    orientation /= np.linalg.norm(orientation, axis=1, keepdims=True)
+    orientation[::5] *= 1.003  # hand-typed: normalised as for one body
+    times = np.linspace(0.0, 200.0, 23)
+    omega, q = propagate_batch(inertia, omega0, orientation, times)
+    for i in range(len(inertia)):
+        alone = propagate(inertia[i], omega0[i], orientation[i], times)
+        np.testing.assert_array_equal(omega[i], alone[0], err_msg=f"body {i}")
+        np.testing.assert_array_equal(q[i], alone[1], err_msg=f"body {i}")
+
+
+def test_a_quaternion_too_far_from_unit_names_its_body():
+    with pytest.raises(ValueError, match=r"body 1: orientation: expected a unit quaternion"):
+        propagate_batch([[1, 2, 3]] * 2, [[0.1, 0.2, 1.0]] * 2, [[0, 0, 0, 1], [0, 0, 0, 1.2]], [0.0, 1.0])
+
+
+def test_no_body_and_no_time_give_empty_arrays():
+    omega, q = propagate_batch(np.empty((0, 3)), np.empty((0, 3)), np.empty((0, 4)), [0.0, 1.0])
+    assert omega.shape == (0, 2, 3) and q.shape == (0, 2, 4)
+    omega, q = propagate_batch([[1, 2, 3]], [[0.1, 0.2, 1.0]], [[0, 0, 0, 1]], [])
+    assert omega.shape == (1, 0, 3) and q.shape == (1, 0, 4)

@@ -1,4 +1,5 @@
-"""Jacobi functions, amplitude and the integral ``S`` against mpmath at 60 digits.
+"""Jacobi functions, amplitude and the integral ``S`` against mpmath at 60 digits (more where ``mc``
+is so small that ``m = 1 - mc`` needs them).
 
 Tolerance, per value ``f`` at argument ``u``: ``|error| <= 8 eps (|f| + |u| |f'|)``. The first term is
 a few rounding units of the value; the second is what rounding ``u`` (and the period it is reduced
@@ -16,17 +17,19 @@ from torquefree_ros.core.elliptic import JacobiElliptic
 EPS = np.finfo(float).eps
 TOLERANCE_FACTOR = 8.0
 REFERENCE_ABSOLUTE_ERROR = 1e-55
-PARAMETERS = (1.0, 0.5, 1e-2, 1e-4, 1e-8, 1e-16, 1e-30, 0.0)  # mc
-CHARACTERISTICS = (0.0, -0.3, -40.0)  # n
+# mc: from a circle (1) through both sides of the switch between trigonometric and hyperbolic theta
+# series (1/2) to the separatrix (0)
+PARAMETERS = (1.0, 0.9, 0.5 + 1e-12, 0.5, 0.5 - 1e-12, 0.3, 1e-2, 1e-4, 1e-8, 1e-16, 1e-30, 1e-100, 0.0)
+CHARACTERISTICS = (0.0, -0.3, -40.0, -2e12)  # n; -2e12 is the thin rod's (1 : 1e6)
 # arguments as multiples of the quarter period K (the separatrix, K infinite, uses plain arguments)
 QUARTER_PERIOD_MULTIPLES = (0.0, 1e-9, 0.3, 0.5 - 1e-7, 0.5, 0.5 + 1e-7, 0.9, 1.0 - 1e-9, 1.0, 1.37, 2.0, 3.71,
-                            -0.2, -2.6, 9.5)
+                            -0.2, -2.6, 9.5, 12345.6)
 SEPARATRIX_ARGUMENTS = (0.0, 1e-9, 0.1, 1.0, 5.0, 20.0, 40.0, -3.0, -35.0)
 
 
 def reference(u: float, mc: float, n: float) -> dict[str, tuple[float, float]]:
     """``name -> (value, derivative in u)`` at the float ``u``, in 60-digit arithmetic."""
-    with mp.workdps(60):
+    with mp.workdps(60 + max(0, int(-mp.log10(mc))) if mc > 0.0 else 60):
         u_mp, m = mp.mpf(u), 1 - mp.mpf(mc)
         sn, cn, dn = (mp.ellipfun(kind, u_mp, m=m) for kind in ("sn", "cn", "dn"))
         if mc == 0.0:

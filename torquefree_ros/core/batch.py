@@ -1,23 +1,29 @@
 """Many bodies on one time grid (Monte Carlo campaigns): ``propagate_batch``.
 
 Each body is propagated exactly as :func:`~torquefree_ros.core.propagate` propagates it alone, so
-a batch is bit for bit the same as the loop a user would write; the batch checks every input once
-and names the body a bad one belongs to. The exact solution's bodies off the separatrix (nearly all
-of a dispersed campaign) are evaluated together: their constants stacked as columns, the same
-elementwise operations run on ``(bodies, times)`` arrays at once, a group of bodies at a time so
-that memory stays bounded; the rest (other propagators, separatrix, stationary motions) one by one.
+a batch is bit for bit the same as the loop a user would write; the batch checks every input and
+names the body a bad one belongs to. The exact solution's bodies off the separatrix (nearly all of
+a dispersed campaign) are built and evaluated together: the constants of
+:mod:`.polhode_constants` computed as numpy columns over bodies by the very formulas one body uses,
+then the same elementwise evaluation on ``(bodies, times)`` arrays, a group of bodies at a time so
+that memory stays bounded. The rest (other propagators, the separatrix, stationary motions) go one
+by one.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from .elliptic import JacobiElliptic
 from .polhode import PolhodeAttitude
+from .polhode_constants import (COLUMNS, attitude_constants, is_stationary, solver_frame, solver_from_body,
+                                to_principal)
 from .propagators import make_propagator
-from .propagators.analytic import AnalyticPropagator
-from .validation import sample_times
+from .rigid_body import RigidBody
+from .validation import sample_times, unit_quaternion
 
 GROUP_ELEMENTS = 1 << 17  # bodies x times evaluated in one stacked call (~100 arrays of this size)
+_IDENTITY_ROWS = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
 
 
 def propagate_batch(inertia, angular_velocity, orientation, times, propagator="auto", **options):
@@ -32,26 +38,90 @@ def propagate_batch(inertia, angular_velocity, orientation, times, propagator="a
     times = sample_times(times)
     omega = np.empty((count, times.size, 3))
     q = np.empty((count, times.size, 4))
-    stacked = []
-    for i in range(count):
+    if propagator in ("auto", "analytic") and not options:
+        alone = _exact_together(inertia, angular_velocity, orientation, times, omega, q)
+    else:
+        alone = range(count)
+    for i in alone:
+        omega[i], q[i] = _propagator(i, inertia, angular_velocity, orientation, propagator, **options)(times)
+    return omega, q
+
+
+def _propagator(i, inertia, angular_velocity, orientation, propagator="auto", **options):
+    try:
+        return make_propagator(inertia[i], angular_velocity[i], orientation[i], propagator, **options)
+    except ValueError as error:
+        raise ValueError(f"body {i}: {error}") from None
+
+
+def _exact_together(inertia, angular_velocity, orientation, times, omega, q) -> list:
+    """Evaluate the bodies the exact solution covers with constants in columns, into ``omega`` and
+    ``q``; return the indices of the others (to go one by one). Raises for a bad body."""
+    count = inertia.shape[0]
+    bodies = _bodies(inertia, angular_velocity)
+    if bodies is None:  # some body is refused: building each alone names it and says why
+        for i in range(count):
+            _propagator(i, inertia, angular_velocity, orientation)
+        return list(range(count))  # (only if the checks here were stricter than a body's own)
+    moments, axes = bodies
+    q0 = np.empty_like(orientation)
+    for i, row in enumerate(orientation):  # hand-typed quaternions normalised as for one body
         try:
-            body = make_propagator(inertia[i], angular_velocity[i], orientation[i], propagator, **options)
+            q0[i] = unit_quaternion(row, "orientation")
         except ValueError as error:
             raise ValueError(f"body {i}: {error}") from None
-        if isinstance(body, AnalyticPropagator) and body.polhode is not None and body.polhode.jacobi.mc > 0.0:
-            stacked.append((i, body))
-        else:
-            omega[i], q[i] = body(times)
+    omega0_P = to_principal(tuple(angular_velocity.T), axes)
+    moving = np.flatnonzero(~is_stationary(tuple(moments.T), omega0_P))
+    mc = solver_frame(COLUMNS, _rows(moments.T, moving), _rows(omega0_P, moving)).mc
+    periodic = moving[mc > 0.0]
+    # bodies whose Jacobi functions take the same kind of series, in groups that bound the memory
     group = max(1, GROUP_ELEMENTS // max(times.size, 1))
+    kinds = (moving[mc >= JacobiElliptic.TRIGONOMETRIC_MC], moving[(mc > 0.0) & (mc < JacobiElliptic.TRIGONOMETRIC_MC)])
     zeros = int(np.searchsorted(times, 0.0, side="right"))  # t = 0 is the initial state itself
-    for start in range(0, len(stacked), group):
-        indices, bodies = zip(*stacked[start:start + group])
-        rows = list(indices)
-        omega[rows], q[rows] = PolhodeAttitude.stack([body._attitude for body in bodies])(times)
-        if zeros:
-            omega[rows, :zeros] = np.array([body.omega0_B for body in bodies])[:, None]
-            q[rows, :zeros] = np.array([body.q0_NB for body in bodies])[:, None]
-    return omega, q
+    for rows in (kind[start:start + group] for kind in kinds for start in range(0, kind.size, group)):
+        frame = solver_frame(COLUMNS, _rows(moments.T, rows), _rows(omega0_P, rows))
+        body_axes = tuple(_rows(row, rows) for row in axes)
+        constants = attitude_constants(COLUMNS, frame, solver_from_body(COLUMNS, frame, body_axes),
+                                       tuple(q0[rows].T))
+        attitude = PolhodeAttitude(JacobiElliptic.columns(frame.mc, frame.n), frame.rate, constants)
+        omega[rows], q[rows] = attitude(times)
+        omega[rows, :zeros] = angular_velocity[rows, None]
+        q[rows, :zeros] = q0[rows, None]
+    return sorted(set(range(count)) - set(periodic.tolist()))
+
+
+def _bodies(inertia, angular_velocity):
+    """Principal moments ``(N, 3)`` and principal axes (rows of columns over bodies), as
+    :class:`RigidBody` gives them body by body; ``None`` if some body would be refused."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        finite = np.all(np.isfinite(inertia), axis=1) & np.all(np.isfinite(angular_velocity), axis=1)
+        if not np.all(finite):
+            return None
+        if inertia.shape[1] == 6:  # tensors: each diagonalised exactly as alone
+            try:
+                built = [RigidBody.from_inertia(row) for row in inertia]
+            except ValueError:
+                return None
+            moments = np.array([body.moments for body in built])
+            axes = np.array([body.principal_axes for body in built])
+            tensors = np.array([body.tensor for body in built])
+            axes_rows = tuple(tuple(axes[:, j, k] for k in range(3)) for j in range(3))
+        else:
+            moments, axes_rows = inertia, _IDENTITY_ROWS
+            largest = moments.max(axis=1)
+            if not (np.all(np.abs(moments) <= 1e100) and np.all(moments > 0.0)
+                    and np.all(largest <= (moments.sum(axis=1) - largest) * (1.0 + 1e-9))):
+                return None
+            tensors = moments[:, :, None] * np.eye(3)
+        h = np.einsum("nij,nj->ni", tensors, angular_velocity)  # the representability check, |H|^2 I_max^2 finite
+        if not np.all(np.isfinite(np.sum(h * h, axis=1) * moments.max(axis=1) ** 2)):
+            return None
+    return moments, axes_rows
+
+
+def _rows(columns, rows) -> tuple:
+    """The selected bodies of each column."""
+    return tuple(column[rows] if isinstance(column, np.ndarray) else column for column in columns)
 
 
 def _table(values, name: str, widths: tuple, rows: int | None = None) -> np.ndarray:

@@ -5,13 +5,13 @@ Why not ``scipy.special.ellipj``: it takes ``m``, and next to the separatrix of 
 ``m`` rounds to 1 and ``mc`` (what sets the period ``K ~ log(4/sqrt(mc))``) is lost. Near the turning
 points ``cn`` and ``dn`` are tiny, and the attitude integral needs them to *relative* precision.
 
-The method (after Fukushima's use of the complementary parameter, built on Carlson's symmetric
-integrals from ``scipy.special``):
+The method (periods and integrals from Carlson's symmetric forms in ``scipy.special``):
 
 * reduce ``u`` to ``r`` in ``[0, K]`` with the half-period ``2K`` symmetries;
-* on ``[0, K/2]`` solve ``F(am(u)|m) = u`` by Newton's method in the hyperbolic variable ``x`` with
-  ``sn = tanh x``, ``cn = sech x``, so ``cn`` and ``dn = sqrt(cn^2 + mc sn^2)`` keep relative precision
-  (``F(phi|m) = sin(phi) R_F(cos^2 phi, 1 - m sin^2 phi, 1)``, DLMF 19.25.5);
+* on ``[0, K/2]`` evaluate ``sn, cn, dn`` as quotients of theta series in the nome of ``m`` (``m <= 1/2``)
+  or, by Jacobi's imaginary transformation, of the complementary parameter (``m > 1/2``): each nome is
+  at most ``exp(-pi)``, a few terms reach float64, and ``cn``, ``dn`` keep relative precision
+  (:class:`_ThetaSeries`);
 * on ``[K/2, K]`` use ``v = K - u``: ``sn = cd(v)``, ``cn = k' sd(v)``, ``dn = k' nd(v)`` (DLMF 22.4.3).
 
 The attitude about the angular momentum needs ``Π(n; am u | m) = u + n S(u)`` (``n <= 0``) with
@@ -28,12 +28,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import ellipj, elliprf, elliprj
-
-# Newton steps from scipy's (m-parametrised) guess. Against mpmath the guess is within 2e-10 (relative,
-# in x) at worst, where m rounds to 1; one step reaches rounding level and the second is margin.
-# A fixed count keeps every sample independent of the others in its batch (bit-identical results).
-_NEWTON_STEPS = 2
+from scipy.special import elliprf, elliprj
 
 
 @dataclass(frozen=True)
@@ -51,18 +46,21 @@ class JacobiElliptic:
     """Jacobi functions for a fixed parameter given as ``mc = 1 - m`` (``0 <= mc <= 1``), and the
     integral ``S`` for a fixed characteristic ``n <= 0``."""
 
+    #: from this ``mc`` up the functions are trigonometric theta series, below it hyperbolic ones
+    TRIGONOMETRIC_MC = 0.5
+
     def __init__(self, mc: float, n: float = 0.0):
         if not 0.0 <= mc <= 1.0:
             raise ValueError(f"mc: the complementary parameter must lie in [0, 1], got {mc!r}")
         if not n <= 0.0:
             raise ValueError(f"n: the characteristic must be <= 0, got {n!r}")
         self.mc = float(mc)
-        self.m = 1.0 - self.mc  # only for scipy's initial guess; never used where mc matters
         self.n = float(n)
-        self.k_prime = float(np.sqrt(self.mc))
+        self.k_prime = math.sqrt(self.mc)
         if self.mc > 0.0:
-            self.quarter_period = float(elliprf(0.0, self.mc, 1.0))
-            self.sn2_integral_quarter = float(elliprj(0.0, self.mc, 1.0, 1.0 - self.n)) / 3.0  # S(K)
+            self.quarter_period, self.sn2_integral_quarter = (float(v) for v in _quarter_period_values(self.mc, self.n))
+            self._theta = _ThetaSeries(self.mc, self.quarter_period, float(elliprf(0.0, 1.0 - self.mc, 1.0)),
+                                       self.mc >= self.TRIGONOMETRIC_MC)
         else:
             self.quarter_period = np.inf
             self.sn2_integral_quarter = np.inf
@@ -75,15 +73,21 @@ class JacobiElliptic:
         return self._periodic(u)
 
     @staticmethod
-    def stack(jacobis) -> "JacobiElliptic":
-        """Many parameters at once (``mc > 0`` each): every constant a column ``(N, 1)``, so that
-        ``u`` of shape ``(N, M)`` gives row ``i`` exactly as ``jacobis[i](u[i])`` would (the same
-        elementwise operations)."""
+    def columns(mc: np.ndarray, n: np.ndarray) -> "JacobiElliptic":
+        """Many parameters at once (``0 < mc <= 1``, ``n <= 0``, arrays over bodies): every constant a
+        column ``(N, 1)``, so that ``u`` of shape ``(N, M)`` gives row ``i`` exactly as
+        ``JacobiElliptic(mc[i], n[i])(u[i])`` would (the same elementwise operations)."""
+        mc, n = (np.asarray(v, dtype=float)[:, None] for v in (mc, n))
+        if not (np.all(mc > 0.0) and np.all(mc <= 1.0) and np.all(n <= 0.0)):
+            raise ValueError("columns: only parameters off the separatrix (0 < mc <= 1) and n <= 0")
+        trigonometric = bool(mc[0, 0] >= JacobiElliptic.TRIGONOMETRIC_MC) if mc.size else True
+        if np.any((mc >= JacobiElliptic.TRIGONOMETRIC_MC) != trigonometric):
+            raise ValueError("columns: parameters of one kind only (all mc >= 1/2, or all below)")
         stacked = object.__new__(_Stacked)
-        for name in ("mc", "m", "n", "k_prime", "quarter_period", "sn2_integral_quarter"):
-            setattr(stacked, name, np.array([[getattr(j, name)] for j in jacobis], dtype=float))
-        if not np.all(stacked.mc > 0.0):
-            raise ValueError("stack: only parameters off the separatrix (mc > 0)")
+        stacked.mc, stacked.n, stacked.k_prime = mc, n, np.sqrt(mc)
+        stacked.quarter_period, stacked.sn2_integral_quarter = _quarter_period_values(mc, n)
+        stacked._theta = _ThetaSeries(mc, stacked.quarter_period, elliprf(0.0, 1.0 - mc, 1.0), trigonometric,
+                                      exp=_exp_each)
         return stacked
 
     def _periodic(self, u: np.ndarray) -> JacobiValues:
@@ -102,37 +106,18 @@ class JacobiElliptic:
     def values_at(self, sn: float, cn: float, dn: float) -> JacobiValues:
         """The values at the ``u`` in ``[-K, K]`` where the functions are ``sn``, ``cn >= 0``, ``dn``
         (scalars): ``am`` and ``S`` from them directly, without finding ``u``."""
-        s2 = sn * sn
-        integral = sn * s2 * float(elliprj(cn * cn, dn * dn, 1.0, 1.0 - self.n * s2)) / 3.0
-        return JacobiValues(sn=sn, cn=cn, dn=dn, am=math.atan2(sn, cn), sn2_integral=integral)
+        return JacobiValues(sn=sn, cn=cn, dn=dn, am=math.atan2(sn, cn),
+                            sn2_integral=float(sn2_integral_from_values(sn, cn, dn, self.n)))
 
     def incomplete_first_kind(self, sn, cn, dn) -> np.ndarray:
-        """``u = F(am|m)`` in ``[-K, K]`` from ``sn``, ``cn >= 0``, ``dn`` (inverse of ``__call__``).
-
-        Taking ``cn^2`` and ``dn^2`` directly keeps ``u`` accurate next to ``±K`` where ``am`` is
-        ``±pi/2`` to within rounding.
-        """
+        """``u = F(am|m)`` in ``[-K, K]`` from ``sn``, ``cn >= 0``, ``dn`` (inverse of ``__call__``)."""
         sn, cn, dn = (np.asarray(v, dtype=float) for v in (sn, cn, dn))
-        return sn * elliprf(cn * cn, dn * dn, 1.0)
+        return first_kind_from_values(sn, cn, dn)
 
     # -- internals ------------------------------------------------------------------------------
     def _first_half(self, u: np.ndarray):
-        """``sn, cn`` and their squares and ``dn^2`` for ``0 <= u <= K/2``, by Newton's method on
-        ``F(am) = u`` in ``x = asinh(tan(am))``, where ``sn = tanh x`` and ``cn = sech x``."""
-        _, _, _, phi = ellipj(u, self.m)
-        x = np.arcsinh(np.tan(phi))
-        mc = self.mc
-        for _ in range(_NEWTON_STEPS):
-            ch = np.cosh(x)
-            t = np.tanh(x)
-            c2 = 1.0 / (ch * ch)
-            d2 = c2 + mc * (t * t)
-            # dF/dx = sech(x) / dn, so the Newton step is (F - u) * dn * cosh(x)
-            x -= (t * elliprf(c2, d2, 1.0) - u) * (np.sqrt(d2) * ch)
-        s = np.tanh(x)
-        c = 1.0 / np.cosh(x)
-        s2, c2 = s * s, c * c
-        return s, c, s2, c2, c2 + mc * s2
+        """``sn, cn, dn`` for ``0 <= u <= K/2`` as quotients of theta series (see :class:`_ThetaSeries`)."""
+        return self._theta(u)
 
     def _quarter(self, r: np.ndarray):
         """``sn, cn, dn, am, S`` for ``0 <= r <= K``."""
@@ -140,8 +125,8 @@ class JacobiElliptic:
         first = r <= 0.5 * K
         # First half directly; second half through v = K - r (both evaluated on [0, K/2]).
         w = np.where(first, r, K - r)
-        s1, c1, s1s, c1s, d1s = self._first_half(w)
-        d1 = np.sqrt(d1s)
+        s1, c1, d1 = self._first_half(w)
+        s1s, c1s, d1s = s1 * s1, c1 * c1, d1 * d1
         inverse_d1 = 1.0 / d1
         s = np.where(first, s1, c1 * inverse_d1)
         c = np.where(first, c1, (kp * s1) * inverse_d1)
@@ -177,8 +162,105 @@ class JacobiElliptic:
         return JacobiValues(sn=tanh, cn=sech, dn=sech.copy(), am=np.arctan2(tanh, sech), sn2_integral=s)
 
 
+def _exp_each(x: np.ndarray) -> np.ndarray:
+    """``math.exp`` of each element: the very value one parameter gets (numpy may vectorise its own)."""
+    return np.array([math.exp(v) for v in x.ravel().tolist()]).reshape(x.shape)
+
+
+def _quarter_period_values(mc, n):
+    """``K`` and ``S(K)`` (floats or arrays, ``mc > 0``)."""
+    return elliprf(0.0, mc, 1.0), elliprj(0.0, mc, 1.0, 1.0 - n) / 3.0
+
+
+def first_kind_from_values(sn, cn, dn, rf=elliprf):
+    """``u = F(am|m)`` in ``[-K, K]`` from ``sn``, ``cn >= 0``, ``dn`` (floats or arrays). Taking ``cn^2``
+    and ``dn^2`` directly keeps ``u`` accurate next to ``±K``, where ``am`` is ``±pi/2`` to rounding."""
+    return sn * rf(cn * cn, dn * dn, 1.0)
+
+
+def sn2_integral_from_values(sn, cn, dn, n, rj=elliprj):
+    """``S(u) = (1/3) sn^3 R_J(cn^2, dn^2, 1, 1 - n sn^2)`` at the ``u`` in ``[-K, K]`` where the
+    functions are ``sn``, ``cn >= 0``, ``dn`` (floats or arrays; DLMF 19.25.14)."""
+    s2 = sn * sn
+    return sn * s2 * rj(cn * cn, dn * dn, 1.0, 1.0 - n * s2) / 3.0
+
+
 class _Stacked(JacobiElliptic):
-    """:meth:`JacobiElliptic.stack`'s result: the periodic case only."""
+    """:meth:`JacobiElliptic.columns`' result: the periodic case only."""
 
     def __call__(self, u) -> JacobiValues:
         return self._periodic(np.asarray(u, dtype=float))
+
+
+class _ThetaSeries:
+    """``sn, cn, dn`` for ``0 <= u <= K/2`` as quotients of Jacobi theta functions (DLMF 22.2.4),
+    ``sn = θ3 θ1(z) / (θ2 θ4(z))``, ``cn = θ4 θ2(z) / (θ2 θ4(z))``, ``dn = θ4 θ3(z) / (θ3 θ4(z))``
+    (constants at 0), each series cut after the terms that matter in float64.
+
+    For ``m <= 1/2`` the nome ``q = exp(-pi K'/K)`` is at most ``exp(-pi) = 0.043`` and the theta
+    functions of ``z = pi u / (2K)`` are trigonometric series. For ``m > 1/2`` Jacobi's imaginary
+    transformation (DLMF 22.6(iv)) writes the same functions with the complementary nome
+    ``q' = exp(-pi K/K') <= 0.043`` at the imaginary argument ``i y``, ``y = pi u / (2K')``: hyperbolic
+    series, divided through by ``cosh y`` (or ``sinh y``) so that nothing overflows as ``m -> 1``.
+
+    Every series keeps ``q^(j^2+j)`` (odd) and ``q^(j^2)`` (even) for ``j <= 3``; on ``[0, K/2]`` the
+    first term left out is below ``1e-19`` of the sum. With ``c = cos 2z`` (or ``cosh 2y``) each
+    series divided by its first harmonic is a cubic in ``c``, the same cubic for both kinds:
+
+    * ``A(c) = 1 - q^2 (2c+1) + q^6 (4c^2+2c-1) - q^12 (8c^3+4c^2-4c-1)`` (``θ1`` over ``sin z``, ``sinh y``)
+    * ``B(c) = 1 + q^2 (2c-1) + q^6 (4c^2-2c-1) + q^12 (8c^3-4c^2-4c+1)`` (``θ2`` over ``cos z``, ``cosh y``)
+    * ``C(c), D(c) = 1 ± 2q c + 2q^4 (2c^2-1) ± 2q^9 (4c^3-3c)`` (``θ3``, ``θ4``)
+
+    so ``sn = (θ3/θ2) sin z A/D``, ``cn = (θ4/θ2) cos z B/D``, ``dn = (θ4/θ3) C/D`` and, hyperbolic,
+    ``sn = (θ3/θ4) tanh y A/B``, ``cn = (θ2/θ4) D/(B cosh y)``, ``dn = (θ2/θ3) C/(B cosh y)``. Their
+    coefficients (constant factors folded in) are set once; a sample is ``sin`` and ``cos`` (or
+    ``sinh``, ``cosh``, ``tanh``) and four Horner cubics, whose terms fall off fast enough that none
+    cancels: ``sn`` is a sine or ``tanh`` times a positive quotient and ``cn``, ``dn`` are quotients of
+    sums without cancellation, so all three keep relative precision next to ``u = 0`` and next to the
+    separatrix. A fixed count, and powers of ``q`` by products, keep each value the same whatever
+    else is evaluated with it.
+
+    Works on one parameter (floats) or on columns of parameters of one kind (``trigonometric`` the
+    same for every column)."""
+
+    def __init__(self, mc, K, K_complementary, trigonometric: bool, exp=math.exp):
+        self.trigonometric = trigonometric
+        ratio = K_complementary / K if trigonometric else K / K_complementary
+        self.scale = (0.5 * math.pi) / (K if trigonometric else K_complementary)  # u -> z or y
+        q = exp(-math.pi * ratio)
+        q2 = q * q
+        q4 = q2 * q2
+        q6, q9, q12 = q4 * q2, q4 * q4 * q, q4 * q4 * q4
+        t2 = ((1.0 + q2) + q6) + q12  # theta_2(0) / (2 q^(1/4))
+        t3 = 1.0 + 2.0 * ((q + q4) + q9)
+        t4 = 1.0 + 2.0 * ((q4 - q) - q9)
+        a = (((1.0 - q2) - q6) + q12, (2.0 * q6 - 2.0 * q2) + 4.0 * q12, 4.0 * q6 - 4.0 * q12, -8.0 * q12)
+        b = (((1.0 - q2) - q6) + q12, (2.0 * q2 - 2.0 * q6) - 4.0 * q12, 4.0 * q6 - 4.0 * q12, 8.0 * q12)
+        c = (1.0 - 2.0 * q4, 2.0 * q - 6.0 * q9, 4.0 * q4, 8.0 * q9)
+        d = (1.0 - 2.0 * q4, 6.0 * q9 - 2.0 * q, 4.0 * q4, -8.0 * q9)
+        if trigonometric:  # sn = s A/D, cn = cos B/D, dn = C/D with the constants in A, B, C
+            factors = (t3 / t2, t4 / t2, t4 / t3, 1.0)
+        else:  # sn = tanh A/B, cn = D/(B cosh), dn = C/(B cosh)
+            factors = (t3 / t4, 1.0, t2 / t3, t2 / t4)
+        self.cubics = tuple(tuple(factor * coefficient for coefficient in cubic)
+                            for factor, cubic in zip(factors, (a, b, c, d)))
+
+    def __call__(self, u):
+        with np.errstate(under="ignore"):  # far terms of a tiny nome: their true value is below rounding
+            return self._series(self.scale * u)
+
+    def _series(self, x):
+        if self.trigonometric:
+            first_sin, first_cos = np.sin(x), np.cos(x)
+            c = 1.0 - 2.0 * (first_sin * first_sin)  # cos 2z
+        else:
+            first_cos = np.cosh(x)
+            first_sin = np.tanh(x)
+            c = 2.0 * (first_cos * first_cos) - 1.0  # cosh 2y (>= 1: no cancellation)
+        A, B, C, D = (((k3 * c + k2) * c + k1) * c + k0 for k0, k1, k2, k3 in self.cubics)
+        if self.trigonometric:
+            inverse = 1.0 / D
+            return first_sin * A * inverse, first_cos * B * inverse, C * inverse
+        inverse = 1.0 / B
+        over_cosh = inverse / first_cos
+        return first_sin * A * inverse, D * over_cosh, C * over_cosh

@@ -40,10 +40,7 @@ def multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     p = np.asarray(p, dtype=float)
     q = np.asarray(q, dtype=float)
     if _single(p, q):
-        px, py, pz, pw = p.tolist()
-        qx, qy, qz, qw = q.tolist()
-        return np.array([pw * qx + px * qw + py * qz - pz * qy, pw * qy - px * qz + py * qw + pz * qx,
-                         pw * qz + px * qy - py * qx + pz * qw, pw * qw - px * qx - py * qy - pz * qz])
+        return np.array(multiply_floats(p.tolist(), q.tolist()))
     px, py, pz, pw = np.moveaxis(p, -1, 0)
     qx, qy, qz, qw = np.moveaxis(q, -1, 0)
     return np.stack(
@@ -55,6 +52,15 @@ def multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
         ],
         axis=-1,
     )
+
+
+def multiply_floats(p, q) -> tuple:
+    """``p ⊗ q`` of two quaternions given as four plain floats each (the same operations as
+    :func:`multiply`), for code that builds constants from a handful of numbers."""
+    px, py, pz, pw = p
+    qx, qy, qz, qw = q
+    return (pw * qx + px * qw + py * qz - pz * qy, pw * qy - px * qz + py * qw + pz * qx,
+            pw * qz + px * qy - py * qx + pz * qw, pw * qw - px * qx - py * qy - pz * qz)
 
 
 def product_matrix(left: np.ndarray, right: np.ndarray) -> np.ndarray:
@@ -86,23 +92,24 @@ def to_matrix(q: np.ndarray) -> np.ndarray:
     )
 
 
-def from_matrix(matrix: np.ndarray) -> np.ndarray:
-    """Unit quaternion of a proper rotation matrix (Shepperd's method, largest pivot), ``w >= 0``."""
-    m = np.asarray(matrix, dtype=float)
-    trace = np.trace(m)
-    pivots = np.array([m[0, 0], m[1, 1], m[2, 2], trace])
-    k = int(np.argmax(pivots))
+def from_matrix(matrix) -> np.ndarray:
+    """Unit quaternion of a proper rotation matrix (Shepperd's method, largest pivot), ``w >= 0``.
+    (Plain floats: one 3x3 matrix, built into constants.)"""
+    m = np.asarray(matrix, dtype=float).tolist()
+    trace = m[0][0] + m[1][1] + m[2][2]
+    pivots = (m[0][0], m[1][1], m[2][2], trace)
+    k = pivots.index(max(pivots))  # the first largest, as argmax
     if k == 3:
-        q = np.array([m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1], 1.0 + trace])
+        q = [m[2][1] - m[1][2], m[0][2] - m[2][0], m[1][0] - m[0][1], 1.0 + trace]
     else:
         i, j, l = k, (k + 1) % 3, (k + 2) % 3
-        q = np.empty(4)
-        q[i] = 1.0 + 2.0 * m[i, i] - trace
-        q[j] = m[j, i] + m[i, j]
-        q[l] = m[l, i] + m[i, l]
-        q[3] = m[l, j] - m[j, l]
-    q /= np.linalg.norm(q)
-    return q if q[3] >= 0 else -q
+        q = [0.0] * 4
+        q[i] = 1.0 + 2.0 * m[i][i] - trace
+        q[j] = m[j][i] + m[i][j]
+        q[l] = m[l][i] + m[i][l]
+        q[3] = m[l][j] - m[j][l]
+    norm = math.hypot(*q) if q[3] >= 0 else -math.hypot(*q)
+    return np.array([v / norm for v in q])
 
 
 def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:

@@ -44,7 +44,7 @@ class RigidBody:
         if array is not None and array.shape == (3, 3):
             tensor = _symmetric_tensor(array, name)
         else:
-            values = finite_vector(inertia, name, (3, 6))
+            values = finite_vector(array if array is not None else inertia, name, (3, 6))
             _check_magnitude(values, name)
             if values.shape[0] == 3:
                 _check_moments(values, name)
@@ -151,6 +151,8 @@ class MotionRegime:
 
 
 def _is_numeric(value) -> bool:
+    if isinstance(value, np.ndarray):
+        return True
     try:
         np.asarray(value, dtype=float)
         return True
@@ -172,19 +174,20 @@ MAX_INERTIA = 1e100  # kg m^2
 
 
 def _check_magnitude(values: np.ndarray, name: str) -> None:
-    if np.max(np.abs(values)) > MAX_INERTIA:
+    if max(map(abs, values.ravel().tolist())) > MAX_INERTIA:
         raise ValueError(f"{name}: entries must lie within ±{MAX_INERTIA:g} kg m^2 so that float64 sums and products "
                          f"of them stay finite; this one overflows (largest {np.max(np.abs(values)):g})")
 
 
 def _check_moments(moments: np.ndarray, name: str) -> None:
-    if np.any(moments <= 0.0):
+    values = moments.tolist()  # plain floats: three numbers, checked on every propagator built
+    if min(values) <= 0.0:
         raise ValueError(
             f"{name}: principal moments must be positive (positive-definite tensor), "
-            f"got {moments.tolist()}"
+            f"got {values}"
         )
-    largest = float(np.max(moments))
-    others = float(np.sum(moments) - largest)
+    largest = max(values)
+    others = values[0] + values[1] + values[2] - largest
     if largest > others * (1.0 + TRIANGLE_RTOL):
         raise ValueError(
             f"{name}: principal moments {moments.tolist()} violate the triangle inequality "

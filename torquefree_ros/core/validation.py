@@ -24,7 +24,7 @@ def finite_vector(value, name: str, lengths: Sequence[int] = (3,)) -> np.ndarray
     if array.ndim != 1 or array.shape[0] not in lengths:
         wanted = " or ".join(str(n) for n in lengths)
         raise ValueError(f"{name}: expected {wanted} numbers, got shape {array.shape}")
-    if not np.all(np.isfinite(array)):
+    if not all(map(math.isfinite, array.tolist())):  # a few numbers: plain floats beat numpy's reductions
         raise ValueError(f"{name}: every entry must be finite, got {array.tolist()}")
     return array
 
@@ -61,12 +61,13 @@ def sample_times(value, name: str = "times") -> np.ndarray:
         times = times.reshape(1)
     if times.ndim != 1:
         raise ValueError(f"{name}: expected a 1-D array, got shape {times.shape}")
-    if not np.all(np.isfinite(times)):
+    if not np.isfinite(times).all():
         raise ValueError(f"{name}: every time must be finite")
     if times.size and times[0] < 0.0:
         raise ValueError(f"{name}: times are seconds since the initial state and must be >= 0")
-    if np.any(np.diff(times) < 0.0):
-        first = int(np.argmax(np.diff(times) < 0.0))
+    decreasing = times[1:] < times[:-1]
+    if decreasing.any():
+        first = int(np.argmax(decreasing))
         raise ValueError(
             f"{name}: must be sorted, but times[{first + 1}] = {float(times[first + 1])!r} "
             f"< times[{first}] = {float(times[first])!r}"

@@ -6,10 +6,12 @@ function of time whose cost per sample does not depend on ``t``.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .. import quaternion
-from ..polhode import PolhodeAttitude, solve_polhode
+from ..polhode import exact_attitude
 from .base import Propagator, register
 
 
@@ -21,18 +23,24 @@ class AnalyticPropagator(Propagator):
 
     def __init__(self, body, angular_velocity, orientation, effects=(), **options):
         super().__init__(body, angular_velocity, orientation, effects, **options)
-        omega0_P = self.body.to_principal(self.omega0_B)
-        self.polhode = solve_polhode(self.body.moments, omega0_P)
-        if self.polhode is None:
-            self._attitude = None
-            return
-        # body -> solver coordinates: omega_S = C omega_B
-        self._attitude = PolhodeAttitude(self.polhode, self.q0_NB, self.polhode.to_solver @ self.body.principal_axes.T)
+        self.polhode, self._attitude = exact_attitude(self.body, self.omega0_B, self.q0_NB)
+
+    def _spin(self, times) -> np.ndarray:
+        """``q0 ⊗ exp(t w / 2) = cos(|w| t / 2) q0 + sin(|w| t / 2) q0 ⊗ (w / |w|, 0)`` for a constant ``w``."""
+        speed = math.hypot(*self.omega0_B.tolist())
+        if speed == 0.0:
+            q = np.empty((times.size, 4))
+            q[:] = self.q0_NB
+            return q
+        axis = [v / speed for v in self.omega0_B.tolist()]
+        turned = np.array(quaternion.multiply_floats(self.q0_NB.tolist(), (*axis, 0.0)))
+        half = (0.5 * speed) * times
+        return np.cos(half)[:, None] * self.q0_NB + np.sin(half)[:, None] * turned
 
     def _evaluate(self, times):
         if self._attitude is None:  # stationary: constant rate, rotation about a fixed axis
-            omega = np.broadcast_to(self.omega0_B, (times.size, 3)).copy()
-            q = quaternion.multiply(self.q0_NB, quaternion.exp_rotation(times[:, None] * self.omega0_B))
-            return omega, q, np.empty((times.size, 0))
+            omega = np.empty((times.size, 3))
+            omega[:] = self.omega0_B
+            return omega, self._spin(times), np.empty((times.size, 0))
         omega, q = self._attitude(times)
         return omega, q, np.empty((times.size, 0))

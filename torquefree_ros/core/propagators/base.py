@@ -5,6 +5,7 @@ of times since that state."""
 from __future__ import annotations
 
 import abc
+import math
 from typing import ClassVar
 
 import numpy as np
@@ -50,8 +51,16 @@ class Propagator(abc.ABC):
             raise ValueError(f"propagator: '{self.name}' is the exact torque-free solution; the scene's effects "
                              f"({names}) need a numerical propagator ('auto' picks one)")
         self.settings = {**self.options, **options}
-        self.dynamics = Dynamics(self.body, [effect.bound(self.body.tensor) for effect in effects])
-        self.x0 = self.dynamics.initial_state(self.omega0_B)
+        # Without effects (the exact solution's only case) the equations of motion are built when
+        # first asked for: a propagator is built on every reset and for every body of a batch.
+        self._dynamics = Dynamics(self.body, [effect.bound(self.body.tensor) for effect in effects]) if effects else None
+        self.x0 = self._dynamics.initial_state(self.omega0_B) if effects else _NO_EFFECT_STATE
+
+    @property
+    def dynamics(self) -> Dynamics:
+        if self._dynamics is None:
+            self._dynamics = Dynamics(self.body)
+        return self._dynamics
 
     @property
     def effects(self) -> tuple:
@@ -115,12 +124,18 @@ class StepBudgetExceeded(RuntimeError):
             "sample rate, or relax the accuracy (a longer step, looser tolerances)")
 
 
+_NO_EFFECT_STATE = np.empty(0)
+_NO_EFFECT_STATE.flags.writeable = False
+
+
 def _check_representable(body: RigidBody, omega_B: np.ndarray) -> None:
-    # The solvers form products like I_max * |H|^2; they must stay finite in float64.
-    with np.errstate(over="ignore", invalid="ignore"):
-        momentum_squared = float(np.sum(body.angular_momentum(omega_B) ** 2))
-        scale = np.float64(momentum_squared) * np.max(body.moments) ** 2  # float64: inf, not OverflowError
-    if not np.isfinite(scale):
+    # The solvers form products like I_max * |H|^2; they must stay finite in float64. (Plain floats,
+    # which overflow to inf in products; every propagator built runs this.)
+    w = omega_B.tolist()
+    h = [row[0] * w[0] + row[1] * w[1] + row[2] * w[2] for row in body.tensor.tolist()]  # overflow gives inf
+    largest = max(body.moments.tolist())
+    scale = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]) * largest * largest
+    if not math.isfinite(scale):
         raise ValueError(
             f"angular_velocity: the state {omega_B.tolist()} with moments {body.moments.tolist()} "
             "overflows float64 (|H|^2 * I_max^2 is not finite)"

@@ -1,0 +1,141 @@
+#!/usr/bin/env python3
+"""Benchmark of the exact propagator's cost (a script, not a test): prints what it measured and the machine.
+
+On every hard case of ``torquefree_ros/bench/hard_cases.json``, side by side in the same process:
+
+- per sample in a block of 10 000, against one ``scipy.special.ellipj`` call per element (the same
+  count, at the case's parameter): the ratio says what the exact solution costs beyond the cheapest
+  elliptic function evaluation there is;
+- per sample in a block of 256 (the node's block) over that of a block of 10 000: the fixed cost of
+  one call;
+- building the propagator (``make_propagator``: checks, frame, constants).
+
+Then ``propagate_batch`` for 1 000 dispersed bodies x 100 samples, per body-sample, against one body's
+stream of 100 000 samples and against the loop of ``propagate`` calls a user would write.
+
+Each timing is the fastest of several calls (the least disturbed by a shared machine); a round
+measures everything once, and ``--rounds`` rounds give median (min–max).
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from bench_report import Report, spread  # noqa: E402
+
+BLOCK, SMALL_BLOCK = 10_000, 256
+BODIES, BODY_SAMPLES = 1_000, 100
+
+
+def _fastest(function, calls: int) -> float:
+    best = float("inf")
+    for _ in range(calls):
+        started = time.perf_counter()
+        function()
+        best = min(best, time.perf_counter() - started)
+    return best
+
+
+def _case_round(case, calls: int) -> dict:
+    import numpy as np
+    from scipy.special import ellipj
+
+    from torquefree_ros.core.propagators import make_propagator
+
+    propagator = make_propagator(case.inertia, case.angular_velocity, case.orientation)
+    polhode = propagator.polhode
+    times = np.linspace(0.0, case.horizon, BLOCK)
+    small = times[:SMALL_BLOCK] + 0.5 * case.horizon  # away from t = 0, as later blocks are
+    m = 1.0 - polhode.jacobi.mc if polhode is not None else 0.5
+    u = times * (polhode.rate if polhode is not None else 1.0)
+    per_sample = _fastest(lambda: propagator(times), calls) / BLOCK
+    return {
+        "sample_ns": per_sample * 1e9,
+        "ellipj_ratio": per_sample / (_fastest(lambda: ellipj(u, m), calls) / BLOCK),
+        "small_block_ratio": _fastest(lambda: propagator(small), 10 * calls) / SMALL_BLOCK / per_sample,
+        "build_us": _fastest(lambda: make_propagator(case.inertia, case.angular_velocity, case.orientation),
+                             20 * calls) * 1e6,
+    }
+
+
+def _batch_round(calls: int) -> dict:
+    import numpy as np
+
+    from torquefree_ros import propagate, propagate_batch
+
+    rng = np.random.default_rng(0)
+    inertia = [2.0, 3.0, 4.0] * (1.0 + 0.01 * rng.standard_normal((BODIES, 3)))
+    omega0 = [0.7, 0.5, 0.6] + 0.01 * rng.standard_normal((BODIES, 3))
+    orientation = np.tile([0.0, 0.0, 0.0, 1.0], (BODIES, 1))
+    times = np.linspace(0.0, 30.0, BODY_SAMPLES)
+    stream = np.linspace(0.0, 30.0 * BODIES, BODIES * BODY_SAMPLES)
+    batch = _fastest(lambda: propagate_batch(inertia, omega0, orientation, times), calls)
+    one = _fastest(lambda: propagate(inertia[0], omega0[0], orientation[0], stream), calls)
+    loop = _fastest(lambda: [propagate(inertia[i], omega0[i], orientation[i], times) for i in range(BODIES)], calls)
+    samples = BODIES * BODY_SAMPLES
+    return {"batch_ns": batch / samples * 1e9, "stream_ns": one / samples * 1e9, "loop_ns": loop / samples * 1e9,
+            "batch_ratio": batch / one, "loop_ratio": loop / one}
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--rounds", type=int, default=3, help="rounds of every measurement (default 3)")
+    parser.add_argument("--calls", type=int, default=5, help="calls per timing, the fastest kept (default 5)")
+    parser.add_argument("--output", help="also write the report to this Markdown file")
+    args = parser.parse_args()
+
+    from torquefree_ros.bench.cases import REFERENCE_FILE, load_cases
+    import json
+
+    names = [case["name"] for case in json.loads(REFERENCE_FILE.read_text())["cases"]]
+    cases = load_cases(names)
+    started = time.monotonic()
+    rounds = {case.name: [] for case in cases}
+    batch = []
+    for _ in range(args.rounds):
+        for case in cases:
+            rounds[case.name].append(_case_round(case, args.calls))
+        batch.append(_batch_round(max(2, args.calls // 2)))
+
+    report = Report("The exact propagator's cost", "make bench-exact")
+    report.add(f"{args.rounds} rounds in {time.monotonic() - started:.0f} s; each figure is median (min–max) "
+               "over the rounds of the fastest of several calls.")
+    report.add("")
+    report.add(f"Per sample in a block of {BLOCK:,} and beside one `scipy.special.ellipj` call per element (same "
+               f"count, the case's parameter); a block of {SMALL_BLOCK} per sample over a block of {BLOCK:,}; "
+               "building the propagator:")
+    report.add("")
+    report.add(f"| case | ns per sample | / ellipj | block {SMALL_BLOCK} / block {BLOCK:,} | build (µs) |")
+    report.add("|---|---|---|---|---|")
+    for name, values in rounds.items():
+        report.add(f"| {name} | " + " | ".join(spread([v[key] for v in values]) for key in
+                                              ("sample_ns", "ellipj_ratio", "small_block_ratio", "build_us")) + " |")
+    report.add("")
+    every = [v for values in rounds.values() for v in values]
+    for key, label in (("ellipj_ratio", "per sample / ellipj"), ("small_block_ratio", f"block {SMALL_BLOCK} / block {BLOCK:,}"),
+                       ("build_us", "build (µs)")):
+        medians = [statistics.median(v[key] for v in values) for values in rounds.values()]
+        report.add(f"- {label}: {min(medians):.3g} … {max(medians):.3g} over the cases (medians); "
+                   f"all rounds {min(v[key] for v in every):.3g} … {max(v[key] for v in every):.3g}")
+    report.add("")
+    report.add(f"`propagate_batch`, {BODIES:,} dispersed bodies (inertia 2, 3, 4 kg m², ω0 0.7, 0.5, 0.6 rad/s, 1 % spread) x {BODY_SAMPLES} samples, "
+               f"beside one body's stream of {BODIES * BODY_SAMPLES:,} samples and the loop of `propagate` calls:")
+    report.add("")
+    report.add("| | ns per body-sample | / one stream |")
+    report.add("|---|---|---|")
+    report.add(f"| propagate_batch | {spread([b['batch_ns'] for b in batch])} | {spread([b['batch_ratio'] for b in batch])} |")
+    report.add(f"| loop of propagate | {spread([b['loop_ns'] for b in batch])} | {spread([b['loop_ratio'] for b in batch])} |")
+    report.add(f"| one stream | {spread([b['stream_ns'] for b in batch])} | 1 |")
+    report.save(args.output)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
