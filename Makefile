@@ -7,7 +7,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 PIP := $(PY) -m pip --disable-pip-version-check
 
-.PHONY: run test lock reference bench bench-node bench-bag bench-bag-day bench-lockstep clean
+.PHONY: run test lock reference bench bench-exact bench-node bench-bag bench-bag-day bench-lockstep clean
 
 $(VENV)/.installed: requirements.txt requirements-test.txt requirements.lock setup.py
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -40,6 +40,10 @@ reference: $(VENV)/.installed
 # the work-precision report: docs/bench/{work_precision.csv,work_precision.png,results.md}
 bench: $(VENV)/.installed
 	$(VENV)/bin/torquefree_bench --output-dir docs/bench
+
+# the exact propagator's cost per sample (beside scipy's ellipj), per block, to build; propagate_batch
+bench-exact: $(VENV)/.installed
+	$(PY) tools/bench_exact.py --output docs/bench/exact.md
 
 bench-node: $(VENV)/.installed
 	$(PY) tools/bench_node.py --output docs/bench/node.md

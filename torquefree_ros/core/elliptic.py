@@ -33,13 +33,26 @@ from scipy.special import elliprf, elliprj
 
 @dataclass(frozen=True)
 class JacobiValues:
-    """``sn, cn, dn``, the amplitude ``am`` and ``S = ∫_0^u sn^2/(1 - n sn^2)`` (both continuous)."""
+    """``sn, cn, dn`` and ``S = ∫_0^u sn^2/(1 - n sn^2)`` at ``u``; ``u = r + 2K j`` with ``r`` in
+    ``[-K, K]`` (where ``cn >= 0``) and ``j`` the ``half_periods``, kept for continuous angles."""
 
     sn: np.ndarray
     cn: np.ndarray
     dn: np.ndarray
-    am: np.ndarray
     sn2_integral: np.ndarray
+    reduced_sn: np.ndarray  # sn(r) = (-1)^j sn(u)
+    reduced_cn: np.ndarray  # cn(r) >= 0
+    half_periods: np.ndarray
+
+    @property
+    def am(self) -> np.ndarray:
+        """The amplitude, continuous: ``am(r) + pi j``."""
+        return self.angle(1.0, 1.0)
+
+    def angle(self, a, b) -> np.ndarray:
+        """The continuous angle of ``(a cn, b sn)`` (``a, b > 0``) from the angle 0 at ``u = 0``:
+        ``atan2(b sn(r), a cn(r)) + pi j`` (``a = b = 1``: the amplitude)."""
+        return np.arctan2(b * self.reduced_sn, a * self.reduced_cn) + np.pi * self.half_periods
 
 
 class JacobiElliptic:
@@ -68,6 +81,9 @@ class JacobiElliptic:
     # -- public ---------------------------------------------------------------------------------
     def __call__(self, u) -> JacobiValues:
         u = np.asarray(u, dtype=float)
+        if u.ndim == 0:  # one argument: the values as scalars
+            values = self(u.reshape(1))
+            return JacobiValues(*(np.asarray(getattr(values, name))[..., 0] for name in JacobiValues.__dataclass_fields__))
         if self.mc == 0.0:
             return self._separatrix(u)
         return self._periodic(u)
@@ -93,21 +109,24 @@ class JacobiElliptic:
     def _periodic(self, u: np.ndarray) -> JacobiValues:
         half_periods = np.round(u / (2.0 * self.quarter_period))
         r = u - (2.0 * self.quarter_period) * half_periods  # in [-K, K]
-        s, c, d, am, integral = self._quarter(np.abs(r))
+        s, c, d, integral = self._quarter(np.abs(r))
+        s = np.copysign(s, r)
         parity = 1.0 - 2.0 * np.mod(half_periods, 2.0)  # (-1)^j
         return JacobiValues(
-            sn=parity * np.copysign(s, r),
+            sn=parity * s,
             cn=parity * c,
             dn=d,
-            am=np.copysign(am, r) + np.pi * half_periods,
             sn2_integral=np.copysign(integral, r) + (2.0 * self.sn2_integral_quarter) * half_periods,
+            reduced_sn=s,
+            reduced_cn=c,
+            half_periods=half_periods,
         )
 
     def values_at(self, sn: float, cn: float, dn: float) -> JacobiValues:
         """The values at the ``u`` in ``[-K, K]`` where the functions are ``sn``, ``cn >= 0``, ``dn``
         (scalars): ``am`` and ``S`` from them directly, without finding ``u``."""
-        return JacobiValues(sn=sn, cn=cn, dn=dn, am=math.atan2(sn, cn),
-                            sn2_integral=float(sn2_integral_from_values(sn, cn, dn, self.n)))
+        return JacobiValues(sn=sn, cn=cn, dn=dn, sn2_integral=float(sn2_integral_from_values(sn, cn, dn, self.n)),
+                            reduced_sn=sn, reduced_cn=cn, half_periods=0.0)
 
     def incomplete_first_kind(self, sn, cn, dn) -> np.ndarray:
         """``u = F(am|m)`` in ``[-K, K]`` from ``sn``, ``cn >= 0``, ``dn`` (inverse of ``__call__``)."""
@@ -120,7 +139,7 @@ class JacobiElliptic:
         return self._theta(u)
 
     def _quarter(self, r: np.ndarray):
-        """``sn, cn, dn, am, S`` for ``0 <= r <= K``."""
+        """``sn, cn, dn, S`` for ``0 <= r <= K``."""
         K, mc, n, kp = self.quarter_period, self.mc, self.n, self.k_prime
         first = r <= 0.5 * K
         # First half directly; second half through v = K - r (both evaluated on [0, K/2]).
@@ -131,7 +150,6 @@ class JacobiElliptic:
         s = np.where(first, s1, c1 * inverse_d1)
         c = np.where(first, c1, (kp * s1) * inverse_d1)
         d = np.where(first, d1, kp * inverse_d1)
-        am = np.arctan2(s, c)
         # S on the first half: (1/3) sn^3 R_J(cn^2, dn^2, 1, 1 - n sn^2).
         # On the second half, with v = K - r: sn^2(K - v) / (1 - n sn^2(K - v)) equals
         # (1 - sn^2 v) / ((1 - n)(1 - n' sn^2 v)) for n' = (m - n)/(1 - n), so
@@ -141,7 +159,7 @@ class JacobiElliptic:
         p = np.where(first, 1.0 - n * s1s, c1s + shifted * s1s)
         rj = elliprj(c1s, d1s, 1.0, p) * (s1 * s1s) * (1.0 / 3.0)
         integral_second = (self.sn2_integral_quarter - w / (1.0 - n)) + (shifted / (1.0 - n)) * rj
-        return s, c, d, am, np.where(first, rj, integral_second)
+        return s, c, d, np.where(first, rj, integral_second)
 
     def _separatrix(self, u: np.ndarray) -> JacobiValues:
         """``m = 1``: ``sn = tanh``, ``cn = dn = sech``, ``am = gd``, and in closed form
@@ -159,7 +177,8 @@ class JacobiElliptic:
         with np.errstate(under="ignore"):
             carlson = tanh**3 * elliprj(c2, c2, 1.0, 1.0 - self.n * tanh * tanh) / 3.0  # inf once sech^2 underflows
         s = np.where(a < 1.0, carlson, (u - bounded) / (1.0 - self.n))
-        return JacobiValues(sn=tanh, cn=sech, dn=sech.copy(), am=np.arctan2(tanh, sech), sn2_integral=s)
+        return JacobiValues(sn=tanh, cn=sech, dn=sech.copy(), sn2_integral=s, reduced_sn=tanh, reduced_cn=sech,
+                            half_periods=np.zeros_like(u))
 
 
 def _exp_each(x: np.ndarray) -> np.ndarray:
@@ -242,8 +261,10 @@ class _ThetaSeries:
             factors = (t3 / t2, t4 / t2, t4 / t3, 1.0)
         else:  # sn = tanh A/B, cn = D/(B cosh), dn = C/(B cosh)
             factors = (t3 / t4, 1.0, t2 / t3, t2 / t4)
-        self.cubics = tuple(tuple(factor * coefficient for coefficient in cubic)
-                            for factor, cubic in zip(factors, (a, b, c, d)))
+        # coefficient k of the four cubics, stacked on a leading axis (one Horner pass for all four)
+        # coefficient k of the four cubics stacked, (4, 1) or (4, N, 1): one Horner pass for all four
+        coefficients = np.array([[factor * cubic[k] for factor, cubic in zip(factors, (a, b, c, d))] for k in range(4)])
+        self.cubics = tuple(coefficients[:, :, None] if coefficients.ndim == 2 else coefficients)
 
     def __call__(self, u):
         with np.errstate(under="ignore"):  # far terms of a tiny nome: their true value is below rounding
@@ -257,7 +278,8 @@ class _ThetaSeries:
             first_cos = np.cosh(x)
             first_sin = np.tanh(x)
             c = 2.0 * (first_cos * first_cos) - 1.0  # cosh 2y (>= 1: no cancellation)
-        A, B, C, D = (((k3 * c + k2) * c + k1) * c + k0 for k0, k1, k2, k3 in self.cubics)
+        k0, k1, k2, k3 = self.cubics
+        A, B, C, D = ((k3 * c + k2) * c + k1) * c + k0
         if self.trigonometric:
             inverse = 1.0 / D
             return first_sin * A * inverse, first_cos * B * inverse, C * inverse

@@ -19,8 +19,9 @@ Attitude: ``R_NS(t) = P Rz(psi(t)) Q(m(t))`` where ``Q(m)`` is the shortest-arc 
 ``n = -J3 (J2-J1) / (J1 (J3-J2)) <= 0``. Its two terms cancel for a thin rod (``J3 << J1``), so it is
 used as ``psi_e' = |m|/J1 + |m|(J3-J1) n/(J1 J3) sn^2/(1 - n sn^2)``, integrated exactly by
 :class:`JacobiElliptic`'s ``S``;
-the shortest-arc frame differs from it by the angle of ``(m1, m2)``, which is ``am(u)`` plus a
-bounded periodic term, so the quaternion stays continuous over any number of periods.
+the shortest-arc frame differs from it by the angle of ``(m1, m2) = (A cn, ±B sn)``, taken
+continuously (``atan2(B sn(r), A cn(r)) + pi j`` for ``u = r + 2K j``, ``|r| <= K``), so the
+quaternion stays continuous over any number of periods.
 """
 
 from __future__ import annotations
@@ -107,16 +108,12 @@ class PolhodeAttitude:
         self._psi_integral_gain = c.psi_integral_gain
         self._psi_offset = c.psi_offset
 
-    def _angle_terms(self, v):
-        """Continuous angle of ``(m1, m2)``: ``sign(J3-J2) (am + atan2((B-A) sn cn, A cn^2 + B sn^2))``."""
-        A, B = self._lever
-        wobble = np.arctan2((B - A) * (v.sn * v.cn), A * (v.cn * v.cn) + B * (v.sn * v.sn))
-        return self._direction * (v.am + wobble)
-
     def __call__(self, t: np.ndarray):
         v = self.jacobi(self._rate * t + self._initial_phase)
         omega_F = _combine((v.cn, v.sn, v.dn), self._rate_matrix)
-        psi = self._psi_rate * t + self._psi_integral_gain * v.sn2_integral - self._angle_terms(v) + self._psi_offset
+        # the angle of (m1, m2) is sign(J3 - J2) times the continuous angle of (A cn, B sn)
+        angle = self._direction * v.angle(*self._lever)
+        psi = self._psi_rate * t + self._psi_integral_gain * v.sn2_integral - angle + self._psi_offset
         half = 0.5 * psi
         m_amp = self._momentum_amplitudes
         m0, m1 = m_amp[0] * v.cn, m_amp[1] * v.sn

@@ -156,12 +156,11 @@ class AttitudeConstants(NamedTuple):
     columns; the 3x3 and 4x4 matrices as nested tuples of them)."""
 
     initial_phase: Any  # u0
-    initial_values: tuple  # sn, cn, dn, am, S at u0
     momentum: Any  # |m|
     rate_matrix: tuple  # omega_F = (cn, sn, dn) @ this
     momentum_amplitudes: tuple  # m = (cn, sn, dn) * these
     direction: Any  # sign(J3 - J2)
-    lever: tuple  # A, B of the wobble term
+    lever: tuple  # A, B: the angle of (m1, m2) is that of (A cn, B sn) times sign(J3 - J2)
     psi_rate: Any
     psi_integral_gain: Any
     psi_offset: Any
@@ -177,16 +176,14 @@ def attitude_constants(ops, frame: SolverFrame, solver_from_frame, q_NF0) -> Att
     ws = frame.rates
     # the functions at u0, from the initial rate itself: sn0 = w2/b, cn0 = w1/a, dn0 = w3/c
     sn0, cn0, dn0 = ops.clip(ws[1] / b, -1.0, 1.0), ws[0] / a, ws[2] / c
-    s2, c2 = sn0 * sn0, cn0 * cn0
     sn2_integral0 = sn2_integral_from_values(sn0, cn0, dn0, n, ops.elliprj)
-    am0 = ops.atan2(sn0, cn0)
     amplitudes = (J1 * a, J2 * b, J3 * c)
     momentum = ops.hypot(J1 * ws[0], J2 * ws[1], J3 * ws[2])
     direction = ops.copysign(1.0, b)
     A, B = amplitudes[0], ops.copysign(amplitudes[1], 1.0)
     rate = frame.rate
     gain = momentum * (J3 - J1) * n / (J1 * J3 * rate)
-    wobble0 = ops.atan2((B - A) * (sn0 * cn0), A * c2 + B * s2)
+    angle0 = ops.atan2(B * sn0, A * cn0)  # of (m1, m2) times sign(J3 - J2); cn0 >= 0
     m0 = (amplitudes[0] * cn0, amplitudes[1] * sn0, amplitudes[2] * dn0)
     arc_w = momentum + m0[2]
     arc_norm = ops.hypot(m0[1], m0[0], arc_w)
@@ -195,7 +192,6 @@ def attitude_constants(ops, frame: SolverFrame, solver_from_frame, q_NF0) -> Att
     left = _multiply(q_NS0, (-m0[1] / arc_norm, m0[0] / arc_norm, -0.0, arc_w / arc_norm))  # conj(Q(m0))
     return AttitudeConstants(
         initial_phase=first_kind_from_values(sn0, cn0, dn0, ops.elliprf),
-        initial_values=(sn0, cn0, dn0, am0, sn2_integral0),
         momentum=momentum,
         rate_matrix=tuple(tuple(amplitude * x for x in row) for amplitude, row in zip((a, b, c), solver_from_frame)),
         momentum_amplitudes=amplitudes,
@@ -203,7 +199,7 @@ def attitude_constants(ops, frame: SolverFrame, solver_from_frame, q_NF0) -> Att
         lever=(A, B),
         psi_rate=momentum / J1,
         psi_integral_gain=gain,
-        psi_offset=direction * (am0 + wobble0) - gain * sn2_integral0,
+        psi_offset=direction * angle0 - gain * sn2_integral0,
         frame_change=_transpose(_product_matrix(left, q_SF)),
     )
 
