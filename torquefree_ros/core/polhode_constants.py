@@ -3,8 +3,9 @@ floats: every reset builds one) or for many at once (numpy columns: ``propagate_
 
 Both run the same IEEE operations in the same order: ``+ - * /`` and ``sqrt`` are correctly rounded
 in Python and numpy alike, ``copysign``, ``min``/``max`` and selections are exact, scipy's Carlson
-integrals are one C function per element, and ``atan2`` and ``hypot`` are Python's ``math`` functions for both
-(numpy may vectorise its own). So a body of a batch is bit for bit the body built alone. See :mod:`.polhode` for the equations.
+integrals are one C function per element, and ``atan2`` and ``hypot`` are Python's ``math`` functions
+for both (numpy may vectorise its own). So a body of a batch is bit for bit the body built alone.
+See :mod:`.polhode` for the equations.
 """
 
 from __future__ import annotations
