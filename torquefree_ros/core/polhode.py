@@ -26,7 +26,6 @@ quaternion stays continuous over any number of periods.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
