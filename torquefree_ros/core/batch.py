@@ -16,10 +16,10 @@ import numpy as np
 
 from .elliptic import JacobiElliptic
 from .polhode import PolhodeAttitude
-from .polhode_constants import (COLUMNS, attitude_constants, is_stationary, solver_frame, solver_from_body,
-                                to_principal)
+from .ops import COLUMNS
+from .polhode_constants import attitude_constants, is_stationary, solver_frame, solver_from_body, to_principal
 from .propagators import make_propagator
-from .rigid_body import RigidBody
+from .rigid_body import MAX_INERTIA, TRIANGLE_RTOL, RigidBody
 from .validation import sample_times, unit_quaternion
 
 GROUP_ELEMENTS = 1 << 17  # bodies x times evaluated in one stacked call (~100 arrays of this size)
@@ -92,7 +92,8 @@ def _exact_together(inertia, angular_velocity, orientation, times, omega, q) -> 
 
 def _bodies(inertia, angular_velocity):
     """Principal moments ``(N, 3)`` and principal axes (rows of columns over bodies), as
-    :class:`RigidBody` gives them body by body; ``None`` if some body would be refused."""
+    :class:`RigidBody` gives them body by body; ``None`` if some body would be refused (the checks of
+    :class:`RigidBody` and of the propagators' representable state, on all bodies at once)."""
     with np.errstate(over="ignore", invalid="ignore"):
         finite = np.all(np.isfinite(inertia), axis=1) & np.all(np.isfinite(angular_velocity), axis=1)
         if not np.all(finite):
@@ -109,8 +110,8 @@ def _bodies(inertia, angular_velocity):
         else:
             moments, axes_rows = inertia, _IDENTITY_ROWS
             largest = moments.max(axis=1)
-            if not (np.all(np.abs(moments) <= 1e100) and np.all(moments > 0.0)
-                    and np.all(largest <= (moments.sum(axis=1) - largest) * (1.0 + 1e-9))):
+            if not (np.all(np.abs(moments) <= MAX_INERTIA) and np.all(moments > 0.0)
+                    and np.all(largest <= (moments.sum(axis=1) - largest) * (1.0 + TRIANGLE_RTOL))):
                 return None
             tensors = moments[:, :, None] * np.eye(3)
         h = np.einsum("nij,nj->ni", tensors, angular_velocity)  # the representability check, |H|^2 I_max^2 finite

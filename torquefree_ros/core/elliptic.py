@@ -30,6 +30,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import elliprf, elliprj
 
+from .ops import COLUMNS, FLOATS
+
 
 @dataclass(frozen=True)
 class JacobiValues:
@@ -72,8 +74,8 @@ class JacobiElliptic:
         self.k_prime = math.sqrt(self.mc)
         if self.mc > 0.0:
             self.quarter_period, self.sn2_integral_quarter = (float(v) for v in _quarter_period_values(self.mc, self.n))
-            self._theta = _ThetaSeries(self.mc, self.quarter_period, float(elliprf(0.0, 1.0 - self.mc, 1.0)),
-                                       self.mc >= self.TRIGONOMETRIC_MC)
+            self._theta = _ThetaSeries(self.quarter_period, float(elliprf(0.0, 1.0 - self.mc, 1.0)),
+                                       self.mc >= self.TRIGONOMETRIC_MC, FLOATS)
         else:
             self.quarter_period = np.inf
             self.sn2_integral_quarter = np.inf
@@ -102,8 +104,7 @@ class JacobiElliptic:
         stacked = object.__new__(_Stacked)
         stacked.mc, stacked.n, stacked.k_prime = mc, n, np.sqrt(mc)
         stacked.quarter_period, stacked.sn2_integral_quarter = _quarter_period_values(mc, n)
-        stacked._theta = _ThetaSeries(mc, stacked.quarter_period, elliprf(0.0, 1.0 - mc, 1.0), trigonometric,
-                                      exp=_exp_each)
+        stacked._theta = _ThetaSeries(stacked.quarter_period, elliprf(0.0, 1.0 - mc, 1.0), trigonometric, COLUMNS)
         return stacked
 
     def _periodic(self, u: np.ndarray) -> JacobiValues:
@@ -181,11 +182,6 @@ class JacobiElliptic:
                             half_periods=np.zeros_like(u))
 
 
-def _exp_each(x: np.ndarray) -> np.ndarray:
-    """``math.exp`` of each element: the very value one parameter gets (numpy may vectorise its own)."""
-    return np.array([math.exp(v) for v in x.ravel().tolist()]).reshape(x.shape)
-
-
 def _quarter_period_values(mc, n):
     """``K`` and ``S(K)`` (floats or arrays, ``mc > 0``)."""
     return elliprf(0.0, mc, 1.0), elliprj(0.0, mc, 1.0, 1.0 - n) / 3.0
@@ -242,11 +238,11 @@ class _ThetaSeries:
     Works on one parameter (floats) or on columns of parameters of one kind (``trigonometric`` the
     same for every column)."""
 
-    def __init__(self, mc, K, K_complementary, trigonometric: bool, exp=math.exp):
+    def __init__(self, K, K_complementary, trigonometric: bool, ops):
         self.trigonometric = trigonometric
         ratio = K_complementary / K if trigonometric else K / K_complementary
         self.scale = (0.5 * math.pi) / (K if trigonometric else K_complementary)  # u -> z or y
-        q = exp(-math.pi * ratio)
+        q = ops.exp(-math.pi * ratio)  # the same value for one parameter and for columns
         q2 = q * q
         q4 = q2 * q2
         q6, q9, q12 = q4 * q2, q4 * q4 * q, q4 * q4 * q4
@@ -261,7 +257,6 @@ class _ThetaSeries:
             factors = (t3 / t2, t4 / t2, t4 / t3, 1.0)
         else:  # sn = tanh A/B, cn = D/(B cosh), dn = C/(B cosh)
             factors = (t3 / t4, 1.0, t2 / t3, t2 / t4)
-        # coefficient k of the four cubics, stacked on a leading axis (one Horner pass for all four)
         # coefficient k of the four cubics stacked, (4, 1) or (4, N, 1): one Horner pass for all four
         coefficients = np.array([[factor * cubic[k] for factor, cubic in zip(factors, (a, b, c, d))] for k in range(4)])
         self.cubics = tuple(coefficients[:, :, None] if coefficients.ndim == 2 else coefficients)

@@ -31,8 +31,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .elliptic import JacobiElliptic
-from .polhode_constants import (FLOATS, AttitudeConstants, SolverFrame, attitude_constants, is_stationary,
-                                solver_frame, solver_from_body, to_principal)
+from .ops import FLOATS
+from .polhode_constants import (AttitudeConstants, SolverFrame, attitude_constants, is_stationary, solver_frame,
+                                solver_from_body, to_principal)
 from .rigid_body import EQUAL_MOMENTS_RTOL, MotionRegime, RigidBody
 
 

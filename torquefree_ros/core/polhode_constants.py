@@ -1,101 +1,17 @@
 """The exact solution's constants from an initial state, by one set of formulas for one body (plain
 floats: every reset builds one) or for many at once (numpy columns: ``propagate_batch``).
 
-Both run the same IEEE operations in the same order: ``+ - * /`` and ``sqrt`` are correctly rounded
-in Python and numpy alike, ``copysign``, ``min``/``max`` and selections are exact, scipy's Carlson
-integrals are one C function per element, and ``atan2`` and ``hypot`` are Python's ``math`` functions
-for both (numpy may vectorise its own). So a body of a batch is bit for bit the body built alone.
+Every function takes the arithmetic it runs on (:data:`.ops.FLOATS` or :data:`.ops.COLUMNS`), which
+does the same IEEE operations either way: a body of a batch is bit for bit the body built alone.
 See :mod:`.polhode` for the equations.
 """
 
 from __future__ import annotations
 
-import math
-import operator
 from typing import Any, NamedTuple
 
-import numpy as np
-from scipy.special import elliprf, elliprj
-
+from . import quaternion
 from .elliptic import first_kind_from_values, sn2_integral_from_values
-
-
-class _Floats:
-    """Operations on one body: plain Python floats."""
-
-    sqrt = staticmethod(math.sqrt)
-    copysign = staticmethod(math.copysign)
-    atan2 = staticmethod(math.atan2)
-
-    @staticmethod
-    def where(condition, if_true, if_false):
-        return if_true if condition else if_false
-
-    @staticmethod
-    def clip(value, low: float, high: float):
-        return min(max(value, low), high)
-
-    pick = staticmethod(operator.getitem)  # pick(values, index)
-    choose = staticmethod(operator.getitem)  # choose(tuples, index): one of several tuples
-    hypot = staticmethod(math.hypot)
-
-    @staticmethod
-    def order(values):
-        return sorted(range(3), key=values.__getitem__)  # stable
-
-    @staticmethod
-    def first_largest(values):
-        return values.index(max(values))
-
-    @staticmethod
-    def elliprf(x, y, z):
-        return float(elliprf(x, y, z))
-
-    @staticmethod
-    def elliprj(x, y, z, p):
-        return float(elliprj(x, y, z, p))
-
-
-class _Columns:
-    """Operations on many bodies: each value a numpy array over bodies."""
-
-    sqrt = staticmethod(np.sqrt)
-    copysign = staticmethod(np.copysign)
-    where = staticmethod(np.where)
-    elliprf = staticmethod(elliprf)
-    elliprj = staticmethod(elliprj)
-
-    @staticmethod
-    def atan2(y, x):
-        return np.array([math.atan2(a, b) for a, b in zip(y.tolist(), x.tolist())])
-
-    @staticmethod
-    def clip(value, low: float, high: float):
-        return np.minimum(np.maximum(value, low), high)
-
-    @staticmethod
-    def pick(values, index):
-        return np.choose(index, values)
-
-    @staticmethod
-    def choose(tuples, index):
-        return tuple(np.choose(index, values) for values in zip(*tuples))
-
-    @staticmethod
-    def hypot(*values):
-        return np.array([math.hypot(*v) for v in zip(*(value.tolist() for value in values))])
-
-    @staticmethod
-    def order(values):
-        return tuple(np.argsort(np.stack(values, axis=-1), axis=-1, kind="stable").T)
-
-    @staticmethod
-    def first_largest(values):
-        return np.argmax(np.stack(values), axis=0)
-
-
-FLOATS = _Floats()
-COLUMNS = _Columns()
 
 
 class SolverFrame(NamedTuple):
@@ -188,9 +104,9 @@ def attitude_constants(ops, frame: SolverFrame, solver_from_frame, q_NF0) -> Att
     m0 = (amplitudes[0] * cn0, amplitudes[1] * sn0, amplitudes[2] * dn0)
     arc_w = momentum + m0[2]
     arc_norm = ops.hypot(m0[1], m0[0], arc_w)
-    q_SF = _matrix_quaternion(ops, solver_from_frame)
-    q_NS0 = _multiply(q_NF0, _conjugate(q_SF))
-    left = _multiply(q_NS0, (-m0[1] / arc_norm, m0[0] / arc_norm, -0.0, arc_w / arc_norm))  # conj(Q(m0))
+    q_SF = quaternion.matrix_quaternion(solver_from_frame, ops)
+    q_NS0 = quaternion.multiply_values(q_NF0, quaternion.conjugate_values(q_SF))
+    left = quaternion.multiply_values(q_NS0, (-m0[1] / arc_norm, m0[0] / arc_norm, -0.0, arc_w / arc_norm))  # conj(Q(m0))
     return AttitudeConstants(
         initial_phase=first_kind_from_values(sn0, cn0, dn0, ops.elliprf),
         momentum=momentum,
@@ -201,7 +117,7 @@ def attitude_constants(ops, frame: SolverFrame, solver_from_frame, q_NF0) -> Att
         psi_rate=momentum / J1,
         psi_integral_gain=gain,
         psi_offset=direction * angle0 - gain * sn2_integral0,
-        frame_change=_transpose(_product_matrix(left, q_SF)),
+        frame_change=_transpose(quaternion.product_matrix_values(left, q_SF)),
     )
 
 
@@ -219,46 +135,5 @@ def to_principal(omega_B, principal_axes) -> tuple:
                  for j in range(3))
 
 
-# -- fixed-order helpers, the same for floats and columns ------------------------------------------
-def _conjugate(q) -> tuple:
-    return (-q[0], -q[1], -q[2], q[3])
-
-
-def _multiply(p, q) -> tuple:
-    px, py, pz, pw = p
-    qx, qy, qz, qw = q
-    return (pw * qx + px * qw + py * qz - pz * qy, pw * qy - px * qz + py * qw + pz * qx,
-            pw * qz + px * qy - py * qx + pz * qw, pw * qw - px * qx - py * qy - pz * qz)
-
-
-def _product_matrix(left, right) -> tuple:
-    """``M`` with ``M x = left ⊗ x ⊗ right`` (as :func:`.quaternion.product_matrix`): the product of
-    the matrices of ``left ⊗ .`` and ``. ⊗ right``, written out in one fixed order."""
-    px, py, pz, pw = left
-    qx, qy, qz, qw = right
-    by_right = ((qw, qz, -qy, qx), (-qz, qw, qx, qy), (qy, -qx, qw, qz), (-qx, -qy, -qz, qw))
-    (r00, r01, r02, r03), (r10, r11, r12, r13), (r20, r21, r22, r23), (r30, r31, r32, r33) = by_right
-    return tuple((a * r00 + b * r10 + c * r20 + d * r30, a * r01 + b * r11 + c * r21 + d * r31,
-                  a * r02 + b * r12 + c * r22 + d * r32, a * r03 + b * r13 + c * r23 + d * r33)
-                 for a, b, c, d in ((pw, -pz, py, px), (pz, pw, -px, py), (-py, px, pw, pz), (-px, -py, -pz, pw)))
-
-
 def _transpose(matrix) -> tuple:
     return tuple(zip(*matrix))
-
-
-def _matrix_quaternion(ops, m) -> tuple:
-    """Unit quaternion of a proper rotation matrix (Shepperd's method, largest pivot), ``w >= 0``."""
-    trace = m[0][0] + m[1][1] + m[2][2]
-    pivot = ops.first_largest([m[0][0], m[1][1], m[2][2], trace])
-    # the four candidates, one per pivot; each is the quaternion times a positive number
-    candidates = [
-        (1.0 + 2.0 * m[0][0] - trace, m[1][0] + m[0][1], m[2][0] + m[0][2], m[2][1] - m[1][2]),
-        (m[0][1] + m[1][0], 1.0 + 2.0 * m[1][1] - trace, m[2][1] + m[1][2], m[0][2] - m[2][0]),
-        (m[0][2] + m[2][0], m[1][2] + m[2][1], 1.0 + 2.0 * m[2][2] - trace, m[1][0] - m[0][1]),
-        (m[2][1] - m[1][2], m[0][2] - m[2][0], m[1][0] - m[0][1], 1.0 + trace),
-    ]
-    q = ops.choose(candidates, pivot)
-    norm = ops.hypot(*q)
-    norm = ops.where(q[3] >= 0.0, norm, -norm)
-    return (q[0] / norm, q[1] / norm, q[2] / norm, q[3] / norm)

@@ -16,6 +16,8 @@ import math
 
 import numpy as np
 
+from .ops import FLOATS
+
 
 _CONJUGATE = np.array([-1.0, -1.0, -1.0, 1.0])
 
@@ -40,7 +42,7 @@ def multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     p = np.asarray(p, dtype=float)
     q = np.asarray(q, dtype=float)
     if _single(p, q):
-        return np.array(multiply_floats(p.tolist(), q.tolist()))
+        return np.array(multiply_values(p.tolist(), q.tolist()))
     px, py, pz, pw = np.moveaxis(p, -1, 0)
     qx, qy, qz, qw = np.moveaxis(q, -1, 0)
     return np.stack(
@@ -54,24 +56,39 @@ def multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     )
 
 
-def multiply_floats(p, q) -> tuple:
-    """``p ⊗ q`` of two quaternions given as four plain floats each (the same operations as
-    :func:`multiply`), for code that builds constants from a handful of numbers."""
+def multiply_values(p, q) -> tuple:
+    """``p ⊗ q`` of two quaternions given as four values each, floats or arrays (the same operations
+    as :func:`multiply`), for code that builds constants from a handful of numbers."""
     px, py, pz, pw = p
     qx, qy, qz, qw = q
     return (pw * qx + px * qw + py * qz - pz * qy, pw * qy - px * qz + py * qw + pz * qx,
             pw * qz + px * qy - py * qx + pz * qw, pw * qw - px * qx - py * qy - pz * qz)
 
 
+def conjugate_values(q) -> tuple:
+    """The conjugate of a quaternion given as four values."""
+    return (-q[0], -q[1], -q[2], q[3])
+
+
 def product_matrix(left: np.ndarray, right: np.ndarray) -> np.ndarray:
     """The 4x4 matrix ``M`` with ``M x = left ⊗ x ⊗ right`` for any ``x`` (one quaternion each): a
     fixed frame change on both sides of many quaternions is then one matrix product, ``X @ M.T``."""
-    px, py, pz, pw = np.asarray(left, dtype=float).tolist()
-    qx, qy, qz, qw = np.asarray(right, dtype=float).tolist()
+    return np.array(product_matrix_values(np.asarray(left, dtype=float).tolist(),
+                                          np.asarray(right, dtype=float).tolist()))
+
+
+def product_matrix_values(left, right) -> tuple:
+    """:func:`product_matrix` with each quaternion as four values (floats or arrays): the product of
+    the matrices of ``left ⊗ .`` and ``. ⊗ right``, summed in one fixed order; rows of values."""
+    px, py, pz, pw = left
+    qx, qy, qz, qw = right
     # rows: the Hamilton product's components as linear forms in x, for left ⊗ x and for x ⊗ right
-    by_left = np.array([[pw, -pz, py, px], [pz, pw, -px, py], [-py, px, pw, pz], [-px, -py, -pz, pw]])
-    by_right = np.array([[qw, qz, -qy, qx], [-qz, qw, qx, qy], [qy, -qx, qw, qz], [-qx, -qy, -qz, qw]])
-    return by_left @ by_right
+    by_left = ((pw, -pz, py, px), (pz, pw, -px, py), (-py, px, pw, pz), (-px, -py, -pz, pw))
+    (r00, r01, r02, r03), (r10, r11, r12, r13), (r20, r21, r22, r23), (r30, r31, r32, r33) = (
+        (qw, qz, -qy, qx), (-qz, qw, qx, qy), (qy, -qx, qw, qz), (-qx, -qy, -qz, qw))
+    return tuple((a * r00 + b * r10 + c * r20 + d * r30, a * r01 + b * r11 + c * r21 + d * r31,
+                  a * r02 + b * r12 + c * r22 + d * r32, a * r03 + b * r13 + c * r23 + d * r33)
+                 for a, b, c, d in by_left)
 
 
 def conjugate(q: np.ndarray) -> np.ndarray:
@@ -93,23 +110,26 @@ def to_matrix(q: np.ndarray) -> np.ndarray:
 
 
 def from_matrix(matrix) -> np.ndarray:
-    """Unit quaternion of a proper rotation matrix (Shepperd's method, largest pivot), ``w >= 0``.
-    (Plain floats: one 3x3 matrix, built into constants.)"""
-    m = np.asarray(matrix, dtype=float).tolist()
+    """Unit quaternion of a proper rotation matrix (Shepperd's method, largest pivot), ``w >= 0``."""
+    return np.array(matrix_quaternion(np.asarray(matrix, dtype=float).tolist()))
+
+
+def matrix_quaternion(m, ops=FLOATS) -> tuple:
+    """:func:`from_matrix` of a matrix given as rows of values: floats (``ops`` :data:`.ops.FLOATS`)
+    or arrays over bodies (:data:`.ops.COLUMNS`)."""
     trace = m[0][0] + m[1][1] + m[2][2]
-    pivots = (m[0][0], m[1][1], m[2][2], trace)
-    k = pivots.index(max(pivots))  # the first largest, as argmax
-    if k == 3:
-        q = [m[2][1] - m[1][2], m[0][2] - m[2][0], m[1][0] - m[0][1], 1.0 + trace]
-    else:
-        i, j, l = k, (k + 1) % 3, (k + 2) % 3
-        q = [0.0] * 4
-        q[i] = 1.0 + 2.0 * m[i][i] - trace
-        q[j] = m[j][i] + m[i][j]
-        q[l] = m[l][i] + m[i][l]
-        q[3] = m[l][j] - m[j][l]
-    norm = math.hypot(*q) if q[3] >= 0 else -math.hypot(*q)
-    return np.array([v / norm for v in q])
+    pivot = ops.first_largest([m[0][0], m[1][1], m[2][2], trace])
+    # the four candidates, one per pivot; each is the quaternion times a positive number
+    candidates = [
+        (1.0 + 2.0 * m[0][0] - trace, m[1][0] + m[0][1], m[2][0] + m[0][2], m[2][1] - m[1][2]),
+        (m[0][1] + m[1][0], 1.0 + 2.0 * m[1][1] - trace, m[2][1] + m[1][2], m[0][2] - m[2][0]),
+        (m[0][2] + m[2][0], m[1][2] + m[2][1], 1.0 + 2.0 * m[2][2] - trace, m[1][0] - m[0][1]),
+        (m[2][1] - m[1][2], m[0][2] - m[2][0], m[1][0] - m[0][1], 1.0 + trace),
+    ]
+    q = ops.choose(candidates, pivot)
+    norm = ops.hypot(*q)
+    norm = ops.where(q[3] >= 0.0, norm, -norm)
+    return (q[0] / norm, q[1] / norm, q[2] / norm, q[3] / norm)
 
 
 def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:

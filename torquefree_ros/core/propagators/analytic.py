@@ -33,7 +33,7 @@ class AnalyticPropagator(Propagator):
             q[:] = self.q0_NB
             return q
         axis = [v / speed for v in self.omega0_B.tolist()]
-        turned = np.array(quaternion.multiply_floats(self.q0_NB.tolist(), (*axis, 0.0)))
+        turned = np.array(quaternion.multiply_values(self.q0_NB.tolist(), (*axis, 0.0)))
         half = (0.5 * speed) * times
         return np.cos(half)[:, None] * self.q0_NB + np.sin(half)[:, None] * turned
 

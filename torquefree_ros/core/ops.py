@@ -1,0 +1,98 @@
+"""Arithmetic on one body's numbers (plain Python floats) or on many bodies' (numpy arrays, one
+element per body), behind one set of names, so that constants are written once and computed either way
+with the same IEEE operations in the same order: ``+ - * /`` and ``sqrt`` are correctly rounded in
+Python and numpy alike, ``copysign``, ``min``/``max`` and selections are exact, scipy's Carlson
+integrals are one C function per element, and ``atan2``, ``hypot`` and ``exp`` are Python's ``math``
+functions for both (numpy may vectorise its own). A body computed among many is bit for bit the body alone.
+"""
+
+from __future__ import annotations
+
+import math
+import operator
+
+import numpy as np
+from scipy.special import elliprf, elliprj
+
+
+class _Floats:
+    """Operations on one body: plain Python floats."""
+
+    sqrt = staticmethod(math.sqrt)
+    copysign = staticmethod(math.copysign)
+    atan2 = staticmethod(math.atan2)
+    exp = staticmethod(math.exp)
+
+    @staticmethod
+    def where(condition, if_true, if_false):
+        return if_true if condition else if_false
+
+    @staticmethod
+    def clip(value, low: float, high: float):
+        return min(max(value, low), high)
+
+    pick = staticmethod(operator.getitem)  # pick(values, index)
+    choose = staticmethod(operator.getitem)  # choose(tuples, index): one of several tuples
+    hypot = staticmethod(math.hypot)
+
+    @staticmethod
+    def order(values):
+        return sorted(range(3), key=values.__getitem__)  # stable
+
+    @staticmethod
+    def first_largest(values):
+        return values.index(max(values))
+
+    @staticmethod
+    def elliprf(x, y, z):
+        return float(elliprf(x, y, z))
+
+    @staticmethod
+    def elliprj(x, y, z, p):
+        return float(elliprj(x, y, z, p))
+
+
+class _Columns:
+    """Operations on many bodies: each value a numpy array over bodies."""
+
+    sqrt = staticmethod(np.sqrt)
+    copysign = staticmethod(np.copysign)
+    where = staticmethod(np.where)
+    elliprf = staticmethod(elliprf)
+    elliprj = staticmethod(elliprj)
+
+    @staticmethod
+    def atan2(y, x):
+        return np.array([math.atan2(a, b) for a, b in zip(y.tolist(), x.tolist())])
+
+    @staticmethod
+    def exp(x):
+        return np.array([math.exp(v) for v in x.ravel().tolist()]).reshape(x.shape)
+
+    @staticmethod
+    def clip(value, low: float, high: float):
+        return np.minimum(np.maximum(value, low), high)
+
+    @staticmethod
+    def pick(values, index):
+        return np.choose(index, values)
+
+    @staticmethod
+    def choose(tuples, index):
+        return tuple(np.choose(index, values) for values in zip(*tuples))
+
+    @staticmethod
+    def hypot(*values):
+        return np.array([math.hypot(*v) for v in zip(*(value.tolist() for value in values))])
+
+    @staticmethod
+    def order(values):
+        return tuple(np.argsort(np.stack(values, axis=-1), axis=-1, kind="stable").T)
+
+    @staticmethod
+    def first_largest(values):
+        return np.argmax(np.stack(values), axis=0)
+
+
+FLOATS = _Floats()
+COLUMNS = _Columns()
