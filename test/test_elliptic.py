@@ -104,19 +104,31 @@ def test_bad_parameters_are_refused_by_name():
         JacobiElliptic(1.5)
     with pytest.raises(ValueError, match="n: "):
         JacobiElliptic(0.5, 0.1)
+    with pytest.raises(ValueError, match="m: "):
+        JacobiElliptic(0.5, -0.1, m=-0.5)
 
 
 @pytest.mark.parametrize("n", CHARACTERISTICS)
 @pytest.mark.parametrize("mc", PARAMETERS)
-def test_values_at_given_functions_match_mpmath(mc, n):
-    """The initial state gives ``sn, cn, dn`` directly; ``am`` and ``S`` follow without finding ``u``."""
+def test_theta_phase_gives_n_S_to_its_condition(mc, n):
+    """``n S(u) = n slope u + weight phase``: the attitude's form of ``S``, good to the size of the
+    linear term (``n S`` is added to it there), which is what the tolerance adds to the one above;
+    ``phase`` alone is periodic (``2K``)."""
     jacobi = JacobiElliptic(mc, n)
     u = arguments(jacobi)
-    inside = u[np.abs(u) <= (jacobi.quarter_period if mc > 0.0 else np.inf)]
-    for ui in inside:
-        expected = reference(float(ui), mc, n)
-        values = jacobi.values_at(*(expected[name][0] for name in ("sn", "cn", "dn")))
-        for name in ("am", "sn2_integral"):
-            value, derivative = expected[name]
-            tolerance = TOLERANCE_FACTOR * EPS * (abs(value) + abs(ui) * abs(derivative)) + REFERENCE_ABSOLUTE_ERROR
-            assert abs(getattr(values, name) - value) <= tolerance, (name, ui, getattr(values, name), value)
+    values = jacobi(u, integral=False, phase=True)
+    assert values.sn2_integral is None
+    got = n * jacobi.sn2_integral_slope * u + jacobi.phase_weight * values.theta_phase
+    shifted = jacobi(u + 2.0 * jacobi.quarter_period, integral=False, phase=True).theta_phase if mc > 0.0 else None
+    for i, ui in enumerate(u):
+        S, derivative = reference(float(ui), mc, n)["sn2_integral"]
+        linear = abs(n * jacobi.sn2_integral_slope * ui)
+        tolerance = TOLERANCE_FACTOR * EPS * (abs(n * S) + linear + abs(ui) * abs(n * derivative)) + abs(n) * 1e-50
+        assert abs(got[i] - n * S) <= tolerance, (
+            f"n S(u={ui!r} | mc={mc}, n={n}) = {got[i]!r}, expected {n * S!r} (error {abs(got[i] - n * S):.2e} > "
+            f"{tolerance:.2e})")
+        if shifted is not None and n < 0.0 and abs(ui) <= 4.0 * jacobi.quarter_period:
+            # periodic in 2K, to the rounding of u + 2K times the phase's slope n (S' - slope) / weight
+            slope = abs(n * (derivative - jacobi.sn2_integral_slope)) / jacobi.phase_weight
+            allowed = TOLERANCE_FACTOR * EPS * (1.0 + abs(ui + 2.0 * jacobi.quarter_period) * slope)
+            assert abs(shifted[i] - values.theta_phase[i]) <= allowed, (ui, shifted[i], values.theta_phase[i])

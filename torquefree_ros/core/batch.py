@@ -81,9 +81,10 @@ def _exact_together(inertia, angular_velocity, orientation, times, omega, q) -> 
     for rows in (kind[start:start + group] for kind in kinds for start in range(0, kind.size, group)):
         frame = solver_frame(COLUMNS, _rows(moments.T, rows), _rows(omega0_P, rows))
         body_axes = tuple(_rows(row, rows) for row in axes)
+        jacobi = JacobiElliptic.columns(frame.mc, frame.n, frame.m)
         constants = attitude_constants(COLUMNS, frame, solver_from_body(COLUMNS, frame, body_axes),
-                                       tuple(q0[rows].T))
-        attitude = PolhodeAttitude(JacobiElliptic.columns(frame.mc, frame.n), frame.rate, constants)
+                                       tuple(q0[rows].T), jacobi.sn2_integral_slope[:, 0])
+        attitude = PolhodeAttitude(jacobi, frame.rate, constants)
         omega[rows], q[rows] = attitude(times)
         omega[rows, :zeros] = angular_velocity[rows, None]
         q[rows, :zeros] = q0[rows, None]

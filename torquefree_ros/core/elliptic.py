@@ -20,6 +20,14 @@ The attitude about the angular momentum needs ``Π(n; am u | m) = u + n S(u)`` (
 ``u``. On the second half of the quarter period ``S`` comes from the same identity in ``v = K - u``
 (``sn(K - v) = cd(v)``), so nothing cancels. On the separatrix (``mc = 0``) everything is
 hyperbolic and in closed form.
+
+The attitude only needs ``n S`` to absolute precision, beside a linear term, and there a cheaper form
+serves (Jacobi's, DLMF 22.16.32 with the imaginary transformation; Whittaker & Watson 22.74): with
+``n = -m sc^2(b|mc)``, ``z = pi u/(2K)`` and ``beta = pi b/(2K)``,
+``n S(u) = n (S(K)/K) u + w arg θ4(z + i beta)``, ``w = sqrt(-n/((m - n)(1 - n)))``. The *theta phase*
+``arg θ4(z + i beta)`` is periodic and takes a few more terms of the same series as ``sn, cn, dn``
+and one ``atan2`` a sample, where ``R_J`` costs more than everything else together
+(:class:`_ThetaPhase`).
 """
 
 from __future__ import annotations
@@ -35,16 +43,18 @@ from .ops import COLUMNS, FLOATS
 
 @dataclass(frozen=True)
 class JacobiValues:
-    """``sn, cn, dn`` and ``S = ∫_0^u sn^2/(1 - n sn^2)`` at ``u``; ``u = r + 2K j`` with ``r`` in
-    ``[-K, K]`` (where ``cn >= 0``) and ``j`` the ``half_periods``, kept for continuous angles."""
+    """``sn, cn, dn`` at ``u``, with ``S = ∫_0^u sn^2/(1 - n sn^2)`` and the theta phase when asked for
+    (else ``None``); ``u = r + 2K j`` with ``r`` in ``[-K, K]`` (where ``cn >= 0``) and ``j`` the
+    ``half_periods``, kept for continuous angles."""
 
     sn: np.ndarray
     cn: np.ndarray
     dn: np.ndarray
-    sn2_integral: np.ndarray
+    sn2_integral: np.ndarray | None
     reduced_sn: np.ndarray  # sn(r) = (-1)^j sn(u)
     reduced_cn: np.ndarray  # cn(r) >= 0
     half_periods: np.ndarray
+    theta_phase: np.ndarray | None = None  # n S(u) = n slope u + weight * this (see JacobiElliptic)
 
     @property
     def am(self) -> np.ndarray:
@@ -58,69 +68,88 @@ class JacobiValues:
 
 
 class JacobiElliptic:
-    """Jacobi functions for a fixed parameter given as ``mc = 1 - m`` (``0 <= mc <= 1``), and the
-    integral ``S`` for a fixed characteristic ``n <= 0``."""
+    """Jacobi functions for a fixed parameter given as ``mc = 1 - m`` (``0 <= mc <= 1``; pass ``m`` too
+    when it is known to more relative precision than ``1 - mc``), ``S`` for a fixed characteristic
+    ``n <= 0``, and the theta phase: ``n S(u) = n * sn2_integral_slope * u + phase_weight * phase``."""
 
     #: from this ``mc`` up the functions are trigonometric theta series, below it hyperbolic ones
     TRIGONOMETRIC_MC = 0.5
 
-    def __init__(self, mc: float, n: float = 0.0):
+    def __init__(self, mc: float, n: float = 0.0, m: float | None = None):
         if not 0.0 <= mc <= 1.0:
             raise ValueError(f"mc: the complementary parameter must lie in [0, 1], got {mc!r}")
         if not n <= 0.0:
             raise ValueError(f"n: the characteristic must be <= 0, got {n!r}")
+        if m is not None and not 0.0 <= m <= 1.0:
+            raise ValueError(f"m: the parameter must lie in [0, 1], got {m!r}")
         self.mc = float(mc)
         self.n = float(n)
+        self.m = 1.0 - self.mc if m is None else float(m)
         self.k_prime = math.sqrt(self.mc)
+        self.phase_weight = _phase_weight(FLOATS, self.m, self.n)
         if self.mc > 0.0:
             self.quarter_period, self.sn2_integral_quarter = (float(v) for v in _quarter_period_values(self.mc, self.n))
-            self._theta = _ThetaSeries(self.quarter_period, float(elliprf(0.0, 1.0 - self.mc, 1.0)),
-                                       self.mc >= self.TRIGONOMETRIC_MC, FLOATS)
+            self.sn2_integral_slope = self.sn2_integral_quarter / self.quarter_period
+            trigonometric = self.mc >= self.TRIGONOMETRIC_MC
+            K_complementary = float(elliprf(0.0, self.m, 1.0))
+            phase = _ThetaPhase(FLOATS, self.quarter_period, K_complementary, self.m, self.n, trigonometric)
+            self._theta = _ThetaSeries(self.quarter_period, K_complementary, trigonometric, FLOATS, phase)
         else:
             self.quarter_period = np.inf
             self.sn2_integral_quarter = np.inf
+            self.sn2_integral_slope = 1.0 / (1.0 - self.n)  # S(u) ~ u / (1 - n) far out on the separatrix
 
     # -- public ---------------------------------------------------------------------------------
-    def __call__(self, u) -> JacobiValues:
+    def __call__(self, u, *, integral: bool = True, phase: bool = False) -> JacobiValues:
+        """The values at ``u``; ``S`` (to relative precision) unless ``integral`` is false, the theta
+        phase if ``phase``."""
         u = np.asarray(u, dtype=float)
         if u.ndim == 0:  # one argument: the values as scalars
-            values = self(u.reshape(1))
-            return JacobiValues(*(np.asarray(getattr(values, name))[..., 0] for name in JacobiValues.__dataclass_fields__))
+            values = self(u.reshape(1), integral=integral, phase=phase)
+            return JacobiValues(*(None if getattr(values, name) is None else np.asarray(getattr(values, name))[..., 0]
+                                  for name in JacobiValues.__dataclass_fields__))
         if self.mc == 0.0:
-            return self._separatrix(u)
-        return self._periodic(u)
+            return self._separatrix(u, integral, phase)
+        return self._periodic(u, integral, phase)
 
     @staticmethod
-    def columns(mc: np.ndarray, n: np.ndarray) -> "JacobiElliptic":
+    def columns(mc: np.ndarray, n: np.ndarray, m: np.ndarray | None = None) -> "JacobiElliptic":
         """Many parameters at once (``0 < mc <= 1``, ``n <= 0``, arrays over bodies): every constant a
         column ``(N, 1)``, so that ``u`` of shape ``(N, M)`` gives row ``i`` exactly as
-        ``JacobiElliptic(mc[i], n[i])(u[i])`` would (the same elementwise operations)."""
+        ``JacobiElliptic(mc[i], n[i], m[i])(u[i])`` would (the same elementwise operations)."""
         mc, n = (np.asarray(v, dtype=float)[:, None] for v in (mc, n))
-        if not (np.all(mc > 0.0) and np.all(mc <= 1.0) and np.all(n <= 0.0)):
-            raise ValueError("columns: only parameters off the separatrix (0 < mc <= 1) and n <= 0")
+        m = 1.0 - mc if m is None else np.asarray(m, dtype=float)[:, None]
+        if not (np.all(mc > 0.0) and np.all(mc <= 1.0) and np.all(n <= 0.0) and np.all((m >= 0.0) & (m <= 1.0))):
+            raise ValueError("columns: only parameters off the separatrix (0 < mc <= 1, 0 <= m <= 1) and n <= 0")
         trigonometric = bool(mc[0, 0] >= JacobiElliptic.TRIGONOMETRIC_MC) if mc.size else True
         if np.any((mc >= JacobiElliptic.TRIGONOMETRIC_MC) != trigonometric):
             raise ValueError("columns: parameters of one kind only (all mc >= 1/2, or all below)")
         stacked = object.__new__(_Stacked)
-        stacked.mc, stacked.n, stacked.k_prime = mc, n, np.sqrt(mc)
+        stacked.mc, stacked.n, stacked.m, stacked.k_prime = mc, n, m, np.sqrt(mc)
         stacked.quarter_period, stacked.sn2_integral_quarter = _quarter_period_values(mc, n)
-        stacked._theta = _ThetaSeries(stacked.quarter_period, elliprf(0.0, 1.0 - mc, 1.0), trigonometric, COLUMNS)
+        stacked.sn2_integral_slope = stacked.sn2_integral_quarter / stacked.quarter_period
+        stacked.phase_weight = _phase_weight(COLUMNS, m, n)
+        K_complementary = elliprf(0.0, m, 1.0)
+        phase = _ThetaPhase(COLUMNS, stacked.quarter_period, K_complementary, m, n, trigonometric)
+        stacked._theta = _ThetaSeries(stacked.quarter_period, K_complementary, trigonometric, COLUMNS, phase)
         return stacked
 
-    def _periodic(self, u: np.ndarray) -> JacobiValues:
+    def _periodic(self, u: np.ndarray, integral: bool, phase: bool) -> JacobiValues:
         half_periods = np.round(u / (2.0 * self.quarter_period))
         r = u - (2.0 * self.quarter_period) * half_periods  # in [-K, K]
-        s, c, d, integral = self._quarter(np.abs(r))
+        s, c, d, quarter_integral, quarter_phase = self._quarter(np.abs(r), integral, phase)
         s = np.copysign(s, r)
         parity = 1.0 - 2.0 * np.mod(half_periods, 2.0)  # (-1)^j
         return JacobiValues(
             sn=parity * s,
             cn=parity * c,
             dn=d,
-            sn2_integral=np.copysign(integral, r) + (2.0 * self.sn2_integral_quarter) * half_periods,
+            sn2_integral=(np.copysign(quarter_integral, r) + (2.0 * self.sn2_integral_quarter) * half_periods
+                          if integral else None),
             reduced_sn=s,
             reduced_cn=c,
             half_periods=half_periods,
+            theta_phase=np.copysign(1.0, r) * quarter_phase if phase else None,
         )
 
     def values_at(self, sn: float, cn: float, dn: float) -> JacobiValues:
@@ -135,51 +164,53 @@ class JacobiElliptic:
         return first_kind_from_values(sn, cn, dn)
 
     # -- internals ------------------------------------------------------------------------------
-    def _first_half(self, u: np.ndarray):
-        """``sn, cn, dn`` for ``0 <= u <= K/2`` as quotients of theta series (see :class:`_ThetaSeries`)."""
-        return self._theta(u)
-
-    def _quarter(self, r: np.ndarray):
-        """``sn, cn, dn, S`` for ``0 <= r <= K``."""
+    def _quarter(self, r: np.ndarray, integral: bool, phase: bool):
+        """``sn, cn, dn``, ``S`` (or ``None``) and the theta phase (or ``None``) for ``0 <= r <= K``."""
         K, mc, n, kp = self.quarter_period, self.mc, self.n, self.k_prime
         first = r <= 0.5 * K
         # First half directly; second half through v = K - r (both evaluated on [0, K/2]).
         w = np.where(first, r, K - r)
-        s1, c1, d1 = self._first_half(w)
-        s1s, c1s, d1s = s1 * s1, c1 * c1, d1 * d1
+        s1, c1, d1, phase_parts = self._theta(w, phase)
         inverse_d1 = 1.0 / d1
         s = np.where(first, s1, c1 * inverse_d1)
         c = np.where(first, c1, (kp * s1) * inverse_d1)
         d = np.where(first, d1, kp * inverse_d1)
+        quarter_phase = self._theta.phase.at(first, w, phase_parts) if phase else None
+        if not integral:
+            return s, c, d, None, quarter_phase
         # S on the first half: (1/3) sn^3 R_J(cn^2, dn^2, 1, 1 - n sn^2).
         # On the second half, with v = K - r: sn^2(K - v) / (1 - n sn^2(K - v)) equals
         # (1 - sn^2 v) / ((1 - n)(1 - n' sn^2 v)) for n' = (m - n)/(1 - n), so
         # S(r) = S(K) - [v - (1 - n') S_n'(v)] / (1 - n) with 1 - n' = mc/(1 - n) and
         # 1 - n' sn^2 = cn^2 + mc/(1 - n) sn^2 (no cancellation near sn = 1).
+        s1s, c1s, d1s = s1 * s1, c1 * c1, d1 * d1
         shifted = mc / (1.0 - n)
         p = np.where(first, 1.0 - n * s1s, c1s + shifted * s1s)
         rj = elliprj(c1s, d1s, 1.0, p) * (s1 * s1s) * (1.0 / 3.0)
         integral_second = (self.sn2_integral_quarter - w / (1.0 - n)) + (shifted / (1.0 - n)) * rj
-        return s, c, d, np.where(first, rj, integral_second)
+        return s, c, d, np.where(first, rj, integral_second), quarter_phase
 
-    def _separatrix(self, u: np.ndarray) -> JacobiValues:
+    def _separatrix(self, u: np.ndarray, integral: bool, phase: bool) -> JacobiValues:
         """``m = 1``: ``sn = tanh``, ``cn = dn = sech``, ``am = gd``, and in closed form
-        ``S(u) = ∫ tanh^2/(1 - n tanh^2) = [u - atan(sqrt(-n) tanh u) / sqrt(-n)] / (1 - n)``.
-        That difference cancels for small ``u`` (``S ~ u^3/3``), so there ``S`` comes from the
-        Carlson form used off the separatrix, ``(1/3) tanh^3 R_J(sech^2, sech^2, 1, 1 - n tanh^2)``."""
+        ``S(u) = ∫ tanh^2/(1 - n tanh^2) = [u - atan(sqrt(-n) tanh u) / sqrt(-n)] / (1 - n)``
+        (the theta phase is that arctangent). The difference cancels for small ``u`` (``S ~ u^3/3``),
+        so there ``S`` comes from the Carlson form used off the separatrix,
+        ``(1/3) tanh^3 R_J(sech^2, sech^2, 1, 1 - n tanh^2)``."""
         a = np.abs(u)
         with np.errstate(under="ignore"):  # sech underflows to its true value 0 far out
             e = np.exp(-a)
             sech = 2.0 * e / (1.0 + e * e)
         tanh = np.tanh(u)
         root = np.sqrt(-self.n)
-        bounded = np.arctan(root * tanh) / root if root > 0.0 else tanh
-        c2 = sech * sech
-        with np.errstate(under="ignore"):
-            carlson = tanh**3 * elliprj(c2, c2, 1.0, 1.0 - self.n * tanh * tanh) / 3.0  # inf once sech^2 underflows
-        s = np.where(a < 1.0, carlson, (u - bounded) / (1.0 - self.n))
+        s = None
+        if integral:
+            bounded = np.arctan(root * tanh) / root if root > 0.0 else tanh
+            c2 = sech * sech
+            with np.errstate(under="ignore"):
+                carlson = tanh**3 * elliprj(c2, c2, 1.0, 1.0 - self.n * tanh * tanh) / 3.0  # inf once sech^2 underflows
+            s = np.where(a < 1.0, carlson, (u - bounded) / (1.0 - self.n))
         return JacobiValues(sn=tanh, cn=sech, dn=sech.copy(), sn2_integral=s, reduced_sn=tanh, reduced_cn=sech,
-                            half_periods=np.zeros_like(u))
+                            half_periods=np.zeros_like(u), theta_phase=np.arctan(root * tanh) if phase else None)
 
 
 def _quarter_period_values(mc, n):
@@ -203,8 +234,8 @@ def sn2_integral_from_values(sn, cn, dn, n, rj=elliprj):
 class _Stacked(JacobiElliptic):
     """:meth:`JacobiElliptic.columns`' result: the periodic case only."""
 
-    def __call__(self, u) -> JacobiValues:
-        return self._periodic(np.asarray(u, dtype=float))
+    def __call__(self, u, *, integral: bool = True, phase: bool = False) -> JacobiValues:
+        return self._periodic(np.asarray(u, dtype=float), integral, phase)
 
 
 class _ThetaSeries:
@@ -236,9 +267,9 @@ class _ThetaSeries:
     else is evaluated with it.
 
     Works on one parameter (floats) or on columns of parameters of one kind (``trigonometric`` the
-    same for every column)."""
+    same for every column). With a :class:`_ThetaPhase` its four cubics join the same Horner pass."""
 
-    def __init__(self, K, K_complementary, trigonometric: bool, ops):
+    def __init__(self, K, K_complementary, trigonometric: bool, ops, phase: "_ThetaPhase | None" = None):
         self.trigonometric = trigonometric
         ratio = K_complementary / K if trigonometric else K / K_complementary
         self.scale = (0.5 * math.pi) / (K if trigonometric else K_complementary)  # u -> z or y
@@ -257,15 +288,17 @@ class _ThetaSeries:
             factors = (t3 / t2, t4 / t2, t4 / t3, 1.0)
         else:  # sn = tanh A/B, cn = D/(B cosh), dn = C/(B cosh)
             factors = (t3 / t4, 1.0, t2 / t3, t2 / t4)
-        # coefficient k of the four cubics stacked, (4, 1) or (4, N, 1): one Horner pass for all four
-        coefficients = np.array([[factor * cubic[k] for factor, cubic in zip(factors, (a, b, c, d))] for k in range(4)])
-        self.cubics = tuple(coefficients[:, :, None] if coefficients.ndim == 2 else coefficients)
+        rows = [tuple(factor * value for value in cubic) for factor, cubic in zip(factors, (a, b, c, d))]
+        self.phase = phase
+        self.cubics = _stack(rows)
+        self.phased_cubics = _stack(rows + list(phase.cubics)) if phase is not None else None
 
-    def __call__(self, u):
+    def __call__(self, u, phase: bool = False):
+        """``sn, cn, dn`` and, if ``phase``, what :meth:`_ThetaPhase.at` takes (else ``None``)."""
         with np.errstate(under="ignore"):  # far terms of a tiny nome: their true value is below rounding
-            return self._series(self.scale * u)
+            return self._series(self.scale * u, phase)
 
-    def _series(self, x):
+    def _series(self, x, phase: bool):
         if self.trigonometric:
             first_sin, first_cos = np.sin(x), np.cos(x)
             c = 1.0 - 2.0 * (first_sin * first_sin)  # cos 2z
@@ -273,11 +306,139 @@ class _ThetaSeries:
             first_cos = np.cosh(x)
             first_sin = np.tanh(x)
             c = 2.0 * (first_cos * first_cos) - 1.0  # cosh 2y (>= 1: no cancellation)
-        k0, k1, k2, k3 = self.cubics
-        A, B, C, D = ((k3 * c + k2) * c + k1) * c + k0
+        k0, k1, k2, k3 = self.phased_cubics if phase else self.cubics
+        values = ((k3 * c + k2) * c + k1) * c + k0
+        A, B, C, D = values[:4]
+        parts = (first_sin, first_cos, values[4:]) if phase else None
         if self.trigonometric:
             inverse = 1.0 / D
-            return first_sin * A * inverse, first_cos * B * inverse, C * inverse
+            return first_sin * A * inverse, first_cos * B * inverse, C * inverse, parts
         inverse = 1.0 / B
         over_cosh = inverse / first_cos
-        return first_sin * A * inverse, D * over_cosh, C * over_cosh
+        return first_sin * A * inverse, D * over_cosh, C * over_cosh, parts
+
+
+def _stack(rows) -> tuple:
+    """Coefficient ``k`` of cubics given as rows ``(c0, c1, c2, c3)``, stacked for one Horner pass:
+    ``(rows, 1)`` for one parameter, ``(rows, N, 1)`` for columns."""
+    coefficients = np.array([[row[k] for row in rows] for k in range(4)])
+    return tuple(coefficients[:, :, None] if coefficients.ndim == 2 else coefficients)
+
+
+def _phase_weight(ops, m, n):
+    """``w = sqrt(-n / ((m - n)(1 - n)))``, 0 for ``n = 0`` (where ``S`` has no weight in ``n S``)."""
+    return ops.sqrt(-n / (ops.where(n < 0.0, m - n, 1.0) * (1.0 - n)))
+
+
+def _third_kind_shift(ops, m, n):
+    """``b`` with ``n = -m sc^2(b|mc)``, and ``b' = K' - b``, each directly (Carlson's ``R_F``), so
+    that whichever is small is known to relative precision: ``sc^2(b|mc) = -n/m`` and
+    ``sc^2(b'|mc) = -1/n``. ``n = 0`` gives ``b = 0``; ``m = 0`` (``n < 0``) gives ``b = inf``."""
+    moving = n < 0.0
+    d = ops.where(moving, m - n, 1.0)
+    b = ops.sqrt(-n / d) * ops.elliprf(ops.where(moving, m / d, 1.0), ops.where(moving, m * (1.0 - n) / d, 1.0), 1.0)
+    b_complementary = ops.elliprf(-n / (1.0 - n), (m - n) / (1.0 - n), 1.0) / ops.sqrt(1.0 - n)
+    return b, b_complementary
+
+
+class _ThetaPhase:
+    """The theta phase ``arg θ4(z + i beta)`` (``z = pi u/(2K)``, ``beta = pi b/(2K)``, ``b`` from
+    :func:`_third_kind_shift`) on ``0 <= u <= K``, from the variables of :class:`_ThetaSeries` at the
+    reduced ``w`` (``u`` on the first half, ``K - u`` on the second) and four more cubics in its ``c``.
+    The real part stays positive, so one ``atan2`` gives the phase without any branch to follow.
+
+    Trigonometric (``m <= 1/2``), on both halves from ``θ4(z + i beta) = θ4(i beta) + 4 sin^2 z P(cos 2z)
+    + 2i sin z cos z Q(cos 2z)`` (``P``, ``Q`` cubics with ``q^(j^2) cosh 2j beta``,
+    ``q^(j^2) sinh 2j beta``, ``j <= 4``); on the second half ``z = pi/2 - z_w`` swaps sine and cosine
+    and negates ``c``. When ``|n|`` is large (a thin rod) ``θ4(i beta)`` is tiny, and it comes from the
+    product form with ``1 - q e^(2 beta) = -expm1(-pi b'/K)``: the near zero is exact, not a difference.
+
+    Hyperbolic (``m > 1/2``), by the imaginary transformation, ``arg θ4(z + i beta) = arg θ2(gamma - i y)
+    - kappa u`` on the first half and ``= kappa v - arg θ3(gamma - i y_v)`` on the second (``v = K - u``;
+    ``θ4(pi/2 - z) = θ3(z)``), with ``y = pi u/(2K')``, ``gamma = pi b/(2K')``, ``kappa = pi b/(2KK')``
+    and the complementary nome ``q'``: ``Re θ2 / cosh y = R(C)``, ``Im θ2 / cosh y = tanh y I(C)``,
+    ``Re θ3 = R'(C)``, ``Im θ3 = 2 tanh y cosh^2 y I'(C)`` with ``C = cosh 2y``. The multiple angles of
+    ``gamma`` are polynomials in ``sin^2 gamma`` times ``sin gamma`` or ``cos gamma``, which come from
+    the smaller of ``b``, ``b'``: ``cos gamma``, the near zero for a thin rod, keeps relative precision.
+
+    The series keep the terms that reach float64 on the reduced range, as :class:`_ThetaSeries` does."""
+
+    def __init__(self, ops, K, K_complementary, m, n, trigonometric: bool):
+        self.trigonometric = trigonometric
+        b, b_complementary = _third_kind_shift(ops, m, n)
+        Kc = K_complementary
+        if trigonometric:
+            self.cubics, self.base = self._trigonometric(ops, K, Kc, b, b_complementary)
+        else:
+            self.cubics = self._hyperbolic(ops, K, Kc, b, b_complementary)
+            self.kappa = (math.pi * b) / (2.0 * K * Kc)
+
+    @staticmethod
+    def _trigonometric(ops, K, Kc, b, bc):
+        L = math.pi / K
+
+        def E(t):  # exp(-pi t/K): q^(j^2) e^(+-2j beta) as E(j^2 K' -+ j b), with K' = b + b'
+            return ops.exp(-L * t)
+
+        cosh_terms, sinh_terms = [], []  # q^(j^2) cosh(2j beta), q^(j^2) sinh(2j beta), j = 1..4
+        for j in range(1, 5):
+            up = E(bc) if j == 1 else E(j * ((j - 1) * Kc + bc))  # q^(j^2) e^(2j beta)
+            down = E(j * (j * Kc + b))
+            cosh_terms.append(0.5 * (up + down))
+            x = (j * L) * b  # 2j beta; below 1 sinh(x) itself, above it the difference loses nothing
+            sinh_terms.append(ops.where(x < 1.0, E((j * j) * Kc) * ops.sinh(ops.clip(x, 0.0, 1.0)), 0.5 * (up - down)))
+        C1, C2, C3, C4 = cosh_terms
+        S1, S2, S3, S4 = sinh_terms
+        base = -ops.expm1(-L * bc)  # θ4(i beta) = (1 - q e^(2 beta)) prod (1 - q^2j)(1 - q^2j/rho)(1 - q^2j rho)
+        for j in range(1, 7):
+            base = base * ((1.0 - E((2 * j) * Kc)) * (1.0 - E((2 * j - 1) * Kc + b)) * (1.0 - E((2 * j) * Kc + bc)))
+        re = (4.0 * ((C1 - 2.0 * C2) + C3), 4.0 * (4.0 * C3 - 2.0 * C2), 4.0 * (4.0 * C3 - 8.0 * C4), -32.0 * C4)
+        im = (2.0 * (2.0 * S1 - 2.0 * S3), 2.0 * (8.0 * S4 - 4.0 * S2), 16.0 * S3, -32.0 * S4)
+        return (re, im, _odd_negated(re), _odd_negated(im)), base
+
+    @staticmethod
+    def _hyperbolic(ops, K, Kc, b, bc):
+        q = ops.exp(-math.pi * (K / Kc))  # the nome of _ThetaSeries' hyperbolic series
+        q2 = q * q
+        q4 = q2 * q2
+        q6, q9, q12 = q4 * q2, q4 * q4 * q, q4 * q4 * q4
+        direct = b <= bc
+        angle = (0.5 * math.pi / Kc) * ops.where(direct, b, bc)
+        sin_angle, cos_angle = ops.sin(angle), ops.cos(angle)
+        sg, cg = ops.where(direct, sin_angle, cos_angle), ops.where(direct, cos_angle, sin_angle)  # of gamma
+        v = sg * sg
+        cos_odd = (cg, cg * (1.0 - 4.0 * v), cg * ((1.0 - 12.0 * v) + 16.0 * v * v),
+                   cg * (((1.0 - 24.0 * v) + 80.0 * v * v) - 64.0 * v * v * v))  # cos (2j+1) gamma
+        sin_odd = (sg, sg * (3.0 - 4.0 * v), sg * ((5.0 - 20.0 * v) + 16.0 * v * v),
+                   sg * (((7.0 - 56.0 * v) + 112.0 * v * v) - 64.0 * v * v * v))
+        cos2 = 1.0 - 2.0 * v
+        sin2 = 2.0 * sg * cg
+        cos4, sin4 = 2.0 * cos2 * cos2 - 1.0, 2.0 * sin2 * cos2
+        cos6, sin6 = cos2 * (4.0 * cos2 * cos2 - 3.0), sin2 * (3.0 - 4.0 * sin2 * sin2)
+        c0, c1, c2, c3 = cos_odd
+        s0, s1, s2, s3 = sin_odd
+        # θ2(gamma - i y): cos gamma + q^2 cos 3gamma (2C-1) + q^6 cos 5gamma (4C^2-2C-1) + q^12 cos 7gamma (8C^3-4C^2-4C+1)
+        re_first = (((c0 - q2 * c1) - q6 * c2) + q12 * c3, (2.0 * q2 * c1 - 2.0 * q6 * c2) - 4.0 * q12 * c3,
+                    4.0 * q6 * c2 - 4.0 * q12 * c3, 8.0 * q12 * c3)
+        im_first = (((s0 + q2 * s1) - q6 * s2) - q12 * s3, (2.0 * q2 * s1 + 2.0 * q6 * s2) - 4.0 * q12 * s3,
+                    4.0 * q6 * s2 + 4.0 * q12 * s3, 8.0 * q12 * s3)
+        # θ3(gamma - i y): 1 + 2q cos 2gamma C + 2q^4 cos 4gamma (2C^2-1) + 2q^9 cos 6gamma (4C^3-3C), and
+        # 2 sinh 2y [q sin 2gamma + 2q^4 sin 4gamma C + q^9 sin 6gamma (4C^2-1)], its phase negated
+        re_second = (1.0 - 2.0 * q4 * cos4, 2.0 * q * cos2 - 6.0 * q9 * cos6, 4.0 * q4 * cos4, 8.0 * q9 * cos6)
+        im_second = (4.0 * q9 * sin6 - 4.0 * q * sin2, -8.0 * q4 * sin4, -16.0 * q9 * sin6, 0.0 * q)
+        return re_first, im_first, re_second, im_second
+
+    def at(self, first, w, parts):
+        """The phase at ``0 <= u <= K`` from ``w`` and :class:`_ThetaSeries`' ``parts`` there."""
+        first_sin, first_cos, (re_first, im_first, re_second, im_second) = parts
+        if self.trigonometric:
+            re = self.base + np.where(first, first_sin * first_sin, first_cos * first_cos) * np.where(
+                first, re_first, re_second)
+            return np.arctan2((first_sin * first_cos) * np.where(first, im_first, im_second), re)
+        im = first_sin * np.where(first, im_first, (first_cos * first_cos) * im_second)
+        return np.arctan2(im, np.where(first, re_first, re_second)) + np.where(first, -self.kappa, self.kappa) * w
+
+
+def _odd_negated(cubic) -> tuple:
+    """The cubic of ``-c``."""
+    return cubic[0], -cubic[1], cubic[2], -cubic[3]

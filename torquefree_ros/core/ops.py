@@ -2,8 +2,8 @@
 element per body), behind one set of names, so that constants are written once and computed either way
 with the same IEEE operations in the same order: ``+ - * /`` and ``sqrt`` are correctly rounded in
 Python and numpy alike, ``copysign``, ``min``/``max`` and selections are exact, scipy's Carlson
-integrals are one C function per element, and ``atan2``, ``hypot`` and ``exp`` are Python's ``math``
-functions for both (numpy may vectorise its own). A body computed among many is bit for bit the body alone.
+integrals are one C function per element, and ``atan2``, ``hypot``, ``exp``, ``sin`` and the like are
+Python's ``math`` functions for both (numpy may vectorise its own). A body computed among many is bit for bit the body alone.
 """
 
 from __future__ import annotations
@@ -22,6 +22,10 @@ class _Floats:
     copysign = staticmethod(math.copysign)
     atan2 = staticmethod(math.atan2)
     exp = staticmethod(math.exp)
+    expm1 = staticmethod(math.expm1)
+    sin = staticmethod(math.sin)
+    cos = staticmethod(math.cos)
+    sinh = staticmethod(math.sinh)
 
     @staticmethod
     def where(condition, if_true, if_false):
@@ -67,7 +71,23 @@ class _Columns:
 
     @staticmethod
     def exp(x):
-        return np.array([math.exp(v) for v in x.ravel().tolist()]).reshape(x.shape)
+        return _elementwise(math.exp, x)
+
+    @staticmethod
+    def expm1(x):
+        return _elementwise(math.expm1, x)
+
+    @staticmethod
+    def sin(x):
+        return _elementwise(math.sin, x)
+
+    @staticmethod
+    def cos(x):
+        return _elementwise(math.cos, x)
+
+    @staticmethod
+    def sinh(x):
+        return _elementwise(math.sinh, x)
 
     @staticmethod
     def clip(value, low: float, high: float):
@@ -92,6 +112,11 @@ class _Columns:
     @staticmethod
     def first_largest(values):
         return np.argmax(np.stack(values), axis=0)
+
+
+def _elementwise(function, x: np.ndarray) -> np.ndarray:
+    """``function`` (one of ``math``'s) on every element, as for one body."""
+    return np.array([function(v) for v in x.ravel().tolist()]).reshape(x.shape)
 
 
 FLOATS = _Floats()

@@ -18,7 +18,8 @@ Attitude: ``R_NS(t) = P Rz(psi(t)) Q(m(t))`` where ``Q(m)`` is the shortest-arc 
 ``e3 x m`` obeys ``psi_e' = |m|/J3 + |m|(J3-J1)/(J1 J3) / (1 - n sn^2 u)`` with
 ``n = -J3 (J2-J1) / (J1 (J3-J2)) <= 0``. Its two terms cancel for a thin rod (``J3 << J1``), so it is
 used as ``psi_e' = |m|/J1 + |m|(J3-J1) n/(J1 J3) sn^2/(1 - n sn^2)``, integrated exactly by
-:class:`JacobiElliptic`'s ``S``;
+:class:`JacobiElliptic`'s ``S`` as its mean slope times ``u`` plus the theta phase (the weights combine
+to ``sign(J3 - J1)``): ``psi`` is a constant rate plus a bounded periodic term;
 the shortest-arc frame differs from it by the angle of ``(m1, m2) = (A cn, ±B sn)``, taken
 continuously (``atan2(B sn(r), A cn(r)) + pi j`` for ``u = r + 2K j``, ``|r| <= K``), so the
 quaternion stays continuous over any number of periods.
@@ -63,7 +64,7 @@ def solve_polhode(moments_P, omega_P) -> Polhode | None:
     if is_stationary(I, w):
         return None
     frame = solver_frame(FLOATS, I, w)
-    return Polhode(frame, JacobiElliptic(frame.mc, frame.n))
+    return Polhode(frame, JacobiElliptic(frame.mc, frame.n, frame.m))
 
 
 def exact_attitude(body: RigidBody, omega0_B, q0_NB) -> tuple[Polhode | None, "PolhodeAttitude | None"]:
@@ -73,7 +74,7 @@ def exact_attitude(body: RigidBody, omega0_B, q0_NB) -> tuple[Polhode | None, "P
     if polhode is None:
         return None, None
     constants = attitude_constants(FLOATS, polhode.frame, solver_from_body(FLOATS, polhode.frame, axes),
-                                   np.asarray(q0_NB, dtype=float).tolist())
+                                   np.asarray(q0_NB, dtype=float).tolist(), polhode.jacobi.sn2_integral_slope)
     return polhode, PolhodeAttitude(polhode.jacobi, polhode.rate, constants)
 
 
@@ -105,15 +106,13 @@ class PolhodeAttitude:
         self._lever = c.lever
         self._direction = c.direction
         self._psi_rate = c.psi_rate
-        self._psi_integral_gain = c.psi_integral_gain
         self._psi_offset = c.psi_offset
 
     def __call__(self, t: np.ndarray):
-        v = self.jacobi(self._rate * t + self._initial_phase)
+        v = self.jacobi(self._rate * t + self._initial_phase, integral=False, phase=True)
         omega_F = _combine((v.cn, v.sn, v.dn), self._rate_matrix)
         # the angle of (m1, m2) is sign(J3 - J2) times the continuous angle of (A cn, B sn)
-        angle = self._direction * v.angle(*self._lever)
-        psi = self._psi_rate * t + self._psi_integral_gain * v.sn2_integral - angle + self._psi_offset
+        psi = self._psi_rate * t + self._direction * (v.theta_phase - v.angle(*self._lever)) + self._psi_offset
         half = 0.5 * psi
         m_amp = self._momentum_amplitudes
         m0, m1 = m_amp[0] * v.cn, m_amp[1] * v.sn

@@ -23,6 +23,7 @@ class SolverFrame(NamedTuple):
     rates: tuple  # the initial rate in the solver frame
     amplitudes: tuple  # a, sign(J3-J2) b, c
     mc: Any  # the complementary parameter 1 - k^2 (0 on the separatrix)
+    m: Any  # k^2, computed as itself: 1 - mc loses it next to a symmetric body
     n: Any  # the characteristic of the attitude's third-kind integral (<= 0)
     rate: Any  # lambda (1/s)
 
@@ -64,7 +65,8 @@ def solver_frame(ops, moments, omega) -> SolverFrame:
     a = ops.sqrt(P3 / (J[0] * d31))
     b = ops.copysign(ops.sqrt(P3 / (J[1] * d32)), d32)
     c = ops.sqrt(P1 / (J[2] * d31))
-    return SolverFrame(axes=axes, signs=signs, moments=J, rates=ws, amplitudes=(a, b, c), mc=mc,
+    m = ops.clip(d21 * P3 / (d32 * P1), 0.0, 1.0)
+    return SolverFrame(axes=axes, signs=signs, moments=J, rates=ws, amplitudes=(a, b, c), mc=mc, m=m,
                        n=-J[2] * d21 / (J[0] * d32), rate=ops.sqrt(d32 * P1 / (J[0] * J[1] * J[2])))
 
 
@@ -78,15 +80,15 @@ class AttitudeConstants(NamedTuple):
     momentum_amplitudes: tuple  # m = (cn, sn, dn) * these
     direction: Any  # sign(J3 - J2)
     lever: tuple  # A, B: the angle of (m1, m2) is that of (A cn, B sn) times sign(J3 - J2)
-    psi_rate: Any
-    psi_integral_gain: Any
+    psi_rate: Any  # psi = psi_rate t + direction (theta phase - angle of (A cn, B sn)) + psi_offset
     psi_offset: Any
     frame_change: tuple  # q_NF = (about_H_arc) @ this
 
 
-def attitude_constants(ops, frame: SolverFrame, solver_from_frame, q_NF0) -> AttitudeConstants:
-    """The attitude's constants for ``omega_S = solver_from_frame @ omega_F`` (rows of values) and
-    the initial attitude ``q_NF0`` (four values)."""
+def attitude_constants(ops, frame: SolverFrame, solver_from_frame, q_NF0, sn2_integral_slope) -> AttitudeConstants:
+    """The attitude's constants for ``omega_S = solver_from_frame @ omega_F`` (rows of values), the
+    initial attitude ``q_NF0`` (four values) and the mean slope ``S(K)/K`` of the Jacobi functions'
+    ``S`` (:class:`.elliptic.JacobiElliptic`)."""
     J1, J2, J3 = frame.moments
     a, b, c = frame.amplitudes
     n = frame.n
@@ -99,7 +101,9 @@ def attitude_constants(ops, frame: SolverFrame, solver_from_frame, q_NF0) -> Att
     direction = ops.copysign(1.0, b)
     A, B = amplitudes[0], ops.copysign(amplitudes[1], 1.0)
     rate = frame.rate
-    gain = momentum * (J3 - J1) * n / (J1 * J3 * rate)
+    gain = momentum * (J3 - J1) * n / (J1 * J3 * rate)  # psi' = |m|/J1 + gain lambda S'(u)
+    u0 = first_kind_from_values(sn0, cn0, dn0, ops.elliprf)
+    slope = sn2_integral_slope
     angle0 = ops.atan2(B * sn0, A * cn0)  # of (m1, m2) times sign(J3 - J2); cn0 >= 0
     m0 = (amplitudes[0] * cn0, amplitudes[1] * sn0, amplitudes[2] * dn0)
     arc_w = momentum + m0[2]
@@ -108,15 +112,15 @@ def attitude_constants(ops, frame: SolverFrame, solver_from_frame, q_NF0) -> Att
     q_NS0 = quaternion.multiply_values(q_NF0, quaternion.conjugate_values(q_SF))
     left = quaternion.multiply_values(q_NS0, (-m0[1] / arc_norm, m0[0] / arc_norm, -0.0, arc_w / arc_norm))  # conj(Q(m0))
     return AttitudeConstants(
-        initial_phase=first_kind_from_values(sn0, cn0, dn0, ops.elliprf),
+        initial_phase=u0,
         momentum=momentum,
         rate_matrix=tuple(tuple(amplitude * x for x in row) for amplitude, row in zip((a, b, c), solver_from_frame)),
         momentum_amplitudes=amplitudes,
         direction=direction,
         lever=(A, B),
-        psi_rate=momentum / J1,
-        psi_integral_gain=gain,
-        psi_offset=direction * angle0 - gain * sn2_integral0,
+        # gain S(u) = gain slope u + direction (theta phase): gain weight / n = sign(J3 - J1) = direction
+        psi_rate=momentum / J1 + (gain * rate) * slope,
+        psi_offset=direction * angle0 - gain * (sn2_integral0 - slope * u0),
         frame_change=_transpose(quaternion.product_matrix_values(left, q_SF)),
     )
 
