@@ -12,6 +12,8 @@ by one.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .elliptic import JacobiElliptic
@@ -20,9 +22,9 @@ from .ops import COLUMNS
 from .polhode_constants import attitude_constants, is_stationary, solver_frame, solver_from_body, to_principal
 from .propagators import make_propagator
 from .rigid_body import MAX_INERTIA, TRIANGLE_RTOL, RigidBody
-from .validation import sample_times, unit_quaternion
+from .validation import UNIT_QUATERNION_ROUNDING, sample_times, unit_quaternion
 
-GROUP_ELEMENTS = 1 << 17  # bodies x times evaluated in one stacked call (~100 arrays of this size)
+GROUP_ELEMENTS = 1 << 14  # bodies x times built and evaluated together (passes of PolhodeAttitude.ELEMENTS_PER_PASS)
 _IDENTITY_ROWS = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
 
 
@@ -64,12 +66,7 @@ def _exact_together(inertia, angular_velocity, orientation, times, omega, q) -> 
             _propagator(i, inertia, angular_velocity, orientation)
         return list(range(count))  # (only if the checks here were stricter than a body's own)
     moments, axes = bodies
-    q0 = np.empty_like(orientation)
-    for i, row in enumerate(orientation):  # hand-typed quaternions normalised as for one body
-        try:
-            q0[i] = unit_quaternion(row, "orientation")
-        except ValueError as error:
-            raise ValueError(f"body {i}: {error}") from None
+    q0 = _unit_quaternions(orientation)
     omega0_P = to_principal(tuple(angular_velocity.T), axes)
     moving = np.flatnonzero(~is_stationary(tuple(moments.T), omega0_P))
     mc = solver_frame(COLUMNS, _rows(moments.T, moving), _rows(omega0_P, moving)).mc
@@ -119,6 +116,21 @@ def _bodies(inertia, angular_velocity):
         if not np.all(np.isfinite(np.sum(h * h, axis=1) * moments.max(axis=1) ** 2)):
             return None
     return moments, axes_rows
+
+
+def _unit_quaternions(orientation: np.ndarray) -> np.ndarray:
+    """Each row as :func:`unit_quaternion` gives it (the same ``math.hypot`` norm and division); a row
+    it would refuse or divide is handed to it, so that the error names the body."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        norms = np.array([math.hypot(*row) for row in orientation.tolist()]) if orientation.size else np.ones(0)
+        used_as_given = np.abs(norms - 1.0) <= UNIT_QUATERNION_ROUNDING  # false for nan and inf
+    q0 = orientation.copy()
+    for i in np.flatnonzero(~used_as_given).tolist():
+        try:
+            q0[i] = unit_quaternion(orientation[i], "orientation")
+        except ValueError as error:
+            raise ValueError(f"body {i}: {error}") from None
+    return q0
 
 
 def _rows(columns, rows) -> tuple:

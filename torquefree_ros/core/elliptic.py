@@ -54,7 +54,21 @@ class JacobiValues:
     reduced_sn: np.ndarray  # sn(r) = (-1)^j sn(u)
     reduced_cn: np.ndarray  # cn(r) >= 0
     half_periods: np.ndarray
-    theta_phase: np.ndarray | None = None  # n S(u) = n slope u + weight * this (see JacobiElliptic)
+    #: the theta phase (n S(u) = n slope u + weight * phase, see JacobiElliptic) as ``(re, im, linear)``:
+    #: ``atan2(im, re) + linear`` with ``re > 0``
+    phase_parts: tuple | None = None
+
+    @property
+    def theta_phase(self) -> np.ndarray:
+        re, im, linear = self.phase_parts
+        return np.arctan2(im, re) + linear
+
+    def phase_minus_angle(self, a, b) -> np.ndarray:
+        """``theta_phase - angle(a, b)`` by one ``atan2``: both ``atan2`` terms lie within ``pi/2`` of 0
+        (``re > 0``, ``cn(r) >= 0``), so their difference is the argument of one product, unwrapped."""
+        re, im, linear = self.phase_parts
+        x, y = a * self.reduced_cn, b * self.reduced_sn
+        return np.arctan2(im * x - re * y, re * x + im * y) + (linear - np.pi * self.half_periods)
 
     @property
     def am(self) -> np.ndarray:
@@ -106,8 +120,7 @@ class JacobiElliptic:
         u = np.asarray(u, dtype=float)
         if u.ndim == 0:  # one argument: the values as scalars
             values = self(u.reshape(1), integral=integral, phase=phase)
-            return JacobiValues(*(None if getattr(values, name) is None else np.asarray(getattr(values, name))[..., 0]
-                                  for name in JacobiValues.__dataclass_fields__))
+            return JacobiValues(*(_first_element(getattr(values, name)) for name in JacobiValues.__dataclass_fields__))
         if self.mc == 0.0:
             return self._separatrix(u, integral, phase)
         return self._periodic(u, integral, phase)
@@ -138,6 +151,10 @@ class JacobiElliptic:
         half_periods = np.round(u / (2.0 * self.quarter_period))
         r = u - (2.0 * self.quarter_period) * half_periods  # in [-K, K]
         s, c, d, quarter_integral, quarter_phase = self._quarter(np.abs(r), integral, phase)
+        if phase:  # odd in r
+            sign = np.copysign(1.0, r)
+            re, im, linear = quarter_phase
+            quarter_phase = (re, sign * im, linear if self._theta.trigonometric else sign * linear)
         s = np.copysign(s, r)
         parity = 1.0 - 2.0 * np.mod(half_periods, 2.0)  # (-1)^j
         return JacobiValues(
@@ -149,7 +166,7 @@ class JacobiElliptic:
             reduced_sn=s,
             reduced_cn=c,
             half_periods=half_periods,
-            theta_phase=np.copysign(1.0, r) * quarter_phase if phase else None,
+            phase_parts=quarter_phase,
         )
 
     def values_at(self, sn: float, cn: float, dn: float) -> JacobiValues:
@@ -210,7 +227,16 @@ class JacobiElliptic:
                 carlson = tanh**3 * elliprj(c2, c2, 1.0, 1.0 - self.n * tanh * tanh) / 3.0  # inf once sech^2 underflows
             s = np.where(a < 1.0, carlson, (u - bounded) / (1.0 - self.n))
         return JacobiValues(sn=tanh, cn=sech, dn=sech.copy(), sn2_integral=s, reduced_sn=tanh, reduced_cn=sech,
-                            half_periods=np.zeros_like(u), theta_phase=np.arctan(root * tanh) if phase else None)
+                            half_periods=np.zeros_like(u), phase_parts=(1.0, root * tanh, 0.0) if phase else None)
+
+
+def _first_element(value):
+    """One argument's value from a batch of one (tuples element by element, constants as they are)."""
+    if value is None or isinstance(value, float):
+        return value
+    if isinstance(value, tuple):
+        return tuple(_first_element(v) for v in value)
+    return np.asarray(value)[..., 0]
 
 
 def _quarter_period_values(mc, n):
@@ -376,22 +402,31 @@ class _ThetaPhase:
     @staticmethod
     def _trigonometric(ops, K, Kc, b, bc):
         L = math.pi / K
-
-        def E(t):  # exp(-pi t/K): q^(j^2) e^(+-2j beta) as E(j^2 K' -+ j b), with K' = b + b'
-            return ops.exp(-L * t)
-
-        cosh_terms, sinh_terms = [], []  # q^(j^2) cosh(2j beta), q^(j^2) sinh(2j beta), j = 1..4
-        for j in range(1, 5):
-            up = E(bc) if j == 1 else E(j * ((j - 1) * Kc + bc))  # q^(j^2) e^(2j beta)
-            down = E(j * (j * Kc + b))
-            cosh_terms.append(0.5 * (up + down))
-            x = (j * L) * b  # 2j beta; below 1 sinh(x) itself, above it the difference loses nothing
-            sinh_terms.append(ops.where(x < 1.0, E((j * j) * Kc) * ops.sinh(ops.clip(x, 0.0, 1.0)), 0.5 * (up - down)))
-        C1, C2, C3, C4 = cosh_terms
-        S1, S2, S3, S4 = sinh_terms
-        base = -ops.expm1(-L * bc)  # θ4(i beta) = (1 - q e^(2 beta)) prod (1 - q^2j)(1 - q^2j/rho)(1 - q^2j rho)
-        for j in range(1, 7):
-            base = base * ((1.0 - E((2 * j) * Kc)) * (1.0 - E((2 * j - 1) * Kc + b)) * (1.0 - E((2 * j) * Kc + bc)))
+        # q, rho = q e^(2 beta) = exp(-pi b'/K) (up to 1: a thin rod) and sigma = q e^(-2 beta), each
+        # from its own exponent (K' = b + b'), so that none is a quotient of huge or tiny numbers
+        q, rho, sigma = ops.exp(-L * Kc), ops.exp(-L * bc), ops.exp(-L * (Kc + b))
+        q2 = q * q
+        q6 = q2 * q2 * q2
+        spread = (1.0, q2, q6, q6 * q6)  # q^(j(j-1)): q^(j^2) e^(+-2j beta) = (rho or sigma)^j q^(j(j-1))
+        up = (rho, rho * rho * spread[1], rho * rho * rho * spread[2], (rho * rho) * (rho * rho) * spread[3])
+        down = (sigma, sigma * sigma * spread[1], sigma * sigma * sigma * spread[2],
+                (sigma * sigma) * (sigma * sigma) * spread[3])
+        C1, C2, C3, C4 = (0.5 * (a + d) for a, d in zip(up, down))  # q^(j^2) cosh(2j beta)
+        # q^(j^2) sinh(2j beta): for 2j beta < 1 from sinh(2 beta) by the multiple-angle formulas (no
+        # cancellation), else the difference of the two exponentials (which loses nothing there)
+        x = L * b
+        sh = ops.sinh(ops.clip(x, 0.0, 1.0))
+        sh2 = sh * sh
+        sinh2 = 2.0 * sh * ops.sqrt(1.0 + sh2)
+        small = (sh, sinh2, sh * (3.0 + 4.0 * sh2), 2.0 * sinh2 * (1.0 + 2.0 * sh2))
+        q_squares = (q, q2 * q2, q6 * q2 * q, (q6 * q2) * (q6 * q2))  # q^(j^2)
+        S1, S2, S3, S4 = (ops.where(j * x < 1.0, q_squares[j - 1] * small[j - 1], 0.5 * (up[j - 1] - down[j - 1]))
+                          for j in range(1, 5))
+        base = -ops.expm1(-L * bc)  # θ4(i beta) = (1 - rho) prod (1 - q^2j)(1 - sigma q^(2j-2))(1 - rho q^2j)
+        q_even = 1.0
+        for _ in range(6):
+            q_before, q_even = q_even, q_even * q2
+            base = base * ((1.0 - q_even) * (1.0 - sigma * q_before) * (1.0 - rho * q_even))
         re = (4.0 * ((C1 - 2.0 * C2) + C3), 4.0 * (4.0 * C3 - 2.0 * C2), 4.0 * (4.0 * C3 - 8.0 * C4), -32.0 * C4)
         im = (2.0 * (2.0 * S1 - 2.0 * S3), 2.0 * (8.0 * S4 - 4.0 * S2), 16.0 * S3, -32.0 * S4)
         return (re, im, _odd_negated(re), _odd_negated(im)), base
@@ -429,14 +464,15 @@ class _ThetaPhase:
         return re_first, im_first, re_second, im_second
 
     def at(self, first, w, parts):
-        """The phase at ``0 <= u <= K`` from ``w`` and :class:`_ThetaSeries`' ``parts`` there."""
+        """The phase at ``0 <= u <= K`` as ``(re, im, linear)`` (see :class:`JacobiValues`), from ``w``
+        and :class:`_ThetaSeries`' ``parts`` there."""
         first_sin, first_cos, (re_first, im_first, re_second, im_second) = parts
         if self.trigonometric:
             re = self.base + np.where(first, first_sin * first_sin, first_cos * first_cos) * np.where(
                 first, re_first, re_second)
-            return np.arctan2((first_sin * first_cos) * np.where(first, im_first, im_second), re)
+            return re, (first_sin * first_cos) * np.where(first, im_first, im_second), 0.0
         im = first_sin * np.where(first, im_first, (first_cos * first_cos) * im_second)
-        return np.arctan2(im, np.where(first, re_first, re_second)) + np.where(first, -self.kappa, self.kappa) * w
+        return np.where(first, re_first, re_second), im, np.where(first, -self.kappa, self.kappa) * w
 
 
 def _odd_negated(cubic) -> tuple:

@@ -108,11 +108,28 @@ class PolhodeAttitude:
         self._psi_rate = c.psi_rate
         self._psi_offset = c.psi_offset
 
+    #: elements evaluated in one pass: the pass's temporaries (~35 arrays of this many floats) stay in
+    #: cache, and a long request does not grow the heap by megabytes that the allocator hands back to
+    #: the system after every call and takes again, page by page, on the next
+    ELEMENTS_PER_PASS = 2560
+
     def __call__(self, t: np.ndarray):
+        rows = self._rate.shape[0] if isinstance(self._rate, np.ndarray) else 1
+        step = max(1, self.ELEMENTS_PER_PASS // rows)
+        count = t.shape[-1]
+        if count <= step:
+            return self._pass(t)
+        shape = (rows, count) if isinstance(self._rate, np.ndarray) else (count,)
+        omega, q = np.empty(shape + (3,)), np.empty(shape + (4,))
+        for start in range(0, count, step):
+            omega[..., start:start + step, :], q[..., start:start + step, :] = self._pass(t[start:start + step])
+        return omega, q
+
+    def _pass(self, t: np.ndarray):
         v = self.jacobi(self._rate * t + self._initial_phase, integral=False, phase=True)
         omega_F = _combine((v.cn, v.sn, v.dn), self._rate_matrix)
         # the angle of (m1, m2) is sign(J3 - J2) times the continuous angle of (A cn, B sn)
-        psi = self._psi_rate * t + self._direction * (v.theta_phase - v.angle(*self._lever)) + self._psi_offset
+        psi = self._psi_rate * t + self._direction * v.phase_minus_angle(*self._lever) + self._psi_offset
         half = 0.5 * psi
         m_amp = self._momentum_amplitudes
         m0, m1 = m_amp[0] * v.cn, m_amp[1] * v.sn
