@@ -73,6 +73,32 @@ def test_a_dispersed_campaign_in_several_stacked_groups_is_bit_for_bit_the_loop(
         np.testing.assert_array_equal(q[i], alone[1])
 
 
+def test_passes_and_groups_of_one_kind_are_bit_for_bit_the_loop(monkeypatch):
+    """A campaign of one kind (consecutive bodies: results written in place) in several groups, each
+    evaluated in passes of a few samples, is the loop of ``propagate``; so is one body's long request
+    evaluated in passes against the same request whole."""
+    from torquefree_ros.core import batch
+    from torquefree_ros.core.polhode import PolhodeAttitude
+
+    rng = np.random.default_rng(5)
+    count = 30
+    inertia = [2.0, 3.0, 4.0] * (1.0 + 0.01 * rng.standard_normal((count, 3)))
+    omega0 = [0.7, 0.5, 0.6] + 0.01 * rng.standard_normal((count, 3))
+    orientation = np.tile([0.0, 0.0, 0.0, 1.0], (count, 1))
+    times = np.linspace(0.0, 300.0, 41)
+    whole = propagate(inertia[0], omega0[0], orientation[0], times)
+    monkeypatch.setattr(batch, "GROUP_ELEMENTS", 8 * times.size)  # groups of 8 bodies
+    monkeypatch.setattr(PolhodeAttitude, "ELEMENTS_PER_PASS", 24)  # passes of 3 samples in a group, 24 alone
+    omega, q = propagate_batch(inertia, omega0, orientation, times)
+    for i in range(count):
+        alone = propagate(inertia[i], omega0[i], orientation[i], times)
+        np.testing.assert_array_equal(omega[i], alone[0])
+        np.testing.assert_array_equal(q[i], alone[1])
+        if i == 0:
+            np.testing.assert_array_equal(alone[0], whole[0])
+            np.testing.assert_array_equal(alone[1], whole[1])
+
+
 def _random_bodies(rng, count, tensors):
     """Dispersed bodies with some exact symmetries, spins about an axis and rest mixed in."""
     moments = np.sort(rng.uniform(2.0, 4.0, (count, 3)), axis=1)  # within the triangle inequality

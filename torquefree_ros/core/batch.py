@@ -19,7 +19,8 @@ import numpy as np
 from .elliptic import JacobiElliptic
 from .polhode import PolhodeAttitude
 from .ops import COLUMNS
-from .polhode_constants import attitude_constants, is_stationary, solver_frame, solver_from_body, to_principal
+from .polhode_constants import (SolverFrame, attitude_constants, is_stationary, solver_frame, solver_from_body,
+                                to_principal)
 from .propagators import make_propagator
 from .rigid_body import MAX_INERTIA, TRIANGLE_RTOL, RigidBody
 from .validation import UNIT_QUATERNION_ROUNDING, sample_times, unit_quaternion
@@ -69,20 +70,27 @@ def _exact_together(inertia, angular_velocity, orientation, times, omega, q) -> 
     q0 = _unit_quaternions(orientation)
     omega0_P = to_principal(tuple(angular_velocity.T), axes)
     moving = np.flatnonzero(~is_stationary(tuple(moments.T), omega0_P))
-    mc = solver_frame(COLUMNS, _rows(moments.T, moving), _rows(omega0_P, moving)).mc
+    frames = solver_frame(COLUMNS, _rows(moments.T, moving), _rows(omega0_P, moving))
+    mc = frames.mc
     periodic = moving[mc > 0.0]
     # bodies whose Jacobi functions take the same kind of series, in groups that bound the memory
     group = max(1, GROUP_ELEMENTS // max(times.size, 1))
-    kinds = (moving[mc >= JacobiElliptic.TRIGONOMETRIC_MC], moving[(mc > 0.0) & (mc < JacobiElliptic.TRIGONOMETRIC_MC)])
+    kinds = (np.flatnonzero(mc >= JacobiElliptic.TRIGONOMETRIC_MC),
+             np.flatnonzero((mc > 0.0) & (mc < JacobiElliptic.TRIGONOMETRIC_MC)))  # positions in moving
     zeros = int(np.searchsorted(times, 0.0, side="right"))  # t = 0 is the initial state itself
-    for rows in (kind[start:start + group] for kind in kinds for start in range(0, kind.size, group)):
-        frame = solver_frame(COLUMNS, _rows(moments.T, rows), _rows(omega0_P, rows))
+    for positions in (kind[start:start + group] for kind in kinds for start in range(0, kind.size, group)):
+        rows = moving[positions]
+        frame = _take(frames, positions)
         body_axes = tuple(_rows(row, rows) for row in axes)
         jacobi = JacobiElliptic.columns(frame.mc, frame.n, frame.m)
         constants = attitude_constants(COLUMNS, frame, solver_from_body(COLUMNS, frame, body_axes),
                                        tuple(q0[rows].T), jacobi.sn2_integral_slope[:, 0])
         attitude = PolhodeAttitude(jacobi, frame.rate, constants)
-        omega[rows], q[rows] = attitude(times)
+        contiguous = rows[-1] - rows[0] == rows.size - 1  # (rows ascend) then views take the result directly
+        if contiguous:
+            attitude(times, out=(omega[rows[0]:rows[-1] + 1], q[rows[0]:rows[-1] + 1]))
+        else:
+            omega[rows], q[rows] = attitude(times)
         omega[rows, :zeros] = angular_velocity[rows, None]
         q[rows, :zeros] = q0[rows, None]
     return sorted(set(range(count)) - set(periodic.tolist()))
@@ -131,6 +139,11 @@ def _unit_quaternions(orientation: np.ndarray) -> np.ndarray:
         except ValueError as error:
             raise ValueError(f"body {i}: {error}") from None
     return q0
+
+
+def _take(frame: SolverFrame, positions: np.ndarray) -> SolverFrame:
+    """The solver frames of some bodies (every value an array over bodies, tuples element by element)."""
+    return SolverFrame(*(_rows(value, positions) if isinstance(value, tuple) else value[positions] for value in frame))
 
 
 def _rows(columns, rows) -> tuple:

@@ -316,8 +316,9 @@ class _ThetaSeries:
             factors = (t3 / t4, 1.0, t2 / t3, t2 / t4)
         rows = [tuple(factor * value for value in cubic) for factor, cubic in zip(factors, (a, b, c, d))]
         self.phase = phase
-        self.cubics = _stack(rows)
-        self.phased_cubics = _stack(rows + list(phase.cubics)) if phase is not None else None
+        stacked = _stack(rows + list(phase.cubics) if phase is not None else rows)
+        self.phased_cubics = stacked if phase is not None else None
+        self.cubics = tuple(k[:4] for k in stacked)  # the functions' own four: a view
 
     def __call__(self, u, phase: bool = False):
         """``sn, cn, dn`` and, if ``phase``, what :meth:`_ThetaPhase.at` takes (else ``None``)."""
@@ -347,8 +348,8 @@ class _ThetaSeries:
 def _stack(rows) -> tuple:
     """Coefficient ``k`` of cubics given as rows ``(c0, c1, c2, c3)``, stacked for one Horner pass:
     ``(rows, 1)`` for one parameter, ``(rows, N, 1)`` for columns."""
-    coefficients = np.array([[row[k] for row in rows] for k in range(4)])
-    return tuple(coefficients[:, :, None] if coefficients.ndim == 2 else coefficients)
+    coefficients = np.array([row[k] for k in range(4) for row in rows])
+    return tuple(coefficients.reshape((4, len(rows)) + (coefficients.shape[1:] or (1,))))
 
 
 def _phase_weight(ops, m, n):

@@ -113,14 +113,15 @@ class PolhodeAttitude:
     #: the system after every call and takes again, page by page, on the next
     ELEMENTS_PER_PASS = 2560
 
-    def __call__(self, t: np.ndarray):
+    def __call__(self, t: np.ndarray, out: tuple | None = None):
+        """Rates and attitudes at ``t``; into ``out = (omega, q)`` if given (arrays of the result's shape)."""
         rows = self._rate.shape[0] if isinstance(self._rate, np.ndarray) else 1
         step = max(1, self.ELEMENTS_PER_PASS // rows)
         count = t.shape[-1]
-        if count <= step:
+        if count <= step and out is None:
             return self._pass(t)
         shape = (rows, count) if isinstance(self._rate, np.ndarray) else (count,)
-        omega, q = np.empty(shape + (3,)), np.empty(shape + (4,))
+        omega, q = out if out is not None else (np.empty(shape + (3,)), np.empty(shape + (4,)))
         for start in range(0, count, step):
             omega[..., start:start + step, :], q[..., start:start + step, :] = self._pass(t[start:start + step])
         return omega, q
