@@ -58,7 +58,7 @@ def test_bad_input_names_the_array_and_the_body(inertia, omega, orientation, rea
 def test_a_dispersed_campaign_in_several_stacked_groups_is_bit_for_bit_the_loop(monkeypatch):
     from torquefree_ros.core import batch
 
-    monkeypatch.setattr(batch, "GROUP_ELEMENTS", 7 * 40)  # groups of 7 bodies: several, one short
+    monkeypatch.setattr(batch, "GROUP_BODIES", 7)  # several groups, one short
     rng = np.random.default_rng(11)
     count = 50
     inertia = [2.0, 3.0, 4.0] * (1.0 + 0.03 * rng.standard_normal((count, 3)))
@@ -87,7 +87,7 @@ def test_passes_and_groups_of_one_kind_are_bit_for_bit_the_loop(monkeypatch):
     orientation = np.tile([0.0, 0.0, 0.0, 1.0], (count, 1))
     times = np.linspace(0.0, 300.0, 41)
     whole = propagate(inertia[0], omega0[0], orientation[0], times)
-    monkeypatch.setattr(batch, "GROUP_ELEMENTS", 8 * times.size)  # groups of 8 bodies
+    monkeypatch.setattr(batch, "GROUP_BODIES", 8)
     monkeypatch.setattr(PolhodeAttitude, "ELEMENTS_PER_PASS", 24)  # passes of 3 samples in a group, 24 alone
     omega, q = propagate_batch(inertia, omega0, orientation, times)
     for i in range(count):

@@ -25,7 +25,7 @@ from .propagators import make_propagator
 from .rigid_body import MAX_INERTIA, TRIANGLE_RTOL, RigidBody
 from .validation import UNIT_QUATERNION_ROUNDING, sample_times, unit_quaternion
 
-GROUP_ELEMENTS = 1 << 14  # bodies x times built and evaluated together (passes of PolhodeAttitude.ELEMENTS_PER_PASS)
+GROUP_BODIES = 4096  # bodies whose constants are built together (then evaluated in passes of bounded size)
 _IDENTITY_ROWS = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
 
 
@@ -74,7 +74,7 @@ def _exact_together(inertia, angular_velocity, orientation, times, omega, q) -> 
     mc = frames.mc
     periodic = moving[mc > 0.0]
     # bodies whose Jacobi functions take the same kind of series, in groups that bound the memory
-    group = max(1, GROUP_ELEMENTS // max(times.size, 1))
+    group = GROUP_BODIES
     kinds = (np.flatnonzero(mc >= JacobiElliptic.TRIGONOMETRIC_MC),
              np.flatnonzero((mc > 0.0) & (mc < JacobiElliptic.TRIGONOMETRIC_MC)))  # positions in moving
     zeros = int(np.searchsorted(times, 0.0, side="right"))  # t = 0 is the initial state itself
@@ -84,13 +84,14 @@ def _exact_together(inertia, angular_velocity, orientation, times, omega, q) -> 
         body_axes = tuple(_rows(row, rows) for row in axes)
         jacobi = JacobiElliptic.columns(frame.mc, frame.n, frame.m)
         constants = attitude_constants(COLUMNS, frame, solver_from_body(COLUMNS, frame, body_axes),
-                                       tuple(q0[rows].T), jacobi.sn2_integral_slope[:, 0])
+                                       tuple(q0[rows].T), jacobi.sn2_integral_slope)
         attitude = PolhodeAttitude(jacobi, frame.rate, constants)
         contiguous = rows[-1] - rows[0] == rows.size - 1  # (rows ascend) then views take the result directly
-        if contiguous:
-            attitude(times, out=(omega[rows[0]:rows[-1] + 1], q[rows[0]:rows[-1] + 1]))
+        if contiguous:  # the attitude's result is (times, bodies, k)
+            attitude(times, out=(omega[rows[0]:rows[-1] + 1].swapaxes(0, 1), q[rows[0]:rows[-1] + 1].swapaxes(0, 1)))
         else:
-            omega[rows], q[rows] = attitude(times)
+            group_omega, group_q = attitude(times)
+            omega[rows], q[rows] = group_omega.swapaxes(0, 1), group_q.swapaxes(0, 1)
         omega[rows, :zeros] = angular_velocity[rows, None]
         q[rows, :zeros] = q0[rows, None]
     return sorted(set(range(count)) - set(periodic.tolist()))

@@ -127,14 +127,15 @@ class JacobiElliptic:
 
     @staticmethod
     def columns(mc: np.ndarray, n: np.ndarray, m: np.ndarray | None = None) -> "JacobiElliptic":
-        """Many parameters at once (``0 < mc <= 1``, ``n <= 0``, arrays over bodies): every constant a
-        column ``(N, 1)``, so that ``u`` of shape ``(N, M)`` gives row ``i`` exactly as
-        ``JacobiElliptic(mc[i], n[i], m[i])(u[i])`` would (the same elementwise operations)."""
-        mc, n = (np.asarray(v, dtype=float)[:, None] for v in (mc, n))
-        m = 1.0 - mc if m is None else np.asarray(m, dtype=float)[:, None]
+        """Many parameters at once (``0 < mc <= 1``, ``n <= 0``, arrays ``(N,)`` over bodies): every
+        constant an array over bodies, so that ``u`` of shape ``(M, N)`` gives column ``i`` exactly as
+        ``JacobiElliptic(mc[i], n[i], m[i])(u[:, i])`` would (the same elementwise operations; bodies
+        along the contiguous axis, so that numpy's loops run over them whatever ``M`` is)."""
+        mc, n = (np.asarray(v, dtype=float) for v in (mc, n))
+        m = 1.0 - mc if m is None else np.asarray(m, dtype=float)
         if not (np.all(mc > 0.0) and np.all(mc <= 1.0) and np.all(n <= 0.0) and np.all((m >= 0.0) & (m <= 1.0))):
             raise ValueError("columns: only parameters off the separatrix (0 < mc <= 1, 0 <= m <= 1) and n <= 0")
-        trigonometric = bool(mc[0, 0] >= JacobiElliptic.TRIGONOMETRIC_MC) if mc.size else True
+        trigonometric = bool(mc[0] >= JacobiElliptic.TRIGONOMETRIC_MC) if mc.size else True
         if np.any((mc >= JacobiElliptic.TRIGONOMETRIC_MC) != trigonometric):
             raise ValueError("columns: parameters of one kind only (all mc >= 1/2, or all below)")
         stacked = object.__new__(_Stacked)
@@ -347,9 +348,10 @@ class _ThetaSeries:
 
 def _stack(rows) -> tuple:
     """Coefficient ``k`` of cubics given as rows ``(c0, c1, c2, c3)``, stacked for one Horner pass:
-    ``(rows, 1)`` for one parameter, ``(rows, N, 1)`` for columns."""
+    ``(rows, 1)`` for one parameter (``c`` of shape ``(M,)``), ``(rows, 1, N)`` for parameters over
+    bodies (``c`` of shape ``(M, N)``)."""
     coefficients = np.array([row[k] for k in range(4) for row in rows])
-    return tuple(coefficients.reshape((4, len(rows)) + (coefficients.shape[1:] or (1,))))
+    return tuple(coefficients.reshape((4, len(rows), 1) + coefficients.shape[1:]))
 
 
 def _phase_weight(ops, m, n):

@@ -88,17 +88,18 @@ class PolhodeAttitude:
 
     One body (constants are floats): called with times ``(M,)`` it gives ``(M, 3)`` rates and
     ``(M, 4)`` attitudes. Many (constants are arrays over ``N`` bodies, ``jacobi`` from
-    :meth:`JacobiElliptic.columns`): ``(N, M, 3)`` and ``(N, M, 4)``, body ``i`` exactly as it alone."""
+    :meth:`JacobiElliptic.columns`): ``(M, N, 3)`` and ``(M, N, 4)``, times first and bodies along the
+    contiguous axis, body ``i`` exactly as it alone."""
 
     def __init__(self, jacobi: JacobiElliptic, rate, constants: AttitudeConstants):
         self.jacobi = jacobi
         c = constants
         self._rate_matrix = np.array(c.rate_matrix, dtype=float)
         self._frame_change = np.array(c.frame_change, dtype=float)
-        if isinstance(c.momentum, np.ndarray):  # many bodies: (N, k, l) matrices, constants as columns
+        self._bodies = c.momentum.shape[0] if isinstance(c.momentum, np.ndarray) else None
+        if self._bodies is not None:  # many bodies: (N, k, l) matrices
             self._rate_matrix = np.moveaxis(self._rate_matrix, -1, 0)
             self._frame_change = np.moveaxis(self._frame_change, -1, 0)
-            rate, c = rate[:, None], AttitudeConstants(*(_column(value) for value in c))
         self._rate = rate
         self._initial_phase = c.initial_phase
         self._momentum = c.momentum
@@ -115,15 +116,16 @@ class PolhodeAttitude:
 
     def __call__(self, t: np.ndarray, out: tuple | None = None):
         """Rates and attitudes at ``t``; into ``out = (omega, q)`` if given (arrays of the result's shape)."""
-        rows = self._rate.shape[0] if isinstance(self._rate, np.ndarray) else 1
-        step = max(1, self.ELEMENTS_PER_PASS // rows)
-        count = t.shape[-1]
+        if self._bodies is not None:
+            t = t[:, None]  # (M, 1) against constants over bodies (N,)
+        step = max(1, self.ELEMENTS_PER_PASS // (self._bodies or 1))
+        count = t.shape[0]
         if count <= step and out is None:
             return self._pass(t)
-        shape = (rows, count) if isinstance(self._rate, np.ndarray) else (count,)
+        shape = (count, self._bodies) if self._bodies is not None else (count,)
         omega, q = out if out is not None else (np.empty(shape + (3,)), np.empty(shape + (4,)))
         for start in range(0, count, step):
-            omega[..., start:start + step, :], q[..., start:start + step, :] = self._pass(t[start:start + step])
+            omega[start:start + step], q[start:start + step] = self._pass(t[start:start + step])
         return omega, q
 
     def _pass(self, t: np.ndarray):
@@ -142,19 +144,14 @@ class PolhodeAttitude:
         return omega_F, _combine(about_H_arc, self._frame_change)
 
 
-def _column(value):
-    """A value over bodies as a column ``(N, 1)`` (tuples of them element by element)."""
-    return tuple(_column(v) for v in value) if isinstance(value, tuple) else value[:, None]
-
-
 def _combine(columns, matrix: np.ndarray) -> np.ndarray:
     """``np.stack(columns, -1) @ matrix``, summed element by element rather than by BLAS, whose
     kernels (and so roundings) change with the number of rows: a sample must not depend on how many
-    were requested with it. Columns ``(M,)`` with a matrix ``(k, l)``, or ``(N, M)`` with ``(N, k, l)``
-    (a stack of bodies: the same operations, row by row)."""
-    total = columns[0][..., None] * matrix[..., None, 0, :]
+    were requested with it. Columns ``(M,)`` with a matrix ``(k, l)``, or ``(M, N)`` with ``(N, k, l)``
+    (bodies: the same operations, body by body)."""
+    total = columns[0][..., None] * matrix[..., 0, :]
     for i, column in enumerate(columns[1:], start=1):
-        total += column[..., None] * matrix[..., None, i, :]
+        total += column[..., None] * matrix[..., i, :]
     return total
 
 
