@@ -22,7 +22,7 @@ The attitude about the angular momentum needs ``Π(n; am u | m) = u + n S(u)`` (
 hyperbolic and in closed form.
 
 The attitude only needs ``n S`` to absolute precision, beside a linear term, and there a cheaper form
-serves (Jacobi's, DLMF 22.16.32 with the imaginary transformation; Whittaker & Watson 22.74): with
+serves (Jacobi's form of the third kind, Whittaker & Watson §22.74, taken to an imaginary shift): with
 ``n = -m sc^2(b|mc)``, ``z = pi u/(2K)`` and ``beta = pi b/(2K)``,
 ``n S(u) = n (S(K)/K) u + w arg θ4(z + i beta)``, ``w = sqrt(-n/((m - n)(1 - n)))``. The *theta phase*
 ``arg θ4(z + i beta)`` is periodic and takes a few more terms of the same series as ``sn, cn, dn``
@@ -382,9 +382,9 @@ class _ThetaPhase:
     and negates ``c``. When ``|n|`` is large (a thin rod) ``θ4(i beta)`` is tiny, and it comes from the
     product form with ``1 - q e^(2 beta) = -expm1(-pi b'/K)``: the near zero is exact, not a difference.
 
-    Hyperbolic (``m > 1/2``), by the imaginary transformation, ``arg θ4(z + i beta) = arg θ2(gamma - i y)
-    - kappa u`` on the first half and ``= kappa v - arg θ3(gamma - i y_v)`` on the second (``v = K - u``;
-    ``θ4(pi/2 - z) = θ3(z)``), with ``y = pi u/(2K')``, ``gamma = pi b/(2K')``, ``kappa = pi b/(2KK')``
+    Hyperbolic (``m > 1/2``), by Jacobi's imaginary transformation (DLMF 20.7(viii)),
+    ``arg θ4(z + i beta) = arg θ2(gamma - i y) - kappa u`` on the first half and
+    ``= kappa v - arg θ3(gamma - i y_v)`` on the second (``v = K - u``; ``θ4(pi/2 - z) = θ3(z)``), with ``y = pi u/(2K')``, ``gamma = pi b/(2K')``, ``kappa = pi b/(2KK')``
     and the complementary nome ``q'``: ``Re θ2 / cosh y = R(C)``, ``Im θ2 / cosh y = tanh y I(C)``,
     ``Re θ3 = R'(C)``, ``Im θ3 = 2 tanh y cosh^2 y I'(C)`` with ``C = cosh 2y``. The multiple angles of
     ``gamma`` are polynomials in ``sin^2 gamma`` times ``sin gamma`` or ``cos gamma``, which come from

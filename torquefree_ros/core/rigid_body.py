@@ -40,7 +40,7 @@ class RigidBody:
         ``[Ixx, Iyy, Izz, Ixy, Ixz, Iyz]`` (tensor elements, as in URDF) or a 3x3 matrix."""
         if isinstance(inertia, RigidBody):
             return inertia
-        array = np.asarray(inertia, dtype=float) if _is_numeric(inertia) else None
+        array = _float_array(inertia)
         if array is not None and array.shape == (3, 3):
             tensor = _symmetric_tensor(array, name)
         else:
@@ -150,14 +150,12 @@ class MotionRegime:
         return ", ".join(parts)
 
 
-def _is_numeric(value) -> bool:
-    if isinstance(value, np.ndarray):
-        return True
+def _float_array(value) -> np.ndarray | None:
+    """``value`` as a float array, or ``None`` if it is not numbers (then checked for the message)."""
     try:
-        np.asarray(value, dtype=float)
-        return True
+        return np.asarray(value, dtype=float)
     except (TypeError, ValueError):
-        return False
+        return None
 
 
 def _symmetric_tensor(matrix: np.ndarray, name: str) -> np.ndarray:
