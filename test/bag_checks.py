@@ -29,6 +29,30 @@ def read_with_mcap(bag: Path) -> dict:
     return out
 
 
+def stamps_and_last_messages(bag: Path) -> tuple[dict, dict, dict, dict]:
+    """For a long bag, without decoding every message: topic -> log times (mcap's reader), topic ->
+    count (rosbags'), and each topic's last message decoded by each reader."""
+    log_times: dict = {}
+    last_mcap: dict = {}
+    with open(mcap_file(bag), "rb") as stream:
+        reader = make_reader(stream)
+        for schema, channel, message in reader.iter_messages(log_time_order=True):
+            log_times.setdefault(channel.topic, []).append(message.log_time)
+            last_mcap[channel.topic] = (schema, channel, message)
+    decoders = DecoderFactory()
+    decoded_mcap = {topic: decoders.decoder_for(channel.message_encoding, schema)(message.data)
+                    for topic, (schema, channel, message) in last_mcap.items()}
+    counts: dict = {}
+    last_raw: dict = {}
+    with AnyReader([bag], default_typestore=get_typestore(Stores.ROS2_JAZZY)) as reader:
+        for connection, _, raw in reader.messages():
+            counts[connection.topic] = counts.get(connection.topic, 0) + 1
+            last_raw[connection.topic] = (connection, raw)
+        decoded_rosbags = {topic: reader.deserialize(raw, connection.msgtype)
+                           for topic, (connection, raw) in last_raw.items()}
+    return log_times, counts, decoded_mcap, decoded_rosbags
+
+
 def summary(bag: Path):
     with open(mcap_file(bag), "rb") as stream:
         reader = make_reader(stream)
