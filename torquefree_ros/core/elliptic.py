@@ -384,11 +384,12 @@ class _ThetaPhase:
 
     Hyperbolic (``m > 1/2``), by Jacobi's imaginary transformation (DLMF 20.7(viii)),
     ``arg θ4(z + i beta) = arg θ2(gamma - i y) - kappa u`` on the first half and
-    ``= kappa v - arg θ3(gamma - i y_v)`` on the second (``v = K - u``; ``θ4(pi/2 - z) = θ3(z)``), with ``y = pi u/(2K')``, ``gamma = pi b/(2K')``, ``kappa = pi b/(2KK')``
-    and the complementary nome ``q'``: ``Re θ2 / cosh y = R(C)``, ``Im θ2 / cosh y = tanh y I(C)``,
-    ``Re θ3 = R'(C)``, ``Im θ3 = 2 tanh y cosh^2 y I'(C)`` with ``C = cosh 2y``. The multiple angles of
-    ``gamma`` are polynomials in ``sin^2 gamma`` times ``sin gamma`` or ``cos gamma``, which come from
-    the smaller of ``b``, ``b'``: ``cos gamma``, the near zero for a thin rod, keeps relative precision.
+    ``= kappa v - arg θ3(gamma - i y_v)`` on the second (``v = K - u``; ``θ4(pi/2 - z) = θ3(z)``), with
+    ``y = pi u/(2K')``, ``gamma = pi b/(2K')``, ``kappa = pi b/(2KK')`` and the complementary nome
+    ``q'``: ``Re θ2 / cosh y = R(C)``, ``Im θ2 / cosh y = tanh y I(C)``, ``Re θ3 = R'(C)``,
+    ``Im θ3 = 2 tanh y cosh^2 y I'(C)`` with ``C = cosh 2y``. The multiple angles of ``gamma`` are
+    polynomials in ``sin^2 gamma`` times ``sin gamma`` or ``cos gamma``, which come from the smaller of
+    ``b``, ``b'``: ``cos gamma``, the near zero for a thin rod, keeps relative precision.
 
     The series keep the terms that reach float64 on the reduced range, as :class:`_ThetaSeries` does."""
 
@@ -455,7 +456,8 @@ class _ThetaPhase:
         cos6, sin6 = cos2 * (4.0 * cos2 * cos2 - 3.0), sin2 * (3.0 - 4.0 * sin2 * sin2)
         c0, c1, c2, c3 = cos_odd
         s0, s1, s2, s3 = sin_odd
-        # θ2(gamma - i y): cos gamma + q^2 cos 3gamma (2C-1) + q^6 cos 5gamma (4C^2-2C-1) + q^12 cos 7gamma (8C^3-4C^2-4C+1)
+        # θ2(gamma - i y) / cosh y: cos gamma + q^2 cos 3gamma (2C-1) + q^6 cos 5gamma (4C^2-2C-1)
+        # + q^12 cos 7gamma (8C^3-4C^2-4C+1), the imaginary part the same in sines and sinh/cosh
         re_first = (((c0 - q2 * c1) - q6 * c2) + q12 * c3, (2.0 * q2 * c1 - 2.0 * q6 * c2) - 4.0 * q12 * c3,
                     4.0 * q6 * c2 - 4.0 * q12 * c3, 8.0 * q12 * c3)
         im_first = (((s0 + q2 * s1) - q6 * s2) - q12 * s3, (2.0 * q2 * s1 + 2.0 * q6 * s2) - 4.0 * q12 * s3,

@@ -3,7 +3,8 @@ element per body), behind one set of names, so that constants are written once a
 with the same IEEE operations in the same order: ``+ - * /`` and ``sqrt`` are correctly rounded in
 Python and numpy alike, ``copysign``, ``min``/``max`` and selections are exact, scipy's Carlson
 integrals are one C function per element, and ``atan2``, ``hypot``, ``exp``, ``sin`` and the like are
-Python's ``math`` functions for both (numpy may vectorise its own). A body computed among many is bit for bit the body alone.
+Python's ``math`` functions for both (numpy may vectorise its own). A body computed among many is
+bit for bit the body alone.
 """
 
 from __future__ import annotations
