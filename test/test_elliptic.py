@@ -11,6 +11,8 @@ turning points, where they are as small as ``k' = sqrt(mc)``."""
 import mpmath as mp
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from torquefree_ros.core.elliptic import JacobiElliptic
 
@@ -132,3 +134,23 @@ def test_theta_phase_gives_n_S_to_its_condition(mc, n):
             slope = abs(n * (derivative - jacobi.sn2_integral_slope)) / jacobi.phase_weight
             allowed = TOLERANCE_FACTOR * EPS * (1.0 + abs(ui + 2.0 * jacobi.quarter_period) * slope)
             assert abs(shifted[i] - values.theta_phase[i]) <= allowed, (ui, shifted[i], values.theta_phase[i])
+
+
+@settings(max_examples=300, deadline=None)
+@given(log_mc=st.floats(-40.0, 0.0), log_minus_n=st.floats(-6.0, 13.0), quarters=st.floats(-40.0, 40.0))
+def test_theta_phase_agrees_with_carlsons_integral_anywhere(log_mc, log_minus_n, quarters):
+    """Between the grid above: the attitude's form of ``n S`` against ``S`` from Carlson's ``R_J``
+    (relative precision; the other path through the same functions) for any parameter, characteristic
+    and argument, to the tolerance of the mpmath test (both errors added)."""
+    mc, n = 10.0**log_mc, -(10.0**log_minus_n)
+    jacobi = JacobiElliptic(mc, n)
+    u = np.array([quarters * jacobi.quarter_period])
+    carlson = jacobi(u)
+    theta = jacobi(u, integral=False, phase=True)
+    with np.errstate(under="ignore"):  # tiny arguments: powers of them below the normal range
+        got = n * jacobi.sn2_integral_slope * u + jacobi.phase_weight * theta.theta_phase
+        sn2 = carlson.sn**2
+        derivative = n * sn2 / (1.0 - n * sn2)
+        scale = abs(n * carlson.sn2_integral) + abs(n * jacobi.sn2_integral_slope * u) + abs(u * derivative)
+        allowed = 2 * TOLERANCE_FACTOR * EPS * scale + 1e-300
+        np.testing.assert_array_less(abs(got - n * carlson.sn2_integral), allowed)

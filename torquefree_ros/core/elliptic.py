@@ -149,6 +149,11 @@ class JacobiElliptic:
         return stacked
 
     def _periodic(self, u: np.ndarray, integral: bool, phase: bool) -> JacobiValues:
+        # far terms of a tiny nome, and powers of tiny arguments, underflow: their true values are below rounding
+        with np.errstate(under="ignore"):
+            return self._reduced(u, integral, phase)
+
+    def _reduced(self, u: np.ndarray, integral: bool, phase: bool) -> JacobiValues:
         half_periods = np.round(u / (2.0 * self.quarter_period))
         r = u - (2.0 * self.quarter_period) * half_periods  # in [-K, K]
         s, c, d, quarter_integral, quarter_phase = self._quarter(np.abs(r), integral, phase)
@@ -323,8 +328,7 @@ class _ThetaSeries:
 
     def __call__(self, u, phase: bool = False):
         """``sn, cn, dn`` and, if ``phase``, what :meth:`_ThetaPhase.at` takes (else ``None``)."""
-        with np.errstate(under="ignore"):  # far terms of a tiny nome: their true value is below rounding
-            return self._series(self.scale * u, phase)
+        return self._series(self.scale * u, phase)  # (under JacobiElliptic's errstate: underflow is no error)
 
     def _series(self, x, phase: bool):
         if self.trigonometric:
