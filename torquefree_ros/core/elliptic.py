@@ -32,6 +32,7 @@ and one ``atan2`` a sample, where ``R_J`` costs more than everything else togeth
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -320,11 +321,16 @@ class _ThetaSeries:
             factors = (t3 / t2, t4 / t2, t4 / t3, 1.0)
         else:  # sn = tanh A/B, cn = D/(B cosh), dn = C/(B cosh)
             factors = (t3 / t4, 1.0, t2 / t3, t2 / t4)
-        rows = [tuple(factor * value for value in cubic) for factor, cubic in zip(factors, (a, b, c, d))]
+        rows = [(f * cubic[0], f * cubic[1], f * cubic[2], f * cubic[3]) for f, cubic in zip(factors, (a, b, c, d))]
         self.phase = phase
         stacked = _stack(rows + list(phase.cubics) if phase is not None else rows)
         self.phased_cubics = stacked if phase is not None else None
-        self.cubics = tuple(k[:4] for k in stacked)  # the functions' own four: a view
+        self._stacked = stacked
+
+    @functools.cached_property
+    def cubics(self) -> tuple:
+        """The functions' own four cubics (a view of the stack; the attitude takes all of it)."""
+        return tuple(k[:4] for k in self._stacked)
 
     def __call__(self, u, phase: bool = False):
         """``sn, cn, dn`` and, if ``phase``, what :meth:`_ThetaPhase.at` takes (else ``None``)."""

@@ -114,7 +114,8 @@ def attitude_constants(ops, frame: SolverFrame, solver_from_frame, q_NF0, sn2_in
     return AttitudeConstants(
         initial_phase=u0,
         momentum=momentum,
-        rate_matrix=tuple(tuple(amplitude * x for x in row) for amplitude, row in zip((a, b, c), solver_from_frame)),
+        rate_matrix=tuple([(amplitude * row[0], amplitude * row[1], amplitude * row[2])
+                           for amplitude, row in zip((a, b, c), solver_from_frame)]),
         momentum_amplitudes=amplitudes,
         direction=direction,
         lever=(A, B),
@@ -128,15 +129,16 @@ def attitude_constants(ops, frame: SolverFrame, solver_from_frame, q_NF0, sn2_in
 def solver_from_body(ops, frame: SolverFrame, principal_axes) -> tuple:
     """Rows of ``C`` with ``omega_S = C omega_B`` for principal axes given as the columns of
     ``principal_axes`` (rows of values): ``C[i][j] = signs[i] principal_axes[j][axes[i]]``, exact."""
-    return tuple(tuple(sign * ops.pick(row, axis) for row in principal_axes)
-                 for axis, sign in zip(frame.axes, frame.signs))
+    pick, (row0, row1, row2) = ops.pick, principal_axes
+    return tuple([(sign * pick(row0, axis), sign * pick(row1, axis), sign * pick(row2, axis))
+                  for axis, sign in zip(frame.axes, frame.signs)])
 
 
 def to_principal(omega_B, principal_axes) -> tuple:
     """``omega_P = principal_axes^T omega_B``, summed in one fixed order (values: floats or columns)."""
-    w = omega_B
-    return tuple(w[0] * principal_axes[0][j] + w[1] * principal_axes[1][j] + w[2] * principal_axes[2][j]
-                 for j in range(3))
+    (w0, w1, w2), (a0, a1, a2) = omega_B, principal_axes
+    return (w0 * a0[0] + w1 * a1[0] + w2 * a2[0], w0 * a0[1] + w1 * a1[1] + w2 * a2[1],
+            w0 * a0[2] + w1 * a1[2] + w2 * a2[2])
 
 
 def _transpose(matrix) -> tuple:

@@ -86,9 +86,9 @@ def product_matrix_values(left, right) -> tuple:
     by_left = ((pw, -pz, py, px), (pz, pw, -px, py), (-py, px, pw, pz), (-px, -py, -pz, pw))
     (r00, r01, r02, r03), (r10, r11, r12, r13), (r20, r21, r22, r23), (r30, r31, r32, r33) = (
         (qw, qz, -qy, qx), (-qz, qw, qx, qy), (qy, -qx, qw, qz), (-qx, -qy, -qz, qw))
-    return tuple((a * r00 + b * r10 + c * r20 + d * r30, a * r01 + b * r11 + c * r21 + d * r31,
-                  a * r02 + b * r12 + c * r22 + d * r32, a * r03 + b * r13 + c * r23 + d * r33)
-                 for a, b, c, d in by_left)
+    return tuple([(a * r00 + b * r10 + c * r20 + d * r30, a * r01 + b * r11 + c * r21 + d * r31,
+                   a * r02 + b * r12 + c * r22 + d * r32, a * r03 + b * r13 + c * r23 + d * r33)
+                  for a, b, c, d in by_left])
 
 
 def conjugate(q: np.ndarray) -> np.ndarray:

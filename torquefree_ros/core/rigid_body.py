@@ -48,7 +48,7 @@ class RigidBody:
             _check_magnitude(values, name)
             if values.shape[0] == 3:
                 _check_moments(values, name)
-                return cls(np.diag(values), values.copy(), np.eye(3))
+                return cls(values[:, None] * _IDENTITY, values.copy(), _IDENTITY)
             xx, yy, zz, xy, xz, yz = values
             tensor = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
         if not np.all(np.isfinite(tensor)):
@@ -58,7 +58,7 @@ class RigidBody:
             # Already principal: keep B as the principal frame exactly (no eigen-solver rounding).
             moments = np.diag(tensor).copy()
             _check_moments(moments, name)
-            return cls(tensor, moments, np.eye(3))
+            return cls(tensor, moments, _IDENTITY)
         moments, axes = np.linalg.eigh(tensor)
         if np.linalg.det(axes) < 0.0:
             axes[:, 2] = -axes[:, 2]  # a proper rotation, not a reflection
@@ -166,6 +166,9 @@ def _symmetric_tensor(matrix: np.ndarray, name: str) -> np.ndarray:
         raise ValueError(f"{name}: an inertia tensor must be symmetric, got {matrix.tolist()}")
     return 0.5 * (matrix + matrix.T)
 
+
+_IDENTITY = np.eye(3)  # the principal axes of a body given in its principal frame (shared: read-only)
+_IDENTITY.flags.writeable = False
 
 # Sums and products of moments (eigen-solver, triangle check, I_max |H|^2) must stay finite in float64.
 MAX_INERTIA = 1e100  # kg m^2
