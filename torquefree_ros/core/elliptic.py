@@ -97,19 +97,13 @@ class JacobiElliptic:
             raise ValueError(f"n: the characteristic must be <= 0, got {n!r}")
         if m is not None and not 0.0 <= m <= 1.0:
             raise ValueError(f"m: the parameter must lie in [0, 1], got {m!r}")
-        self.mc = float(mc)
-        self.n = float(n)
-        self.m = 1.0 - self.mc if m is None else float(m)
-        self.k_prime = math.sqrt(self.mc)
-        self.phase_weight = _phase_weight(FLOATS, self.m, self.n)
-        if self.mc > 0.0:
-            self.quarter_period, self.sn2_integral_quarter = (float(v) for v in _quarter_period_values(self.mc, self.n))
-            self.sn2_integral_slope = self.sn2_integral_quarter / self.quarter_period
-            trigonometric = self.mc >= self.TRIGONOMETRIC_MC
-            K_complementary = float(elliprf(0.0, self.m, 1.0))
-            phase = _ThetaPhase(FLOATS, self.quarter_period, K_complementary, self.m, self.n, trigonometric)
-            self._theta = _ThetaSeries(self.quarter_period, K_complementary, trigonometric, FLOATS, phase)
+        mc, n = float(mc), float(n)
+        m = 1.0 - mc if m is None else float(m)
+        if mc > 0.0:
+            self._set_constants(FLOATS, mc, n, m, mc >= self.TRIGONOMETRIC_MC)
         else:
+            self.mc, self.n, self.m, self.k_prime = mc, n, m, 0.0
+            self.phase_weight = _phase_weight(FLOATS, m, n)
             self.quarter_period = np.inf
             self.sn2_integral_quarter = np.inf
             self.sn2_integral_slope = 1.0 / (1.0 - self.n)  # S(u) ~ u / (1 - n) far out on the separatrix
@@ -140,14 +134,20 @@ class JacobiElliptic:
         if np.any((mc >= JacobiElliptic.TRIGONOMETRIC_MC) != trigonometric):
             raise ValueError("columns: parameters of one kind only (all mc >= 1/2, or all below)")
         stacked = object.__new__(_Stacked)
-        stacked.mc, stacked.n, stacked.m, stacked.k_prime = mc, n, m, np.sqrt(mc)
-        stacked.quarter_period, stacked.sn2_integral_quarter = _quarter_period_values(mc, n)
-        stacked.sn2_integral_slope = stacked.sn2_integral_quarter / stacked.quarter_period
-        stacked.phase_weight = _phase_weight(COLUMNS, m, n)
-        K_complementary = elliprf(0.0, m, 1.0)
-        phase = _ThetaPhase(COLUMNS, stacked.quarter_period, K_complementary, m, n, trigonometric)
-        stacked._theta = _ThetaSeries(stacked.quarter_period, K_complementary, trigonometric, COLUMNS, phase)
+        stacked._set_constants(COLUMNS, mc, n, m, trigonometric)
         return stacked
+
+    def _set_constants(self, ops, mc, n, m, trigonometric: bool) -> None:
+        """Every constant off the separatrix (``mc > 0``), by the same operations for one parameter
+        (floats) and for arrays over bodies."""
+        self.mc, self.n, self.m, self.k_prime = mc, n, m, ops.sqrt(mc)
+        self.phase_weight = _phase_weight(ops, m, n)
+        self.quarter_period = ops.elliprf(0.0, mc, 1.0)
+        self.sn2_integral_quarter = ops.elliprj(0.0, mc, 1.0, 1.0 - n) / 3.0  # S(K)
+        self.sn2_integral_slope = self.sn2_integral_quarter / self.quarter_period
+        K_complementary = ops.elliprf(0.0, m, 1.0)
+        phase = _ThetaPhase(ops, self.quarter_period, K_complementary, m, n, trigonometric)
+        self._theta = _ThetaSeries(self.quarter_period, K_complementary, trigonometric, ops, phase)
 
     def _periodic(self, u: np.ndarray, integral: bool, phase: bool) -> JacobiValues:
         # far terms of a tiny nome, and powers of tiny arguments, underflow: their true values are below rounding
@@ -246,11 +246,6 @@ def _first_element(value):
     return np.asarray(value)[..., 0]
 
 
-def _quarter_period_values(mc, n):
-    """``K`` and ``S(K)`` (floats or arrays, ``mc > 0``)."""
-    return elliprf(0.0, mc, 1.0), elliprj(0.0, mc, 1.0, 1.0 - n) / 3.0
-
-
 def first_kind_from_values(sn, cn, dn, rf=elliprf):
     """``u = F(am|m)`` in ``[-K, K]`` from ``sn``, ``cn >= 0``, ``dn`` (floats or arrays). Taking ``cn^2``
     and ``dn^2`` directly keeps ``u`` accurate next to ``±K``, where ``am`` is ``±pi/2`` to rounding."""
@@ -300,9 +295,9 @@ class _ThetaSeries:
     else is evaluated with it.
 
     Works on one parameter (floats) or on columns of parameters of one kind (``trigonometric`` the
-    same for every column). With a :class:`_ThetaPhase` its four cubics join the same Horner pass."""
+    same for every column). The four cubics of its :class:`_ThetaPhase` join the same Horner pass."""
 
-    def __init__(self, K, K_complementary, trigonometric: bool, ops, phase: "_ThetaPhase | None" = None):
+    def __init__(self, K, K_complementary, trigonometric: bool, ops, phase: "_ThetaPhase"):
         self.trigonometric = trigonometric
         ratio = K_complementary / K if trigonometric else K / K_complementary
         self.scale = (0.5 * math.pi) / (K if trigonometric else K_complementary)  # u -> z or y
@@ -323,14 +318,12 @@ class _ThetaSeries:
             factors = (t3 / t4, 1.0, t2 / t3, t2 / t4)
         rows = [(f * cubic[0], f * cubic[1], f * cubic[2], f * cubic[3]) for f, cubic in zip(factors, (a, b, c, d))]
         self.phase = phase
-        stacked = _stack(rows + list(phase.cubics) if phase is not None else rows)
-        self.phased_cubics = stacked if phase is not None else None
-        self._stacked = stacked
+        self.phased_cubics = _stack(rows + list(phase.cubics))
 
     @functools.cached_property
     def cubics(self) -> tuple:
         """The functions' own four cubics (a view of the stack; the attitude takes all of it)."""
-        return tuple(k[:4] for k in self._stacked)
+        return tuple(k[:4] for k in self.phased_cubics)
 
     def __call__(self, u, phase: bool = False):
         """``sn, cn, dn`` and, if ``phase``, what :meth:`_ThetaPhase.at` takes (else ``None``)."""

@@ -57,6 +57,14 @@ class _Floats:
         return float(elliprj(x, y, z, p))
 
 
+def _per_element(function):
+    """``function`` (one of ``math``'s) applied element by element to arrays over bodies, as to one body."""
+    def apply(*arrays):
+        result = [function(*values) for values in zip(*(np.ravel(a).tolist() for a in arrays))]
+        return np.array(result, dtype=float).reshape(np.shape(arrays[0]))
+    return apply
+
+
 class _Columns:
     """Operations on many bodies: each value a numpy array over bodies."""
 
@@ -66,29 +74,13 @@ class _Columns:
     elliprf = staticmethod(elliprf)
     elliprj = staticmethod(elliprj)
 
-    @staticmethod
-    def atan2(y, x):
-        return np.array([math.atan2(a, b) for a, b in zip(y.tolist(), x.tolist())])
-
-    @staticmethod
-    def exp(x):
-        return _elementwise(math.exp, x)
-
-    @staticmethod
-    def expm1(x):
-        return _elementwise(math.expm1, x)
-
-    @staticmethod
-    def sin(x):
-        return _elementwise(math.sin, x)
-
-    @staticmethod
-    def cos(x):
-        return _elementwise(math.cos, x)
-
-    @staticmethod
-    def sinh(x):
-        return _elementwise(math.sinh, x)
+    atan2 = staticmethod(_per_element(math.atan2))
+    hypot = staticmethod(_per_element(math.hypot))
+    exp = staticmethod(_per_element(math.exp))
+    expm1 = staticmethod(_per_element(math.expm1))
+    sin = staticmethod(_per_element(math.sin))
+    cos = staticmethod(_per_element(math.cos))
+    sinh = staticmethod(_per_element(math.sinh))
 
     @staticmethod
     def clip(value, low: float, high: float):
@@ -103,21 +95,12 @@ class _Columns:
         return tuple(np.choose(index, values) for values in zip(*tuples))
 
     @staticmethod
-    def hypot(*values):
-        return np.array([math.hypot(*v) for v in zip(*(value.tolist() for value in values))])
-
-    @staticmethod
     def order(values):
         return tuple(np.argsort(np.stack(values, axis=-1), axis=-1, kind="stable").T)
 
     @staticmethod
     def first_largest(values):
         return np.argmax(np.stack(values), axis=0)
-
-
-def _elementwise(function, x: np.ndarray) -> np.ndarray:
-    """``function`` (one of ``math``'s) on every element, as for one body."""
-    return np.array([function(v) for v in x.ravel().tolist()]).reshape(x.shape)
 
 
 FLOATS = _Floats()

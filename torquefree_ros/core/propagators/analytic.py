@@ -26,7 +26,8 @@ class AnalyticPropagator(Propagator):
         self.polhode, self._attitude = exact_attitude(self.body, self.omega0_B, self.q0_NB)
 
     def _spin(self, times) -> np.ndarray:
-        """``q0 ⊗ exp(t w / 2) = cos(|w| t / 2) q0 + sin(|w| t / 2) q0 ⊗ (w / |w|, 0)`` for a constant ``w``."""
+        """``q0 ⊗ exp(t w / 2) = cos(|w| t / 2) q0 + sin(|w| t / 2) q0 ⊗ (w / |w|, 0)`` for a constant ``w``
+        (``quaternion.exp_rotation`` would find the same axis and norm again at every sample)."""
         speed = math.hypot(*self.omega0_B.tolist())
         if speed == 0.0:
             q = np.empty((times.size, 4))
