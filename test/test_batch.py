@@ -73,7 +73,9 @@ def test_a_dispersed_campaign_in_several_stacked_groups_is_bit_for_bit_the_loop(
         np.testing.assert_array_equal(q[i], alone[1])
 
 
-def test_passes_and_groups_of_one_kind_are_bit_for_bit_the_loop(monkeypatch):
+@pytest.mark.parametrize("moments, rate", [([2.0, 3.0, 4.0], [0.7, 0.5, 0.6]), ([1.5, 2.0, 3.0], [0.3, 0.2, 1.0])],
+                         ids=["hyperbolic", "trigonometric"])  # m > 1/2 and m <= 1/2: the two series
+def test_passes_and_groups_of_one_kind_are_bit_for_bit_the_loop(monkeypatch, moments, rate):
     """A campaign of one kind (consecutive bodies: results written in place) in several groups, each
     evaluated in passes of a few samples, is the loop of ``propagate``; so is one body's long request
     evaluated in passes against the same request whole."""
@@ -82,8 +84,8 @@ def test_passes_and_groups_of_one_kind_are_bit_for_bit_the_loop(monkeypatch):
 
     rng = np.random.default_rng(5)
     count = 30
-    inertia = [2.0, 3.0, 4.0] * (1.0 + 0.01 * rng.standard_normal((count, 3)))
-    omega0 = [0.7, 0.5, 0.6] + 0.01 * rng.standard_normal((count, 3))
+    inertia = moments * (1.0 + 0.01 * rng.standard_normal((count, 3)))
+    omega0 = rate + 0.01 * rng.standard_normal((count, 3))
     orientation = np.tile([0.0, 0.0, 0.0, 1.0], (count, 1))
     times = np.linspace(0.0, 300.0, 41)
     whole = propagate(inertia[0], omega0[0], orientation[0], times)

@@ -158,3 +158,32 @@ def test_theta_phase_agrees_with_carlsons_integral_anywhere(log_mc, log_minus_n,
                  + abs(u * derivative))
         error = abs((linear + phase) - n * carlson.sn2_integral)
         np.testing.assert_array_less(error, 4 * TOLERANCE_FACTOR * EPS * sizes + 1e-300)
+
+
+@settings(max_examples=200, deadline=None)
+@given(log_smallest=st.floats(-3.0, 3.0), log_spread=st.floats(0.0, 6.0), excess=st.floats(0.0, 1.0),
+       rates=st.tuples(*[st.floats(-1.0, 1.0)] * 3), signs=st.tuples(*[st.sampled_from([-1.0, 1.0])] * 3),
+       log_t=st.floats(-3.0, 6.0))
+def test_whole_period_series_agree_with_the_two_halves(log_smallest, log_spread, excess, rates, signs, log_t):
+    """The attitude's trigonometric evaluation on the whole half-period (``m <= 1/2``: cubics in
+    ``sin^2 z``, no selection between the halves) against the reduced halves of
+    :class:`JacobiElliptic` (the path the mpmath grid above pins), for any body with ``m <= 1/2``,
+    thin rods (spread 1e6) and flat plates (excess 1) included, out to a million seconds. Tolerance:
+    8 eps of each value plus what moving ``u`` by 8 of its rounding units moves it (the two paths round
+    ``u`` differently)."""
+    from hypothesis import assume
+
+    from torquefree_ros.core.propagators import make_propagator
+
+    smallest = 10.0**log_smallest
+    middle = smallest * 10.0**log_spread
+    inertia = [smallest, middle, middle + excess * smallest]  # a physical body: largest <= sum of the others
+    rate = [sign * 10.0**r for sign, r in zip(signs, rates)]
+    attitude = make_propagator(inertia, rate, [0.0, 0.0, 0.0, 1.0])._attitude
+    assume(attitude is not None and attitude._terms == attitude._trigonometric_terms)
+    t = 10.0**log_t * np.array([0.0, 0.1, 0.37, 0.5, 0.71, 1.0])
+    fast, halves = attitude._trigonometric_terms(t), attitude._jacobi_terms(t)
+    spread = [np.abs(a - b) for a, b in zip(attitude._jacobi_terms(t * (1 + 8 * EPS)), attitude._jacobi_terms(t * (1 - 8 * EPS)))]
+    for name, got, expected, moved in zip(("cn", "sn", "dn", "phase - angle"), fast, halves, spread):
+        allowed = TOLERANCE_FACTOR * EPS * (1.0 + np.abs(expected)) + moved
+        assert np.all(np.abs(got - expected) <= allowed), (name, got, expected, allowed)

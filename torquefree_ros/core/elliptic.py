@@ -103,6 +103,7 @@ class JacobiElliptic:
             self._set_constants(FLOATS, mc, n, m, mc >= self.TRIGONOMETRIC_MC)
         else:
             self.mc, self.n, self.m, self.k_prime = mc, n, m, 0.0
+            self._theta = None  # closed forms on the separatrix
             self.phase_weight = _phase_weight(FLOATS, m, n)
             self.quarter_period = np.inf
             self.sn2_integral_quarter = np.inf
@@ -278,12 +279,16 @@ class _ThetaSeries:
     series, divided through by ``cosh y`` (or ``sinh y``) so that nothing overflows as ``m -> 1``.
 
     Every series keeps ``q^(j^2+j)`` (odd) and ``q^(j^2)`` (even) for ``j <= 3``; on ``[0, K/2]`` the
-    first term left out is below ``1e-19`` of the sum. With ``c = cos 2z`` (or ``cosh 2y``) each
-    series divided by its first harmonic is a cubic in ``c``, the same cubic for both kinds:
+    first term left out is below ``1e-19`` of the sum (trigonometric: for every real ``z``, each term
+    being at most ``q^(j^2)``). With ``c = cos 2z`` (or ``cosh 2y``) each series divided by its first
+    harmonic is a cubic in ``c``, the same cubic for both kinds:
 
     * ``A(c) = 1 - q^2 (2c+1) + q^6 (4c^2+2c-1) - q^12 (8c^3+4c^2-4c-1)`` (``θ1`` over ``sin z``, ``sinh y``)
     * ``B(c) = 1 + q^2 (2c-1) + q^6 (4c^2-2c-1) + q^12 (8c^3-4c^2-4c+1)`` (``θ2`` over ``cos z``, ``cosh y``)
     * ``C(c), D(c) = 1 ± 2q c + 2q^4 (2c^2-1) ± 2q^9 (4c^3-3c)`` (``θ3``, ``θ4``)
+
+    The trigonometric ones are kept as cubics in ``s = sin^2 z = (1 - c)/2`` (``sin(2j+1)z / sin z``,
+    ``cos(2j+1)z / cos z`` and ``cos 2jz`` are polynomials in it), which a sample has without forming ``c``.
 
     so ``sn = (θ3/θ2) sin z A/D``, ``cn = (θ4/θ2) cos z B/D``, ``dn = (θ4/θ3) C/D`` and, hyperbolic,
     ``sn = (θ3/θ4) tanh y A/B``, ``cn = (θ2/θ4) D/(B cosh y)``, ``dn = (θ2/θ3) C/(B cosh y)``. Their
@@ -308,17 +313,38 @@ class _ThetaSeries:
         t2 = ((1.0 + q2) + q6) + q12  # theta_2(0) / (2 q^(1/4))
         t3 = 1.0 + 2.0 * ((q + q4) + q9)
         t4 = 1.0 + 2.0 * ((q4 - q) - q9)
-        a = (((1.0 - q2) - q6) + q12, (2.0 * q6 - 2.0 * q2) + 4.0 * q12, 4.0 * q6 - 4.0 * q12, -8.0 * q12)
-        b = (((1.0 - q2) - q6) + q12, (2.0 * q2 - 2.0 * q6) - 4.0 * q12, 4.0 * q6 - 4.0 * q12, 8.0 * q12)
-        c = (1.0 - 2.0 * q4, 2.0 * q - 6.0 * q9, 4.0 * q4, 8.0 * q9)
-        d = (1.0 - 2.0 * q4, 6.0 * q9 - 2.0 * q, 4.0 * q4, -8.0 * q9)
-        if trigonometric:  # sn = s A/D, cn = cos B/D, dn = C/D with the constants in A, B, C
+        if trigonometric:  # in s = sin^2 z; sn = sin z A/D, cn = cos z B/D, dn = C/D with the constants in A, B, C
+            a = (((1.0 - 3.0 * q2) + 5.0 * q6) - 7.0 * q12, (4.0 * q2 - 20.0 * q6) + 56.0 * q12, 16.0 * q6 - 112.0 * q12,
+                 64.0 * q12)
+            b = (t2, (-4.0 * q2 - 12.0 * q6) - 24.0 * q12, 16.0 * q6 + 80.0 * q12, -64.0 * q12)
+            c = (t3, (-4.0 * q - 16.0 * q4) - 36.0 * q9, 16.0 * q4 + 96.0 * q9, -64.0 * q9)
+            d = (t4, (4.0 * q - 16.0 * q4) + 36.0 * q9, 16.0 * q4 - 96.0 * q9, 64.0 * q9)
             factors = (t3 / t2, t4 / t2, t4 / t3, 1.0)
-        else:  # sn = tanh A/B, cn = D/(B cosh), dn = C/(B cosh)
+        else:  # in c = cosh 2y; sn = tanh A/B, cn = D/(B cosh), dn = C/(B cosh)
+            a = (((1.0 - q2) - q6) + q12, (2.0 * q6 - 2.0 * q2) + 4.0 * q12, 4.0 * q6 - 4.0 * q12, -8.0 * q12)
+            b = (((1.0 - q2) - q6) + q12, (2.0 * q2 - 2.0 * q6) - 4.0 * q12, 4.0 * q6 - 4.0 * q12, 8.0 * q12)
+            c = (1.0 - 2.0 * q4, 2.0 * q - 6.0 * q9, 4.0 * q4, 8.0 * q9)
+            d = (1.0 - 2.0 * q4, 6.0 * q9 - 2.0 * q, 4.0 * q4, -8.0 * q9)
             factors = (t3 / t4, 1.0, t2 / t3, t2 / t4)
-        rows = [(f * cubic[0], f * cubic[1], f * cubic[2], f * cubic[3]) for f, cubic in zip(factors, (a, b, c, d))]
+        self._rows = [(f * cubic[0], f * cubic[1], f * cubic[2], f * cubic[3]) for f, cubic in zip(factors, (a, b, c, d))]
         self.phase = phase
-        self.phased_cubics = _stack(rows + list(phase.cubics))
+
+    @functools.cached_property
+    def phased_cubics(self) -> tuple:
+        """The four cubics and their phase's on both halves, stacked for one Horner pass (see :func:`_stack`)."""
+        phase_rows = list(self.phase.cubics)
+        if self.trigonometric:  # the second half's phase: z = pi/2 - z_w, s = 1 - s_w
+            phase_rows += [_mirrored(row) for row in phase_rows]
+        return _stack(self._rows + phase_rows)
+
+    @functools.cached_property
+    def whole_period_cubics(self) -> tuple:
+        """Trigonometric only: ``A, B, C, D`` and the phase's ``P, Q`` in ``s = sin^2 z``, stacked: the
+        series hold for every real ``z``, so the attitude evaluates them on the whole half-period
+        ``|z| <= pi/2`` without the two halves' selections."""
+        if not self.trigonometric:
+            raise ValueError("whole_period_cubics: only for the trigonometric series (mc >= 1/2)")
+        return _stack(self._rows + list(self.phase.cubics))
 
     @functools.cached_property
     def cubics(self) -> tuple:
@@ -332,13 +358,13 @@ class _ThetaSeries:
     def _series(self, x, phase: bool):
         if self.trigonometric:
             first_sin, first_cos = np.sin(x), np.cos(x)
-            c = 1.0 - 2.0 * (first_sin * first_sin)  # cos 2z
+            variable = first_sin * first_sin  # s = sin^2 z
         else:
             first_cos = np.cosh(x)
             first_sin = np.tanh(x)
-            c = 2.0 * (first_cos * first_cos) - 1.0  # cosh 2y (>= 1: no cancellation)
+            variable = 2.0 * (first_cos * first_cos) - 1.0  # cosh 2y (>= 1: no cancellation)
         k0, k1, k2, k3 = self.phased_cubics if phase else self.cubics
-        values = ((k3 * c + k2) * c + k1) * c + k0
+        values = ((k3 * variable + k2) * variable + k1) * variable + k0
         A, B, C, D = values[:4]
         parts = (first_sin, first_cos, values[4:]) if phase else None
         if self.trigonometric:
@@ -376,13 +402,13 @@ def _third_kind_shift(ops, m, n):
 class _ThetaPhase:
     """The theta phase ``arg θ4(z + i beta)`` (``z = pi u/(2K)``, ``beta = pi b/(2K)``, ``b`` from
     :func:`_third_kind_shift`) on ``0 <= u <= K``, from the variables of :class:`_ThetaSeries` at the
-    reduced ``w`` (``u`` on the first half, ``K - u`` on the second) and four more cubics in its ``c``.
+    reduced ``w`` (``u`` on the first half, ``K - u`` on the second) and more cubics in its variable.
     The real part stays positive, so one ``atan2`` gives the phase without any branch to follow.
 
-    Trigonometric (``m <= 1/2``), on both halves from ``θ4(z + i beta) = θ4(i beta) + 4 sin^2 z P(cos 2z)
-    + 2i sin z cos z Q(cos 2z)`` (``P``, ``Q`` cubics with ``q^(j^2) cosh 2j beta``,
+    Trigonometric (``m <= 1/2``), for every real ``z`` from ``θ4(z + i beta) = θ4(i beta) + s P(s)
+    + i sin z cos z Q(s)``, ``s = sin^2 z`` (``P``, ``Q`` cubics with ``q^(j^2) cosh 2j beta``,
     ``q^(j^2) sinh 2j beta``, ``j <= 4``); on the second half ``z = pi/2 - z_w`` swaps sine and cosine
-    and negates ``c``. When ``|n|`` is large (a thin rod) ``θ4(i beta)`` is tiny, and it comes from the
+    and takes ``s`` to ``1 - s``. When ``|n|`` is large (a thin rod) ``θ4(i beta)`` is tiny, and it comes from the
     product form with ``1 - q e^(2 beta) = -expm1(-pi b'/K)``: the near zero is exact, not a difference.
 
     Hyperbolic (``m > 1/2``), by Jacobi's imaginary transformation (DLMF 20.7(viii)),
@@ -434,9 +460,13 @@ class _ThetaPhase:
         for _ in range(6):
             q_before, q_even = q_even, q_even * q2
             base = base * ((1.0 - q_even) * (1.0 - sigma * q_before) * (1.0 - rho * q_even))
-        re = (4.0 * ((C1 - 2.0 * C2) + C3), 4.0 * (4.0 * C3 - 2.0 * C2), 4.0 * (4.0 * C3 - 8.0 * C4), -32.0 * C4)
-        im = (2.0 * (2.0 * S1 - 2.0 * S3), 2.0 * (8.0 * S4 - 4.0 * S2), 16.0 * S3, -32.0 * S4)
-        return (re, im, _odd_negated(re), _odd_negated(im)), base
+        # Re θ4 - θ4(i beta) = 4 sum (-1)^(j+1) C_j sin^2 jz and Im θ4 = 2 sum (-1)^(j+1) S_j sin 2jz, over
+        # s = sin^2 z and sin z cos z: sin^2 jz / s and sin 2jz / sin 2z are polynomials in s
+        re = (4.0 * (((C1 - 4.0 * C2) + 9.0 * C3) - 16.0 * C4), 4.0 * ((4.0 * C2 - 24.0 * C3) + 80.0 * C4),
+              4.0 * (16.0 * C3 - 128.0 * C4), 256.0 * C4)
+        im = (4.0 * (((S1 - 2.0 * S2) + 3.0 * S3) - 4.0 * S4), 4.0 * ((4.0 * S2 - 16.0 * S3) + 40.0 * S4),
+              4.0 * (16.0 * S3 - 96.0 * S4), 256.0 * S4)
+        return (re, im), base
 
     @staticmethod
     def _hyperbolic(ops, K, Kc, b, bc):
@@ -483,6 +513,7 @@ class _ThetaPhase:
         return np.where(first, re_first, re_second), im, np.where(first, -self.kappa, self.kappa) * w
 
 
-def _odd_negated(cubic) -> tuple:
-    """The cubic of ``-c``."""
-    return cubic[0], -cubic[1], cubic[2], -cubic[3]
+def _mirrored(cubic) -> tuple:
+    """The cubic ``p(1 - s)`` of the cubic ``p(s)`` (each new coefficient a sum led by its first term)."""
+    k0, k1, k2, k3 = cubic
+    return ((k0 + k1) + k2) + k3, -((k1 + 2.0 * k2) + 3.0 * k3), k2 + 3.0 * k3, -k3

@@ -82,7 +82,7 @@ class Propagator(abc.ABC):
         omega, q, x = self._evaluate(times)
         # t = 0 is the initial state itself, not its reconstruction through the solution
         # (sorted and non-negative: the zeros lead)
-        zeros = int(np.searchsorted(times, 0.0, side="right"))
+        zeros = int(np.searchsorted(times, 0.0, side="right")) if times.size and times[0] == 0.0 else 0
         if zeros:
             omega[:zeros] = self.omega0_B
             q[:zeros] = self.q0_NB
