@@ -12,7 +12,10 @@ The method (periods and integrals from Carlson's symmetric forms in ``scipy.spec
   or, by Jacobi's imaginary transformation, of the complementary parameter (``m > 1/2``): each nome is
   at most ``exp(-pi)``, a few terms reach float64, and ``cn``, ``dn`` keep relative precision
   (:class:`_ThetaSeries`);
-* on ``[K/2, K]`` use ``v = K - u``: ``sn = cd(v)``, ``cn = k' sd(v)``, ``dn = k' nd(v)`` (DLMF 22.4.3).
+* on ``[K/2, K]`` use ``v = K - u``: ``sn = cd(v)``, ``cn = k' sd(v)``, ``dn = k' nd(v)`` (DLMF 22.4.3);
+* except when ``S`` is not asked for and ``m <= 1/2``: the trigonometric series hold for every real
+  argument, so they are evaluated on the whole half-period ``[-K, K]`` at once, without the two halves'
+  selections (a call's fixed cost is its count of array operations).
 
 The attitude about the angular momentum needs ``Π(n; am u | m) = u + n S(u)`` (``n <= 0``) with
 ``S(u) = ∫_0^u sn^2/(1 - n sn^2) du' = (1/3) sn^3 R_J(cn^2, dn^2, 1, 1 - n sn^2)`` (DLMF 19.25.14).
@@ -34,7 +37,7 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from scipy.special import elliprf, elliprj
@@ -42,8 +45,7 @@ from scipy.special import elliprf, elliprj
 from .ops import COLUMNS, FLOATS
 
 
-@dataclass(frozen=True)
-class JacobiValues:
+class JacobiValues(NamedTuple):
     """``sn, cn, dn`` at ``u``, with ``S = ∫_0^u sn^2/(1 - n sn^2)`` and the theta phase when asked for
     (else ``None``); ``u = r + 2K j`` with ``r`` in ``[-K, K]`` (where ``cn >= 0``) and ``j`` the
     ``half_periods``, kept for continuous angles."""
@@ -56,20 +58,22 @@ class JacobiValues:
     reduced_cn: np.ndarray  # cn(r) >= 0
     half_periods: np.ndarray
     #: the theta phase (n S(u) = n slope u + weight * phase, see JacobiElliptic) as ``(re, im, linear)``:
-    #: ``atan2(im, re) + linear`` with ``re > 0``
+    #: ``atan2(im, re) + linear`` with ``re > 0`` (``linear`` None: 0)
     phase_parts: tuple | None = None
 
     @property
     def theta_phase(self) -> np.ndarray:
         re, im, linear = self.phase_parts
-        return np.arctan2(im, re) + linear
+        phase = np.arctan2(im, re)
+        return phase if linear is None else phase + linear
 
     def phase_minus_angle(self, a, b) -> np.ndarray:
         """``theta_phase - angle(a, b)`` by one ``atan2``: both ``atan2`` terms lie within ``pi/2`` of 0
         (``re > 0``, ``cn(r) >= 0``), so their difference is the argument of one product, unwrapped."""
         re, im, linear = self.phase_parts
         x, y = a * self.reduced_cn, b * self.reduced_sn
-        return np.arctan2(im * x - re * y, re * x + im * y) + (linear - np.pi * self.half_periods)
+        difference = np.arctan2(im * x - re * y, re * x + im * y) - _PI * self.half_periods
+        return difference if linear is None else difference + linear
 
     @property
     def am(self) -> np.ndarray:
@@ -116,7 +120,7 @@ class JacobiElliptic:
         u = np.asarray(u, dtype=float)
         if u.ndim == 0:  # one argument: the values as scalars
             values = self(u.reshape(1), integral=integral, phase=phase)
-            return JacobiValues(*(_first_element(getattr(values, name)) for name in JacobiValues.__dataclass_fields__))
+            return JacobiValues(*(_first_element(getattr(values, name)) for name in JacobiValues._fields))
         if self.mc == 0.0:
             return self._separatrix(u, integral, phase)
         return self._periodic(u, integral, phase)
@@ -149,32 +153,108 @@ class JacobiElliptic:
         K_complementary = ops.elliprf(0.0, m, 1.0)
         phase = _ThetaPhase(ops, self.quarter_period, K_complementary, m, n, trigonometric)
         self._theta = _ThetaSeries(self.quarter_period, K_complementary, trigonometric, ops, phase)
+        # what a call computes with, as numpy values (0-d for one parameter): numpy converts a Python
+        # float operand again on every operation, a third of a small operation's cost
+        K = self.quarter_period
+        self._K, self._k_prime = np.asarray(K), np.asarray(self.k_prime)
+        self._half_K, self._period, self._per_period = np.asarray(0.5 * K), np.asarray(2.0 * K), np.asarray(0.5 / K)
 
     def _periodic(self, u: np.ndarray, integral: bool, phase: bool) -> JacobiValues:
         # far terms of a tiny nome, and powers of tiny arguments, underflow: their true values are below rounding
         with np.errstate(under="ignore"):
-            return self._reduced(u, integral, phase)
+            functions = self._whole_half_period if self._theta.trigonometric else self._two_halves
+            if not integral:
+                return functions(u, phase)
+            values = self._with_integral(u)  # S's R_J form, on the two halves of the quarter period
+            return values._replace(phase_parts=functions(u, True).phase_parts) if phase else values
 
-    def _reduced(self, u: np.ndarray, integral: bool, phase: bool) -> JacobiValues:
-        half_periods = np.round(u / (2.0 * self.quarter_period))
+    def _whole_half_period(self, u: np.ndarray, phase: bool) -> JacobiValues:
+        """``m <= 1/2``, without ``S``: the trigonometric series hold for every real ``z`` (see
+        :class:`_ThetaSeries`), so ``u`` is reduced by ``2K`` to ``r = u - 2K j``, ``z_r = pi r/(2K)`` in
+        ``[-pi/2, pi/2]``, and the functions come from it directly: ``sn(r) = sin z_r A/D``,
+        ``cn(r) = cos z_r B/D >= 0``, ``dn = C/D``, cubics in ``s = sin^2 z_r``; no selection between
+        two halves, which makes a call fewer array operations. The theta phase is
+        ``θ4(i beta) + s P(s) + i sin z_r cos z_r Q(s)`` (:class:`_ThetaPhase`)."""
+        series = self._theta
+        half_periods = np.rint(u * self._per_period)
+        # u - 2K j is exact next to a multiple of 2K: reduced first, only the small r is scaled (z = pi u/(2K)
+        # itself would add a rounding of its size to every sample)
+        reduced = series.sample_scale * (u - self._period * half_periods)
+        sine, cosine = np.sin(reduced), np.cos(reduced)
+        s = sine * sine
+        k0, k1, k2, k3 = series.phased_cubics if phase else series.cubics
+        values = ((k3 * s + k2) * s + k1) * s + k0
+        quotients = values[:3] * np.reciprocal(values[3])
+        reduced_sn, reduced_cn = quotients[0] * sine, quotients[1] * cosine
+        parity = _parity(half_periods)
+        return JacobiValues(
+            sn=parity * reduced_sn,
+            cn=parity * reduced_cn,
+            dn=quotients[2],
+            sn2_integral=None,
+            reduced_sn=reduced_sn,
+            reduced_cn=reduced_cn,
+            half_periods=half_periods,
+            phase_parts=(series.phase.sample_base + s * values[4], (sine * cosine) * values[5], None) if phase else None,
+        )
+
+    def _two_halves(self, u: np.ndarray, phase: bool) -> JacobiValues:
+        """``m > 1/2``, without ``S``: the hyperbolic series on ``[0, K/2]``, at ``w = |r|`` on the first
+        half of the quarter period and at ``w = K - |r|`` on the second, each half's three functions one
+        numerator over one denominator (``sh = sinh y``, ``ch = cosh y``): ``(sh A, D, C) / (ch B)`` on the
+        first (``sn = tanh A/B``, ``cn = D/(ch B)``, ``dn = C/(ch B)``), ``(D, k' sh A, k' ch B) / C`` on the
+        second (``sn = cd(w)``, ``cn = k' sd(w)``, ``dn = k' nd(w)``). The theta phase from the same
+        variables (:class:`_ThetaPhase`: ``arg θ2(gamma - i y) - kappa w`` on the first half,
+        ``kappa w - arg θ3(gamma - i y)`` on the second), odd in ``r``."""
+        series = self._theta
+        half_periods = np.rint(u * self._per_period)
+        r = u - self._period * half_periods  # in [-K, K]
+        magnitude = np.abs(r)
+        first = magnitude <= self._half_K
+        w = np.where(first, magnitude, self._K - magnitude)
+        y = series.sample_scale * w
+        ch, th = np.cosh(y), np.tanh(y)
+        ch2 = ch * ch
+        c = _TWO * ch2 - _ONE  # cosh 2y
+        k0, k1, k2, k3 = series.phased_cubics if phase else series.cubics
+        values = ((k3 * c + k2) * c + k1) * c + k0
+        A, B, C, D = values[:4]
+        sh_A, ch_B = (th * ch) * A, ch * B
+        inverse = np.reciprocal(np.where(first, ch_B, C))
+        reduced_sn = np.copysign(np.where(first, sh_A, D) * inverse, r)
+        reduced_cn = np.where(first, D, self._k_prime * sh_A) * inverse
+        parity = _parity(half_periods)
+        phase_parts = None
+        if phase:
+            re_first, im_first, re_second, im_second = values[4:]
+            phase_parts = (np.where(first, re_first, re_second),
+                           np.copysign(th, r) * np.where(first, im_first, ch2 * im_second),
+                           np.where(first, series.phase.first_half_kappa, series.phase.kappa) * np.copysign(w, r))
+        return JacobiValues(
+            sn=parity * reduced_sn,
+            cn=parity * reduced_cn,
+            dn=np.where(first, C, self._k_prime * ch_B) * inverse,
+            sn2_integral=None,
+            reduced_sn=reduced_sn,
+            reduced_cn=reduced_cn,
+            half_periods=half_periods,
+            phase_parts=phase_parts,
+        )
+
+    def _with_integral(self, u: np.ndarray) -> JacobiValues:
+        half_periods = np.rint(u / (2.0 * self.quarter_period))
         r = u - (2.0 * self.quarter_period) * half_periods  # in [-K, K]
-        s, c, d, quarter_integral, quarter_phase = self._quarter(np.abs(r), integral, phase)
-        if phase:  # odd in r
-            sign = np.copysign(1.0, r)
-            re, im, linear = quarter_phase
-            quarter_phase = (re, sign * im, linear if self._theta.trigonometric else sign * linear)
+        s, c, d, quarter_integral = self._quarter(np.abs(r))
         s = np.copysign(s, r)
-        parity = 1.0 - 2.0 * np.mod(half_periods, 2.0)  # (-1)^j
+        parity = _parity(half_periods)
         return JacobiValues(
             sn=parity * s,
             cn=parity * c,
             dn=d,
-            sn2_integral=(np.copysign(quarter_integral, r) + (2.0 * self.sn2_integral_quarter) * half_periods
-                          if integral else None),
+            sn2_integral=np.copysign(quarter_integral, r) + (2.0 * self.sn2_integral_quarter) * half_periods,
             reduced_sn=s,
             reduced_cn=c,
             half_periods=half_periods,
-            phase_parts=quarter_phase,
         )
 
     def values_at(self, sn: float, cn: float, dn: float) -> JacobiValues:
@@ -189,20 +269,17 @@ class JacobiElliptic:
         return first_kind_from_values(sn, cn, dn)
 
     # -- internals ------------------------------------------------------------------------------
-    def _quarter(self, r: np.ndarray, integral: bool, phase: bool):
-        """``sn, cn, dn``, ``S`` (or ``None``) and the theta phase (or ``None``) for ``0 <= r <= K``."""
+    def _quarter(self, r: np.ndarray):
+        """``sn, cn, dn`` and ``S`` for ``0 <= r <= K``."""
         K, mc, n, kp = self.quarter_period, self.mc, self.n, self.k_prime
         first = r <= 0.5 * K
         # First half directly; second half through v = K - r (both evaluated on [0, K/2]).
         w = np.where(first, r, K - r)
-        s1, c1, d1, phase_parts = self._theta(w, phase)
+        s1, c1, d1 = self._theta(w)
         inverse_d1 = 1.0 / d1
         s = np.where(first, s1, c1 * inverse_d1)
         c = np.where(first, c1, (kp * s1) * inverse_d1)
         d = np.where(first, d1, kp * inverse_d1)
-        quarter_phase = self._theta.phase.at(first, w, phase_parts) if phase else None
-        if not integral:
-            return s, c, d, None, quarter_phase
         # S on the first half: (1/3) sn^3 R_J(cn^2, dn^2, 1, 1 - n sn^2).
         # On the second half, with v = K - r: sn^2(K - v) / (1 - n sn^2(K - v)) equals
         # (1 - sn^2 v) / ((1 - n)(1 - n' sn^2 v)) for n' = (m - n)/(1 - n), so
@@ -213,7 +290,7 @@ class JacobiElliptic:
         p = np.where(first, 1.0 - n * s1s, c1s + shifted * s1s)
         rj = elliprj(c1s, d1s, 1.0, p) * (s1 * s1s) * (1.0 / 3.0)
         integral_second = (self.sn2_integral_quarter - w / (1.0 - n)) + (shifted / (1.0 - n)) * rj
-        return s, c, d, np.where(first, rj, integral_second), quarter_phase
+        return s, c, d, np.where(first, rj, integral_second)
 
     def _separatrix(self, u: np.ndarray, integral: bool, phase: bool) -> JacobiValues:
         """``m = 1``: ``sn = tanh``, ``cn = dn = sech``, ``am = gd``, and in closed form
@@ -235,7 +312,15 @@ class JacobiElliptic:
                 carlson = tanh**3 * elliprj(c2, c2, 1.0, 1.0 - self.n * tanh * tanh) / 3.0  # inf once sech^2 underflows
             s = np.where(a < 1.0, carlson, (u - bounded) / (1.0 - self.n))
         return JacobiValues(sn=tanh, cn=sech, dn=sech.copy(), sn2_integral=s, reduced_sn=tanh, reduced_cn=sech,
-                            half_periods=np.zeros_like(u), phase_parts=(1.0, root * tanh, 0.0) if phase else None)
+                            half_periods=np.zeros_like(u), phase_parts=(1.0, root * tanh, None) if phase else None)
+
+
+_ONE, _TWO, _PI = np.array(1.0), np.array(2.0), np.array(math.pi)  # (numpy values: see _set_constants)
+
+
+def _parity(half_periods: np.ndarray) -> np.ndarray:
+    """``(-1)^j``."""
+    return _ONE - _TWO * np.mod(half_periods, _TWO)
 
 
 def _first_element(value):
@@ -300,12 +385,13 @@ class _ThetaSeries:
     else is evaluated with it.
 
     Works on one parameter (floats) or on columns of parameters of one kind (``trigonometric`` the
-    same for every column). The four cubics of its :class:`_ThetaPhase` join the same Horner pass."""
+    same for every column). The cubics of its :class:`_ThetaPhase` join the same Horner pass."""
 
     def __init__(self, K, K_complementary, trigonometric: bool, ops, phase: "_ThetaPhase"):
         self.trigonometric = trigonometric
         ratio = K_complementary / K if trigonometric else K / K_complementary
         self.scale = (0.5 * math.pi) / (K if trigonometric else K_complementary)  # u -> z or y
+        self.sample_scale = np.asarray(self.scale)
         q = ops.exp(-math.pi * ratio)  # the same value for one parameter and for columns
         q2 = q * q
         q4 = q2 * q2
@@ -331,19 +417,7 @@ class _ThetaSeries:
 
     @functools.cached_property
     def phased_cubics(self) -> tuple:
-        """The four cubics and their phase's on both halves, stacked for one Horner pass (see :func:`_stack`)."""
-        phase_rows = list(self.phase.cubics)
-        if self.trigonometric:  # the second half's phase: z = pi/2 - z_w, s = 1 - s_w
-            phase_rows += [_mirrored(row) for row in phase_rows]
-        return _stack(self._rows + phase_rows)
-
-    @functools.cached_property
-    def whole_period_cubics(self) -> tuple:
-        """Trigonometric only: ``A, B, C, D`` and the phase's ``P, Q`` in ``s = sin^2 z``, stacked: the
-        series hold for every real ``z``, so the attitude evaluates them on the whole half-period
-        ``|z| <= pi/2`` without the two halves' selections."""
-        if not self.trigonometric:
-            raise ValueError("whole_period_cubics: only for the trigonometric series (mc >= 1/2)")
+        """The four cubics and their phase's, stacked for one Horner pass (see :func:`_stack`)."""
         return _stack(self._rows + list(self.phase.cubics))
 
     @functools.cached_property
@@ -351,11 +425,9 @@ class _ThetaSeries:
         """The functions' own four cubics (a view of the stack; the attitude takes all of it)."""
         return tuple(k[:4] for k in self.phased_cubics)
 
-    def __call__(self, u, phase: bool = False):
-        """``sn, cn, dn`` and, if ``phase``, what :meth:`_ThetaPhase.at` takes (else ``None``)."""
-        return self._series(self.scale * u, phase)  # (under JacobiElliptic's errstate: underflow is no error)
-
-    def _series(self, x, phase: bool):
+    def __call__(self, u):
+        """``sn, cn, dn`` at ``0 <= u <= K/2``."""
+        x = self.scale * u  # (under JacobiElliptic's errstate: underflow is no error)
         if self.trigonometric:
             first_sin, first_cos = np.sin(x), np.cos(x)
             variable = first_sin * first_sin  # s = sin^2 z
@@ -363,16 +435,14 @@ class _ThetaSeries:
             first_cos = np.cosh(x)
             first_sin = np.tanh(x)
             variable = 2.0 * (first_cos * first_cos) - 1.0  # cosh 2y (>= 1: no cancellation)
-        k0, k1, k2, k3 = self.phased_cubics if phase else self.cubics
-        values = ((k3 * variable + k2) * variable + k1) * variable + k0
-        A, B, C, D = values[:4]
-        parts = (first_sin, first_cos, values[4:]) if phase else None
+        k0, k1, k2, k3 = self.cubics
+        A, B, C, D = ((k3 * variable + k2) * variable + k1) * variable + k0
         if self.trigonometric:
             inverse = 1.0 / D
-            return first_sin * A * inverse, first_cos * B * inverse, C * inverse, parts
+            return first_sin * A * inverse, first_cos * B * inverse, C * inverse
         inverse = 1.0 / B
         over_cosh = inverse / first_cos
-        return first_sin * A * inverse, D * over_cosh, C * over_cosh, parts
+        return first_sin * A * inverse, D * over_cosh, C * over_cosh
 
 
 def _stack(rows) -> tuple:
@@ -401,15 +471,15 @@ def _third_kind_shift(ops, m, n):
 
 class _ThetaPhase:
     """The theta phase ``arg θ4(z + i beta)`` (``z = pi u/(2K)``, ``beta = pi b/(2K)``, ``b`` from
-    :func:`_third_kind_shift`) on ``0 <= u <= K``, from the variables of :class:`_ThetaSeries` at the
-    reduced ``w`` (``u`` on the first half, ``K - u`` on the second) and more cubics in its variable.
-    The real part stays positive, so one ``atan2`` gives the phase without any branch to follow.
+    :func:`_third_kind_shift`): the constants of its cubics, which join :class:`_ThetaSeries`' Horner
+    pass in the same variable. The real part stays positive, so one ``atan2`` gives the phase without
+    any branch to follow.
 
     Trigonometric (``m <= 1/2``), for every real ``z`` from ``θ4(z + i beta) = θ4(i beta) + s P(s)
     + i sin z cos z Q(s)``, ``s = sin^2 z`` (``P``, ``Q`` cubics with ``q^(j^2) cosh 2j beta``,
-    ``q^(j^2) sinh 2j beta``, ``j <= 4``); on the second half ``z = pi/2 - z_w`` swaps sine and cosine
-    and takes ``s`` to ``1 - s``. When ``|n|`` is large (a thin rod) ``θ4(i beta)`` is tiny, and it comes from the
-    product form with ``1 - q e^(2 beta) = -expm1(-pi b'/K)``: the near zero is exact, not a difference.
+    ``q^(j^2) sinh 2j beta``, ``j <= 4``). When ``|n|`` is large (a thin rod) ``θ4(i beta)`` is tiny, and
+    it comes from the product form with ``1 - q e^(2 beta) = -expm1(-pi b'/K)``: the near zero is
+    exact, not a difference.
 
     Hyperbolic (``m > 1/2``), by Jacobi's imaginary transformation (DLMF 20.7(viii)),
     ``arg θ4(z + i beta) = arg θ2(gamma - i y) - kappa u`` on the first half and
@@ -428,9 +498,11 @@ class _ThetaPhase:
         Kc = K_complementary
         if trigonometric:
             self.cubics, self.base = self._trigonometric(ops, K, Kc, b, b_complementary)
+            self.sample_base = np.asarray(self.base)
         else:
             self.cubics = self._hyperbolic(ops, K, Kc, b, b_complementary)
-            self.kappa = (math.pi * b) / (2.0 * K * Kc)
+            kappa = (math.pi * b) / (2.0 * K * Kc)
+            self.kappa, self.first_half_kappa = np.asarray(kappa), np.asarray(-kappa)
 
     @staticmethod
     def _trigonometric(ops, K, Kc, b, bc):
@@ -500,20 +572,3 @@ class _ThetaPhase:
         re_second = (1.0 - 2.0 * q4 * cos4, 2.0 * q * cos2 - 6.0 * q9 * cos6, 4.0 * q4 * cos4, 8.0 * q9 * cos6)
         im_second = (4.0 * q9 * sin6 - 4.0 * q * sin2, -8.0 * q4 * sin4, -16.0 * q9 * sin6, 0.0 * q)
         return re_first, im_first, re_second, im_second
-
-    def at(self, first, w, parts):
-        """The phase at ``0 <= u <= K`` as ``(re, im, linear)`` (see :class:`JacobiValues`), from ``w``
-        and :class:`_ThetaSeries`' ``parts`` there."""
-        first_sin, first_cos, (re_first, im_first, re_second, im_second) = parts
-        if self.trigonometric:
-            re = self.base + np.where(first, first_sin * first_sin, first_cos * first_cos) * np.where(
-                first, re_first, re_second)
-            return re, (first_sin * first_cos) * np.where(first, im_first, im_second), 0.0
-        im = first_sin * np.where(first, im_first, (first_cos * first_cos) * im_second)
-        return np.where(first, re_first, re_second), im, np.where(first, -self.kappa, self.kappa) * w
-
-
-def _mirrored(cubic) -> tuple:
-    """The cubic ``p(1 - s)`` of the cubic ``p(s)`` (each new coefficient a sum led by its first term)."""
-    k0, k1, k2, k3 = cubic
-    return ((k0 + k1) + k2) + k3, -((k1 + 2.0 * k2) + 3.0 * k3), k2 + 3.0 * k3, -k3

@@ -94,31 +94,20 @@ class PolhodeAttitude:
     def __init__(self, jacobi: JacobiElliptic, rate, constants: AttitudeConstants):
         self.jacobi = jacobi
         c = constants
-        self._rate_matrix = np.array(c.rate_matrix, dtype=float)
-        self._frame_change = np.array(c.frame_change, dtype=float)
         self._bodies = c.momentum.shape[0] if isinstance(c.momentum, np.ndarray) else None
-        if self._bodies is not None:  # many bodies: (N, k, l) matrices
-            self._rate_matrix = np.moveaxis(self._rate_matrix, -1, 0)
-            self._frame_change = np.moveaxis(self._frame_change, -1, 0)
-        self._rate = rate
-        self._initial_phase = c.initial_phase
-        self._momentum = c.momentum
-        self._momentum_amplitudes = c.momentum_amplitudes
-        self._lever = c.lever
+        rate_matrix, frame_change = np.array(c.rate_matrix, dtype=float), np.array(c.frame_change, dtype=float)
+        if self._bodies is not None:  # many bodies: rows (N, l) of (k, l, N) matrices
+            rate_matrix, frame_change = rate_matrix.transpose(0, 2, 1), frame_change.transpose(0, 2, 1)
+        self._rate_rows, self._frame_change_rows = tuple(rate_matrix), tuple(frame_change)
+        # numpy values, 0-d for one body (a Python float operand is converted again on every operation);
         # half of psi = psi_rate t + direction (phase - angle) + psi_offset, each term halved (exact)
-        self._half_direction = 0.5 * c.direction
-        self._half_psi_rate = 0.5 * c.psi_rate
-        self._half_psi_offset = 0.5 * c.psi_offset
-        series = jacobi._theta  # None on the separatrix (closed forms)
-        trigonometric = series is not None and series.trigonometric
-        self._terms = self._trigonometric_terms if trigonometric else self._jacobi_terms
-        if trigonometric:  # the whole half-period at once (see _trigonometric_terms)
-            self._cubics = series.whole_period_cubics
-            self._phase_base = series.phase.base
-            self._z_rate = series.scale * rate  # z = pi u / (2K)
-            self._z_initial = series.scale * c.initial_phase
-        elif series is not None:
-            series.phased_cubics  # built now: part of the propagator's construction, not of its first call
+        values = np.array((rate, c.initial_phase, c.momentum, 2.0 * c.momentum, *c.momentum_amplitudes, *c.lever,
+                           0.5 * c.direction, 0.5 * c.psi_rate, 0.5 * c.psi_offset), dtype=float)
+        (self._rate, self._initial_phase, self._momentum, self._two_momentum, *amplitudes, lever_cn, lever_sn,
+         self._half_direction, self._half_psi_rate, self._half_psi_offset) = (values[i, ...] for i in range(len(values)))
+        self._momentum_amplitudes, self._lever = tuple(amplitudes), (lever_cn, lever_sn)
+        if jacobi._theta is not None:  # (None on the separatrix: closed forms)
+            jacobi._theta.phased_cubics  # built now: part of the propagator's construction, not of its first call
 
     #: elements evaluated in one pass: the pass's temporaries (~35 arrays of this many floats) stay in
     #: cache, and a long request does not grow the heap by megabytes that the allocator hands back to
@@ -140,55 +129,29 @@ class PolhodeAttitude:
         return omega, q
 
     def _pass(self, t: np.ndarray):
-        cn, sn, dn, phase_minus_angle = self._terms(t)
-        omega_F = _combine((cn, sn, dn), self._rate_matrix)
+        v = self.jacobi(self._rate * t + self._initial_phase, integral=False, phase=True)
+        cn, sn, dn = v.cn, v.sn, v.dn
+        omega_F = _combine((cn, sn, dn), self._rate_rows)
         # the angle of (m1, m2) is sign(J3 - J2) times the continuous angle of (A cn, B sn)
-        half = (self._half_psi_rate * t + self._half_direction * phase_minus_angle) + self._half_psi_offset
+        half = (self._half_psi_rate * t + self._half_direction * v.phase_minus_angle(*self._lever)) + self._half_psi_offset
         m_amp = self._momentum_amplitudes
         m0, m1 = m_amp[0] * cn, m_amp[1] * sn
         arc_w = self._momentum + m_amp[2] * dn  # m3 > 0: no cancellation
         # Q(m) = (m2, -m1, 0, |m| + m3) / sqrt(2 |m| (|m| + m3)), its norm in closed form
-        scale = 1.0 / np.sqrt((2.0 * self._momentum) * arc_w)
+        scale = np.reciprocal(np.sqrt(self._two_momentum * arc_w))
         cos_half, sin_half = np.cos(half) * scale, np.sin(half) * scale
         about_H_arc = (cos_half * m1 + sin_half * m0, sin_half * m1 - cos_half * m0, sin_half * arc_w, cos_half * arc_w)
-        return omega_F, _combine(about_H_arc, self._frame_change)
-
-    def _jacobi_terms(self, t: np.ndarray):
-        """``cn, sn, dn`` at ``u = rate t + u0`` and the continuous ``theta phase - angle of (A cn, B sn)``."""
-        v = self.jacobi(self._rate * t + self._initial_phase, integral=False, phase=True)
-        return v.cn, v.sn, v.dn, v.phase_minus_angle(*self._lever)
-
-    def _trigonometric_terms(self, t: np.ndarray):
-        """:meth:`_jacobi_terms` for ``m <= 1/2`` in fewer array operations (a call's fixed cost): the
-        trigonometric series on the whole half-period ``z_r = z - pi j`` in ``[-pi/2, pi/2]``, as cubics in
-        ``s = sin^2 z_r`` (``_ThetaSeries.whole_period_cubics``): ``sn(r) = sin z_r A/D``,
-        ``cn(r) = cos z_r B/D >= 0``, ``dn = C/D``, the theta phase's real part ``θ4(i beta) + s P`` (> 0)
-        and imaginary part ``sin z_r cos z_r Q``; ``(-1)^j`` turns the reduced functions into those at ``u``.
-        The difference of the phase and the angle is one ``atan2`` of a product (both within ``pi/2`` of 0)."""
-        z = self._z_rate * t + self._z_initial
-        half_periods = np.round(z * (1.0 / np.pi))
-        reduced = z - np.pi * half_periods
-        sine, cosine = np.sin(reduced), np.cos(reduced)
-        s = sine * sine
-        k0, k1, k2, k3 = self._cubics
-        values = ((k3 * s + k2) * s + k1) * s + k0
-        over_D = values[:3] * (1.0 / values[3])
-        reduced_sn, reduced_cn, dn = over_D[0] * sine, over_D[1] * cosine, over_D[2]
-        x, y = self._lever[0] * reduced_cn, self._lever[1] * reduced_sn
-        re, im = self._phase_base + s * values[4], (sine * cosine) * values[5]
-        phase_minus_angle = np.arctan2(im * x - re * y, re * x + im * y) - np.pi * half_periods
-        parity = 1.0 - 2.0 * np.mod(half_periods, 2.0)  # (-1)^j
-        return parity * reduced_cn, parity * reduced_sn, dn, phase_minus_angle
+        return omega_F, _combine(about_H_arc, self._frame_change_rows)
 
 
-def _combine(columns, matrix: np.ndarray) -> np.ndarray:
-    """``np.stack(columns, -1) @ matrix``, summed element by element rather than by BLAS, whose
-    kernels (and so roundings) change with the number of rows: a sample must not depend on how many
-    were requested with it. Columns ``(M,)`` with a matrix ``(k, l)``, or ``(M, N)`` with ``(N, k, l)``
-    (bodies: the same operations, body by body)."""
-    total = columns[0][..., None] * matrix[..., 0, :]
-    for i, column in enumerate(columns[1:], start=1):
-        total += column[..., None] * matrix[..., i, :]
+def _combine(columns, rows) -> np.ndarray:
+    """``np.stack(columns, -1) @ matrix`` for the matrix's ``rows``, summed element by element rather
+    than by BLAS, whose kernels (and so roundings) change with the number of rows: a sample must not
+    depend on how many were requested with it. Columns ``(M,)`` with rows ``(l,)``, or ``(M, N)`` with
+    rows ``(N, l)`` (bodies: the same operations, body by body)."""
+    total = columns[0][..., None] * rows[0]
+    for column, row in zip(columns[1:], rows[1:]):
+        total += column[..., None] * row
     return total
 
 
