@@ -7,8 +7,8 @@ On every hard case of ``torquefree_ros/bench/hard_cases.json``, side by side in 
   count), at the case's parameter and at ``m = 1/2``: the ratio says what the exact solution costs
   beyond the cheapest elliptic function evaluation there is (scipy takes shortcuts next to ``m = 0``
   and ``m = 1``, where its call costs a tenth: the second ratio is the one to compare across cases);
-- per sample in a block of 256 (the node's block) over that of a block of 10 000: the fixed cost of
-  one call;
+- per sample in a block of 256 (the node's block) over that of a block of 10 000, and a call of one
+  sample: the fixed cost of one call;
 - building the propagator (``make_propagator``: checks, frame, constants).
 
 Then ``propagate_batch`` for 1 000 dispersed bodies x 100 samples, per body-sample, against one body's
@@ -62,6 +62,7 @@ def _case_round(case, calls: int) -> dict:
         "ellipj_ratio": per_sample / (_fastest(lambda: ellipj(u, m), calls) / BLOCK),
         "generic_ellipj_ratio": per_sample / (_fastest(lambda: ellipj(u, 0.5), calls) / BLOCK),
         "small_block_ratio": _fastest(lambda: propagator(small), 10 * calls) / SMALL_BLOCK / per_sample,
+        "one_sample_us": _fastest(lambda: propagator(small[:1]), 20 * calls) * 1e6,
         "build_us": _fastest(lambda: make_propagator(case.inertia, case.angular_velocity, case.orientation),
                              20 * calls) * 1e6,
     }
@@ -113,18 +114,20 @@ def main() -> int:
     report.add("")
     report.add(f"Per sample in a block of {BLOCK:,} and beside one `scipy.special.ellipj` call per element (same "
                "count; at the case's parameter, where scipy takes shortcuts next to m = 0 and m = 1, and at "
-               f"m = 1/2); a block of {SMALL_BLOCK} per sample over a block of {BLOCK:,}; building the propagator:")
+               f"m = 1/2); a block of {SMALL_BLOCK} per sample over a block of {BLOCK:,}; a call of one sample (a call's "
+               "fixed cost); building the propagator:")
     report.add("")
     report.add(f"| case | ns per sample | / ellipj (case's m) | / ellipj (m = 1/2) | block {SMALL_BLOCK} / block {BLOCK:,} "
-               "| build (µs) |")
-    report.add("|---|---|---|---|---|---|")
-    keys = ("sample_ns", "ellipj_ratio", "generic_ellipj_ratio", "small_block_ratio", "build_us")
+               "| one sample (µs) | build (µs) |")
+    report.add("|---|---|---|---|---|---|---|")
+    keys = ("sample_ns", "ellipj_ratio", "generic_ellipj_ratio", "small_block_ratio", "one_sample_us", "build_us")
     for name, values in rounds.items():
         report.add(f"| {name} | " + " | ".join(spread([v[key] for v in values]) for key in keys) + " |")
     report.add("")
     every = [v for values in rounds.values() for v in values]
     for key, label in (("generic_ellipj_ratio", "per sample / ellipj at m = 1/2"),
-                       ("small_block_ratio", f"block {SMALL_BLOCK} / block {BLOCK:,}"), ("build_us", "build (µs)")):
+                       ("small_block_ratio", f"block {SMALL_BLOCK} / block {BLOCK:,}"),
+                       ("one_sample_us", "a call of one sample (µs)"), ("build_us", "build (µs)")):
         medians = [statistics.median(v[key] for v in values) for values in rounds.values()]
         report.add(f"- {label}: {min(medians):.3g} … {max(medians):.3g} over the cases (medians); "
                    f"all rounds {min(v[key] for v in every):.3g} … {max(v[key] for v in every):.3g}")
