@@ -372,9 +372,6 @@ class _ThetaSeries:
     * ``B(c) = 1 + q^2 (2c-1) + q^6 (4c^2-2c-1) + q^12 (8c^3-4c^2-4c+1)`` (``θ2`` over ``cos z``, ``cosh y``)
     * ``C(c), D(c) = 1 ± 2q c + 2q^4 (2c^2-1) ± 2q^9 (4c^3-3c)`` (``θ3``, ``θ4``)
 
-    The trigonometric ones are kept as cubics in ``s = sin^2 z = (1 - c)/2`` (``sin(2j+1)z / sin z``,
-    ``cos(2j+1)z / cos z`` and ``cos 2jz`` are polynomials in it), which a sample has without forming ``c``.
-
     so ``sn = (θ3/θ2) sin z A/D``, ``cn = (θ4/θ2) cos z B/D``, ``dn = (θ4/θ3) C/D`` and, hyperbolic,
     ``sn = (θ3/θ4) tanh y A/B``, ``cn = (θ2/θ4) D/(B cosh y)``, ``dn = (θ2/θ3) C/(B cosh y)``. Their
     coefficients (constant factors folded in) are set once; a sample is ``sin`` and ``cos`` (or
@@ -382,7 +379,9 @@ class _ThetaSeries:
     cancels: ``sn`` is a sine or ``tanh`` times a positive quotient and ``cn``, ``dn`` are quotients of
     sums without cancellation, so all three keep relative precision next to ``u = 0`` and next to the
     separatrix. A fixed count, and powers of ``q`` by products, keep each value the same whatever
-    else is evaluated with it.
+    else is evaluated with it. The trigonometric cubics are kept in ``s = sin^2 z = (1 - c)/2``
+    (``sin(2j+1)z / sin z``, ``cos(2j+1)z / cos z`` and ``cos 2jz`` are polynomials in it), which a
+    sample has without forming ``c``.
 
     Works on one parameter (floats) or on columns of parameters of one kind (``trigonometric`` the
     same for every column). The cubics of its :class:`_ThetaPhase` join the same Horner pass."""
