@@ -23,7 +23,7 @@ from .polhode_constants import (SolverFrame, attitude_constants, is_stationary, 
                                 to_principal)
 from .propagators import make_propagator
 from .rigid_body import MAX_INERTIA, TRIANGLE_RTOL, RigidBody
-from .validation import UNIT_QUATERNION_ROUNDING, sample_times, unit_quaternion
+from .validation import UNIT_QUATERNION_ROUNDING, initial_samples, sample_times, unit_quaternion
 
 GROUP_BODIES = 4096  # bodies whose constants are built together (then evaluated in passes of bounded size)
 _IDENTITY_ROWS = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
@@ -77,7 +77,7 @@ def _exact_together(inertia, angular_velocity, orientation, times, omega, q) -> 
     group = GROUP_BODIES
     kinds = (np.flatnonzero(mc >= JacobiElliptic.TRIGONOMETRIC_MC),
              np.flatnonzero((mc > 0.0) & (mc < JacobiElliptic.TRIGONOMETRIC_MC)))  # positions in moving
-    zeros = int(np.searchsorted(times, 0.0, side="right"))  # t = 0 is the initial state itself
+    zeros = initial_samples(times)
     for positions in (kind[start:start + group] for kind in kinds for start in range(0, kind.size, group)):
         rows = moving[positions]
         frame = _take(frames, positions)

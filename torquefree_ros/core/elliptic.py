@@ -176,10 +176,8 @@ class JacobiElliptic:
         two halves, which makes a call fewer array operations. The theta phase is
         ``θ4(i beta) + s P(s) + i sin z_r cos z_r Q(s)`` (:class:`_ThetaPhase`)."""
         series = self._theta
-        half_periods = np.rint(u * self._per_period)
-        # u - 2K j is exact next to a multiple of 2K: reduced first, only the small r is scaled (z = pi u/(2K)
-        # itself would add a rounding of its size to every sample)
-        reduced = series.sample_scale * (u - self._period * half_periods)
+        half_periods, r = self._reduce(u)
+        reduced = series.scale * r  # (z = pi u/(2K) scaled first would add a rounding of its size to every sample)
         sine, cosine = np.sin(reduced), np.cos(reduced)
         s = sine * sine
         k0, k1, k2, k3 = series.phased_cubics if phase else series.cubics
@@ -195,7 +193,7 @@ class JacobiElliptic:
             reduced_sn=reduced_sn,
             reduced_cn=reduced_cn,
             half_periods=half_periods,
-            phase_parts=(series.phase.sample_base + s * values[4], (sine * cosine) * values[5], None) if phase else None,
+            phase_parts=(series.phase.base + s * values[4], (sine * cosine) * values[5], None) if phase else None,
         )
 
     def _two_halves(self, u: np.ndarray, phase: bool) -> JacobiValues:
@@ -207,12 +205,9 @@ class JacobiElliptic:
         variables (:class:`_ThetaPhase`: ``arg θ2(gamma - i y) - kappa w`` on the first half,
         ``kappa w - arg θ3(gamma - i y)`` on the second), odd in ``r``."""
         series = self._theta
-        half_periods = np.rint(u * self._per_period)
-        r = u - self._period * half_periods  # in [-K, K]
-        magnitude = np.abs(r)
-        first = magnitude <= self._half_K
-        w = np.where(first, magnitude, self._K - magnitude)
-        y = series.sample_scale * w
+        half_periods, r = self._reduce(u)
+        first, w = self._fold(np.abs(r))
+        y = series.scale * w
         ch, th = np.cosh(y), np.tanh(y)
         ch2 = ch * ch
         c = _TWO * ch2 - _ONE  # cosh 2y
@@ -242,8 +237,7 @@ class JacobiElliptic:
         )
 
     def _with_integral(self, u: np.ndarray) -> JacobiValues:
-        half_periods = np.rint(u / (2.0 * self.quarter_period))
-        r = u - (2.0 * self.quarter_period) * half_periods  # in [-K, K]
+        half_periods, r = self._reduce(u)
         s, c, d, quarter_integral = self._quarter(np.abs(r))
         s = np.copysign(s, r)
         parity = _parity(half_periods)
@@ -269,12 +263,21 @@ class JacobiElliptic:
         return first_kind_from_values(sn, cn, dn)
 
     # -- internals ------------------------------------------------------------------------------
+    def _reduce(self, u: np.ndarray):
+        """``(j, r)`` with ``u = r + 2K j``, ``r`` in ``[-K, K]`` (exact next to a multiple of ``2K``)."""
+        half_periods = np.rint(u * self._per_period)
+        return half_periods, u - self._period * half_periods
+
+    def _fold(self, r: np.ndarray):
+        """``(first, w)`` for ``0 <= r <= K``: ``w = r`` on the first half of the quarter period, ``K - r``
+        on the second, so that the series are evaluated on ``[0, K/2]``."""
+        first = r <= self._half_K
+        return first, np.where(first, r, self._K - r)
+
     def _quarter(self, r: np.ndarray):
         """``sn, cn, dn`` and ``S`` for ``0 <= r <= K``."""
-        K, mc, n, kp = self.quarter_period, self.mc, self.n, self.k_prime
-        first = r <= 0.5 * K
-        # First half directly; second half through v = K - r (both evaluated on [0, K/2]).
-        w = np.where(first, r, K - r)
+        mc, n, kp = self.mc, self.n, self.k_prime
+        first, w = self._fold(r)  # second half through v = K - r: sn = cd(v), cn = k' sd(v), dn = k' nd(v)
         s1, c1, d1 = self._theta(w)
         inverse_d1 = 1.0 / d1
         s = np.where(first, s1, c1 * inverse_d1)
@@ -389,8 +392,7 @@ class _ThetaSeries:
     def __init__(self, K, K_complementary, trigonometric: bool, ops, phase: "_ThetaPhase"):
         self.trigonometric = trigonometric
         ratio = K_complementary / K if trigonometric else K / K_complementary
-        self.scale = (0.5 * math.pi) / (K if trigonometric else K_complementary)  # u -> z or y
-        self.sample_scale = np.asarray(self.scale)
+        self.scale = np.asarray((0.5 * math.pi) / (K if trigonometric else K_complementary))  # u -> z or y
         q = ops.exp(-math.pi * ratio)  # the same value for one parameter and for columns
         q2 = q * q
         q4 = q2 * q2
@@ -496,8 +498,8 @@ class _ThetaPhase:
         b, b_complementary = _third_kind_shift(ops, m, n)
         Kc = K_complementary
         if trigonometric:
-            self.cubics, self.base = self._trigonometric(ops, K, Kc, b, b_complementary)
-            self.sample_base = np.asarray(self.base)
+            self.cubics, base = self._trigonometric(ops, K, Kc, b, b_complementary)
+            self.base = np.asarray(base)
         else:
             self.cubics = self._hyperbolic(ops, K, Kc, b, b_complementary)
             kappa = (math.pi * b) / (2.0 * K * Kc)

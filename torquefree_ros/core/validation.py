@@ -75,3 +75,9 @@ def sample_times(value, name: str = "times") -> np.ndarray:
     if times.size and times[0] < 0.0:
         raise ValueError(f"{name}: times are seconds since the initial state and must be >= 0")
     return times
+
+
+def initial_samples(times: np.ndarray) -> int:
+    """How many of the checked ``times`` (:func:`sample_times`) are ``t = 0``: they lead, and are the
+    initial state itself, not its reconstruction through a solution."""
+    return int(np.searchsorted(times, 0.0, side="right")) if times.size and times[0] == 0.0 else 0

@@ -11,7 +11,7 @@ from typing import ClassVar
 import numpy as np
 
 from ..rigid_body import RigidBody
-from ..validation import finite_vector, sample_times, unit_quaternion
+from ..validation import finite_vector, initial_samples, sample_times, unit_quaternion
 from .dynamics import Dynamics
 
 
@@ -80,9 +80,7 @@ class Propagator(abc.ABC):
         """``(omega_B, q_NB, x)`` at ``times``; ``x`` holds the effects' own states."""
         times = sample_times(times)
         omega, q, x = self._evaluate(times)
-        # t = 0 is the initial state itself, not its reconstruction through the solution
-        # (sorted and non-negative: the zeros lead)
-        zeros = int(np.searchsorted(times, 0.0, side="right")) if times.size and times[0] == 0.0 else 0
+        zeros = initial_samples(times)
         if zeros:
             omega[:zeros] = self.omega0_B
             q[:zeros] = self.q0_NB
