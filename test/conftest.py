@@ -15,6 +15,22 @@ def raise_on_float_errors():
         yield
 
 
+@pytest.fixture(params=["compiled", "numpy"])
+def attitude_path(request, monkeypatch):
+    """Run a test on both evaluations of the exact attitude: numba's kernels (the ``fast`` extra, which
+    propagators use when it is installed) and numpy's arrays (the reference, always there). Without
+    numba the compiled run is skipped, except on CI, where requirements-test.txt installs it."""
+    from torquefree_ros.core import attitude_kernels
+
+    if request.param == "compiled" and not attitude_kernels.AVAILABLE:
+        message = "numba (the fast extra) is not installed"
+        if os.environ.get("CI"):
+            pytest.fail(message + ": requirements-test.txt installs it")
+        pytest.skip(message)
+    monkeypatch.setattr(attitude_kernels, "ENABLED", request.param == "compiled")
+    return request.param
+
+
 # Settings at which each propagator is accurate enough for the shared convention checks below
 # (1e-8 rad over ~10 s of motion at |w| ~ 1 rad/s).
 ACCURATE_SETTINGS = {

@@ -21,7 +21,7 @@ BODIES = [
 ]
 
 
-def test_each_body_is_what_propagate_gives_alone_bit_for_bit():
+def test_each_body_is_what_propagate_gives_alone_bit_for_bit(attitude_path):
     inertia = np.array([b[0] for b in BODIES])
     omega0 = np.array([b[1] for b in BODIES])
     rng = np.random.default_rng(5)
@@ -55,7 +55,7 @@ def test_bad_input_names_the_array_and_the_body(inertia, omega, orientation, rea
         propagate_batch(inertia, omega, orientation, [0.0, 1.0])
 
 
-def test_a_dispersed_campaign_in_several_stacked_groups_is_bit_for_bit_the_loop(monkeypatch):
+def test_a_dispersed_campaign_in_several_stacked_groups_is_bit_for_bit_the_loop(monkeypatch, attitude_path):
     from torquefree_ros.core import batch
 
     monkeypatch.setattr(batch, "GROUP_BODIES", 7)  # several groups, one short
@@ -75,7 +75,7 @@ def test_a_dispersed_campaign_in_several_stacked_groups_is_bit_for_bit_the_loop(
 
 @pytest.mark.parametrize("moments, rate", [([2.0, 3.0, 4.0], [0.7, 0.5, 0.6]), ([1.5, 2.0, 3.0], [0.3, 0.2, 1.0])],
                          ids=["hyperbolic", "trigonometric"])  # m > 1/2 and m <= 1/2: the two series
-def test_passes_and_groups_of_one_kind_are_bit_for_bit_the_loop(monkeypatch, moments, rate):
+def test_passes_and_groups_of_one_kind_are_bit_for_bit_the_loop(monkeypatch, moments, rate, attitude_path):
     """A campaign of one kind (consecutive bodies: results written in place) in several groups, each
     evaluated in passes of a few samples, is the loop of ``propagate``; so is one body's long request
     evaluated in passes against the same request whole."""
@@ -117,7 +117,7 @@ def _random_bodies(rng, count, tensors):
 
 
 @pytest.mark.parametrize("tensors", [False, True])
-def test_random_campaigns_with_symmetries_are_bit_for_bit_the_loop(tensors):
+def test_random_campaigns_with_symmetries_are_bit_for_bit_the_loop(tensors, attitude_path):
     """The constants computed in columns (floats for one body) agree to the last bit for any mix."""
     rng = np.random.default_rng(23 + tensors)
     inertia, omega0 = _random_bodies(rng, 120, tensors)

@@ -40,7 +40,7 @@ def test_every_hard_case_named_in_the_issue_is_present():
 
 
 @pytest.mark.parametrize("name", sorted(CASES))
-def test_analytic_is_within_100_floors_of_the_reference(name):
+def test_analytic_is_within_100_floors_of_the_reference(name, attitude_path):
     case = CASES[name]
     rate_error, attitude_error, sign = errors(case)
     rate_tol = FLOOR_FACTOR * np.maximum(case["rate_floor"], ABSOLUTE_FLOOR)

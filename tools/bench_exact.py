@@ -14,6 +14,10 @@ On every hard case of ``torquefree_ros/bench/hard_cases.json``, side by side in 
 Then ``propagate_batch`` for 1 000 dispersed bodies x 100 samples, per body-sample, against one body's
 stream of 100 000 samples and against the loop of ``propagate`` calls a user would write.
 
+Everything twice when numba is installed: the exact attitude compiled (the ``fast`` extra, what
+propagators use then) and with numpy (``attitude_kernels.ENABLED`` switched in the same process); and
+the kernels' first call in a new process, compiling them and loading them from numba's cache.
+
 Each timing is the fastest of several calls (the least disturbed by a shared machine); a round
 measures everything once, and ``--rounds`` rounds give median (min–max).
 """
@@ -21,8 +25,10 @@ measures everything once, and ``--rounds`` rounds give median (min–max).
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -42,6 +48,27 @@ def _fastest(function, calls: int) -> float:
         function()
         best = min(best, time.perf_counter() - started)
     return best
+
+
+def _use(path: str) -> None:
+    from torquefree_ros.core import attitude_kernels
+
+    attitude_kernels.ENABLED = path == "compiled"
+
+
+def _first_call_s(cache_dir: str) -> float:
+    """Seconds of a new process's first propagation (m > 1/2, then m <= 1/2) beyond the same process's
+    second: the kernels compiled, or loaded from ``cache_dir``."""
+    import subprocess
+
+    code = ("import time; from torquefree_ros import propagate\n"
+            "def both(): propagate([2, 3, 4], [0.7, 0.5, 0.6], [0, 0, 0, 1], [1.0]); "
+            "propagate([1, 2, 3], [0.3, 0.2, 1], [0, 0, 0, 1], [1.0])\n"
+            "a = time.perf_counter(); both(); b = time.perf_counter(); both(); c = time.perf_counter()\n"
+            "print((b - a) - (c - b))")
+    env = {**os.environ, "NUMBA_CACHE_DIR": cache_dir, "TORQUEFREE_ROS_KERNELS": "numba"}
+    return float(subprocess.run([sys.executable, "-c", code], env=env, check=True, capture_output=True,
+                                text=True, cwd=Path(__file__).resolve().parents[1]).stdout)
 
 
 def _case_round(case, calls: int) -> dict:
@@ -97,25 +124,69 @@ def main() -> int:
     from torquefree_ros.bench.cases import REFERENCE_FILE, load_cases
     import json
 
+    from torquefree_ros.core import attitude_kernels
+
     names = [case["name"] for case in json.loads(REFERENCE_FILE.read_text())["cases"]]
     cases = load_cases(names)
+    paths = ("compiled", "numpy") if attitude_kernels.ENABLED else ("numpy",)
     started = time.monotonic()
-    rounds = {case.name: [] for case in cases}
-    batch = []
-    _case_round(cases[0], 1)  # warm up (imports, first calls), not measured
+    rounds = {(path, case.name): [] for path in paths for case in cases}
+    batch = {path: [] for path in paths}
+    for path in paths:  # warm up (imports, first calls, the kernels' compilation), not measured
+        _use(path)
+        _case_round(cases[0], 1)
+        _batch_round(1)
     for _ in range(args.rounds):
-        for case in cases:
-            rounds[case.name].append(_case_round(case, args.calls))
-        batch.append(_batch_round(max(2, args.calls // 2)))
+        for path in paths:  # side by side: both paths in every round
+            _use(path)
+            for case in cases:
+                rounds[path, case.name].append(_case_round(case, args.calls))
+            batch[path].append(_batch_round(max(2, args.calls // 2)))
+    first_calls = []
+    if "compiled" in paths:
+        for _ in range(args.rounds):  # an empty cache: compiled, then loaded from it
+            with tempfile.TemporaryDirectory() as cache:
+                first_calls.append((_first_call_s(cache), _first_call_s(cache)))
 
     report = Report("The exact propagator's cost", "make bench-exact")
     report.add(f"{args.rounds} rounds in {time.monotonic() - started:.0f} s; each figure is median (min–max) "
                "over the rounds of the fastest of several calls.")
+    if "compiled" in paths:
+        import numba
+
+        report.add(f"The exact attitude compiled (numba {numba.__version__}, the `fast` extra: what "
+                   "propagators use when it is installed) and with numpy, side by side in every round.")
+    else:
+        report.add("numba is not installed: the numpy path only.")
+    for path in paths:
+        _case_table(report, path, {name: values for (p, name), values in rounds.items() if p == path})
     report.add("")
-    report.add(f"Per sample in a block of {BLOCK:,} and beside one `scipy.special.ellipj` call per element (same "
-               "count; at the case's parameter, where scipy takes shortcuts next to m = 0 and m = 1, and at "
-               f"m = 1/2); a block of {SMALL_BLOCK} per sample over a block of {BLOCK:,}; a call of one sample (a call's "
-               "fixed cost); building the propagator:")
+    report.add(f"`propagate_batch`, {BODIES:,} dispersed bodies (inertia 2, 3, 4 kg m², ω0 0.7, 0.5, 0.6 rad/s, 1 % spread) x {BODY_SAMPLES} samples, "
+               f"beside one body's stream of {BODIES * BODY_SAMPLES:,} samples and the loop of `propagate` calls:")
+    report.add("")
+    report.add("| path | | ns per body-sample | / one stream |")
+    report.add("|---|---|---|---|")
+    for path in paths:
+        b = batch[path]
+        report.add(f"| {path} | propagate_batch | {spread([r['batch_ns'] for r in b])} | {spread([r['batch_ratio'] for r in b])} |")
+        report.add(f"| {path} | loop of propagate | {spread([r['loop_ns'] for r in b])} | {spread([r['loop_ratio'] for r in b])} |")
+        report.add(f"| {path} | one stream | {spread([r['stream_ns'] for r in b])} | 1 |")
+    if first_calls:
+        compiled = [first for first, _ in first_calls]
+        cached = [again for _, again in first_calls]
+        report.add("")
+        report.add("The kernels' first call in a new process (both kinds; beyond the second call's time): compiling "
+                   f"them {spread(compiled)} s; loading them from numba's cache {spread(cached)} s.")
+    report.save(args.output)
+    return 0
+
+
+def _case_table(report, path: str, rounds: dict) -> None:
+    report.add("")
+    report.add(f"**{path}**: per sample in a block of {BLOCK:,} and beside one `scipy.special.ellipj` call per "
+               "element (same count; at the case's parameter, where scipy takes shortcuts next to m = 0 and m = 1, "
+               f"and at m = 1/2); a block of {SMALL_BLOCK} per sample over a block of {BLOCK:,}; a call of one sample "
+               "(a call's fixed cost); building the propagator:")
     report.add("")
     report.add(f"| case | ns per sample | / ellipj (case's m) | / ellipj (m = 1/2) | block {SMALL_BLOCK} / block {BLOCK:,} "
                "| one sample (µs) | build (µs) |")
@@ -131,17 +202,6 @@ def main() -> int:
         medians = [statistics.median(v[key] for v in values) for values in rounds.values()]
         report.add(f"- {label}: {min(medians):.3g} … {max(medians):.3g} over the cases (medians); "
                    f"all rounds {min(v[key] for v in every):.3g} … {max(v[key] for v in every):.3g}")
-    report.add("")
-    report.add(f"`propagate_batch`, {BODIES:,} dispersed bodies (inertia 2, 3, 4 kg m², ω0 0.7, 0.5, 0.6 rad/s, 1 % spread) x {BODY_SAMPLES} samples, "
-               f"beside one body's stream of {BODIES * BODY_SAMPLES:,} samples and the loop of `propagate` calls:")
-    report.add("")
-    report.add("| | ns per body-sample | / one stream |")
-    report.add("|---|---|---|")
-    report.add(f"| propagate_batch | {spread([b['batch_ns'] for b in batch])} | {spread([b['batch_ratio'] for b in batch])} |")
-    report.add(f"| loop of propagate | {spread([b['loop_ns'] for b in batch])} | {spread([b['loop_ratio'] for b in batch])} |")
-    report.add(f"| one stream | {spread([b['stream_ns'] for b in batch])} | 1 |")
-    report.save(args.output)
-    return 0
 
 
 if __name__ == "__main__":

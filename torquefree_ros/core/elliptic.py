@@ -413,13 +413,13 @@ class _ThetaSeries:
             c = (1.0 - 2.0 * q4, 2.0 * q - 6.0 * q9, 4.0 * q4, 8.0 * q9)
             d = (1.0 - 2.0 * q4, 6.0 * q9 - 2.0 * q, 4.0 * q4, -8.0 * q9)
             factors = (t3 / t4, 1.0, t2 / t3, t2 / t4)
-        self._rows = [(f * cubic[0], f * cubic[1], f * cubic[2], f * cubic[3]) for f, cubic in zip(factors, (a, b, c, d))]
+        self.rows = [(f * cubic[0], f * cubic[1], f * cubic[2], f * cubic[3]) for f, cubic in zip(factors, (a, b, c, d))]
         self.phase = phase
 
     @functools.cached_property
     def phased_cubics(self) -> tuple:
         """The four cubics and their phase's, stacked for one Horner pass (see :func:`_stack`)."""
-        return _stack(self._rows + list(self.phase.cubics))
+        return _stack(self.rows + list(self.phase.cubics))
 
     @functools.cached_property
     def cubics(self) -> tuple:

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import attitude_kernels
 from .elliptic import JacobiElliptic
 from .ops import FLOATS
 from .polhode_constants import (AttitudeConstants, SolverFrame, attitude_constants, is_stationary, solver_frame,
@@ -95,6 +96,13 @@ class PolhodeAttitude:
         self.jacobi = jacobi
         c = constants
         self._bodies = c.momentum.shape[0] if isinstance(c.momentum, np.ndarray) else None
+        self._table = self._kernel = None
+        if attitude_kernels.ENABLED:
+            theta = jacobi._theta  # (None on the separatrix: closed forms)
+            self._kernel = attitude_kernels.kernel(
+                "separatrix" if theta is None else "trigonometric" if theta.trigonometric else "hyperbolic")
+            self._table = attitude_kernels.table(jacobi, rate, c)
+            return
         rate_matrix, frame_change = np.array(c.rate_matrix, dtype=float), np.array(c.frame_change, dtype=float)
         if self._bodies is not None:  # many bodies: rows (N, l) of (k, l, N) matrices
             rate_matrix, frame_change = rate_matrix.transpose(0, 2, 1), frame_change.transpose(0, 2, 1)
@@ -106,7 +114,7 @@ class PolhodeAttitude:
         (self._rate, self._initial_phase, self._momentum, self._two_momentum, *amplitudes, lever_cn, lever_sn,
          self._half_direction, self._half_psi_rate, self._half_psi_offset) = (values[i, ...] for i in range(len(values)))
         self._momentum_amplitudes, self._lever = tuple(amplitudes), (lever_cn, lever_sn)
-        if jacobi._theta is not None:  # (None on the separatrix: closed forms)
+        if jacobi._theta is not None:
             jacobi._theta.phased_cubics  # built now: part of the propagator's construction, not of its first call
 
     #: elements evaluated in one pass: the pass's temporaries (~35 arrays of this many floats) stay in
@@ -116,6 +124,8 @@ class PolhodeAttitude:
 
     def __call__(self, t: np.ndarray, out: tuple | None = None):
         """Rates and attitudes at ``t``; into ``out = (omega, q)`` if given (arrays of the result's shape)."""
+        if self._table is not None:
+            return self._compiled(t, out)
         if self._bodies is not None:
             t = t[:, None]  # (M, 1) against constants over bodies (N,)
         step = max(1, self.ELEMENTS_PER_PASS // (self._bodies or 1))
@@ -127,6 +137,23 @@ class PolhodeAttitude:
         for start in range(0, count, step):
             omega[start:start + step], q[start:start + step] = self._pass(t[start:start + step])
         return omega, q
+
+    def _compiled(self, t: np.ndarray, out: tuple | None):
+        """:meth:`__call__` by :mod:`.attitude_kernels`, which fill ``(bodies, samples, k)`` arrays."""
+        bodies = self._bodies or 1
+        if out is not None:  # the kernel's layout is bodies first: (M, N, k) views of it are taken back
+            given = tuple(a[None] if self._bodies is None else a.swapaxes(0, 1) for a in out)
+            filled = tuple(a if a.flags.c_contiguous else np.empty(a.shape) for a in given)
+        else:
+            filled = (np.empty((bodies, t.shape[0], 3)), np.empty((bodies, t.shape[0], 4)))
+        self._kernel(np.ascontiguousarray(t, dtype=float), self._table, *filled)
+        if out is not None:
+            for target, values in zip(given, filled):
+                if target is not values:
+                    target[...] = values
+            return out
+        omega, q = filled
+        return (omega[0], q[0]) if self._bodies is None else (omega.swapaxes(0, 1), q.swapaxes(0, 1))
 
     def _pass(self, t: np.ndarray):
         v = self.jacobi(self._rate * t + self._initial_phase, integral=False, phase=True)

@@ -1,0 +1,131 @@
+"""The compiled attitude (numba, the ``fast`` extra) against the numpy evaluation it mirrors.
+
+The kernels repeat numpy's IEEE operations in numpy's order, so the two agree to the last bit except
+where a function's own last bit differs: numpy evaluates ``tanh`` (the ``m > 1/2`` series) with its
+own vectorised code, the kernels with the C library's, and both are within an ulp. A changed last bit
+of the angle ``psi ~ |w| t`` can change the rounding of every later term of ``q``, hence the
+tolerances: ``8 eps |w|_max`` for rates and ``4 eps (16 + |w| t_max)`` for quaternions (the hard cases
+measure at most ``1.9 eps |w|`` and ``0.24 eps (1 + |w| t)``). Accuracy itself is tested on both paths
+against the references (test_hard_cases.py, the ``attitude_path`` fixture)."""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from torquefree_ros import propagate, propagate_batch
+from torquefree_ros.bench.cases import REFERENCE_FILE
+from torquefree_ros.core import attitude_kernels
+from torquefree_ros.core.propagators import make_propagator
+
+EPS = np.finfo(float).eps
+
+pytestmark = pytest.mark.skipif(not attitude_kernels.AVAILABLE and not os.environ.get("CI"),
+                                reason="numba (the fast extra) is not installed")
+
+
+def _both(monkeypatch, function):
+    results = {}
+    for compiled in (True, False):
+        monkeypatch.setattr(attitude_kernels, "ENABLED", compiled)
+        results[compiled] = function()
+    return results[True], results[False]
+
+
+def _assert_close(compiled, reference, speed, horizon, label):
+    (w1, q1), (w0, q0) = compiled, reference
+    rate_tolerance = 8.0 * EPS * float(np.abs(w0).max(initial=0.0))
+    np.testing.assert_allclose(w1, w0, rtol=0, atol=rate_tolerance, err_msg=label)
+    np.testing.assert_allclose(q1, q0, rtol=0, atol=4.0 * EPS * (16.0 + speed * horizon), err_msg=label)
+
+
+def test_every_hard_case_agrees_with_the_numpy_path(monkeypatch):
+    import json
+
+    for case in json.loads(REFERENCE_FILE.read_text())["cases"]:
+        times = np.linspace(0.0, max(case["times"]), 4001)
+        compiled, reference = _both(monkeypatch, lambda: propagate(case["inertia"], case["angular_velocity"],
+                                                                   case["orientation"], times))
+        _assert_close(compiled, reference, float(np.linalg.norm(case["angular_velocity"])), times[-1], case["name"])
+
+
+def test_each_kind_of_motion_has_its_kernel():
+    """m <= 1/2, m > 1/2 and the separatrix each have their kernel; stationary motions (no polhode)
+    keep their closed form."""
+    if not attitude_kernels.ENABLED:
+        pytest.skip("the kernels are turned off (TORQUEFREE_ROS_KERNELS=numpy)")
+    trigonometric = make_propagator([1.0, 2.0, 3.0], [0.3, 0.2, 1.0], [0, 0, 0, 1])._attitude
+    hyperbolic = make_propagator([2.0, 3.0, 4.0], [0.7, 0.5, 0.6], [0, 0, 0, 1])._attitude
+    separatrix = make_propagator([3.0, 4.0, 6.0], [2.0, 0.5, 1.0], [0, 0, 0, 1])._attitude  # H^2 = 2 T I2
+    assert trigonometric._kernel is attitude_kernels.trigonometric_kernel
+    assert hyperbolic._kernel is attitude_kernels.hyperbolic_kernel
+    assert separatrix._kernel is attitude_kernels.separatrix_kernel
+    assert all(a._table.shape == (1, attitude_kernels.TABLE_WIDTH) for a in (trigonometric, hyperbolic, separatrix))
+    assert make_propagator([1.0, 2.0, 3.0], [0.0, 2.0, 0.0], [0, 0, 0, 1])._attitude is None  # a pure spin
+
+
+def _component(low, high):
+    """Values, or 0 (products of tiny components underflow, which the strict test settings raise on)."""
+    return st.floats(low, high).map(lambda x: 0.0 if abs(x) < 1e-6 else x)
+
+
+moments = st.lists(st.floats(0.5, 5.0), min_size=3, max_size=3).filter(
+    lambda I: max(I) <= 0.99 * (sum(I) - max(I)))
+rates = st.lists(_component(-3.0, 3.0), min_size=3, max_size=3).filter(lambda w: math.hypot(*w) > 1e-3)
+unit = st.lists(_component(-1.0, 1.0), min_size=4, max_size=4).filter(lambda q: math.hypot(*q) > 0.1)
+
+
+@settings(max_examples=150, deadline=None)
+@given(moments, rates, unit, st.floats(1.0, 1e4))
+def test_random_bodies_agree_with_the_numpy_path(I, w, q0, horizon):
+    q0 = np.array(q0) / math.hypot(*q0)
+    times = np.linspace(0.0, horizon, 301)
+    results = {}
+    for compiled in (True, False):  # (hypothesis and function-scoped fixtures do not mix: set and restore)
+        saved, attitude_kernels.ENABLED = attitude_kernels.ENABLED, compiled
+        try:
+            results[compiled] = propagate(I, w, q0, times)
+        finally:
+            attitude_kernels.ENABLED = saved
+    _assert_close(results[True], results[False], math.hypot(*w), horizon, f"I={I} w={w}")
+
+
+def test_a_batch_of_both_kinds_agrees_with_the_numpy_path(monkeypatch):
+    rng = np.random.default_rng(3)
+    inertia = np.concatenate([[1.5, 2.0, 3.0] * (1.0 + 0.01 * rng.standard_normal((20, 3))),
+                              [2.0, 3.0, 4.0] * (1.0 + 0.01 * rng.standard_normal((20, 3)))])
+    omega0 = np.concatenate([[0.3, 0.2, 1.0] + 0.01 * rng.standard_normal((20, 3)),
+                             [0.7, 0.5, 0.6] + 0.01 * rng.standard_normal((20, 3))])
+    orientation = rng.normal(size=(40, 4))
+    orientation /= np.linalg.norm(orientation, axis=1, keepdims=True)
+    times = np.linspace(0.0, 100.0, 57)
+    compiled, reference = _both(monkeypatch, lambda: propagate_batch(inertia, omega0, orientation, times))
+    _assert_close(compiled, reference, float(np.linalg.norm(omega0, axis=1).max()), times[-1], "batch")
+
+
+def test_one_sample_and_an_empty_request(monkeypatch):
+    monkeypatch.setattr(attitude_kernels, "ENABLED", True)
+    propagator = make_propagator([2.0, 3.0, 4.0], [0.7, 0.5, 0.6], [0, 0, 0, 1])
+    omega, q = propagator(np.array([0.5, 1.0, 7.0]))
+    one = propagator(7.0)
+    np.testing.assert_array_equal(one[0], omega[2:])
+    np.testing.assert_array_equal(one[1], q[2:])
+    empty = propagator(np.empty(0))
+    assert empty[0].shape == (0, 3) and empty[1].shape == (0, 4)
+
+
+def test_the_environment_turns_the_kernels_off():
+    """``TORQUEFREE_ROS_KERNELS=numpy`` selects the numpy path in a new process (a user's way to rule
+    the kernels out when a result looks wrong)."""
+    code = "from torquefree_ros.core import attitude_kernels as k; print(k.ENABLED)"
+    for value, expected in (("numpy", "False"), ("numba", str(attitude_kernels.AVAILABLE))):
+        env = {**os.environ, "TORQUEFREE_ROS_KERNELS": value}
+        printed = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+        assert printed.stdout.strip() == expected
