@@ -110,6 +110,22 @@ def test_fuzzed_parameter_requests_never_stop_the_node(harness, names, values):
     harness.reset()
 
 
+def test_a_real_time_factor_too_small_for_any_wait_leaves_the_node_waiting(harness):
+    """1e-300 is in range, and puts the next sample beyond what a thread can wait for at once (it
+    once stopped the sample loop with OverflowError: found by the fuzz test above)."""
+    request = SetParameters.Request(parameters=[_raw("real_time_factor", ParameterType.PARAMETER_DOUBLE,
+                                                     double_value=1e-300)])
+    assert _call(harness, SetParameters, "set_parameters", request).results[0].successful
+    harness.reset()
+    time.sleep(0.3)
+    assert harness.node.sample_loop.running and not harness.node.sample_loop.failure
+    request = SetParameters.Request(parameters=[_raw("real_time_factor", ParameterType.PARAMETER_DOUBLE,
+                                                     double_value=1.0)])
+    assert _call(harness, SetParameters, "set_parameters", request).results[0].successful
+    harness.reset()
+    _still_publishing(harness)
+
+
 # -- scene files --------------------------------------------------------------------------------------
 
 def _load(tmp_path, text: str):

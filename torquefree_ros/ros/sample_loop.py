@@ -38,6 +38,9 @@ from ..core.timing import restart_epoch_ns, stamps_ns
 # (see _Run.adapt).
 MAX_BLOCK = 256
 BLOCK_WALL_SECONDS = 0.25
+#: the longest single wait for a deadline (s): the loop then checks again. A deadline can lie beyond
+#: what a wait takes (a real_time_factor of 1e-300 puts the next sample centuries away)
+MAX_WAIT = 1.0
 
 
 @dataclass(frozen=True)
@@ -277,7 +280,7 @@ class SampleLoop:
             if deadline is not None:
                 delay = deadline - time.monotonic()
                 if delay > 0.0:
-                    if self._wake.wait(delay):
+                    if self._wake.wait(min(delay, MAX_WAIT)):
                         self._wake.clear()
                     continue  # re-check for a restart or a stop, then for the deadline
                 if -delay > run.period_wall:
@@ -303,7 +306,7 @@ class SampleLoop:
         if deadline is not None:
             delay = deadline - time.monotonic()
             if delay > 0.0:
-                if self._wake.wait(delay):
+                if self._wake.wait(min(delay, MAX_WAIT)):
                     self._wake.clear()
                 return False
         if run.request.lockstep:
