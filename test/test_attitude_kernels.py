@@ -22,8 +22,14 @@ from hypothesis import strategies as st
 
 from torquefree_ros import propagate, propagate_batch
 from torquefree_ros.bench.cases import REFERENCE_FILE
-from torquefree_ros.core import attitude_kernels
+from torquefree_ros.core import attitude_kernels as kernels
+from torquefree_ros.core.ops import FLOATS
+from torquefree_ros.core.polhode import body_polhode
+from torquefree_ros.core.polhode_constants import attitude_constants, solver_from_body
 from torquefree_ros.core.propagators import make_propagator
+from torquefree_ros.core.rigid_body import RigidBody
+
+attitude_kernels = kernels
 
 EPS = np.finfo(float).eps
 
@@ -67,7 +73,7 @@ def test_each_kind_of_motion_has_its_kernel():
     assert trigonometric._kernel is attitude_kernels.trigonometric_kernel
     assert hyperbolic._kernel is attitude_kernels.hyperbolic_kernel
     assert separatrix._kernel is attitude_kernels.separatrix_kernel
-    assert all(a._table.shape == (1, attitude_kernels.TABLE_WIDTH) for a in (trigonometric, hyperbolic, separatrix))
+    assert all(a._table.shape == (1, kernels.TABLE_WIDTH) for a in (trigonometric, hyperbolic, separatrix))
     assert make_propagator([1.0, 2.0, 3.0], [0.0, 2.0, 0.0], [0, 0, 0, 1])._attitude is None  # a pure spin
 
 
@@ -129,3 +135,92 @@ def test_the_environment_turns_the_kernels_off():
         env = {**os.environ, "TORQUEFREE_ROS_KERNELS": value}
         printed = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
         assert printed.stdout.strip() == expected
+
+
+# -- the compiled constants (build_row) against the Python path's (FLOATS) -----------------------------
+#: columns that depend on a Euclidean norm (math.hypot there, a scaled sum of squares here): the
+#: momentum, psi's rate and offset, and the frame change (entries of an orthogonal 4x4 matrix)
+NORM_COLUMNS = [kernels.MOMENTUM, kernels.TWO_MOMENTUM, kernels.HALF_PSI_RATE, kernels.HALF_PSI_OFFSET,
+                *range(kernels.FRAME_CHANGE_ROWS, kernels.FRAME_CHANGE_ROWS + 16)]
+
+
+def _python_row(body, omega0, q0):
+    """``(kind, row)`` from the Python path's values, in the kernels' table layout (None: stationary)."""
+    polhode = body_polhode(body, omega0)
+    if polhode is None:
+        return None, None
+    jacobi, rate = polhode.jacobi, polhode.rate
+    c = attitude_constants(FLOATS, polhode.frame, solver_from_body(FLOATS, polhode.frame, body.principal_axes.tolist()),
+                           list(q0), jacobi.sn2_integral_slope)
+    theta, K = jacobi._theta, jacobi.quarter_period
+    values = [rate, c.initial_phase, *((0.5 / K, 2.0 * K, theta.scale) if theta else (0.0, 0.0, 0.0)),
+              c.momentum, 2.0 * c.momentum, *c.momentum_amplitudes, *c.lever, 0.5 * c.direction, 0.5 * c.psi_rate,
+              0.5 * c.psi_offset, *(v for row in c.rate_matrix for v in row), *(v for row in c.frame_change for v in row)]
+    if theta is None:
+        kind, values = "separatrix", values + [math.sqrt(-jacobi.n)]
+    elif theta.trigonometric:
+        kind, values = "trigonometric", values + [theta.phase.base]
+    else:
+        kind, values = "hyperbolic", values + [K, 0.5 * K, jacobi.k_prime, theta.phase.kappa]
+    if theta is not None:
+        values += [v for cubic in theta.rows + list(theta.phase.cubics) for v in cubic]
+    return kind, np.array([float(v) for v in values] + [0.0] * (kernels.TABLE_WIDTH - len(values)))
+
+
+def _assert_same_constants(body, omega0, q0, label):
+    kind, expected = _python_row(body, np.asarray(omega0, dtype=float), q0)
+    kinds, table = kernels.build_tables(body.moments[None], body.principal_axes[None],
+                                        np.asarray(omega0, dtype=float)[None], np.asarray(q0, dtype=float)[None])
+    if kind is None:
+        assert kinds[0] == -1, label
+        return
+    assert kernels.KINDS[kinds[0]] == kind, label
+    exact = np.setdiff1d(np.arange(kernels.TABLE_WIDTH), NORM_COLUMNS)
+    np.testing.assert_array_equal(table[0, exact], expected[exact], err_msg=f"{label}: columns {exact}")
+    np.testing.assert_allclose(table[0, NORM_COLUMNS], expected[NORM_COLUMNS], rtol=8 * EPS, atol=8 * EPS,
+                               err_msg=label)
+
+
+def test_compiled_constants_are_the_python_ones_on_every_hard_case():
+    """Operation for operation: every column but those of a norm is bit for bit the Python path's."""
+    import json
+
+    from torquefree_ros.core.elliptic import JacobiElliptic
+
+    assert kernels.TRIGONOMETRIC_MC == JacobiElliptic.TRIGONOMETRIC_MC
+
+    for case in json.loads(REFERENCE_FILE.read_text())["cases"]:
+        q0 = np.array(case["orientation"]) / math.hypot(*case["orientation"])
+        _assert_same_constants(RigidBody.from_inertia(case["inertia"]), case["angular_velocity"], q0, case["name"])
+
+
+symmetric_or_not = st.one_of(moments, moments.map(lambda I: [I[0], I[0], I[2]] if max(I) <= 0.99 * (2 * I[0]) else I),
+                             moments.map(lambda I: [I[0], I[2], I[2]]))
+
+
+@settings(max_examples=300, deadline=None)
+@given(symmetric_or_not, st.lists(_component(-3.0, 3.0), min_size=3, max_size=3), unit,
+       st.floats(0.01, math.pi), st.booleans())
+def test_compiled_constants_are_the_python_ones_for_any_body(I, w, q0, turn, as_tensor):
+    """Random bodies, symmetric ones, pure spins and rest among them, given by moments or by tensors."""
+    q0 = np.array(q0) / math.hypot(*q0)
+    if as_tensor:  # principal axes turned about (1, 1, 1) / sqrt(3)
+        axis = np.full(3, 1.0 / math.sqrt(3.0))
+        cross = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+        R = np.eye(3) + math.sin(turn) * cross + (1 - math.cos(turn)) * cross @ cross
+        tensor = R @ np.diag(I) @ R.T
+        I = [tensor[0, 0], tensor[1, 1], tensor[2, 2], tensor[0, 1], tensor[0, 2], tensor[1, 2]]
+    try:
+        body = RigidBody.from_inertia(I)
+    except ValueError:  # (a tensor the triangle check refuses after rounding)
+        return
+    _assert_same_constants(body, w, q0, f"I={I} w={w}")
+
+
+def test_a_build_is_cheap_and_the_polhode_comes_when_asked(monkeypatch):
+    """With the kernels, building the exact propagator computes only the table; its ``polhode`` (the
+    regime parameters, for reports) is computed on first use, by the Python path."""
+    monkeypatch.setattr(kernels, "ENABLED", True)
+    propagator = make_propagator([2.0, 3.0, 4.0], [0.7, 0.5, 0.6], [0, 0, 0, 1])
+    assert "polhode" not in vars(propagator)
+    assert propagator.polhode.jacobi.mc == body_polhode(propagator.body, propagator.omega0_B).jacobi.mc

@@ -1,11 +1,19 @@
-"""The exact attitude's per-sample evaluation compiled by numba, when it is installed (the ``fast``
-extra): the same formulas, in the same order of IEEE operations, as :class:`.polhode.PolhodeAttitude`
-and :class:`.elliptic.JacobiElliptic` evaluate with numpy arrays (their numpy path is the reference;
-the tests hold the two together), written as one loop over samples.
+"""The exact solution compiled by numba, when it is installed (the ``fast`` extra): a body's constants
+from its initial state, and the attitude's per-sample evaluation, as scalar code that repeats what the
+Python/numpy path computes (:mod:`.polhode_constants` and :class:`.elliptic.JacobiElliptic`'s constants
+in Python floats, :class:`.polhode.PolhodeAttitude` with numpy arrays) operation for operation, in the
+same order. That path stays the reference; the tests hold the two together (test_attitude_kernels.py).
 
-Why: numpy's cost is ~0.5 µs per array operation whatever its length, and a sample takes ~80 of them,
-so a call of a few hundred samples (the node's block) pays more for operations than for arithmetic.
-Compiled, a call costs ~2 µs and a sample ~0.1 µs at any block size.
+Why: a build is ~150 Python float operations and ~10 scipy calls (~100 µs), and numpy's cost is
+~0.5 µs per array operation whatever its length, ~80 of them a call, so a block of a few hundred
+samples (the node's) pays more for operations than for arithmetic. Compiled, a build costs a few µs,
+a call ~2 µs and a sample ~0.1 µs.
+
+What differs: the Euclidean norms (Python's ``math.hypot`` of three or four values is its own
+near-correctly-rounded algorithm, here a scaled sum of squares, within an ulp or two) and ``tanh``
+(numpy has its own vectorised one, here the C library's): the last bit of a few constants and of
+some samples. Carlson's ``R_F`` and ``R_J`` are scipy's own C functions (``scipy.special.cython_special``),
+the ones ``scipy.special.elliprf``/``elliprj`` call.
 
 A body's constants are one row of a table (``TABLE_WIDTH`` floats, the layout below); many bodies are
 rows of one table and fill ``(bodies, samples, 3 | 4)`` outputs. ``TORQUEFREE_ROS_KERNELS=numpy`` in the
@@ -14,10 +22,10 @@ environment turns the kernels off (the numpy path then runs, as without numba).
 
 from __future__ import annotations
 
-import functools
 import importlib.util
 import math
 import os
+import threading
 
 import numpy as np
 
@@ -39,27 +47,10 @@ QUARTER, HALF_QUARTER, K_PRIME, KAPPA, HYPERBOLIC_CUBICS = 40, 41, 42, 43, 44
 ROOT = 40
 TABLE_WIDTH = HYPERBOLIC_CUBICS + 4 * 8
 
-
-def table(jacobi, rate, constants) -> np.ndarray:
-    """The constants' table ``(bodies, TABLE_WIDTH)`` of a :class:`.polhode.PolhodeAttitude`: the same
-    values its numpy path evaluates with (``jacobi`` off the separatrix; values floats for one body,
-    arrays ``(N,)`` over bodies)."""
-    c, theta = constants, jacobi._theta
-    K = jacobi.quarter_period
-    periodic = (0.5 / K, 2.0 * K, theta.scale) if theta is not None else (0.0, 0.0, 0.0)
-    values = [rate, c.initial_phase, *periodic, c.momentum, 2.0 * c.momentum,
-              *c.momentum_amplitudes, *c.lever, 0.5 * c.direction, 0.5 * c.psi_rate, 0.5 * c.psi_offset,
-              *(v for row in c.rate_matrix for v in row), *(v for row in c.frame_change for v in row)]
-    if theta is None:
-        values += [math.sqrt(-jacobi.n)]
-    else:
-        values += [theta.phase.base] if theta.trigonometric else [K, 0.5 * K, jacobi.k_prime, theta.phase.kappa]
-        values += [v for cubic in theta.rows + list(theta.phase.cubics) for v in cubic]
-    if not isinstance(rate, np.ndarray):  # one body
-        return np.array([values + [0.0] * (TABLE_WIDTH - len(values))])
-    columns = np.zeros((TABLE_WIDTH, rate.size))
-    columns[:len(values)] = np.array([np.broadcast_to(v, rate.shape) for v in values])
-    return np.ascontiguousarray(columns.T)
+#: the kinds of motion with a kernel; build_row returns an index into these, or STATIONARY
+KINDS = ("trigonometric", "hyperbolic", "separatrix")
+STATIONARY = -1
+TRIGONOMETRIC_MC = 0.5  # JacobiElliptic.TRIGONOMETRIC_MC (a literal: compiled code keeps what it read)
 
 
 def kernel(kind: str):
@@ -70,13 +61,56 @@ def kernel(kind: str):
     return globals()[kind + "_kernel"]
 
 
-@functools.cache
+def build_tables(moments, principal_axes, omega_B, q_NB):
+    """Tables for bodies given by their principal ``moments (N, 3)``, ``principal_axes (N, 3, 3)``
+    (columns), rates ``omega_B (N, 3)`` and attitudes ``q_NB (N, 4)`` (:func:`build_row`):
+    ``(kinds, table)``, ``kinds[i]`` an index into :data:`KINDS`, or -1 for a stationary motion (whose
+    row is not filled)."""
+    _compile()
+    table = np.zeros((moments.shape[0], TABLE_WIDTH))  # (columns a kind does not use stay 0)
+    kinds = _build_rows(moments, principal_axes, omega_B, q_NB, table)
+    return kinds, table
+
+
+def _build_rows(moments, principal_axes, omega_B, q_NB, table):
+    kinds = np.empty(moments.shape[0], dtype=np.int64)
+    for i in range(moments.shape[0]):
+        kinds[i] = build_row(moments[i], principal_axes[i], omega_B[i], q_NB[i], table[i])
+    return kinds
+
+
+_compiling = threading.Lock()
+_compiled = False
+
+
 def _compile() -> None:
-    """Replace the functions below by numba's compiled ones, callees first (a compiled function calls
-    what its module's globals hold when it compiles). Kept in numba's cache next to this file, or in the
-    user's cache directory when the install is read-only; error_model="numpy": a division by zero gives
-    inf, as numpy's does."""
+    """Replace this module's functions by numba's compiled ones (once, before any is called: a compiled
+    function calls what the module's globals hold when it compiles on its first call). Kept in numba's
+    cache next to this file, or in the user's cache directory when the install is read-only. The cache
+    of a function is rebuilt when *its own file* changes, not when a file it calls into does: hence every
+    compiled function, and the table layout they share, in this one file. error_model="numpy": a
+    division by zero gives inf, as numpy's does."""
+    global _compiled
+    with _compiling:
+        if not _compiled:
+            _replace_by_compiled()
+            _compiled = True
+
+
+def _replace_by_compiled() -> None:
+    import llvmlite.binding
     import numba
+    from numba.extending import get_cython_function_address
+
+    # scipy's elliprf/elliprj for doubles (fused variant 1), called by symbol name: the compiled code then
+    # refers to no address of this process and numba's cache can keep it
+    double = numba.float64
+    for name, signature in (("rf", double(double, double, double, numba.intc)),
+                            ("rj", double(double, double, double, double, numba.intc))):
+        symbol = f"torquefree_ros_ellip{name}"
+        llvmlite.binding.add_symbol(symbol, get_cython_function_address("scipy.special.cython_special",
+                                                                        f"__pyx_fuse_1ellip{name}"))
+        globals()[f"carlson_{name}"] = numba.types.ExternalFunction(symbol, signature)
 
     def jit(function):
         try:
@@ -84,8 +118,10 @@ def _compile() -> None:
         except RuntimeError:  # no writable cache anywhere: compile in every process
             return numba.njit(nogil=True, error_model="numpy")(function)
 
-    for name in ("_horner", "_phase_minus_angle", "_finish", "trigonometric_kernel", "hyperbolic_kernel",
-                 "separatrix_kernel"):
+    for name in ("_rf", "_rj", "_norm", "_multiply", "_matrix_quaternion", "_product_matrix_transposed",
+                 "_set_cubic", "_trigonometric_phase", "_hyperbolic_phase", "_theta_constants", "build_row",
+                 "_build_rows", "_horner", "_phase_minus_angle", "_finish", "trigonometric_kernel",
+                 "hyperbolic_kernel", "separatrix_kernel"):
         globals()[name] = jit(globals()[name])
 
 
@@ -183,3 +219,265 @@ def separatrix_kernel(t, constants, omega, q):
             tanh = math.tanh(u)
             difference = _phase_minus_angle(c, 1.0, c[ROOT] * tanh, tanh, sech, 0.0)
             _finish(c, t[i], tanh, sech, sech, difference, omega[body, i], q[body, i])
+
+
+# -- one body's table from its initial state ----------------------------------------------------------
+# scipy's C functions, set by _compile: double f(double x, double y, double z[, double p], int)
+carlson_rf = carlson_rj = None
+
+
+def _rf(x, y, z):
+    return carlson_rf(x, y, z, 0)
+
+
+def _rj(x, y, z, p):
+    return carlson_rj(x, y, z, p, 0)
+
+
+def _norm(values):
+    """Euclidean norm, scaled by the largest magnitude so that no square overflows or underflows."""
+    largest = 0.0
+    for v in values:
+        largest = max(largest, abs(v))
+    if largest == 0.0 or not math.isfinite(largest):
+        return largest
+    total = 0.0
+    for v in values:
+        scaled = v / largest
+        total += scaled * scaled
+    return largest * math.sqrt(total)
+
+
+def build_row(moments, principal_axes, omega_B, q_NB, row):
+    """Fill ``row`` (``TABLE_WIDTH`` floats) for the body of principal ``moments`` and
+    ``principal_axes`` (columns) at rate ``omega_B`` and attitude ``q_NB``; return its kind."""
+    I, P = moments, principal_axes
+    w = np.empty(3)  # the rate in principal axes (polhode_constants.to_principal)
+    for k in range(3):
+        w[k] = omega_B[0] * P[0, k] + omega_B[1] * P[1, k] + omega_B[2] * P[2, k]
+    if ((I[1] - I[2]) * w[1] * w[2] == 0.0) and ((I[2] - I[0]) * w[2] * w[0] == 0.0) \
+            and ((I[0] - I[1]) * w[0] * w[1] == 0.0):
+        return STATIONARY
+
+    # -- polhode_constants.solver_frame --------------------------------------------------------------
+    lo, mid, hi = 0, 1, 2  # a stable argsort of three
+    if I[mid] < I[lo]:
+        lo, mid = mid, lo
+    if I[hi] < I[mid]:
+        mid, hi = hi, mid
+        if I[mid] < I[lo]:
+            lo, mid = mid, lo
+    gap_mid = I[lo] * (I[lo] - I[mid]) * (w[lo] * w[lo]) + I[hi] * (I[hi] - I[mid]) * (w[hi] * w[hi])
+    major = gap_mid >= 0.0
+    axes = (lo if major else hi, mid, hi if major else lo)
+    inversions = (axes[0] > axes[1]) * 1 + (axes[0] > axes[2]) * 1 + (axes[1] > axes[2]) * 1
+    flip_1 = -1.0 if w[axes[2]] < 0.0 else 1.0
+    sign_0 = 1.0 - 2.0 * (inversions % 2)
+    flip_3 = -1.0 if sign_0 * w[axes[0]] < 0.0 else 1.0
+    signs = (sign_0 * flip_3, flip_1 * flip_3, flip_1)
+    J1, J2, J3 = I[axes[0]], I[mid], I[axes[2]]
+    w1, w2, w3 = signs[0] * w[axes[0]], signs[1] * w[mid], signs[2] * w[axes[2]]
+    d21, d31, d32 = J2 - J1, J3 - J1, J3 - J2
+    w1s, w2s, w3s = w1 * w1, w2 * w2, w3 * w3
+    P1 = J2 * d21 * w2s + J3 * d31 * w3s
+    P2 = -J1 * d21 * w1s + J3 * d32 * w3s
+    P3 = J1 * d31 * w1s + J2 * d32 * w2s
+    mc = min(max(d31 * P2 / (d32 * P1), 0.0), 1.0)
+    a = math.sqrt(P3 / (J1 * d31))
+    b = math.copysign(math.sqrt(P3 / (J2 * d32)), d32)
+    c = math.sqrt(P1 / (J3 * d31))
+    m = min(max(d21 * P3 / (d32 * P1), 0.0), 1.0)
+    n = -J3 * d21 / (J1 * d32)
+    rate = math.sqrt(d32 * P1 / (J1 * J2 * J3))
+
+    # -- elliptic.JacobiElliptic's constants (the theta series' and phase's into the row) -------------
+    if mc > 0.0:
+        K = _rf(0.0, mc, 1.0)
+        slope = (_rj(0.0, mc, 1.0, 1.0 - n) / 3.0) / K
+        Kc = _rf(0.0, m, 1.0)
+        trigonometric = mc >= TRIGONOMETRIC_MC
+        _theta_constants(K, Kc, m, n, trigonometric, math.sqrt(mc), row)
+        kind = 0 if trigonometric else 1  # KINDS
+    else:
+        slope = 1.0 / (1.0 - n)
+        row[PER_PERIOD] = row[PERIOD] = row[SCALE] = 0.0
+        row[ROOT] = math.sqrt(-n)
+        kind = 2
+
+    # -- polhode_constants.attitude_constants ---------------------------------------------------------
+    solver_from_frame = np.empty((3, 3))  # solver_from_body: row i is principal axis axes[i] times signs[i]
+    for i in range(3):
+        for j in range(3):
+            solver_from_frame[i, j] = signs[i] * P[j, axes[i]]
+    sn0, cn0, dn0 = min(max(w2 / b, -1.0), 1.0), w1 / a, w3 / c
+    s2 = sn0 * sn0
+    sn2_integral0 = sn0 * s2 * _rj(cn0 * cn0, dn0 * dn0, 1.0, 1.0 - n * s2) / 3.0
+    amplitudes = (J1 * a, J2 * b, J3 * c)
+    momentum = _norm((J1 * w1, J2 * w2, J3 * w3))
+    direction = math.copysign(1.0, b)
+    A, B = amplitudes[0], math.copysign(amplitudes[1], 1.0)
+    gain = momentum * (J3 - J1) * n / (J1 * J3 * rate)
+    u0 = sn0 * _rf(cn0 * cn0, dn0 * dn0, 1.0)
+    angle0 = math.atan2(B * sn0, A * cn0)
+    m0 = (amplitudes[0] * cn0, amplitudes[1] * sn0, amplitudes[2] * dn0)
+    arc_w = momentum + m0[2]
+    arc_norm = _norm((m0[1], m0[0], arc_w))
+    q_SF = _matrix_quaternion(solver_from_frame)
+    q_NS0 = _multiply(q_NB, (-q_SF[0], -q_SF[1], -q_SF[2], q_SF[3]))
+    left = _multiply(q_NS0, (-m0[1] / arc_norm, m0[0] / arc_norm, -0.0, arc_w / arc_norm))
+    psi_rate = momentum / J1 + (gain * rate) * slope
+    psi_offset = direction * angle0 - gain * (sn2_integral0 - slope * u0)
+
+    # -- the row (the layout at the top) ---------------------------------------------------------------
+    row[RATE], row[INITIAL_PHASE], row[MOMENTUM], row[TWO_MOMENTUM] = rate, u0, momentum, 2.0 * momentum
+    for k in range(3):
+        row[AMPLITUDES + k] = amplitudes[k]
+        row[RATE_ROWS + k] = a * solver_from_frame[0, k]
+        row[RATE_ROWS + 3 + k] = b * solver_from_frame[1, k]
+        row[RATE_ROWS + 6 + k] = c * solver_from_frame[2, k]
+    row[LEVER], row[LEVER + 1] = A, B
+    row[HALF_DIRECTION], row[HALF_PSI_RATE], row[HALF_PSI_OFFSET] = 0.5 * direction, 0.5 * psi_rate, 0.5 * psi_offset
+    _product_matrix_transposed(left, q_SF, row)
+    return kind
+
+
+def _multiply(p, q):
+    """quaternion.multiply_values."""
+    px, py, pz, pw = p[0], p[1], p[2], p[3]
+    qx, qy, qz, qw = q
+    return (pw * qx + px * qw + py * qz - pz * qy, pw * qy - px * qz + py * qw + pz * qx,
+            pw * qz + px * qy - py * qx + pz * qw, pw * qw - px * qx - py * qy - pz * qz)
+
+
+def _matrix_quaternion(m):
+    """quaternion.matrix_quaternion: Shepperd's method, the first largest pivot, ``w >= 0``."""
+    trace = m[0, 0] + m[1, 1] + m[2, 2]
+    pivot, largest = 0, m[0, 0]
+    for i, value in enumerate((m[1, 1], m[2, 2], trace)):
+        if value > largest:
+            pivot, largest = i + 1, value
+    if pivot == 0:
+        q = (1.0 + 2.0 * m[0, 0] - trace, m[1, 0] + m[0, 1], m[2, 0] + m[0, 2], m[2, 1] - m[1, 2])
+    elif pivot == 1:
+        q = (m[0, 1] + m[1, 0], 1.0 + 2.0 * m[1, 1] - trace, m[2, 1] + m[1, 2], m[0, 2] - m[2, 0])
+    elif pivot == 2:
+        q = (m[0, 2] + m[2, 0], m[1, 2] + m[2, 1], 1.0 + 2.0 * m[2, 2] - trace, m[1, 0] - m[0, 1])
+    else:
+        q = (m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1], 1.0 + trace)
+    norm = _norm(q)
+    norm = norm if q[3] >= 0.0 else -norm
+    return (q[0] / norm, q[1] / norm, q[2] / norm, q[3] / norm)
+
+
+def _product_matrix_transposed(left, right, row):
+    """quaternion.product_matrix_values(left, right), transposed, into the row's frame change."""
+    px, py, pz, pw = left
+    qx, qy, qz, qw = right
+    r = ((qw, qz, -qy, qx), (-qz, qw, qx, qy), (qy, -qx, qw, qz), (-qx, -qy, -qz, qw))
+    by_left = ((pw, -pz, py, px), (pz, pw, -px, py), (-py, px, pw, pz), (-px, -py, -pz, pw))
+    for i in range(4):
+        a, b, c, d = by_left[i]
+        for j in range(4):  # element (i, j) of the product matrix is (j, i) of the frame change
+            row[FRAME_CHANGE_ROWS + 4 * j + i] = a * r[0][j] + b * r[1][j] + c * r[2][j] + d * r[3][j]
+
+
+def _theta_constants(K, Kc, m, n, trigonometric, k_prime, row):
+    """elliptic._ThetaPhase and _ThetaSeries for one parameter, into the row."""
+    # _third_kind_shift
+    moving = n < 0.0
+    d = m - n if moving else 1.0
+    b = math.sqrt(-n / d) * _rf(m / d if moving else 1.0, m * (1.0 - n) / d if moving else 1.0, 1.0)
+    bc = _rf(-n / (1.0 - n), (m - n) / (1.0 - n), 1.0) / math.sqrt(1.0 - n)
+    ratio = Kc / K if trigonometric else K / Kc
+    q = math.exp(-math.pi * ratio)
+    q2 = q * q
+    q4 = q2 * q2
+    q6, q9, q12 = q4 * q2, q4 * q4 * q, q4 * q4 * q4
+    t2 = ((1.0 + q2) + q6) + q12
+    t3 = 1.0 + 2.0 * ((q + q4) + q9)
+    t4 = 1.0 + 2.0 * ((q4 - q) - q9)
+    row[PER_PERIOD], row[PERIOD] = 0.5 / K, 2.0 * K
+    row[SCALE] = (0.5 * math.pi) / (K if trigonometric else Kc)
+    if trigonometric:
+        first = TRIGONOMETRIC_CUBICS
+        _set_cubic(row, first, t3 / t2, ((1.0 - 3.0 * q2) + 5.0 * q6) - 7.0 * q12, (4.0 * q2 - 20.0 * q6) + 56.0 * q12,
+                   16.0 * q6 - 112.0 * q12, 64.0 * q12)
+        _set_cubic(row, first + 4, t4 / t2, t2, (-4.0 * q2 - 12.0 * q6) - 24.0 * q12, 16.0 * q6 + 80.0 * q12, -64.0 * q12)
+        _set_cubic(row, first + 8, t4 / t3, t3, (-4.0 * q - 16.0 * q4) - 36.0 * q9, 16.0 * q4 + 96.0 * q9, -64.0 * q9)
+        _set_cubic(row, first + 12, 1.0, t4, (4.0 * q - 16.0 * q4) + 36.0 * q9, 16.0 * q4 - 96.0 * q9, 64.0 * q9)
+        row[BASE] = _trigonometric_phase(K, Kc, b, bc, row, first + 16)
+    else:
+        first = HYPERBOLIC_CUBICS
+        _set_cubic(row, first, t3 / t4, ((1.0 - q2) - q6) + q12, (2.0 * q6 - 2.0 * q2) + 4.0 * q12, 4.0 * q6 - 4.0 * q12,
+                   -8.0 * q12)
+        _set_cubic(row, first + 4, 1.0, ((1.0 - q2) - q6) + q12, (2.0 * q2 - 2.0 * q6) - 4.0 * q12, 4.0 * q6 - 4.0 * q12,
+                   8.0 * q12)
+        _set_cubic(row, first + 8, t2 / t3, 1.0 - 2.0 * q4, 2.0 * q - 6.0 * q9, 4.0 * q4, 8.0 * q9)
+        _set_cubic(row, first + 12, t2 / t4, 1.0 - 2.0 * q4, 6.0 * q9 - 2.0 * q, 4.0 * q4, -8.0 * q9)
+        _hyperbolic_phase(K, Kc, b, bc, row, first + 16)
+        row[QUARTER], row[HALF_QUARTER], row[K_PRIME] = K, 0.5 * K, k_prime
+        row[KAPPA] = (math.pi * b) / (2.0 * K * Kc)
+
+
+def _set_cubic(row, at, factor, c0, c1, c2, c3):
+    row[at], row[at + 1], row[at + 2], row[at + 3] = factor * c0, factor * c1, factor * c2, factor * c3
+
+
+def _trigonometric_phase(K, Kc, b, bc, row, at):
+    """elliptic._ThetaPhase._trigonometric: the two cubics into the row; returns theta4(i beta)."""
+    L = math.pi / K
+    q, rho, sigma = math.exp(-L * Kc), math.exp(-L * bc), math.exp(-L * (Kc + b))
+    q2 = q * q
+    q6 = q2 * q2 * q2
+    spread = (1.0, q2, q6, q6 * q6)
+    up = (rho, rho * rho * spread[1], rho * rho * rho * spread[2], (rho * rho) * (rho * rho) * spread[3])
+    down = (sigma, sigma * sigma * spread[1], sigma * sigma * sigma * spread[2],
+            (sigma * sigma) * (sigma * sigma) * spread[3])
+    C1, C2, C3, C4 = 0.5 * (up[0] + down[0]), 0.5 * (up[1] + down[1]), 0.5 * (up[2] + down[2]), 0.5 * (up[3] + down[3])
+    x = L * b
+    sh = math.sinh(min(max(x, 0.0), 1.0))
+    sh2 = sh * sh
+    sinh2 = 2.0 * sh * math.sqrt(1.0 + sh2)
+    small = (sh, sinh2, sh * (3.0 + 4.0 * sh2), 2.0 * sinh2 * (1.0 + 2.0 * sh2))
+    q_squares = (q, q2 * q2, q6 * q2 * q, (q6 * q2) * (q6 * q2))
+    S = [0.0, 0.0, 0.0, 0.0]
+    for j in range(4):
+        S[j] = q_squares[j] * small[j] if (j + 1) * x < 1.0 else 0.5 * (up[j] - down[j])
+    S1, S2, S3, S4 = S[0], S[1], S[2], S[3]
+    base = -math.expm1(-L * bc)
+    q_even = 1.0
+    for _ in range(6):
+        q_before, q_even = q_even, q_even * q2
+        base = base * ((1.0 - q_even) * (1.0 - sigma * q_before) * (1.0 - rho * q_even))
+    _set_cubic(row, at, 1.0, 4.0 * (((C1 - 4.0 * C2) + 9.0 * C3) - 16.0 * C4), 4.0 * ((4.0 * C2 - 24.0 * C3) + 80.0 * C4),
+               4.0 * (16.0 * C3 - 128.0 * C4), 256.0 * C4)
+    _set_cubic(row, at + 4, 1.0, 4.0 * (((S1 - 2.0 * S2) + 3.0 * S3) - 4.0 * S4), 4.0 * ((4.0 * S2 - 16.0 * S3) + 40.0 * S4),
+               4.0 * (16.0 * S3 - 96.0 * S4), 256.0 * S4)
+    return base
+
+
+def _hyperbolic_phase(K, Kc, b, bc, row, at):
+    """elliptic._ThetaPhase._hyperbolic: the four cubics into the row."""
+    q = math.exp(-math.pi * (K / Kc))
+    q2 = q * q
+    q4 = q2 * q2
+    q6, q9, q12 = q4 * q2, q4 * q4 * q, q4 * q4 * q4
+    direct = b <= bc
+    angle = (0.5 * math.pi / Kc) * (b if direct else bc)
+    sin_angle, cos_angle = math.sin(angle), math.cos(angle)
+    sg, cg = (sin_angle, cos_angle) if direct else (cos_angle, sin_angle)
+    v = sg * sg
+    c0, c1 = cg, cg * (1.0 - 4.0 * v)
+    c2, c3 = cg * ((1.0 - 12.0 * v) + 16.0 * v * v), cg * (((1.0 - 24.0 * v) + 80.0 * v * v) - 64.0 * v * v * v)
+    s0, s1 = sg, sg * (3.0 - 4.0 * v)
+    s2, s3 = sg * ((5.0 - 20.0 * v) + 16.0 * v * v), sg * (((7.0 - 56.0 * v) + 112.0 * v * v) - 64.0 * v * v * v)
+    cos2 = 1.0 - 2.0 * v
+    sin2 = 2.0 * sg * cg
+    cos4, sin4 = 2.0 * cos2 * cos2 - 1.0, 2.0 * sin2 * cos2
+    cos6, sin6 = cos2 * (4.0 * cos2 * cos2 - 3.0), sin2 * (3.0 - 4.0 * sin2 * sin2)
+    _set_cubic(row, at, 1.0, ((c0 - q2 * c1) - q6 * c2) + q12 * c3, (2.0 * q2 * c1 - 2.0 * q6 * c2) - 4.0 * q12 * c3,
+               4.0 * q6 * c2 - 4.0 * q12 * c3, 8.0 * q12 * c3)
+    _set_cubic(row, at + 4, 1.0, ((s0 + q2 * s1) - q6 * s2) - q12 * s3, (2.0 * q2 * s1 + 2.0 * q6 * s2) - 4.0 * q12 * s3,
+               4.0 * q6 * s2 + 4.0 * q12 * s3, 8.0 * q12 * s3)
+    _set_cubic(row, at + 8, 1.0, 1.0 - 2.0 * q4 * cos4, 2.0 * q * cos2 - 6.0 * q9 * cos6, 4.0 * q4 * cos4, 8.0 * q9 * cos6)
+    _set_cubic(row, at + 12, 1.0, 4.0 * q9 * sin6 - 4.0 * q * sin2, -8.0 * q4 * sin4, -16.0 * q9 * sin6, 0.0 * q)

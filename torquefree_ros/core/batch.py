@@ -16,6 +16,7 @@ import math
 
 import numpy as np
 
+from . import attitude_kernels
 from .elliptic import JacobiElliptic
 from .polhode import PolhodeAttitude
 from .ops import COLUMNS
@@ -68,6 +69,8 @@ def _exact_together(inertia, angular_velocity, orientation, times, omega, q) -> 
         return list(range(count))  # (only if the checks here were stricter than a body's own)
     moments, axes = bodies
     q0 = _unit_quaternions(orientation)
+    if attitude_kernels.ENABLED:
+        return _compiled_together(moments, axes, angular_velocity, q0, times, omega, q)
     omega0_P = to_principal(tuple(angular_velocity.T), axes)
     moving = np.flatnonzero(~is_stationary(tuple(moments.T), omega0_P))
     frames = solver_frame(COLUMNS, _rows(moments.T, moving), _rows(omega0_P, moving))
@@ -95,6 +98,32 @@ def _exact_together(inertia, angular_velocity, orientation, times, omega, q) -> 
         omega[rows, :zeros] = angular_velocity[rows, None]
         q[rows, :zeros] = q0[rows, None]
     return sorted(set(range(count)) - set(periodic.tolist()))
+
+
+def _compiled_together(moments, axes, angular_velocity, q0, times, omega, q) -> list:
+    """:func:`_exact_together` by :mod:`.attitude_kernels`: each body's table built by the same
+    compiled code as for one body, then each kind's bodies evaluated by its kernel in one call."""
+    count = moments.shape[0]
+    principal_axes = np.empty((count, 3, 3))  # rows of columns over bodies (or of floats) -> (N, 3, 3)
+    for j in range(3):
+        for k in range(3):
+            principal_axes[:, j, k] = axes[j][k]
+    kinds, table = attitude_kernels.build_tables(moments, principal_axes, angular_velocity, q0)
+    zeros = initial_samples(times)
+    for code, kind in enumerate(attitude_kernels.KINDS):
+        rows = np.flatnonzero(kinds == code)
+        if rows.size:
+            attitude = PolhodeAttitude.from_table(table[rows], kind, many=True)
+            # (the attitude's result is (times, bodies, k); views of the output take it directly)
+            contiguous = rows[-1] - rows[0] == rows.size - 1
+            if contiguous:
+                attitude(times, out=(omega[rows[0]:rows[-1] + 1].swapaxes(0, 1), q[rows[0]:rows[-1] + 1].swapaxes(0, 1)))
+            else:
+                group_omega, group_q = attitude(times)
+                omega[rows], q[rows] = group_omega.swapaxes(0, 1), group_q.swapaxes(0, 1)
+            omega[rows, :zeros] = angular_velocity[rows, None]
+            q[rows, :zeros] = q0[rows, None]
+    return np.flatnonzero(kinds < 0).tolist()
 
 
 def _bodies(inertia, angular_velocity):

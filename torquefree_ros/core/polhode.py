@@ -68,15 +68,27 @@ def solve_polhode(moments_P, omega_P) -> Polhode | None:
     return Polhode(frame, JacobiElliptic(frame.mc, frame.n, frame.m))
 
 
-def exact_attitude(body: RigidBody, omega0_B, q0_NB) -> tuple[Polhode | None, "PolhodeAttitude | None"]:
-    """The motion's polhode and its exact attitude, ``(None, None)`` for a stationary motion."""
+def body_polhode(body: RigidBody, omega0_B) -> Polhode | None:
+    """The polhode of ``body`` starting at ``omega0_B`` (body frame), ``None`` for a stationary motion."""
     axes = body.principal_axes.tolist()
-    polhode = solve_polhode(body.moments.tolist(), to_principal(np.asarray(omega0_B, dtype=float).tolist(), axes))
+    return solve_polhode(body.moments.tolist(), to_principal(np.asarray(omega0_B, dtype=float).tolist(), axes))
+
+
+def exact_attitude(body: RigidBody, omega0_B, q0_NB) -> "PolhodeAttitude | None":
+    """The exact attitude from ``omega0_B`` and ``q0_NB``, ``None`` for a stationary motion. With the
+    compiled kernels its constants are compiled too (:func:`.attitude_kernels.build_row`): a few µs."""
+    if attitude_kernels.ENABLED:
+        kinds, table = attitude_kernels.build_tables(body.moments[None], body.principal_axes[None],
+                                                     np.asarray(omega0_B, dtype=float)[None],
+                                                     np.asarray(q0_NB, dtype=float)[None])
+        return PolhodeAttitude.from_table(table, attitude_kernels.KINDS[kinds[0]]) if kinds[0] >= 0 else None
+    polhode = body_polhode(body, omega0_B)
     if polhode is None:
-        return None, None
-    constants = attitude_constants(FLOATS, polhode.frame, solver_from_body(FLOATS, polhode.frame, axes),
+        return None
+    constants = attitude_constants(FLOATS, polhode.frame, solver_from_body(FLOATS, polhode.frame,
+                                                                           body.principal_axes.tolist()),
                                    np.asarray(q0_NB, dtype=float).tolist(), polhode.jacobi.sn2_integral_slope)
-    return polhode, PolhodeAttitude(polhode.jacobi, polhode.rate, constants)
+    return PolhodeAttitude(polhode.jacobi, polhode.rate, constants)
 
 
 class PolhodeAttitude:
@@ -96,13 +108,7 @@ class PolhodeAttitude:
         self.jacobi = jacobi
         c = constants
         self._bodies = c.momentum.shape[0] if isinstance(c.momentum, np.ndarray) else None
-        self._table = self._kernel = None
-        if attitude_kernels.ENABLED:
-            theta = jacobi._theta  # (None on the separatrix: closed forms)
-            self._kernel = attitude_kernels.kernel(
-                "separatrix" if theta is None else "trigonometric" if theta.trigonometric else "hyperbolic")
-            self._table = attitude_kernels.table(jacobi, rate, c)
-            return
+        self._table = self._kernel = None  # (compiled: from_table)
         rate_matrix, frame_change = np.array(c.rate_matrix, dtype=float), np.array(c.frame_change, dtype=float)
         if self._bodies is not None:  # many bodies: rows (N, l) of (k, l, N) matrices
             rate_matrix, frame_change = rate_matrix.transpose(0, 2, 1), frame_change.transpose(0, 2, 1)
@@ -114,8 +120,18 @@ class PolhodeAttitude:
         (self._rate, self._initial_phase, self._momentum, self._two_momentum, *amplitudes, lever_cn, lever_sn,
          self._half_direction, self._half_psi_rate, self._half_psi_offset) = (values[i, ...] for i in range(len(values)))
         self._momentum_amplitudes, self._lever = tuple(amplitudes), (lever_cn, lever_sn)
-        if jacobi._theta is not None:
+        if jacobi._theta is not None:  # (None on the separatrix: closed forms)
             jacobi._theta.phased_cubics  # built now: part of the propagator's construction, not of its first call
+
+    @classmethod
+    def from_table(cls, table: np.ndarray, kind: str, many: bool = False) -> "PolhodeAttitude":
+        """The compiled attitude of the bodies whose table :func:`.attitude_kernels.build_tables` gave,
+        all of one ``kind``: one body (one row), or ``many`` (results ``(M, N, k)``)."""
+        attitude = object.__new__(cls)
+        attitude.jacobi = None
+        attitude._bodies = table.shape[0] if many else None
+        attitude._table, attitude._kernel = table, attitude_kernels.kernel(kind)
+        return attitude
 
     #: elements evaluated in one pass: the pass's temporaries (~35 arrays of this many floats) stay in
     #: cache, and a long request does not grow the heap by megabytes that the allocator hands back to

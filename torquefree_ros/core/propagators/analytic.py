@@ -6,12 +6,13 @@ function of time whose cost per sample does not depend on ``t``.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
 
 from .. import quaternion
-from ..polhode import exact_attitude
+from ..polhode import Polhode, body_polhode, exact_attitude
 from .base import Propagator, register
 
 
@@ -23,7 +24,12 @@ class AnalyticPropagator(Propagator):
 
     def __init__(self, body, angular_velocity, orientation, effects=(), **options):
         super().__init__(body, angular_velocity, orientation, effects, **options)
-        self.polhode, self._attitude = exact_attitude(self.body, self.omega0_B, self.q0_NB)
+        self._attitude = exact_attitude(self.body, self.omega0_B, self.q0_NB)
+
+    @functools.cached_property
+    def polhode(self) -> Polhode | None:
+        """The motion's regime parameters and Jacobi functions (``None`` for a stationary motion)."""
+        return body_polhode(self.body, self.omega0_B)
 
     def _spin(self, times) -> np.ndarray:
         """``q0 ⊗ exp(t w / 2) = cos(|w| t / 2) q0 + sin(|w| t / 2) q0 ⊗ (w / |w|, 0)`` for a constant ``w``
