@@ -68,7 +68,9 @@ def build_tables(moments, principal_axes, omega_B, q_NB):
     row is not filled)."""
     _compile()
     table = np.zeros((moments.shape[0], TABLE_WIDTH))  # (columns a kind does not use stay 0)
-    kinds = _build_rows(moments, principal_axes, omega_B, q_NB, table)
+    # writable C-contiguous float64 arrays: one compiled signature (a read-only array is another type)
+    arrays = (np.require(a, dtype=float, requirements=("C", "W")) for a in (moments, principal_axes, omega_B, q_NB))
+    kinds = _build_rows(*arrays, table)
     return kinds, table
 
 

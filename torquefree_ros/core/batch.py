@@ -2,12 +2,13 @@
 
 Each body is propagated exactly as :func:`~torquefree_ros.core.propagate` propagates it alone, so
 a batch is bit for bit the same as the loop a user would write; the batch checks every input and
-names the body a bad one belongs to. The exact solution's bodies off the separatrix (nearly all of
-a dispersed campaign) are built and evaluated together: the constants of
-:mod:`.polhode_constants` computed as numpy columns over bodies by the very formulas one body uses,
-then the same elementwise evaluation on ``(bodies, times)`` arrays, a group of bodies at a time so
-that memory stays bounded. The rest (other propagators, the separatrix, stationary motions) go one
-by one.
+names the body a bad one belongs to. The exact solution's moving bodies (nearly all of a dispersed
+campaign) are built and evaluated together. Compiled (:mod:`.attitude_kernels`): each body's table
+row by the code one body's comes from, then one kernel call per kind of motion. With numpy: the
+constants of :mod:`.polhode_constants` computed as numpy columns over bodies by the very formulas
+one body uses, then the same elementwise evaluation on ``(bodies, times)`` arrays, a group of bodies
+at a time so that memory stays bounded (the separatrix, rare, goes one by one). The rest (other
+propagators, stationary motions) go one by one.
 """
 
 from __future__ import annotations
@@ -88,16 +89,20 @@ def _exact_together(inertia, angular_velocity, orientation, times, omega, q) -> 
         jacobi = JacobiElliptic.columns(frame.mc, frame.n, frame.m)
         constants = attitude_constants(COLUMNS, frame, solver_from_body(COLUMNS, frame, body_axes),
                                        tuple(q0[rows].T), jacobi.sn2_integral_slope)
-        attitude = PolhodeAttitude(jacobi, frame.rate, constants)
-        contiguous = rows[-1] - rows[0] == rows.size - 1  # (rows ascend) then views take the result directly
-        if contiguous:  # the attitude's result is (times, bodies, k)
-            attitude(times, out=(omega[rows[0]:rows[-1] + 1].swapaxes(0, 1), q[rows[0]:rows[-1] + 1].swapaxes(0, 1)))
-        else:
-            group_omega, group_q = attitude(times)
-            omega[rows], q[rows] = group_omega.swapaxes(0, 1), group_q.swapaxes(0, 1)
-        omega[rows, :zeros] = angular_velocity[rows, None]
-        q[rows, :zeros] = q0[rows, None]
+        _evaluate_rows(PolhodeAttitude(jacobi, frame.rate, constants), rows, times, zeros, angular_velocity, q0, omega, q)
     return sorted(set(range(count)) - set(periodic.tolist()))
+
+
+def _evaluate_rows(attitude: PolhodeAttitude, rows, times, zeros: int, angular_velocity, q0, omega, q) -> None:
+    """Bodies ``rows`` (ascending) of ``omega`` and ``q`` from their ``attitude``; their first ``zeros``
+    samples (t = 0) the initial state itself."""
+    if rows[-1] - rows[0] == rows.size - 1:  # consecutive: views take the result, (times, bodies, k), directly
+        attitude(times, out=(omega[rows[0]:rows[-1] + 1].swapaxes(0, 1), q[rows[0]:rows[-1] + 1].swapaxes(0, 1)))
+    else:
+        group_omega, group_q = attitude(times)
+        omega[rows], q[rows] = group_omega.swapaxes(0, 1), group_q.swapaxes(0, 1)
+    omega[rows, :zeros] = angular_velocity[rows, None]
+    q[rows, :zeros] = q0[rows, None]
 
 
 def _compiled_together(moments, axes, angular_velocity, q0, times, omega, q) -> list:
@@ -114,15 +119,7 @@ def _compiled_together(moments, axes, angular_velocity, q0, times, omega, q) -> 
         rows = np.flatnonzero(kinds == code)
         if rows.size:
             attitude = PolhodeAttitude.from_table(table[rows], kind, many=True)
-            # (the attitude's result is (times, bodies, k); views of the output take it directly)
-            contiguous = rows[-1] - rows[0] == rows.size - 1
-            if contiguous:
-                attitude(times, out=(omega[rows[0]:rows[-1] + 1].swapaxes(0, 1), q[rows[0]:rows[-1] + 1].swapaxes(0, 1)))
-            else:
-                group_omega, group_q = attitude(times)
-                omega[rows], q[rows] = group_omega.swapaxes(0, 1), group_q.swapaxes(0, 1)
-            omega[rows, :zeros] = angular_velocity[rows, None]
-            q[rows, :zeros] = q0[rows, None]
+            _evaluate_rows(attitude, rows, times, zeros, angular_velocity, q0, omega, q)
     return np.flatnonzero(kinds < 0).tolist()
 
 
