@@ -169,8 +169,8 @@ def _python_row(body, omega0, q0):
 
 def _assert_same_constants(body, omega0, q0, label):
     kind, expected = _python_row(body, np.asarray(omega0, dtype=float), q0)
-    kinds, table = kernels.build_tables(body.moments[None], body.principal_axes[None],
-                                        np.asarray(omega0, dtype=float)[None], np.asarray(q0, dtype=float)[None])
+    state = np.concatenate((body.moments, body.principal_axes.ravel(), np.asarray(omega0, dtype=float), q0))
+    kinds, table = kernels.build_tables(state[None])
     if kind is None:
         assert kinds[0] == -1, label
         return

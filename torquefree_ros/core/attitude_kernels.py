@@ -61,23 +61,24 @@ def kernel(kind: str):
     return globals()[kind + "_kernel"]
 
 
-def build_tables(moments, principal_axes, omega_B, q_NB):
-    """Tables for bodies given by their principal ``moments (N, 3)``, ``principal_axes (N, 3, 3)``
-    (columns), rates ``omega_B (N, 3)`` and attitudes ``q_NB (N, 4)`` (:func:`build_row`):
+#: a body's initial state as build_tables takes it: principal moments (3), principal axes (3x3, row
+#: by row, the axes as columns), the rate in the body frame (3) and the attitude q_NB (4)
+STATE_WIDTH = 19
+
+
+def build_tables(states):
+    """Tables for bodies given by their initial ``states (N, STATE_WIDTH)`` (:func:`build_row`):
     ``(kinds, table)``, ``kinds[i]`` an index into :data:`KINDS`, or -1 for a stationary motion (whose
-    row is not filled)."""
+    row is not filled). ``states`` is one writable C-contiguous array, so one compiled signature."""
     _compile()
-    table = np.zeros((moments.shape[0], TABLE_WIDTH))  # (columns a kind does not use stay 0)
-    # writable C-contiguous float64 arrays: one compiled signature (a read-only array is another type)
-    arrays = (np.require(a, dtype=float, requirements=("C", "W")) for a in (moments, principal_axes, omega_B, q_NB))
-    kinds = _build_rows(*arrays, table)
-    return kinds, table
+    table = np.zeros((states.shape[0], TABLE_WIDTH))  # (columns a kind does not use stay 0)
+    return _build_rows(states, table), table
 
 
-def _build_rows(moments, principal_axes, omega_B, q_NB, table):
-    kinds = np.empty(moments.shape[0], dtype=np.int64)
-    for i in range(moments.shape[0]):
-        kinds[i] = build_row(moments[i], principal_axes[i], omega_B[i], q_NB[i], table[i])
+def _build_rows(states, table):
+    kinds = np.empty(states.shape[0], dtype=np.int64)
+    for i in range(states.shape[0]):
+        kinds[i] = build_row(states[i], table[i])
     return kinds
 
 
@@ -250,10 +251,10 @@ def _norm(values):
     return largest * math.sqrt(total)
 
 
-def build_row(moments, principal_axes, omega_B, q_NB, row):
-    """Fill ``row`` (``TABLE_WIDTH`` floats) for the body of principal ``moments`` and
-    ``principal_axes`` (columns) at rate ``omega_B`` and attitude ``q_NB``; return its kind."""
-    I, P = moments, principal_axes
+def build_row(state, row):
+    """Fill ``row`` (``TABLE_WIDTH`` floats) for the body whose initial ``state`` is laid out as
+    :data:`STATE_WIDTH` says; return its kind."""
+    I, P, omega_B, q_NB = state[0:3], state[3:12].reshape((3, 3)), state[12:15], state[15:19]
     w = np.empty(3)  # the rate in principal axes (polhode_constants.to_principal)
     for k in range(3):
         w[k] = omega_B[0] * P[0, k] + omega_B[1] * P[1, k] + omega_B[2] * P[2, k]
