@@ -29,18 +29,16 @@ from torquefree_ros.core.polhode_constants import attitude_constants, solver_fro
 from torquefree_ros.core.propagators import make_propagator
 from torquefree_ros.core.rigid_body import RigidBody
 
-attitude_kernels = kernels
-
 EPS = np.finfo(float).eps
 
-pytestmark = pytest.mark.skipif(not attitude_kernels.AVAILABLE and not os.environ.get("CI"),
+pytestmark = pytest.mark.skipif(not kernels.AVAILABLE and not os.environ.get("CI"),
                                 reason="numba (the fast extra) is not installed")
 
 
 def _both(monkeypatch, function):
     results = {}
     for compiled in (True, False):
-        monkeypatch.setattr(attitude_kernels, "ENABLED", compiled)
+        monkeypatch.setattr(kernels, "ENABLED", compiled)
         results[compiled] = function()
     return results[True], results[False]
 
@@ -65,14 +63,14 @@ def test_every_hard_case_agrees_with_the_numpy_path(monkeypatch):
 def test_each_kind_of_motion_has_its_kernel():
     """m <= 1/2, m > 1/2 and the separatrix each have their kernel; stationary motions (no polhode)
     keep their closed form."""
-    if not attitude_kernels.ENABLED:
+    if not kernels.ENABLED:
         pytest.skip("the kernels are turned off (TORQUEFREE_ROS_KERNELS=numpy)")
     trigonometric = make_propagator([1.0, 2.0, 3.0], [0.3, 0.2, 1.0], [0, 0, 0, 1])._attitude
     hyperbolic = make_propagator([2.0, 3.0, 4.0], [0.7, 0.5, 0.6], [0, 0, 0, 1])._attitude
     separatrix = make_propagator([3.0, 4.0, 6.0], [2.0, 0.5, 1.0], [0, 0, 0, 1])._attitude  # H^2 = 2 T I2
-    assert trigonometric._kernel is attitude_kernels.trigonometric_kernel
-    assert hyperbolic._kernel is attitude_kernels.hyperbolic_kernel
-    assert separatrix._kernel is attitude_kernels.separatrix_kernel
+    assert trigonometric._kernel is kernels.trigonometric_kernel
+    assert hyperbolic._kernel is kernels.hyperbolic_kernel
+    assert separatrix._kernel is kernels.separatrix_kernel
     assert all(a._table.shape == (1, kernels.TABLE_WIDTH) for a in (trigonometric, hyperbolic, separatrix))
     assert make_propagator([1.0, 2.0, 3.0], [0.0, 2.0, 0.0], [0, 0, 0, 1])._attitude is None  # a pure spin
 
@@ -95,11 +93,11 @@ def test_random_bodies_agree_with_the_numpy_path(I, w, q0, horizon):
     times = np.linspace(0.0, horizon, 301)
     results = {}
     for compiled in (True, False):  # (hypothesis and function-scoped fixtures do not mix: set and restore)
-        saved, attitude_kernels.ENABLED = attitude_kernels.ENABLED, compiled
+        saved, kernels.ENABLED = kernels.ENABLED, compiled
         try:
             results[compiled] = propagate(I, w, q0, times)
         finally:
-            attitude_kernels.ENABLED = saved
+            kernels.ENABLED = saved
     _assert_close(results[True], results[False], math.hypot(*w), horizon, f"I={I} w={w}")
 
 
@@ -117,7 +115,7 @@ def test_a_batch_of_both_kinds_agrees_with_the_numpy_path(monkeypatch):
 
 
 def test_one_sample_and_an_empty_request(monkeypatch):
-    monkeypatch.setattr(attitude_kernels, "ENABLED", True)
+    monkeypatch.setattr(kernels, "ENABLED", True)
     propagator = make_propagator([2.0, 3.0, 4.0], [0.7, 0.5, 0.6], [0, 0, 0, 1])
     omega, q = propagator(np.array([0.5, 1.0, 7.0]))
     one = propagator(7.0)
@@ -131,7 +129,7 @@ def test_the_environment_turns_the_kernels_off():
     """``TORQUEFREE_ROS_KERNELS=numpy`` selects the numpy path in a new process (a user's way to rule
     the kernels out when a result looks wrong)."""
     code = "from torquefree_ros.core import attitude_kernels as k; print(k.ENABLED)"
-    for value, expected in (("numpy", "False"), ("numba", str(attitude_kernels.AVAILABLE))):
+    for value, expected in (("numpy", "False"), ("numba", str(kernels.AVAILABLE))):
         env = {**os.environ, "TORQUEFREE_ROS_KERNELS": value}
         printed = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
         assert printed.stdout.strip() == expected
