@@ -9,6 +9,8 @@ import sys
 import venv
 from pathlib import Path
 
+import pytest
+
 REPO = Path(__file__).resolve().parent.parent
 TIMEOUT = 600  # s: a cold pip cache downloads the ROS wheels
 
@@ -39,3 +41,13 @@ def test_the_wheel_installs_into_a_clean_venv_with_every_runtime_dependency(tmp_
     api = ("import torquefree_ros as t; s = t.load_scene('dzhanibekov'); "
            "w, q = t.propagate(s.inertia, s.angular_velocity, s.orientation, [0.0, 1.0]); print(q.shape)")
     assert _run([bin_dir / "python", "-c", api], cwd=tmp_path).stdout.strip() == "(2, 4)"
+    # so far without numba (the numpy path); then the README's line with the fast extra: the kernels compile
+    # in the installed package (numba's cache beside it) and give what the numpy path gave
+    kernels = "from torquefree_ros.core import attitude_kernels as k; print(k.ENABLED)"
+    assert _run([bin_dir / "python", "-c", kernels], cwd=tmp_path).stdout.strip() == "False"
+    _run([bin_dir / "pip", "install", "--quiet", "--disable-pip-version-check", "-c", REPO / "requirements.lock",
+          f"{wheel}[fast]"], cwd=tmp_path, timeout=TIMEOUT)
+    assert _run([bin_dir / "python", "-c", kernels], cwd=tmp_path).stdout.strip() == "True"
+    compiled = _run([bin_dir / "torquefree_propagate", "--duration", "1", "--rate", "2"], cwd=tmp_path).stdout
+    for row, row_numpy in zip(compiled.splitlines()[1:], csv.splitlines()[1:]):
+        assert [float(v) for v in row.split(",")] == pytest.approx([float(v) for v in row_numpy.split(",")], abs=1e-14)
