@@ -167,8 +167,7 @@ def _python_row(body, omega0, q0):
 
 def _assert_same_constants(body, omega0, q0, label):
     kind, expected = _python_row(body, np.asarray(omega0, dtype=float), q0)
-    state = np.concatenate((body.moments, body.principal_axes.ravel(), np.asarray(omega0, dtype=float), q0))
-    kinds, table = kernels.build_tables(state[None])
+    kinds, table = kernels.build_tables(body.moments, body.principal_axes, np.asarray(omega0, dtype=float), q0)
     if kind is None:
         assert kinds[0] == -1, label
         return

@@ -61,16 +61,21 @@ def kernel(kind: str):
     return globals()[kind + "_kernel"]
 
 
-#: a body's initial state as build_tables takes it: principal moments (3), principal axes (3x3, row
-#: by row, the axes as columns), the rate in the body frame (3) and the attitude q_NB (4)
+#: a body's initial state as build_row reads it: principal moments (3), principal axes (3x3, row by
+#: row, the axes as columns), the rate in the body frame (3) and the attitude q_NB (4)
 STATE_WIDTH = 19
 
 
-def build_tables(states):
-    """Tables for bodies given by their initial ``states (N, STATE_WIDTH)`` (:func:`build_row`):
+def build_tables(moments, principal_axes, omega_B, q_NB):
+    """Tables for bodies given by their principal ``moments (N, 3)``, ``principal_axes (N, 3, 3)``
+    (columns), rates ``omega_B (N, 3)`` and attitudes ``q_NB (N, 4)``, or one body's without the
+    leading axis (:func:`build_row`):
     ``(kinds, table)``, ``kinds[i]`` an index into :data:`KINDS`, or -1 for a stationary motion (whose
-    row is not filled). ``states`` is one writable C-contiguous array, so one compiled signature."""
+    row is not filled). The states go in as one new (N, STATE_WIDTH) array: one compiled signature
+    whatever the inputs' flags (a read-only array is another numba type, another compilation)."""
     _compile()
+    axes = principal_axes.reshape(principal_axes.shape[:-2] + (9,))
+    states = np.concatenate((moments, axes, omega_B, q_NB), axis=-1, dtype=float).reshape((-1, STATE_WIDTH))
     table = np.zeros((states.shape[0], TABLE_WIDTH))  # (columns a kind does not use stay 0)
     return _build_rows(states, table), table
 
@@ -127,13 +132,20 @@ def _replace_by_compiled() -> None:
 
     for name in ("_rf", "_rj", "_norm", "_multiply", "_matrix_quaternion", "_product_matrix_transposed",
                  "_set_cubic", "_trigonometric_phase", "_hyperbolic_phase", "_theta_constants", "build_row",
-                 "_build_rows", "_horner", "_phase_minus_angle", "_finish", "trigonometric_kernel",
+                 "_build_rows", "_horner", "_reduce", "_phase_minus_angle", "_finish", "trigonometric_kernel",
                  "hyperbolic_kernel", "separatrix_kernel"):
         globals()[name] = jit(globals()[name])
 
 
 def _horner(c, first, x):
     return ((c[first + 3] * x + c[first + 2]) * x + c[first + 1]) * x + c[first]
+
+
+def _reduce(c, t):
+    """``(j, r)`` with ``u = rate t + u0 = r + 2K j``: :meth:`.elliptic.JacobiElliptic._reduce`."""
+    u = c[RATE] * t + c[INITIAL_PHASE]
+    half_periods = np.rint(u * c[PER_PERIOD])
+    return half_periods, u - c[PERIOD] * half_periods
 
 
 def _phase_minus_angle(c, re, im, reduced_sn, reduced_cn, half_periods):
@@ -165,16 +177,15 @@ def trigonometric_kernel(t, constants, omega, q):
         c = constants[body]
         k = TRIGONOMETRIC_CUBICS
         for i in range(t.shape[0]):
-            u = c[RATE] * t[i] + c[INITIAL_PHASE]
-            half_periods = np.rint(u * c[PER_PERIOD])
-            z = c[SCALE] * (u - c[PERIOD] * half_periods)
+            half_periods, r = _reduce(c, t[i])
+            z = c[SCALE] * r
             sine, cosine = math.sin(z), math.cos(z)
             s = sine * sine
             inverse = 1.0 / _horner(c, k + 12, s)
             reduced_sn = (_horner(c, k, s) * inverse) * sine
             reduced_cn = (_horner(c, k + 4, s) * inverse) * cosine
             dn = _horner(c, k + 8, s) * inverse
-            parity = 1.0 - 2.0 * (half_periods % 2.0)
+            parity = 1.0 - 2.0 * (half_periods % 2.0)  # (-1)^j
             re = c[BASE] + s * _horner(c, k + 16, s)
             im = (sine * cosine) * _horner(c, k + 20, s)
             difference = _phase_minus_angle(c, re, im, reduced_sn, reduced_cn, half_periods)
@@ -187,9 +198,7 @@ def hyperbolic_kernel(t, constants, omega, q):
         c = constants[body]
         k = HYPERBOLIC_CUBICS
         for i in range(t.shape[0]):
-            u = c[RATE] * t[i] + c[INITIAL_PHASE]
-            half_periods = np.rint(u * c[PER_PERIOD])
-            r = u - c[PERIOD] * half_periods
+            half_periods, r = _reduce(c, t[i])
             a = abs(r)
             first = a <= c[HALF_QUARTER]
             w = a if first else c[QUARTER] - a
@@ -203,7 +212,7 @@ def hyperbolic_kernel(t, constants, omega, q):
             reduced_sn = math.copysign((sh_A if first else D) * inverse, r)
             reduced_cn = (D if first else c[K_PRIME] * sh_A) * inverse
             dn = (C if first else c[K_PRIME] * ch_B) * inverse
-            parity = 1.0 - 2.0 * (half_periods % 2.0)
+            parity = 1.0 - 2.0 * (half_periods % 2.0)  # (-1)^j
             if first:
                 re, im = _horner(c, k + 16, x), math.copysign(th, r) * _horner(c, k + 20, x)
                 linear = -c[KAPPA] * math.copysign(w, r)

@@ -108,13 +108,11 @@ def _evaluate_rows(attitude: PolhodeAttitude, rows, times, zeros: int, angular_v
 def _compiled_together(moments, axes, angular_velocity, q0, times, omega, q) -> list:
     """:func:`_exact_together` by :mod:`.attitude_kernels`: each body's table built by the same
     compiled code as for one body, then each kind's bodies evaluated by its kernel in one call."""
-    states = np.empty((moments.shape[0], attitude_kernels.STATE_WIDTH))
-    states[:, 0:3] = moments
-    for j in range(3):  # the principal axes: rows of columns over bodies (or of floats)
+    principal_axes = np.empty((moments.shape[0], 3, 3))
+    for j in range(3):  # from rows of columns over bodies (or of floats)
         for k in range(3):
-            states[:, 3 + 3 * j + k] = axes[j][k]
-    states[:, 12:15], states[:, 15:19] = angular_velocity, q0
-    kinds, table = attitude_kernels.build_tables(states)
+            principal_axes[:, j, k] = axes[j][k]
+    kinds, table = attitude_kernels.build_tables(moments, principal_axes, angular_velocity, q0)
     zeros = initial_samples(times)
     for code, kind in enumerate(attitude_kernels.KINDS):
         rows = np.flatnonzero(kinds == code)

@@ -78,8 +78,7 @@ def exact_attitude(body: RigidBody, omega0_B, q0_NB) -> "PolhodeAttitude | None"
     """The exact attitude from ``omega0_B`` and ``q0_NB``, ``None`` for a stationary motion. With the
     compiled kernels its constants are compiled too (:func:`.attitude_kernels.build_row`): a few µs."""
     if attitude_kernels.ENABLED:
-        state = np.concatenate((body.moments, body.principal_axes.ravel(), omega0_B, q0_NB), dtype=float)
-        kinds, table = attitude_kernels.build_tables(state[None])
+        kinds, table = attitude_kernels.build_tables(body.moments, body.principal_axes, omega0_B, q0_NB)
         return PolhodeAttitude.from_table(table, attitude_kernels.KINDS[kinds[0]]) if kinds[0] >= 0 else None
     polhode = body_polhode(body, omega0_B)
     if polhode is None:
