@@ -18,11 +18,12 @@ setup(
     ],
     # What the package imports at run time, all from PyPI (exact versions: requirements.lock). In a
     # ROS install the same come from rosdep (package.xml); colcon does not install these.
-    install_requires=["numpy>=1.26", "scipy>=1.11", "PyYAML>=6", "mcap>=1.2",
+    # numba compiles the exact attitude (core/attitude_kernels.py) and the integrators of scenes with
+    # effects (core/integrators/); TORQUEFREE_ROS_KERNELS=numpy runs the numpy/scipy reference instead
+    install_requires=["numpy>=1.26", "scipy>=1.11", "PyYAML>=6", "mcap>=1.2", "numba>=0.60",
                       "ros-jazzy-rclpy[fastrtps]", "ros-jazzy-common-interfaces"],
-    # mujoco 4.0.0 on PyPI is a shell around the not-yet-usable mujoco-core; 3.x is the real one
-    # fast: the exact attitude compiled by numba (torquefree_ros/core/attitude_kernels.py), ~3x less a
-    # sample and ~10x less a call; without it the same results come from numpy
+    # mujoco 4.0.0 on PyPI is a shell around the not-yet-usable mujoco-core; 3.x is the real one.
+    # fast: numba, now a runtime dependency; the extra stays so that '.[fast]' keeps working
     extras_require={"plot": ["matplotlib>=3.7"], "bench": ["matplotlib>=3.7", "mujoco>=3.1,<4"],
                     "fast": ["numba>=0.60"]},
     zip_safe=False,  # the scene library and bench data are read as files

@@ -31,6 +31,21 @@ def attitude_path(request, monkeypatch):
     return request.param
 
 
+@pytest.fixture(params=["compiled", "reference"])
+def integrator_path(request, monkeypatch):
+    """Run a test on both paths of the numerical propagators: numba's kernels (core/integrators, the
+    default) and the reference (scipy's DOP853, numpy's stages). Without numba the compiled run is
+    skipped, except on CI, where the requirements install it."""
+    from torquefree_ros.core.integrators import compiled
+
+    if request.param == "compiled" and not compiled.AVAILABLE:
+        if os.environ.get("CI"):
+            pytest.fail("numba is not installed: the requirements install it")
+        pytest.skip("numba is not installed")
+    monkeypatch.setattr(compiled, "ENABLED", request.param == "compiled")
+    return request.param
+
+
 # Settings at which each propagator is accurate enough for the shared convention checks below
 # (1e-8 rad over ~10 s of motion at |w| ~ 1 rad/s).
 ACCURATE_SETTINGS = {

@@ -13,6 +13,9 @@ from torquefree_ros.core.propagators import make_propagator
 from torquefree_ros.core.scene import scene_from_mapping
 from torquefree_ros.core.simulation import Simulation
 
+# every check here runs on both paths of the numerical propagators (compiled kernels, scipy/numpy reference)
+pytestmark = pytest.mark.usefixtures("integrator_path")
+
 NUMERICAL = ["dop853", "lie_rk4", "rk4"]
 TIGHT = {"dop853": {"rtol": 1e-12, "atol": 1e-14}, "lie_rk4": {"step": 1e-3}, "rk4": {"step": 1e-3}}
 

@@ -4,6 +4,7 @@ Versions come from requirements.lock; pip's cache makes this take under a minute
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 import venv
@@ -15,8 +16,9 @@ REPO = Path(__file__).resolve().parent.parent
 TIMEOUT = 600  # s: a cold pip cache downloads the ROS wheels
 
 
-def _run(argv, cwd, timeout=120):
-    result = subprocess.run([str(a) for a in argv], cwd=cwd, capture_output=True, text=True, timeout=timeout)
+def _run(argv, cwd, timeout=120, env_extra=None):
+    env = None if env_extra is None else {**os.environ, **env_extra}
+    result = subprocess.run([str(a) for a in argv], cwd=cwd, capture_output=True, text=True, timeout=timeout, env=env)
     assert result.returncode == 0, f"{argv}: {result.stdout}\n{result.stderr}"
     return result
 
@@ -41,13 +43,23 @@ def test_the_wheel_installs_into_a_clean_venv_with_every_runtime_dependency(tmp_
     api = ("import torquefree_ros as t; s = t.load_scene('dzhanibekov'); "
            "w, q = t.propagate(s.inertia, s.angular_velocity, s.orientation, [0.0, 1.0]); print(q.shape)")
     assert _run([bin_dir / "python", "-c", api], cwd=tmp_path).stdout.strip() == "(2, 4)"
-    # so far without numba (the numpy path); then the README's line with the fast extra: the kernels compile
-    # in the installed package (numba's cache beside it) and give what the numpy path gave
-    kernels = "from torquefree_ros.core import attitude_kernels as k; print(k.ENABLED)"
-    assert _run([bin_dir / "python", "-c", kernels], cwd=tmp_path).stdout.strip() == "False"
+    # numba came with the plain install: the kernels are on, compiled in the installed package (numba's
+    # cache beside it), and give what the numpy/scipy reference path gives
+    kernels = ("from torquefree_ros.core import attitude_kernels as k; from torquefree_ros.core.integrators import "
+               "compiled as c; print(k.ENABLED, c.ENABLED)")
+    assert _run([bin_dir / "python", "-c", kernels], cwd=tmp_path).stdout.strip() == "True True"
+    reference = _run([bin_dir / "torquefree_propagate", "--duration", "1", "--rate", "2"], cwd=tmp_path,
+                     env_extra={"TORQUEFREE_ROS_KERNELS": "numpy"}).stdout
+    for row, row_reference in zip(csv.splitlines()[1:], reference.splitlines()[1:]):
+        assert [float(v) for v in row.split(",")] == pytest.approx([float(v) for v in row_reference.split(",")], abs=1e-14)
+    # a scene with an effect, on both paths (explorer1: a damper, DOP853 at 1e-9)
+    effects = ("import torquefree_ros as t; p = t.load_scene('explorer1').propagator(); w, q = p([0.0, 10.0]); "
+               "print(p.compiled, *w[-1], *q[-1])")
+    fast = _run([bin_dir / "python", "-c", effects], cwd=tmp_path).stdout.split()
+    slow = _run([bin_dir / "python", "-c", effects], cwd=tmp_path, env_extra={"TORQUEFREE_ROS_KERNELS": "numpy"}).stdout.split()
+    assert fast[0] == "True" and slow[0] == "False"
+    # the same steps but for rounding in a few sums: far inside the 1e-9 tolerance
+    assert [float(v) for v in fast[1:]] == pytest.approx([float(v) for v in slow[1:]], abs=1e-11)
+    # the fast extra still installs (it names numba, already there)
     _run([bin_dir / "pip", "install", "--quiet", "--disable-pip-version-check", "-c", REPO / "requirements.lock",
           f"{wheel}[fast]"], cwd=tmp_path, timeout=TIMEOUT)
-    assert _run([bin_dir / "python", "-c", kernels], cwd=tmp_path).stdout.strip() == "True"
-    compiled = _run([bin_dir / "torquefree_propagate", "--duration", "1", "--rate", "2"], cwd=tmp_path).stdout
-    for row, row_numpy in zip(compiled.splitlines()[1:], csv.splitlines()[1:]):
-        assert [float(v) for v in row.split(",")] == pytest.approx([float(v) for v in row_numpy.split(",")], abs=1e-14)

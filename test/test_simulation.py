@@ -87,7 +87,7 @@ def test_a_step_budget_per_sample_bounds_the_work_before_it_is_done(method):
     are unchanged; the estimate of the accuracy stays bounded work too (it says what it skipped)."""
     import time
 
-    from torquefree_ros.core.propagators import StepBudgetExceeded
+    from torquefree_ros.core.propagators import MAX_STEPS_PER_SAMPLE, StepBudgetExceeded
     from torquefree_ros.core.scene import load_scene
 
     scene = load_scene("gyrostat")
@@ -100,7 +100,8 @@ def test_a_step_budget_per_sample_bounds_the_work_before_it_is_done(method):
                                                  rf"{bounded.max_steps_per_sample} steps from the sample before"):
         bounded([0.0, 1000.0])
     assert time.process_time() - started < 0.5
-    assert free.max_steps_per_sample is None  # offline use is unbounded unless asked
+    # offline and the API refuse what the node refuses (the same bound) unless a caller lifts it
+    assert free.max_steps_per_sample == MAX_STEPS_PER_SAMPLE
 
 
 def test_an_accuracy_estimate_over_its_step_bound_says_so():

@@ -14,6 +14,9 @@ from torquefree_ros.core import quaternion
 from torquefree_ros.core.scene import SceneError, scene_from_mapping
 from torquefree_ros.core.simulation import Simulation
 
+# the hold drives both paths of the numerical propagators (compiled kernels, scipy/numpy reference)
+pytestmark = pytest.mark.usefixtures("integrator_path")
+
 RATE = 10.0
 INERTIA = [2.0, 3.0, 4.0]
 OMEGA0 = [0.3, -0.2, 0.5]

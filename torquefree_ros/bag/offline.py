@@ -11,6 +11,7 @@ arrived at its log time, under the node's rules, so the samples equal the record
 
 from __future__ import annotations
 
+import time
 from typing import Callable, NamedTuple
 
 import numpy as np
@@ -51,7 +52,9 @@ def read_commands(bag, topic: str) -> list[RecordedCommand]:
         commands.append(RecordedCommand(message.log_time_ns, stamp, frame, values[:3], values[3:]))
     return commands
 
-BLOCK = 4096  # samples computed, encoded and written per step: memory stays flat at any duration
+BLOCK = 4096  # samples computed, encoded and written per step at most: memory stays flat at any duration
+FIRST_BLOCK = 1  # the first block's samples; blocks double while one takes under BLOCK_SECONDS
+BLOCK_SECONDS = 0.1  # so a stop (SIGINT, SIGTERM) is seen within about this, however slow a sample is
 MAX_SAMPLES = 10**10  # per stream: ~1 TB of bag; more is a typo (1e9 s at 1 MHz), refused up front
 
 
@@ -92,10 +95,12 @@ def write_scene_bag(scene, output, duration: float, rate: float, *, epoch_ns: in
     with BagWriter(output, overwrite=overwrite, compression=compression, custom_data=custom) as writer:
         recorders = [SampleRecorder.in_namespace(writer, ns, sample_qos(qos_depth)) for ns in namespaces]
         total = count * len(simulations)
-        for first in range(0, count, BLOCK):
+        first, block_size = 0, FIRST_BLOCK
+        while first < count:
             if stop is not None and stop():
                 break
-            size = min(BLOCK, count - first)
+            size = min(block_size, count - first)
+            started = time.monotonic()
             for simulation, recorder in zip(simulations, recorders):
                 block = simulation.samples(first, size)
                 recorder.write_block(block.stamps_ns,
@@ -107,6 +112,12 @@ def write_scene_bag(scene, output, duration: float, rate: float, *, epoch_ns: in
                                                    encode_command(command))
             if progress is not None:
                 progress((first + size) * len(simulations), total)
+            first += size
+            # blocks of the same samples give the same bag content, however they are cut
+            if time.monotonic() - started < BLOCK_SECONDS:
+                block_size = min(2 * block_size, BLOCK)
+            else:
+                block_size = max(block_size // 2, 1)
     return writer.metadata
 
 

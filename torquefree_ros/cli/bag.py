@@ -110,6 +110,10 @@ def main(argv=None) -> int:
     except BagError as error:
         print(f"torquefree_bag: {error}", file=sys.stderr)
         return 1
+    except RuntimeError as error:  # a sample the integrator refuses to reach (step budget, stiffness)
+        print(f"torquefree_bag: {error}\ntorquefree_bag: {args.output} is a complete bag of the samples before it",
+              file=sys.stderr)
+        return 1
     elapsed = time.perf_counter() - started
     samples = metadata.topics[0].message_count if metadata.topics else 0
     if stop.signal is not None:

@@ -32,6 +32,7 @@ from . import bodies, library
 from .safe_files import clip, load_yaml, read_regular_file
 from .effects import MotionEffect, OutputEffect, parse_effect
 from .propagators import Propagator, make_propagator
+from .propagators.dynamics import Dynamics
 from .rigid_body import RigidBody
 from .schema import (FieldError, Param, check_keys, child, fields, integer, listing, mapping, number, text,
                      unit_quaternion, vector)
@@ -186,6 +187,7 @@ def scene_from_mapping(data, source: str = "<built-in default>") -> Scene:
     try:
         values = fields(data, "", _TOP)
         _check_output_topics(values["effects"])
+        _check_effect_scales(values)
     except FieldError as error:
         raise SceneError(f"{source}: {error}") from None
     body, initial, effects = values["body"], values["initial"], values["effects"]
@@ -203,6 +205,22 @@ def scene_from_mapping(data, source: str = "<built-in default>") -> Scene:
         sweep_members=values["sweep"]["members"] if values["sweep"] else None,
         watch=values["watch"],
     )
+
+
+def _check_effect_scales(values) -> None:
+    """Each motion effect's torque and state rate at the initial state must be finite: a parameter
+    such as ``mean_motion: 1e308`` is refused here, with its path, not mid-run."""
+    from .propagators.base import overflowing_message
+
+    body = RigidBody.from_inertia(values["body"]["inertia"])
+    initial = values["initial"]
+    omega = np.asarray(initial["angular_velocity"], dtype=float)
+    q = np.asarray(initial["orientation"], dtype=float)
+    for index, effect in enumerate(values["effects"]):
+        if isinstance(effect, MotionEffect):
+            dynamics = Dynamics(body, [effect.bound(body.tensor)])
+            if dynamics.overflowing_effect(omega, q, dynamics.initial_state(omega)) is not None:
+                raise FieldError(f"effects[{index}].{effect.name}", overflowing_message(effect).split(": ", 1)[1])
 
 
 _SAMPLE_TOPICS = ("angular_velocity", "attitude", "/clock", "/diagnostics")

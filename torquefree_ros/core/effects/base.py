@@ -64,6 +64,10 @@ class MotionEffect(Effect):
     holds_per_sample: ClassVar[bool] = False
     state_size: ClassVar[int] = 0
     conserves: ClassVar[frozenset] = frozenset()
+    #: its torque's compiled form: a code of ``integrators/motion_kernels.py`` (whose section there reads
+    #: :meth:`kernel_parameters`), or None for a torque held constant on each smooth piece, which the
+    #: compiled integrators take from :meth:`held_torque` where the piece starts
+    kernel_code: ClassVar[int | None] = None
 
     def bound(self, tensor: np.ndarray) -> "MotionEffect":
         """This effect for a body of inertia ``tensor`` (body frame); a copy when it needs it."""
@@ -84,6 +88,15 @@ class MotionEffect(Effect):
 
     def breakpoints(self) -> tuple[float, ...]:
         return ()
+
+    def kernel_parameters(self) -> tuple[float, ...]:
+        """The numbers its kernel reads, in order (bound: after :meth:`bound`)."""
+        return ()
+
+    def held_torque(self, segment_start: float) -> tuple[np.ndarray, bool]:
+        """For an effect without a kernel: the torque it holds on the piece starting at
+        ``segment_start``, and whether it is in the inertial frame (else the body frame)."""
+        raise NotImplementedError(f"{self.name}: neither a kernel code nor a held torque")
 
     def momentum_B(self, state: np.ndarray) -> np.ndarray:
         """Angular momentum the effect carries itself (a wheel, a damper), body frame; broadcasts

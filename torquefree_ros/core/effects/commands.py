@@ -80,9 +80,12 @@ class TorqueCommand(MotionEffect):
         bound.hold = CommandHold(self.values["timeout"], self.values["max_torque"])
         return bound
 
+    def held_torque(self, segment_start):
+        return self.hold.torque_at(segment_start), self.inertial
+
     def torque_B(self, t, omega_B, q_NB, state, segment_start):
-        torque = self.hold.torque_at(segment_start)
-        return quaternion.rotate_inverse(q_NB, torque) if self.inertial else torque
+        torque, inertial = self.held_torque(segment_start)
+        return quaternion.rotate_inverse(q_NB, torque) if inertial else torque
 
 
 def command_inputs(effects) -> tuple:

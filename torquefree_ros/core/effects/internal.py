@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import quaternion
+from ..integrators import motion_kernels
 from ..schema import FieldError, Param, number, vector
 from .base import ENERGY, MOMENTUM, MotionEffect, register
 
@@ -27,6 +28,7 @@ class Damper(MotionEffect):
     summary = "viscous nutation damper with its own rate: energy falls, |H| stays, the spin goes to the major axis"
     state_size = 3
     conserves = frozenset({MOMENTUM})
+    kernel_code = motion_kernels.DAMPER
     parameters = {
         "inertia": Param(number(positive=True, unit="kg m^2"), help="the damper rotor's inertia J, kg m^2"),
         "damping": Param(number(positive=True, unit="N m s"), help="viscous coefficient c, N m s"),
@@ -41,6 +43,9 @@ class Damper(MotionEffect):
         """The rotor turns with the body unless ``initial_rate`` says otherwise."""
         rate = self.values["initial_rate"]
         return np.array(omega0_B if rate is None else rate, dtype=float)
+
+    def kernel_parameters(self):
+        return (self.J, self.c)
 
     def torque_B(self, t, omega_B, q_NB, state, segment_start):
         return self.c * (state - omega_B)
@@ -64,6 +69,7 @@ class Rotor(MotionEffect):
     name = "rotor"
     summary = "a wheel of constant relative momentum (gyrostat): total angular momentum conserved"
     conserves = frozenset({ENERGY, MOMENTUM})
+    kernel_code = motion_kernels.ROTOR
     parameters = {
         "momentum": Param(number(unit="N m s"), help="the wheel's momentum relative to the body, N m s"),
         "axis": Param(vector(3), help="the wheel's spin axis, body frame (normalised)"),
@@ -78,6 +84,9 @@ class Rotor(MotionEffect):
     def __init__(self, momentum, axis):
         super().__init__(momentum=momentum, axis=axis)
         self.h_B = momentum * np.asarray(axis, float) / np.linalg.norm(axis)
+
+    def kernel_parameters(self):
+        return tuple(self.h_B.tolist())
 
     def torque_B(self, t, omega_B, q_NB, state, segment_start):
         return quaternion.cross(self.h_B, omega_B)

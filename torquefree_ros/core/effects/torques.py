@@ -10,6 +10,7 @@ import math
 import numpy as np
 
 from .. import quaternion
+from ..integrators import motion_kernels
 from ..schema import FieldError, Param, choice, child, listing, mapping, number, vector
 from .base import MotionEffect, register
 
@@ -64,9 +65,12 @@ class ExternalTorque(MotionEffect):
         """The commanded torque at ``t``, in its own frame (a segment holds from its start on)."""
         return self._torques[bisect.bisect_right(self._starts, t) - 1]
 
+    def held_torque(self, segment_start):
+        return self.torque_at(segment_start), self.inertial
+
     def torque_B(self, t, omega_B, q_NB, state, segment_start):
-        torque = self.torque_at(segment_start)
-        return quaternion.rotate_inverse(q_NB, torque) if self.inertial else torque
+        torque, inertial = self.held_torque(segment_start)
+        return quaternion.rotate_inverse(q_NB, torque) if inertial else torque
 
     def breakpoints(self):
         return tuple(self._starts[1:])
@@ -81,6 +85,7 @@ class GravityGradient(MotionEffect):
     name = "gravity_gradient"
     summary = "gravity-gradient torque of a circular orbit (radius and mu, or mean motion)"
     uses_attitude = True
+    kernel_code = motion_kernels.GRAVITY_GRADIENT
     parameters = {
         "radius": Param(number(positive=True, unit="m"), None),
         "gravitational_parameter": Param(number(positive=True, unit="m^3/s^2"), None),
@@ -112,6 +117,9 @@ class GravityGradient(MotionEffect):
         bound = copy.copy(self)
         bound._tensor = tensor
         return bound
+
+    def kernel_parameters(self):
+        return (self.mean_motion, self.u0, *self._tensor.ravel().tolist())
 
     def radial_N(self, t: float) -> np.ndarray:
         u = self.u0 + self.mean_motion * t

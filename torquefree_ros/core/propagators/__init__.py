@@ -1,9 +1,10 @@
 """Propagator registry: every propagator behind one interface, looked up by name."""
 
 from . import analytic, numerical  # noqa: F401  (registers the propagators)
-from .base import PROPAGATORS, Propagator, StepBudgetExceeded, propagator_class
+from .base import MAX_STEPS_PER_SAMPLE, PROPAGATORS, Propagator, StepBudgetExceeded, StepTooSmall, propagator_class
 
-__all__ = ["PROPAGATORS", "ATOL_PER_RTOL", "DEFAULT_ACCURACY", "Propagator", "StepBudgetExceeded",
+__all__ = ["MAX_STEPS_PER_SAMPLE", "PROPAGATORS", "ATOL_PER_RTOL", "DEFAULT_ACCURACY", "Propagator",
+           "StepBudgetExceeded", "StepTooSmall",
            "propagator_class", "make_propagator"]
 
 #: the integrator tolerance (relative, per step) of ``auto`` for a scene with effects

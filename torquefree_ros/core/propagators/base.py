@@ -15,6 +15,12 @@ from ..validation import finite_vector, initial_samples, sample_times, unit_quat
 from .dynamics import Dynamics
 
 
+#: integrator steps one sample (one requested time after the previous) may take: about a second of the
+#: slowest path (rk4 in Python with effects), ~10 ms compiled. The node, the offline tools and the API
+#: all refuse more, with the same reason, so no call can hang on a scene that needs ~forever
+MAX_STEPS_PER_SAMPLE = 10_000
+
+
 class Propagator(abc.ABC):
     """Base class. Subclasses set ``name`` and ``exact`` and implement :meth:`_evaluate`.
 
@@ -28,10 +34,10 @@ class Propagator(abc.ABC):
 
     name: ClassVar[str]
     exact: ClassVar[bool] = False
-    #: integrator steps allowed from one requested time to the next (None: unbounded). The node sets
-    #: it so that no sample can hold its loop (and a reset or a shutdown) for long; over it, the
-    #: evaluation raises :class:`StepBudgetExceeded` with the reason.
-    max_steps_per_sample: int | None = None
+    #: integrator steps allowed from one requested time to the next (None: unbounded, if a caller
+    #: really means it). No sample can then hold the node's loop (a reset, a shutdown) or an offline
+    #: tool for long; over it, the evaluation raises :class:`StepBudgetExceeded` with the reason.
+    max_steps_per_sample: int | None = MAX_STEPS_PER_SAMPLE
     supports_effects: ClassVar[bool] = True
     #: option name -> default; anything else given to the constructor is an error
     options: ClassVar[dict] = {}
@@ -55,6 +61,10 @@ class Propagator(abc.ABC):
         # first asked for: a propagator is built on every reset and for every body of a batch.
         self._dynamics = Dynamics(self.body, [effect.bound(self.body.tensor) for effect in effects]) if effects else None
         self.x0 = self._dynamics.initial_state(self.omega0_B) if effects else _NO_EFFECT_STATE
+        if effects:
+            overflowing = self._dynamics.overflowing_effect(self.omega0_B, self.q0_NB, self.x0)
+            if overflowing is not None:
+                raise ValueError(f"effects: {overflowing_message(self._dynamics.effects[overflowing])}")
 
     @property
     def dynamics(self) -> Dynamics:
@@ -120,6 +130,22 @@ class StepBudgetExceeded(RuntimeError):
             f"{propagator.name}: reaching t = {t:.6g} s needs more than {propagator.max_steps_per_sample:,} steps "
             f"from the sample before (the step is {step:.2g} s), the bound per sample that keeps the node responsive: raise the "
             "sample rate, or relax the accuracy (a longer step, looser tolerances)")
+
+
+class StepTooSmall(RuntimeError):
+    """The adaptive step fell below what float64 resolves at ``t`` (scipy's "Required step size is
+    less than spacing between numbers"): the motion is too fast there, or has overflowed."""
+
+    def __init__(self, propagator: Propagator, t: float):
+        super().__init__(
+            f"{propagator.name}: at t = {t:.6g} s the step fell under 10 rounding units of t: the motion there is "
+            "too fast or too stiff for float64 steps, or has overflowed (check the scene's rates, torques and "
+            "effect parameters)")
+
+
+def overflowing_message(effect) -> str:
+    return (f"{effect.describe()}: its torque or its own state's rate overflows float64 at the initial state "
+            "(a parameter far outside any physical scale)")
 
 
 _NO_EFFECT_STATE = np.empty(0)

@@ -92,6 +92,23 @@ class Dynamics:
                 x_dot[part] = effect.state_rate(t, omega, q, state)
         return torque, x_dot
 
+    def overflowing_effect(self, omega_B: np.ndarray, q_NB: np.ndarray, x: np.ndarray) -> int | None:
+        """The index of the first effect whose torque or state rate is not finite at this state (a
+        parameter like a mean motion of 1e308), or None."""
+        with np.errstate(all="ignore"):
+            for index, (effect, part) in enumerate(zip(self.effects, self.slices)):
+                state = x[part]
+                try:
+                    terms = [effect.torque_B(0.0, omega_B, q_NB, state, 0.0)]
+                    if effect.state_size:
+                        terms.append(effect.state_rate(0.0, omega_B, q_NB, state))
+                    terms.append(np.linalg.solve(self.body.tensor, terms[0]))
+                except OverflowError:  # Python floats raise where numpy gives inf
+                    return index
+                if not all(np.all(np.isfinite(term)) for term in terms):
+                    return index
+        return None
+
     # -- invariants of the whole system (body + effects' own momentum and energy) ------------------
     def momentum_B(self, omega_B: np.ndarray, x: np.ndarray) -> np.ndarray:
         total = self.body.angular_momentum(omega_B)

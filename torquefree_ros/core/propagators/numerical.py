@@ -3,6 +3,10 @@ effects. They integrate :class:`~.dynamics.Dynamics` (Euler's equations with the
 ``q' = 1/2 q ⊗ (w, 0)``, the effects' own states) in the user's body frame with the full inertia
 tensor, independently of the principal-axis machinery the exact solver uses.
 
+With numba present (and ``TORQUEFREE_ROS_KERNELS`` not ``numpy``), a propagator hands its evaluation to
+the compiled kernels (``core/integrators``): the same method, stops and restarts, per step without
+Python; the code here stays the reference they are tested against.
+
 Fixed-step methods advance on the grid ``t = j * step`` whatever times are asked for, and reach an
 output time with one partial step from the grid point below it, so a sample does not depend on which
 other samples were requested (the node asks in blocks; offline tools ask all at once). Every method
@@ -19,7 +23,8 @@ import numpy as np
 from scipy.integrate import DOP853
 
 from .. import quaternion
-from .base import Propagator, StepBudgetExceeded, register
+from ..integrators import compiled
+from .base import Propagator, StepBudgetExceeded, StepTooSmall, register
 
 
 def _positive_option(settings: dict, key: str) -> float:
@@ -43,14 +48,24 @@ class FixedStepPropagator(Propagator):
     #: True when the method keeps |q| = 1 by construction (no output normalisation)
     geometric = False
 
+    #: the method's code in the compiled kernels
+    kernel_method: int
+
     def __init__(self, body, angular_velocity, orientation, effects=(), **options):
         super().__init__(body, angular_velocity, orientation, effects, **options)
         self.step = _positive_option(self.settings, "step")
+        self._kernel = compiled.FixedStepKernel(self, self.kernel_method) if compiled.ENABLED else None
         self._restart()
+
+    @property
+    def compiled(self) -> bool:
+        return self._kernel is not None
 
     def _restart(self):
         self._grid_index = 0
         self._y = np.concatenate([self.omega0_B, self.q0_NB, self.x0])
+        if self._kernel is not None:
+            self._kernel.restart()
 
     @abc.abstractmethod
     def advance(self, t: float, y: np.ndarray, h: float) -> np.ndarray: ...
@@ -86,6 +101,11 @@ class FixedStepPropagator(Propagator):
             budget = self.max_steps_per_sample
             if budget is not None and j - self._grid_index > budget:
                 raise StepBudgetExceeded(self, t, self.step)
+            if self._kernel is not None:
+                self._kernel.advance_grid(self._grid_index, j, self.step)
+                self._grid_index = j
+                out[i] = self._kernel.partial_step(j * self.step, partial) if partial > 0.0 else self._kernel.y
+                continue
             while self._grid_index < j:
                 self._y = self._advance(self._grid_index * self.step, self._y, self.step)
                 self._grid_index += 1
@@ -101,6 +121,7 @@ class RK4Propagator(FixedStepPropagator):
     """Classical fourth-order Runge-Kutta on ``(w, q, x)``; ``q`` is normalised only on output."""
 
     name = "rk4"
+    kernel_method = compiled.kernels.RK4
 
     def advance(self, t, y, h):
         f = self.dynamics.derivative
@@ -120,6 +141,7 @@ class LieRK4Propagator(FixedStepPropagator):
     renormalisation per step only removes the rounding random walk."""
 
     name = "lie_rk4"
+    kernel_method = compiled.kernels.LIE_RK4
     geometric = True
 
     def advance(self, t, y, h):
@@ -171,7 +193,12 @@ class DOP853Propagator(Propagator):
         self.atol = _positive_option(self.settings, "atol")
         speed = float(np.linalg.norm(self.omega0_B))
         self.min_step = self.MIN_STEP_PER_TURN * min(1.0, 2.0 * math.pi / speed if speed > 0 else 1.0)
+        self._kernel = compiled.DOP853Kernel(self) if compiled.ENABLED else None
         self._restart()
+
+    @property
+    def compiled(self) -> bool:
+        return self._kernel is not None
 
     def _rhs(self, t, y):
         return self.dynamics.derivative(t, y, self._segment_start)
@@ -181,6 +208,8 @@ class DOP853Propagator(Propagator):
         # the right-hand side as it is made, and a commanded torque may only be known by then
         self._solver = _SegmentStart(0.0, np.concatenate([self.omega0_B, self.q0_NB, self.x0]))
         self._segment_start = self._step_start = 0.0
+        if self._kernel is not None:
+            self._kernel.restart()
 
     def _advance_past(self, t: float):
         """Step until the solver's last step reaches ``t``; returns the solver."""
@@ -196,8 +225,8 @@ class DOP853Propagator(Propagator):
                 solver = self._solver
             self._step_start = solver.t
             message = solver.step()
-            if solver.status == "failed":
-                raise RuntimeError(f"dop853 failed at t = {solver.t}: {message}")
+            if solver.status == "failed":  # scipy's "Required step size is less than spacing between numbers"
+                raise StepTooSmall(self, solver.t)
             if solver.step_size < self.min_step and solver.status != "finished":
                 raise RuntimeError(
                     f"dop853: the step fell to {solver.step_size:.2g} s at t = {solver.t:.6g} s, under {self.min_step:.2g} s "
@@ -213,9 +242,15 @@ class DOP853Propagator(Propagator):
         self._step_start = t0
 
     def _evaluate(self, times):
+        if self._kernel is not None:
+            out = self._kernel.evaluate(times)
+            q = out[:, 3:7]
+            return out[:, :3], q / np.linalg.norm(q, axis=1, keepdims=True), out[:, 7:]
         out = np.empty((times.size, 7 + self.dynamics.state_size))
         i = 0
-        with np.errstate(under="ignore"):  # scipy's min-step guard: nextafter(0) - 0
+        # scipy's min-step guard underflows (nextafter(0) - 0); a scene that overflows its stages ends in
+        # StepTooSmall, our message, without numpy's warnings about the steps on the way
+        with np.errstate(all="ignore"):
             while i < times.size:
                 if times[i] < self._step_start:
                     self._restart()

@@ -1,0 +1,234 @@
+"""The compiled equations of motion and integrators (core/integrators) held to the reference path
+(Dynamics.derivative in Python, scipy's DOP853, numpy's RK4 stages) and to closed forms. The effects'
+physics is checked against independent references in test_effects.py, on both paths."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.special import ellipj, ellipk
+from scipy.spatial.transform import Rotation
+
+from torquefree_ros import load_scene
+from torquefree_ros.core.effects import EFFECTS, MotionEffect, parse_effect
+from torquefree_ros.core.integrators import compiled, motion_kernels
+from torquefree_ros.core.propagators import StepBudgetExceeded
+from torquefree_ros.core.propagators.dynamics import Dynamics
+from torquefree_ros.core.rigid_body import RigidBody
+from torquefree_ros.core.scene import scene_from_mapping
+
+pytestmark = pytest.mark.skipif(not compiled.AVAILABLE, reason="numba is not installed")
+
+EPS = np.finfo(float).eps
+#: one configuration of every motion effect, with a parameter of each kind it has
+EFFECT_ENTRIES = {
+    "external_torque (body)": {"external_torque": {"torque": [1e-3, -2e-3, 3e-3]}},
+    "external_torque (inertial)": {"external_torque": {"torque": [0.02, -0.01, 0.03], "frame": "inertial"}},
+    "external_torque (schedule)": {"external_torque": {"schedule": [{"start": 0.5, "torque": [0.0, 0.1, 0.0]},
+                                                                    {"start": 1.5, "torque": [0.2, 0.0, -0.1]}],
+                                                       "frame": "inertial"}},
+    "gravity_gradient": {"gravity_gradient": {"mean_motion": 0.3, "argument_of_latitude": 0.4}},
+    "damper": {"damper": {"inertia": 0.1, "damping": 0.05, "initial_rate": [0.1, 0.2, 0.3]}},
+    "rotor": {"rotor": {"momentum": 1.5, "axis": [0.3, -1.0, 0.2]}},
+    "torque_command": {"torque_command": {"frame": "inertial"}},
+}
+
+
+def _dynamics(entries, inertia=(4.0, 3.0, 2.0, 0.1, -0.2, 0.05)):
+    body = RigidBody.from_inertia(list(inertia))
+    effects = [parse_effect(entry, f"effects[{i}]").bound(body.tensor) for i, entry in enumerate(entries)]
+    for effect in effects:
+        if getattr(effect, "hold", None) is not None:  # a command in force from the start, so the torque is not zero
+            effect.hold.receive(0, [0.01, -0.02, 0.005], frame_id="")
+    return Dynamics(body, effects)
+
+
+def test_every_motion_effect_has_a_compiled_form():
+    """A kernel code the kernels read, with as many parameters as its section reads, or a held torque."""
+    motion = [cls for cls in EFFECTS.values() if issubclass(cls, MotionEffect)]
+    assert {cls.name for cls in motion} == {next(iter(e)) for e in EFFECT_ENTRIES.values()}
+    for label, entry in EFFECT_ENTRIES.items():
+        (effect,) = _dynamics([entry]).effects
+        if effect.kernel_code is None:
+            torque, inertial = effect.held_torque(0.0)
+            assert np.shape(torque) == (3,) and isinstance(inertial, bool), label
+        else:
+            assert len(effect.kernel_parameters()) == motion_kernels.PARAMETER_COUNTS[effect.kernel_code], label
+
+
+def _random_states(rng, count, state_size):
+    omega = rng.normal(size=(count, 3)) * 10.0 ** rng.uniform(-3, 1, size=(count, 1))
+    q = Rotation.random(count, random_state=rng).as_quat()
+    x = rng.normal(size=(count, state_size))
+    return np.hstack([omega, q, x])
+
+
+@pytest.mark.parametrize("label", [*EFFECT_ENTRIES, "all at once"])
+def test_the_compiled_right_hand_side_equals_the_python_one_on_random_states(label):
+    """Same formulas, other order of a few sums: within 16 eps of the largest term, per component."""
+    entries = list(EFFECT_ENTRIES.values()) if label == "all at once" else [EFFECT_ENTRIES[label]]
+    dynamics = _dynamics(entries)
+    rng = np.random.default_rng(sum(map(ord, label)))
+    states = _random_states(rng, 200, dynamics.state_size)
+    times = rng.uniform(0.0, 3.0, size=200)  # across the schedule's switches
+    expected = np.array([dynamics.derivative(t, y, t) for t, y in zip(times, states)])
+    got = compiled.derivatives(dynamics, times, states)
+    # the terms' size: |I| |w|^2 and every torque (|I^-1| ~ 1 here), the quaternion rate |w|
+    size = 10.0 * (1.0 + np.abs(states[:, :3]).max(axis=1, keepdims=True) ** 2 + np.abs(states).max(axis=1, keepdims=True))
+    assert np.all(np.abs(got - expected) <= 16 * EPS * size), np.abs(got - expected).max()
+
+
+@settings(max_examples=60, deadline=None)
+@given(moments=st.tuples(*[st.floats(0.1, 100.0)] * 3), rate=st.floats(1e-3, 20.0),
+       n=st.floats(1e-4, 2.0), J=st.floats(1e-3, 1.0), c=st.floats(1e-3, 1.0), h=st.floats(-10.0, 10.0).filter(lambda v: v == 0.0 or abs(v) > 1e-6),
+       seed=st.integers(0, 2**32 - 1))
+def test_the_compiled_right_hand_side_holds_for_any_body_and_parameters(moments, rate, n, J, c, h, seed):
+    """Hypothesis over bodies (any three moments and a tilt of the axes) and effect parameters."""
+    a, b, cc = sorted(moments)
+    if a + b < cc:  # not a rigid body
+        moments = (a, b, a + b)
+    rng = np.random.default_rng(seed)
+    axes = Rotation.random(random_state=rng).as_matrix()
+    tensor = axes @ np.diag(moments) @ axes.T
+    tensor = 0.5 * (tensor + tensor.T)
+    body = RigidBody.from_inertia(tensor.tolist())
+    entries = [{"gravity_gradient": {"mean_motion": n}}, {"damper": {"inertia": J, "damping": c}},
+               {"rotor": {"momentum": h, "axis": rng.normal(size=3).tolist()}}]
+    effects = [parse_effect(e, f"effects[{i}]").bound(body.tensor) for i, e in enumerate(entries)]
+    dynamics = Dynamics(body, effects)
+    states = _random_states(rng, 8, dynamics.state_size)
+    states[:, :3] *= rate / np.linalg.norm(states[:, :3], axis=1, keepdims=True)
+    times = rng.uniform(0.0, 100.0, size=8)
+    expected = np.array([dynamics.derivative(t, y, t) for t, y in zip(times, states)])
+    got = compiled.derivatives(dynamics, times, states)
+    # terms up to |I| |w|^2 (+ 3 n^2 |I|, c |nu - w|, |h| |w|), divided by the smallest moment
+    scale = max(moments) * (rate ** 2 + 3 * n * n + 1.0) + c * (rate + 10.0) + abs(h) * rate + 10.0
+    size = scale / min(moments) + c / J * (rate + 10.0) + rate * 10.0
+    assert np.all(np.abs(got - expected) <= 64 * EPS * size)
+
+
+SCENES_WITH_EFFECTS = ["explorer1", "gyrostat", "gravity_gradient"]
+
+
+@pytest.mark.parametrize("name", SCENES_WITH_EFFECTS)
+def test_compiled_dop853_follows_scipy_dop853_at_the_same_tolerances(name, monkeypatch):
+    """Both paths at the scene's accuracy take the same steps (but for rounding in a few sums), so
+    their errors against a tight reference agree to 1 % and they differ by far less than either's error:
+    rtol and atol mean what they mean in scipy."""
+    scene = load_scene(name)
+    duration = {"explorer1": 200.0, "gyrostat": 60.0, "gravity_gradient": 3000.0}[name]
+    times = np.linspace(0.0, duration, 401)
+    runs = {}
+    for path, enabled in (("compiled", True), ("reference", False)):
+        monkeypatch.setattr(compiled, "ENABLED", enabled)
+        propagator = scene.propagator()
+        assert propagator.compiled is enabled
+        runs[path] = propagator.states(times)
+    monkeypatch.setattr(compiled, "ENABLED", True)
+    tight = scene.propagator("dop853", rtol=1e-13, atol=1e-15).states(times)
+    floor = 1e-13 * (1.0 + np.abs(tight[0]).max() * duration)  # the tight run's own error
+    for part in (0, 1):  # rates, attitude
+        errors = {path: np.abs(run[part] - tight[part]).max() for path, run in runs.items()}
+        assert abs(errors["compiled"] - errors["reference"]) <= 0.01 * errors["reference"] + floor, errors
+        assert np.abs(runs["compiled"][part] - runs["reference"][part]).max() <= 0.01 * errors["reference"] + floor
+
+
+@pytest.mark.parametrize("method", ["rk4", "lie_rk4"])
+@pytest.mark.parametrize("label", [*EFFECT_ENTRIES])
+def test_compiled_fixed_step_methods_repeat_the_reference_steps(method, label, monkeypatch):
+    """The same stages in the same order: equal to rounding after 300 steps with breakpoints."""
+    entry = EFFECT_ENTRIES[label]
+    if "torque_command" in entry:
+        pytest.skip("commands come through the Simulation's hold (test_torque_command.py runs both paths)")
+    s = scene_from_mapping({"body": {"inertia": [4.0, 3.0, 2.0, 0.1, -0.2, 0.05]},
+                            "initial": {"angular_velocity": [0.3, -0.7, 1.1],
+                                        "orientation": Rotation.from_rotvec([0.3, 0.2, -0.1]).as_quat().tolist()},
+                            "effects": [entry]})
+    times = np.linspace(0.0, 3.0, 31) + 0.0037  # off the grid: partial steps too
+    results = []
+    for enabled in (True, False):
+        monkeypatch.setattr(compiled, "ENABLED", enabled)
+        results.append(s.propagator(method, step=0.01).states(times))
+    for got, expected in zip(results[0], results[1]):
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-13 * (1 + np.abs(expected).max(initial=0.0)))
+
+
+@pytest.mark.parametrize("method", ["dop853", "rk4", "lie_rk4"])
+def test_samples_do_not_depend_on_how_the_times_are_asked(method):
+    """All at once, in blocks, one by one, or going back (a restart): the same samples bit for bit."""
+    s = load_scene("explorer1")
+    options = {"step": 0.01} if method != "dop853" else {}
+    times = np.linspace(0.0, 20.0, 201)
+    whole = s.propagator(method, **options).states(times)
+    p = s.propagator(method, **options)
+    assert p.compiled
+    blocks = [p.states(times[i:i + 17]) for i in range(0, times.size, 17)]
+    for got, expected in zip(blocks and [np.concatenate(parts) for parts in zip(*blocks)], whole):
+        np.testing.assert_array_equal(got, expected)
+    again = p.states(times[50:60])  # before the last step: from the start again
+    for got, expected in zip(again, whole):
+        np.testing.assert_array_equal(got, expected[50:60])
+
+
+def test_a_sphere_under_a_constant_body_torque_spins_up_in_closed_form():
+    """About a principal axis: w(t) = w0 + tau t / I, the angle w0 t + tau t^2 / (2 I)."""
+    I, w0, tau = 2.5, 0.4, 0.03
+    s = scene_from_mapping({"body": {"inertia": [I, I, I]}, "initial": {"angular_velocity": [0.0, 0.0, w0]},
+                            "effects": [{"external_torque": {"torque": [0.0, 0.0, tau]}}], "accuracy": 1e-12})
+    p = s.propagator()
+    assert p.compiled
+    times = np.linspace(0.0, 50.0, 101)
+    omega, q = p(times)
+    np.testing.assert_allclose(omega[:, 2], w0 + tau * times / I, rtol=0, atol=1e-12)
+    angle = w0 * times + tau * times ** 2 / (2 * I)
+    expected = np.column_stack([np.zeros((times.size, 2)), np.sin(angle / 2), np.cos(angle / 2)])
+    # the angle reaches ~45 rad; rtol 1e-12 per step over ~1000 steps
+    np.testing.assert_allclose(q, expected, rtol=0, atol=1e-9)
+
+
+def test_gravity_gradient_pitch_follows_the_pendulum_in_closed_form():
+    """A planar pitch motion: the angle a between body x and the local vertical obeys
+    C a'' = -3 n^2 (B - A) sin a cos a, a pendulum in 2a: sin a = sin a0 sn(K - w t | sin^2 a0),
+    w = n sqrt(3 (B - A) / C), at finite amplitude (not the small-angle frequency)."""
+    n, (A, B, C) = 0.05, (1.0, 3.0, 3.5)
+    a0 = 0.6
+    # orbit in the x-y plane; the body turned by -a0 about z, spinning with the orbit (a' = 0)
+    s = scene_from_mapping({"body": {"inertia": [A, B, C]},
+                            "initial": {"angular_velocity": [0.0, 0.0, n],
+                                        "orientation": [0.0, 0.0, math.sin(-a0 / 2), math.cos(-a0 / 2)]},
+                            "effects": [{"gravity_gradient": {"mean_motion": n}}], "accuracy": 1e-12})
+    p = s.propagator()
+    assert p.compiled
+    times = np.linspace(0.0, 600.0, 601)
+    _, q = p(times)
+    phi = 2 * np.arctan2(q[:, 2], q[:, 3])
+    a = np.angle(np.exp(1j * (n * times - phi)))
+    w = n * math.sqrt(3 * (B - A) / C)
+    m = math.sin(a0) ** 2
+    sn, _, _, _ = ellipj(ellipk(m) - w * times, m)
+    expected = np.arcsin(math.sin(a0) * sn)
+    # ~6 libration periods at rtol 1e-12: 1e-8 rad
+    np.testing.assert_allclose(a, expected, rtol=0, atol=1e-8)
+    assert np.abs(q[:, :2]).max() < 1e-12  # the motion stays planar
+
+
+def test_the_step_budget_and_stiffness_are_refused_as_on_the_reference_path(monkeypatch):
+    s = load_scene("explorer1")
+    messages = []
+    for enabled in (True, False):
+        monkeypatch.setattr(compiled, "ENABLED", enabled)
+        p = s.propagator()
+        p.max_steps_per_sample = 3
+        with pytest.raises(StepBudgetExceeded) as error:
+            p(np.array([0.0, 100.0]))
+        messages.append(str(error.value).split("(the step")[0])
+    assert messages[0] == messages[1]
+    stiff = scene_from_mapping({"body": {"inertia": [1.0, 10.0, 10.5]}, "initial": {"angular_velocity": [2.0, 0.05, 0.0]},
+                                "effects": [{"damper": {"inertia": 0.1, "damping": 1e9}}]})
+    for enabled in (True, False):
+        monkeypatch.setattr(compiled, "ENABLED", enabled)
+        # numpy's default error handling (scipy's steps overflow on the way, as they would for a user)
+        with np.errstate(all="ignore"), pytest.raises(RuntimeError, match="too stiff for an explicit integrator"):
+            stiff.propagator()(np.array([0.0, 10.0]))

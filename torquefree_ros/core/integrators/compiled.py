@@ -1,0 +1,196 @@
+"""The compiled path of the numerical propagators: a scene's motion as a kernel model, and the drivers
+that run :mod:`.motion_kernels`' DOP853 and fixed-step methods with the same stops (breakpoints,
+sample times), restarts and step budget as the reference path in ``propagators/numerical.py``.
+
+A propagator built while :data:`ENABLED` holds evaluates here; ``TORQUEFREE_ROS_KERNELS=numpy`` in the
+environment (or numba missing) keeps the reference path, scipy's DOP853 and numpy's stages.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+
+import numpy as np
+from scipy.integrate._ivp import dop853_coefficients as tableau
+
+from . import motion_kernels as kernels
+
+#: numba is installed
+AVAILABLE = importlib.util.find_spec("numba") is not None
+#: whether numerical propagators built from now on integrate through the kernels
+ENABLED = AVAILABLE and os.environ.get("TORQUEFREE_ROS_KERNELS", "numba") != "numpy"
+
+# scipy's DOP853 tableau, as the kernels read it (contiguous float64 arrays)
+_A = np.ascontiguousarray(tableau.A, dtype=float)
+_B = np.ascontiguousarray(tableau.B, dtype=float)
+_C = np.ascontiguousarray(tableau.C, dtype=float)
+_E3 = np.ascontiguousarray(tableau.E3, dtype=float)
+_E5 = np.ascontiguousarray(tableau.E5, dtype=float)
+_D = np.ascontiguousarray(tableau.D, dtype=float)
+
+
+def build_model(dynamics) -> np.ndarray:
+    """The kernels' description of ``dynamics`` (layout in :mod:`.motion_kernels`): the inertia
+    tensor, its inverse, then one entry per effect with a kernel of its own (code, state offset,
+    parameters). Effects that hold a piecewise-constant torque have no entry (see :func:`held_torques`)."""
+    entries = []
+    for effect, part in zip(dynamics.effects, dynamics.slices):
+        if effect.kernel_code is None:
+            continue
+        parameters = [float(v) for v in effect.kernel_parameters()]
+        if len(parameters) != kernels.PARAMETER_COUNTS[effect.kernel_code]:
+            raise AssertionError(f"{effect.name}: {len(parameters)} kernel parameters, its kernel reads "
+                                 f"{kernels.PARAMETER_COUNTS[effect.kernel_code]}")
+        entries += [float(effect.kernel_code), float(part.start), *parameters]
+    tensor = dynamics.body.tensor
+    header = [*tensor.ravel().tolist(), *np.linalg.inv(tensor).ravel().tolist(),
+              float(sum(effect.kernel_code is not None for effect in dynamics.effects))]
+    return np.array(header + entries, dtype=float)
+
+
+def held_torques(dynamics, segment_start: float, out: np.ndarray) -> np.ndarray:
+    """``out[:3]``: the sum of the body-frame torques held on the piece starting at ``segment_start``,
+    ``out[3:]`` the inertial-frame ones (in the effects' order, as Dynamics adds them)."""
+    out[:] = 0.0
+    for effect in dynamics.effects:
+        if effect.kernel_code is None:
+            torque, inertial = effect.held_torque(segment_start)
+            if inertial:
+                out[3:] += torque
+            else:
+                out[:3] += torque
+    return out
+
+
+def derivatives(dynamics, times, states) -> np.ndarray:
+    """``y'`` of ``dynamics`` at each of ``states (N, 7 + state_size)`` at ``times`` (each its own piece
+    start), through the kernels: what the tests hold against ``Dynamics.derivative``."""
+    kernels.compile_kernels()
+    times = np.ascontiguousarray(times, dtype=float)
+    states = np.ascontiguousarray(states, dtype=float)
+    out = np.empty_like(states)
+    model = build_model(dynamics)
+    held = np.zeros(6)
+    for i in range(times.size):  # the held torques may change with the piece start
+        held_torques(dynamics, float(times[i]), held)
+        kernels.derivatives(times[i:i + 1], states[i:i + 1], model, held, out[i:i + 1])
+    return out
+
+
+class _Kernel:
+    """State of one compiled run: the model, the flat state, scratch arrays the kernels reuse."""
+
+    def __init__(self, propagator, work_rows: int):
+        kernels.compile_kernels()
+        self.propagator = propagator
+        self.dynamics = propagator.dynamics
+        self.size = 7 + self.dynamics.state_size
+        self.model = build_model(self.dynamics)
+        self.held = np.zeros(6)
+        self.y = np.empty(self.size)
+        self.work = np.empty((work_rows, self.size))
+        self.initial = np.concatenate([propagator.omega0_B, propagator.q0_NB, propagator.x0])
+
+    def hold_from(self, t: float) -> None:
+        held_torques(self.dynamics, t, self.held)
+
+
+class DOP853Kernel(_Kernel):
+    """``DOP853Propagator``'s evaluation through the kernels: free steps (outputs never shape them),
+    a new piece at each breakpoint (initial step selected again, as a new scipy solver does)."""
+
+    def __init__(self, propagator):
+        super().__init__(propagator, 3)
+        self.solver = np.zeros(kernels.SOLVER_WIDTH)
+        self.y_old = np.empty(self.size)
+        self.f = np.empty(self.size)
+        self.K = np.empty((kernels.STAGES_EXTENDED, self.size))
+        self.F = np.empty((kernels.INTERPOLATOR_POWER, self.size))
+        self.restart()
+
+    def restart(self) -> None:
+        """Back to the initial state: a piece that ended at t = 0 (the first step begins a new one)."""
+        self.y[:] = self.initial
+        self.solver[:] = 0.0
+
+    def _begin(self, t0: float) -> None:
+        p = self.propagator
+        self.hold_from(t0)
+        kernels.dop853_begin(t0, self.dynamics.next_breakpoint(t0), p.rtol, p.atol, p.min_step, self.solver,
+                             self.y, self.f, self.work, self.model, self.held, np.empty(3))
+
+    def evaluate(self, times: np.ndarray) -> np.ndarray:
+        out = np.empty((times.size, self.size))
+        budget = self.propagator.max_steps_per_sample
+        budget = -1 if budget is None else int(budget)
+        i = 0
+        while i < times.size:
+            i, status = kernels.dop853_outputs(times, i, out, budget, self.solver, self.y, self.y_old, self.f,
+                                               self.K, self.F, self.work, self.model, self.held,
+                                               _A, _B, _C, _E3, _E5, _D)
+            if status == kernels.DONE:
+                break
+            if status == kernels.RESTART:
+                self.restart()
+            elif status == kernels.SEGMENT_END:
+                self._begin(float(self.solver[kernels.T]))
+            else:
+                self._fail(status, float(times[i]))
+        return out
+
+    def _fail(self, status: int, t: float):
+        from ..propagators.base import StepBudgetExceeded, StepTooSmall
+
+        step = abs(float(self.solver[kernels.H_PREVIOUS])) or float(self.solver[kernels.H_ABS])
+        at = float(self.solver[kernels.T])
+        if status == kernels.BUDGET:
+            raise StepBudgetExceeded(self.propagator, t, step)
+        if status == kernels.TOO_SMALL:
+            raise StepTooSmall(self.propagator, at)
+        raise RuntimeError(
+            f"dop853: the step fell to {step:.2g} s at t = {at:.6g} s, under {self.propagator.min_step:.2g} s "
+            f"(1e-7 of a turn): the scene's effects are too stiff for an explicit integrator")
+
+
+class FixedStepKernel(_Kernel):
+    """A fixed-step propagator's steps through the kernels: whole grid steps in one call up to the
+    next breakpoint, a step holding a breakpoint split there (numerical.py's ``_advance``)."""
+
+    def __init__(self, propagator, method: int):
+        super().__init__(propagator, 10)
+        self.method = method
+        self.partial = np.empty(self.size)
+
+    def restart(self) -> None:
+        self.y[:] = self.initial
+
+    def advance_grid(self, j: int, j_end: int, step: float) -> None:
+        """From grid point ``j`` to ``j_end``, in place."""
+        next_breakpoint = self.dynamics.next_breakpoint
+        while j < j_end:
+            t = j * step
+            bound = next_breakpoint(t)
+            self.hold_from(t)
+            reached = kernels.fixed_steps(self.method, j, j_end, step, bound, self.y, self.model, self.held, self.work)
+            if reached == j:  # a breakpoint inside step j
+                self._advance(t, self.y, step)
+                reached += 1
+            j = reached
+
+    def partial_step(self, t: float, h: float) -> np.ndarray:
+        """The state ``h`` after grid time ``t`` (the grid state untouched)."""
+        self.partial[:] = self.y
+        self._advance(t, self.partial, h)
+        return self.partial
+
+    def _advance(self, t: float, y: np.ndarray, h: float) -> None:
+        end = t + h
+        next_breakpoint = self.dynamics.next_breakpoint
+        breakpoint = next_breakpoint(t)
+        while breakpoint < end:
+            self.hold_from(t)
+            kernels.fixed_step(self.method, t, y, breakpoint - t, self.model, self.held, self.work)
+            t, breakpoint = breakpoint, next_breakpoint(breakpoint)
+        self.hold_from(t)
+        kernels.fixed_step(self.method, t, y, end - t, self.model, self.held, self.work)

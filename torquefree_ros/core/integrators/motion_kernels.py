@@ -1,0 +1,437 @@
+"""Compiled equations of motion and integrators for scenes with effects (numba, loaded on first use).
+
+The right-hand side of :class:`~..propagators.dynamics.Dynamics` and the steps of the ``dop853``,
+``rk4`` and ``lie_rk4`` propagators as scalar loops over one flat state ``y = (w, q, x)``, without
+allocating per step: the caller owns every array (stages, dense-output coefficients, scratch).
+
+A scene's motion is one float64 array, the *model* (built by :mod:`.compiled`)::
+
+    [0:9]   inertia tensor, body frame, row by row     [9:18]  its inverse
+    [18]    number of effect entries, then per entry: code, offset of its state in x, parameters
+
+Torques that are piecewise constant (``external_torque``, ``torque_command``'s hold) are not entries:
+the driver resolves them where each smooth piece starts and passes them as ``held`` (six floats: the
+sum held in the body frame, then the sum held in the inertial frame), as the Python effects read
+theirs at ``segment_start``. Each effect with a kernel of its own has one section below, under its
+code; its Python definition (``core/effects``) names the code and packs its parameters, and
+test_motion_kernels.py holds the two together on random states.
+
+Every compiled function is in this one file on purpose: numba rebuilds a function's cache when its
+own file changes, not when a file it calls into does (a stale kernel would survive an edit).
+
+DOP853 is scipy's: its tableau (``scipy.integrate._ivp.dop853_coefficients``, passed in as arrays),
+its error norm, step-size control (safety 0.9, factors 0.2 to 10, exponent -1/8), initial step
+(Hairer, Nørsett & Wanner, II.4) and 7th-order dense output, operation for operation but for the
+order of a few sums; ``rtol`` and ``atol`` mean what they mean there.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+
+import numpy as np
+
+# -- effect codes (a literal each: compiled code keeps what it read when it compiled) -------------------
+GRAVITY_GRADIENT = 1  # parameters: mean motion n, argument of latitude u0, the inertia tensor (9)
+DAMPER = 2  # parameters: rotor inertia J, damping c; state: the rotor's rate nu (3)
+ROTOR = 3  # parameters: the wheel's momentum h_B (3)
+#: parameters each code reads
+PARAMETER_COUNTS = {GRAVITY_GRADIENT: 11, DAMPER: 2, ROTOR: 3}
+MODEL_HEADER = 19  # tensor, inverse, entry count
+
+# -- solver state of a DOP853 run (a float64 array, kept by the caller between calls) -----------------
+T, H_ABS, T_OLD, H_PREVIOUS, T_BOUND, RTOL, ATOL, DENSE_READY, MIN_STEP = range(9)
+SOLVER_WIDTH = 9
+# what dop853_outputs returns
+DONE, SEGMENT_END, RESTART, BUDGET, TOO_SMALL, STIFF = range(6)
+SAFETY, MIN_FACTOR, MAX_FACTOR, ERROR_EXPONENT = 0.9, 0.2, 10.0, -1.0 / 8.0
+STAGES, STAGES_EXTENDED, INTERPOLATOR_POWER = 12, 16, 7
+
+# -- fixed-step methods -------------------------------------------------------------------------------
+RK4, LIE_RK4 = 0, 1
+
+
+# ==== effects ===========================================================================================
+
+def _gravity_gradient(t, y, model, p, m):
+    """``3 n^2 e_B x (I e_B)``, ``e_B = R(q)^T (cos u, sin u, 0)``, ``u = u0 + n t`` (GravityGradient)."""
+    n = model[p]
+    u = model[p + 1] + n * t
+    e_B = _rotate_inverse(y, math.cos(u), math.sin(u), 0.0)
+    e1, e2, e3 = e_B
+    i1 = model[p + 2] * e1 + model[p + 3] * e2 + model[p + 4] * e3
+    i2 = model[p + 5] * e1 + model[p + 6] * e2 + model[p + 7] * e3
+    i3 = model[p + 8] * e1 + model[p + 9] * e2 + model[p + 10] * e3
+    k = 3.0 * n * n
+    m[0] += k * (e2 * i3 - e3 * i2)
+    m[1] += k * (e3 * i1 - e1 * i3)
+    m[2] += k * (e1 * i2 - e2 * i1)
+
+
+def _damper(y, model, p, s, m, out):
+    """Torque ``c (nu - w)`` on the body; ``nu' = -c/J (nu - w) - w x nu`` (Damper)."""
+    J, c = model[p], model[p + 1]
+    w1, w2, w3 = y[0], y[1], y[2]
+    n1, n2, n3 = y[s], y[s + 1], y[s + 2]
+    d1, d2, d3 = n1 - w1, n2 - w2, n3 - w3
+    m[0] += c * d1
+    m[1] += c * d2
+    m[2] += c * d3
+    r = -c / J
+    out[s] = r * d1 - (w2 * n3 - w3 * n2)
+    out[s + 1] = r * d2 - (w3 * n1 - w1 * n3)
+    out[s + 2] = r * d3 - (w1 * n2 - w2 * n1)
+
+
+def _rotor(y, model, p, m):
+    """Torque ``h_B x w`` of a wheel of constant relative momentum (Rotor)."""
+    h1, h2, h3 = model[p], model[p + 1], model[p + 2]
+    w1, w2, w3 = y[0], y[1], y[2]
+    m[0] += h2 * w3 - h3 * w2
+    m[1] += h3 * w1 - h1 * w3
+    m[2] += h1 * w2 - h2 * w1
+
+
+def _rotate_inverse(y, vx, vy, vz):
+    """``R(q)^T v`` for ``q = y[3:7]`` (quaternion.rotate by the conjugate, the same operations)."""
+    ux, uy, uz, w = -y[3], -y[4], -y[5], y[6]
+    tx, ty, tz = 2.0 * (uy * vz - uz * vy), 2.0 * (uz * vx - ux * vz), 2.0 * (ux * vy - uy * vx)
+    return (vx + w * tx + uy * tz - uz * ty, vy + w * ty + uz * tx - ux * tz, vz + w * tz + ux * ty - uy * tx)
+
+
+# ==== the right-hand side ===============================================================================
+
+def derivative(t, y, model, held, m, out):
+    """``out = y'`` of ``y = (w, q, x)`` (Dynamics.derivative); ``m`` is 3 floats of scratch."""
+    w1, w2, w3 = y[0], y[1], y[2]
+    h1 = model[0] * w1 + model[1] * w2 + model[2] * w3
+    h2 = model[3] * w1 + model[4] * w2 + model[5] * w3
+    h3 = model[6] * w1 + model[7] * w2 + model[8] * w3
+    m[0] = h2 * w3 - h3 * w2  # (I w) x w
+    m[1] = h3 * w1 - h1 * w3
+    m[2] = h1 * w2 - h2 * w1
+    m[0] += held[0]
+    m[1] += held[1]
+    m[2] += held[2]
+    if held[3] != 0.0 or held[4] != 0.0 or held[5] != 0.0:
+        r1, r2, r3 = _rotate_inverse(y, held[3], held[4], held[5])
+        m[0] += r1
+        m[1] += r2
+        m[2] += r3
+    at = MODEL_HEADER
+    for _ in range(int(model[18])):
+        code = int(model[at])
+        s = 7 + int(model[at + 1])
+        p = at + 2
+        if code == GRAVITY_GRADIENT:
+            _gravity_gradient(t, y, model, p, m)
+            at = p + 11
+        elif code == DAMPER:
+            _damper(y, model, p, s, m, out)
+            at = p + 2
+        else:  # ROTOR
+            _rotor(y, model, p, m)
+            at = p + 3
+    out[0] = model[9] * m[0] + model[10] * m[1] + model[11] * m[2]
+    out[1] = model[12] * m[0] + model[13] * m[1] + model[14] * m[2]
+    out[2] = model[15] * m[0] + model[16] * m[1] + model[17] * m[2]
+    qx, qy, qz, qw = y[3], y[4], y[5], y[6]
+    out[3] = 0.5 * (qw * w1 + qy * w3 - qz * w2)  # q' = 1/2 q ⊗ (w, 0)
+    out[4] = 0.5 * (qw * w2 - qx * w3 + qz * w1)
+    out[5] = 0.5 * (qw * w3 + qx * w2 - qy * w1)
+    out[6] = -0.5 * (qx * w1 + qy * w2 + qz * w3)
+
+
+def derivatives(t, y, model, held, out):
+    """``y'`` at many states ``y (N, n)`` (the tests' and the benchmarks' entry point)."""
+    m = np.empty(3)
+    for i in range(y.shape[0]):
+        derivative(t[i], y[i], model, held, m, out[i])
+
+
+# ==== DOP853 ============================================================================================
+
+def _rms_scaled(values, scale):
+    total = 0.0
+    for i in range(values.size):
+        v = values[i] / scale[i]
+        total += v * v
+    return math.sqrt(total / values.size)
+
+
+def dop853_begin(t0, t_bound, rtol, atol, min_step, solver, y, f, work, model, held, m):
+    """A new smooth piece from ``(t0, y)`` to ``t_bound`` (inf: none): ``f = y'(t0)`` and the initial
+    step (scipy's select_initial_step with order 7); ``work`` is (3, n) of scratch."""
+    derivative(t0, y, model, held, m, f)
+    solver[T], solver[T_BOUND], solver[RTOL], solver[ATOL] = t0, t_bound, rtol, atol
+    solver[T_OLD], solver[H_PREVIOUS], solver[DENSE_READY], solver[MIN_STEP] = t0, 0.0, 0.0, min_step
+    n = y.size
+    interval = abs(t_bound - t0)
+    if interval == 0.0:
+        solver[H_ABS] = 0.0
+        return
+    scale = work[0]
+    for i in range(n):
+        scale[i] = atol + abs(y[i]) * rtol
+    d0 = _rms_scaled(y, scale)
+    d1 = _rms_scaled(f, scale)
+    h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
+    h0 = min(h0, interval)
+    y1 = work[1]
+    for i in range(n):
+        y1[i] = y[i] + h0 * f[i]
+    f1 = work[2]
+    derivative(t0 + h0, y1, model, held, m, f1)
+    for i in range(n):
+        y1[i] = f1[i] - f[i]
+    d2 = _rms_scaled(y1, scale) / h0
+    if d1 <= 1e-15 and d2 <= 1e-15:
+        h1 = max(1e-6, h0 * 1e-3)
+    else:
+        h1 = (0.01 / max(d1, d2)) ** (1.0 / 8.0)
+    solver[H_ABS] = min(100.0 * h0, h1, interval)
+
+
+def _dop853_step(solver, y, y_old, f, K, work, model, held, m, A, B, C, E3, E5):
+    """One accepted step (scipy's RungeKutta._step_impl); False when the step fell below scipy's floor.
+    The sums run over stages innermost, in a register (faster here than rows of K at a time)."""
+    t = solver[T]
+    n = y.size
+    min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
+    h_abs = solver[H_ABS]
+    if h_abs < min_step:
+        h_abs = min_step
+    rejected = False
+    y_new, stage, scale = work[0], work[1], work[2]
+    rtol, atol = solver[RTOL], solver[ATOL]
+    while True:
+        if h_abs < min_step:
+            return False
+        t_new = t + h_abs
+        if t_new > solver[T_BOUND]:
+            t_new = solver[T_BOUND]
+        h = t_new - t
+        h_abs = abs(h)
+        for i in range(n):
+            K[0, i] = f[i]
+        for s in range(1, STAGES):
+            for i in range(n):
+                total = 0.0
+                for j in range(s):
+                    total += K[j, i] * A[s, j]
+                stage[i] = y[i] + total * h
+            derivative(t + C[s] * h, stage, model, held, m, K[s])
+        for i in range(n):
+            total = 0.0
+            for j in range(STAGES):
+                total += K[j, i] * B[j]
+            y_new[i] = y[i] + h * total
+        derivative(t + h, y_new, model, held, m, K[STAGES])
+        err5, err3 = 0.0, 0.0
+        for i in range(n):
+            scale_i = atol + max(abs(y[i]), abs(y_new[i])) * rtol
+            e5, e3 = 0.0, 0.0
+            for j in range(STAGES + 1):
+                e5 += K[j, i] * E5[j]
+                e3 += K[j, i] * E3[j]
+            e5 /= scale_i
+            e3 /= scale_i
+            err5 += e5 * e5
+            err3 += e3 * e3
+        if err5 == 0.0 and err3 == 0.0:
+            error = 0.0
+        else:
+            error = abs(h) * err5 / math.sqrt((err5 + 0.01 * err3) * n)
+        if error < 1.0:
+            if error == 0.0:
+                factor = MAX_FACTOR
+            else:
+                factor = min(MAX_FACTOR, SAFETY * error ** ERROR_EXPONENT)
+            if rejected:
+                factor = min(1.0, factor)
+            h_abs *= factor
+            break
+        shrink = SAFETY * error ** ERROR_EXPONENT
+        if not shrink > MIN_FACTOR:  # also a NaN error (an overflowed stage): scipy's max() gives 0.2 there
+            shrink = MIN_FACTOR
+        h_abs *= shrink
+        rejected = True
+    for i in range(n):
+        y_old[i] = y[i]
+        y[i] = y_new[i]
+        f[i] = K[STAGES, i]
+    solver[H_PREVIOUS] = h
+    solver[T_OLD] = t
+    solver[T] = t_new
+    solver[H_ABS] = h_abs
+    solver[DENSE_READY] = 0.0
+    return True
+
+
+def _dop853_dense(solver, y, y_old, f, K, F, work, model, held, m, A, C, D):
+    """The last step's interpolant coefficients ``F`` (scipy's DOP853._dense_output_impl)."""
+    n = y.size
+    h = solver[H_PREVIOUS]
+    t_old = solver[T_OLD]
+    stage = work[1]
+    for s in range(STAGES + 1, STAGES_EXTENDED):
+        for i in range(n):
+            total = 0.0
+            for j in range(s):
+                total += K[j, i] * A[s, j]
+            stage[i] = y_old[i] + total * h
+        derivative(t_old + C[s] * h, stage, model, held, m, K[s])
+    for i in range(n):
+        delta = y[i] - y_old[i]
+        F[0, i] = delta
+        F[1, i] = h * K[0, i] - delta
+        F[2, i] = 2.0 * delta - h * (f[i] + K[0, i])
+        for r in range(INTERPOLATOR_POWER - 3):
+            total = 0.0
+            for j in range(STAGES_EXTENDED):
+                total += D[r, j] * K[j, i]
+            F[3 + r, i] = h * total
+    solver[DENSE_READY] = 1.0
+
+
+def dop853_outputs(times, first, out, max_steps, solver, y, y_old, f, K, F, work, model, held, A, B, C, E3, E5, D):
+    """Fill ``out[first:]`` with the states at ``times[first:]`` (sorted), stepping as needed; returns
+    ``(index, status)``: the first time not filled, and why it stopped: DONE; SEGMENT_END (the piece
+    ended at ``t_bound`` before ``times[index]``: the caller begins the next); RESTART (``times[index]``
+    lies before the last step); BUDGET (more than ``max_steps`` steps for one time; < 0: no bound);
+    TOO_SMALL (the step fell below scipy's floor); STIFF (an accepted step under ``solver[MIN_STEP]``)."""
+    m = np.empty(3)
+    n = y.size
+    i = first
+    while i < times.size:
+        target = times[i]
+        if target < solver[T_OLD]:
+            return i, RESTART
+        steps = 0
+        while solver[T] < target:
+            if solver[T] >= solver[T_BOUND]:
+                return i, SEGMENT_END
+            steps += 1
+            if 0 <= max_steps < steps:
+                return i, BUDGET
+            if not _dop853_step(solver, y, y_old, f, K, work, model, held, m, A, B, C, E3, E5):
+                return i, TOO_SMALL
+            if abs(solver[H_PREVIOUS]) < solver[MIN_STEP] and solver[T] < solver[T_BOUND]:
+                return i, STIFF
+        # every time up to the step's end: its state, or the dense output inside it
+        t_end = solver[T]
+        h = solver[H_PREVIOUS]
+        t_old = solver[T_OLD]
+        while i < times.size and times[i] <= t_end:
+            t = times[i]
+            if t == t_end:
+                for k in range(n):
+                    out[i, k] = y[k]
+            else:
+                if solver[DENSE_READY] == 0.0:
+                    _dop853_dense(solver, y, y_old, f, K, F, work, model, held, m, A, C, D)
+                x = (t - t_old) / h
+                for k in range(n):
+                    value = 0.0
+                    for r in range(INTERPOLATOR_POWER):
+                        value += F[INTERPOLATOR_POWER - 1 - r, k]
+                        value *= x if r % 2 == 0 else 1.0 - x
+                    out[i, k] = value + y_old[k]
+            i += 1
+    return i, DONE
+
+
+# ==== fixed-step methods ================================================================================
+
+def _exp_times(q, vx, vy, vz, out):
+    """``out = q ⊗ exp(v)`` (quaternion.exp_rotation of ``v``, then the Hamilton product)."""
+    angle = math.sqrt(vx * vx + vy * vy + vz * vz)
+    scale = 0.5 - angle * angle / 48.0 if angle < 1e-4 else math.sin(0.5 * angle) / angle
+    ex, ey, ez, ew = vx * scale, vy * scale, vz * scale, math.cos(0.5 * angle)
+    px, py, pz, pw = q[0], q[1], q[2], q[3]
+    out[0] = pw * ex + px * ew + py * ez - pz * ey
+    out[1] = pw * ey - px * ez + py * ew + pz * ex
+    out[2] = pw * ez + px * ey - py * ex + pz * ew
+    out[3] = pw * ew - px * ex - py * ey - pz * ez
+
+
+def fixed_step(method, t, y, h, model, held, work):
+    """One step of ``method`` (RK4 or LIE_RK4, numerical.py's ``advance``) over ``[t, t + h]``, in
+    place; ``work`` is (10, n) of scratch (n >= 7)."""
+    n = y.size
+    k1, k2, k3, k4, y2, y3, y4 = work[0], work[1], work[2], work[3], work[4], work[5], work[6]
+    q_new, first, m = work[7], work[8], work[9]
+    half = t + 0.5 * h
+    lie = method == LIE_RK4
+    derivative(t, y, model, held, m, k1)
+    for i in range(n):
+        y2[i] = y[i] + (0.5 * h) * k1[i]
+    if lie:  # the stage attitudes (numerical.py's LieRK4Propagator), exact rotations of q
+        _exp_times(y[3:7], (0.5 * h) * y[0], (0.5 * h) * y[1], (0.5 * h) * y[2], y2[3:7])
+    derivative(half, y2, model, held, m, k2)
+    for i in range(n):
+        y3[i] = y[i] + (0.5 * h) * k2[i]
+    if lie:
+        _exp_times(y[3:7], (0.5 * h) * y2[0], (0.5 * h) * y2[1], (0.5 * h) * y2[2], y3[3:7])
+    derivative(half, y3, model, held, m, k3)
+    for i in range(n):
+        y4[i] = y[i] + h * k3[i]
+    if lie:
+        _exp_times(y2[3:7], h * (y3[0] - 0.5 * y[0]), h * (y3[1] - 0.5 * y[1]), h * (y3[2] - 0.5 * y[2]), y4[3:7])
+    derivative(t + h, y4, model, held, m, k4)
+    if lie:
+        a = h / 12.0
+        m1, m2, m3 = 2.0 * (y2[0] + y3[0]), 2.0 * (y2[1] + y3[1]), 2.0 * (y2[2] + y3[2])
+        _exp_times(y[3:7], a * (3.0 * y[0] + m1 - y4[0]), a * (3.0 * y[1] + m2 - y4[1]),
+                   a * (3.0 * y[2] + m3 - y4[2]), first)
+        _exp_times(first, a * (m1 - y[0] + 3.0 * y4[0]), a * (m2 - y[1] + 3.0 * y4[1]),
+                   a * (m3 - y[2] + 3.0 * y4[2]), q_new)
+    for i in range(n):
+        y[i] = y[i] + (h / 6.0) * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
+    if lie:
+        norm = math.sqrt(q_new[0] * q_new[0] + q_new[1] * q_new[1] + q_new[2] * q_new[2] + q_new[3] * q_new[3])
+        for i in range(4):
+            y[3 + i] = q_new[i] / norm
+
+
+def fixed_steps(method, j, j_end, step, bound, y, model, held, work):
+    """Whole grid steps ``[j step, (j + 1) step]`` from ``j`` while ``j < j_end`` and no breakpoint
+    lies inside the step (``bound``: the first breakpoint after ``j step``); returns the ``j`` reached."""
+    while j < j_end:
+        t = j * step
+        if bound < t + step:
+            break
+        fixed_step(method, t, y, step, model, held, work)
+        j += 1
+    return j
+
+
+# ==== loading ===========================================================================================
+
+_compiling = threading.Lock()
+_compiled = False
+
+
+def compile_kernels() -> None:
+    """Replace this module's functions by numba's compiled ones (once, before any is called: a compiled
+    function calls what the module's globals hold when it compiles). Cached next to this file, or in
+    the user's cache directory when the install is read-only; the GIL stays held (attitude_kernels
+    says why)."""
+    global _compiled
+    with _compiling:
+        if _compiled:
+            return
+        import numba
+
+        def jit(function):
+            try:
+                return numba.njit(cache=True, error_model="numpy")(function)
+            except RuntimeError:  # no writable cache anywhere: compile in every process
+                return numba.njit(error_model="numpy")(function)
+
+        for name in ("_gravity_gradient", "_damper", "_rotor", "_rotate_inverse", "derivative", "derivatives",
+                     "_rms_scaled", "dop853_begin", "_dop853_step", "_dop853_dense", "dop853_outputs",
+                     "_exp_times", "fixed_step", "fixed_steps"):
+            globals()[name] = jit(globals()[name])
+        _compiled = True
