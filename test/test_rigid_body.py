@@ -37,7 +37,15 @@ def test_six_element_order_is_xx_yy_zz_xy_xz_yz():
 
 
 def test_flat_plate_on_the_triangle_bound_is_accepted():
-    RigidBody.from_inertia([1.5, 2.5, 4.0])
+    """A flat plate's moments satisfy I3 = I1 + I2 exactly: the limit of a rigid body, not beyond it."""
+    moments = [1.5, 2.5, 4.0]
+    assert moments[2] == moments[0] + moments[1]  # on the bound, exactly in float64
+    body = RigidBody.from_inertia(moments)
+    np.testing.assert_array_equal(body.moments, moments)
+    np.testing.assert_array_equal(body.principal_axes, np.eye(3))
+    # the bound itself, not a loose one: 1e-6 beyond it (far above its rounding allowance) is refused
+    with pytest.raises(ValueError, match=r"^inertia: .*triangle inequality"):
+        RigidBody.from_inertia([1.5, 2.5, 4.0 * (1.0 + 1e-6)])
 
 
 @pytest.mark.parametrize(

@@ -236,6 +236,11 @@ BAD_VALUES = [
     ("body_frame", "a" * 257, "1 to 256 characters"),
     ("inertial_frame", "world;x", "frame id"),  # (a NUL never arrives: DDS strings end at it)
     ("body_frame", "my frame", "frame id"),
+    ("frame_prefix", 7, "expected a string, got integer"),
+    ("frame_prefix", "/sat1/", "start of a frame id"),  # a leading '/', as for frame ids
+    ("frame_prefix", "sat1//", "start of a frame id"),  # an empty name between the '/'
+    ("frame_prefix", "sat 1/", "start of a frame id"),
+    ("frame_prefix", "s" * 253, "the body frame has 257 characters, at most 256"),  # with body_frame 'body'
     ("angular_velocity", [1e200, 1.0, 1.0], "overflows"),
     ("qos_depth", 5, "read-only"),
 ]
@@ -387,20 +392,34 @@ def test_diagnostics_report_the_running_simulation(harness):
     assert "minor axis polhode" in values["regime"], report
 
 
-def test_the_installed_parameter_file_configures_the_node():
+@pytest.mark.parametrize("namespace", ["", "sat1", "formation/sat2"])
+def test_the_installed_parameter_file_configures_the_node_in_any_namespace(tmp_path, namespace):
+    import yaml
+
+    from torquefree_ros.ros.parameters import SPECS
+
     path = REPO / "config" / "torquefree.yaml"
-    h = SimHarness(args=["--ros-args", "--params-file", str(path)], namespace="")  # the file names /torquefree
+    document = yaml.safe_load(path.read_text())
+    assert list(document) == ["/**"]  # every node, whatever its name and namespace (not /torquefree only)
+    expected = document["/**"]["ros__parameters"]
+    # every parameter that has a default, at its default; the overrides (no default) as comments
+    assert expected == {spec.name: spec.default for spec in SPECS if spec.default is not None}
+    assert all(f"# {spec.name}: " in path.read_text() for spec in SPECS if spec.default is None)
+    # the shipped file with three values that are not the defaults, so that its applying shows
+    changes = {"publish_rate": ("100.0", 40.0), "body_frame": ("body", "hull"), "frame_prefix": ('""', "sat1/")}
+    text = path.read_text()
+    for name, (default, value) in changes.items():
+        assert f"    {name}: {default}" in text, name
+        text = text.replace(f"    {name}: {default}", f"    {name}: {value!r}" if isinstance(value, str)
+                            else f"    {name}: {value}")
+    changed = tmp_path / "torquefree.yaml"
+    changed.write_text(text)
+    h = SimHarness(args=["--ros-args", "--params-file", str(changed)], namespace=namespace)
     try:
-        import yaml
-
-        from torquefree_ros.ros.parameters import SPECS
-
-        expected = yaml.safe_load(path.read_text())["/torquefree"]["ros__parameters"]
-        # every parameter that has a default, at its default; the overrides (no default) as comments
-        assert expected == {spec.name: spec.default for spec in SPECS if spec.default is not None}
-        assert all(f"# {spec.name}: " in path.read_text() for spec in SPECS if spec.default is None)
-        for name, value in expected.items():
+        assert h.node.get_fully_qualified_name() == f"/{namespace}/torquefree".replace("//", "/")
+        for name, value in {**expected, **{name: value for name, (_, value) in changes.items()}}.items():
             assert h.node.get_parameter(name).value == value, name
+        assert h.node.sample_loop.request.body_frame == "sat1/hull"
     finally:
         h.close()
 

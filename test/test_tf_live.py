@@ -1,6 +1,7 @@
 """The live /tf round trip through rclpy: the node publishes tf2_msgs/TFMessage on /tf and a client
 subscribed with tf2_msgs' own class receives the attitude bit for bit (parent the inertial frame,
-child the body frame, zero translation, the samples' stamps).
+child the body frame, zero translation, the samples' stamps); two nodes in two namespaces, each with
+its frame_prefix, publish two body frames under the one inertial frame, at tf2_ros's depth.
 
 Needs tf2_msgs for Python: a ROS install has it; here test_tf.py builds it with the rosidl toolchain
 from PyPI and runs this file in a process that has it (the libraries must be on the path at start).
@@ -50,3 +51,25 @@ def test_the_node_publishes_tf_that_a_tf2_msgs_subscriber_receives_bit_for_bit(t
                                     t.transform.rotation.w] for t in transforms], block.q_NB[k])
     assert all(t.transform.translation.x == t.transform.translation.y == t.transform.translation.z == 0.0
                for t in transforms)
+
+
+def test_two_namespaced_nodes_publish_two_body_frames_on_tf_under_one_inertial_frame(tmp_path):
+    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+    from test_formation import formation, spin_until
+    from tf2_msgs.msg import TFMessage
+
+    scene_file = tmp_path / "tf_scene.yaml"
+    scene_file.write_text("body: {inertia: [3.0, 2.0, 1.0]}\ninitial: {angular_velocity: [0.001, 1.0, 0.001]}\n"
+                          "effects:\n  - tf: {}\n")
+    qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE)
+    with formation(publish_rate=50.0, scene=str(scene_file)) as (client, executor, nodes):
+        received = []
+        client.create_subscription(TFMessage, "/tf", received.append, qos)
+
+        def pairs():
+            return {(t.header.frame_id, t.child_frame_id) for m in received for t in m.transforms}
+        spin_until(executor, lambda: len(pairs()) >= 2, "transforms of both bodies")
+        # tf2_ros's TransformBroadcaster depth, whatever qos_depth (10 here) says
+        assert [node._outputs.get("/tf").qos_profile.depth for node in nodes] == [100, 100]
+        assert [node._outputs.get("angular_velocity").qos_profile.depth for node in nodes] == [10, 10]
+    assert pairs() == {("world", "sat1/body"), ("world", "sat2/body")}

@@ -8,9 +8,9 @@ from typing import Callable
 
 from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from ..core.effects.commands import command_inputs
+from .qos import command_profile, subscription_warnings
 from .sample_loop import RunRequest
 
 
@@ -28,15 +28,18 @@ class CommandInputs:
     def __init__(self, node: Node, depth: int, holds: Callable[[], tuple]):
         self._node = node
         self._holds = holds
-        self._qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth, reliability=ReliabilityPolicy.RELIABLE)
+        self._qos = command_profile(depth)  # best effort: it matches every controller (why: command_profile)
         self._subscriptions: dict = {}
         self._logged: set = set()  # (id of the hold, what) already said
 
     def ensure(self, request: RunRequest) -> None:
         for topic in command_effects(request):
             if topic not in self._subscriptions:
+                events = subscription_warnings(self._node.get_logger(), self._node.resolve_topic_name(topic),
+                                               self._qos)
                 self._subscriptions[topic] = self._node.create_subscription(
-                    WrenchStamped, topic, lambda message, topic=topic: self._receive(topic, message), self._qos)
+                    WrenchStamped, topic, lambda message, topic=topic: self._receive(topic, message), self._qos,
+                    event_callbacks=events)
 
     def retire(self, request: RunRequest | None) -> None:
         for topic in set(self._subscriptions) - set(command_effects(request)):

@@ -12,7 +12,7 @@ from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.exceptions import InvalidParameterValueException
 from rclpy.node import Node
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock
 from std_srvs.srv import Trigger
 
@@ -23,7 +23,7 @@ from ..core.safe_files import clip
 from .commands import CommandInputs, command_diagnostics
 from .guarded_parameters import MAX_REASON_LENGTH, GuardedParameterService
 from .parameters import SPEC_BY_NAME, SPECS, ConfigurationError, ScenePolicy, check_value, rejection, run_request
-from .qos import message_class
+from .qos import message_class, publisher_warnings, sample_profile
 from .sample_loop import RunRequest, SampleLoop
 
 DIAGNOSTICS_PERIOD = 1.0  # s
@@ -37,12 +37,16 @@ class _Publishers:
     from the first run on a clock of our own, an output's topic only while a scene names it."""
 
     def __init__(self, node: Node, depth: int):
-        qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth, reliability=ReliabilityPolicy.RELIABLE)
-        self._node, self._qos = node, qos
-        self.angular_velocity = node.create_publisher(Vector3Stamped, ANGULAR_VELOCITY[0], qos)
-        self.attitude = node.create_publisher(QuaternionStamped, ATTITUDE[0], qos)
+        self._node, self._depth = node, depth
+        self.angular_velocity = self._create(Vector3Stamped, *ANGULAR_VELOCITY)
+        self.attitude = self._create(QuaternionStamped, *ATTITUDE)
         self._by_topic = {ANGULAR_VELOCITY[0]: self.angular_velocity, ATTITUDE[0]: self.attitude}
         self._outputs: set[str] = set()
+
+    def _create(self, message, topic: str, type_name: str):
+        qos = sample_profile(self._depth, type_name)
+        events = publisher_warnings(self._node.get_logger(), self._node.resolve_topic_name(topic), qos)
+        return self._node.create_publisher(message, topic, qos, event_callbacks=events)
 
     def get(self, topic: str):
         return self._by_topic[topic]
@@ -53,11 +57,11 @@ class _Publishers:
     def ensure(self, request: RunRequest) -> None:
         """Create what ``request`` publishes on (before the run starts)."""
         if not request.wall_clock and CLOCK[0] not in self._by_topic:
-            self._by_topic[CLOCK[0]] = self._node.create_publisher(Clock, CLOCK[0], self._qos)
+            self._by_topic[CLOCK[0]] = self._create(Clock, *CLOCK)
         for output in request.outputs:
             if output.topic not in self._by_topic:
-                self._by_topic[output.topic] = self._node.create_publisher(
-                    message_class(output.message_type), output.topic, self._qos)
+                self._by_topic[output.topic] = self._create(message_class(output.message_type), output.topic,
+                                                            output.message_type)
                 self._outputs.add(output.topic)
 
     def topic_names(self) -> list[str]:
@@ -113,7 +117,10 @@ class TorqueFreeSim(Node):
         self._outputs.ensure(request)
         self._commands.ensure(request)
         self.create_service(Trigger, "~/reset", self._on_reset)
-        self._diagnostics = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        diagnostics_qos = QoSProfile(depth=10)
+        self._diagnostics = self.create_publisher(
+            DiagnosticArray, "/diagnostics", diagnostics_qos,
+            event_callbacks=publisher_warnings(self.get_logger(), "/diagnostics", diagnostics_qos))
         self.create_timer(DIAGNOSTICS_PERIOD, self._publish_diagnostics)
         self._loop = SampleLoop(self._outputs, self.context.ok, self.get_logger(), self._bag)
         simulation = self._loop.start(request)  # last: the first sample is due now

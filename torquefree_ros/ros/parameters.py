@@ -17,12 +17,14 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.parameter import Parameter
 
 from ..core import PROPAGATORS
+from ..core.propagators import MAX_STEPS_PER_SAMPLE
 from ..core.rigid_body import RigidBody
 from ..core.scene import MAX_PATH_LENGTH, SceneError, default_scene, load_scene
 from ..core.simulation import Simulation
 from ..core.timing import MAX_RATE, MIN_RATE, check_rate
 from ..core.validation import finite_vector, unit_quaternion
 from ..core.library import is_scene_name, library_scenes
+from ..core.safe_files import clip
 from ..core.schema import shown
 from .guarded_parameters import refusal
 from .qos import message_class
@@ -66,8 +68,10 @@ _AT_RESET = " Takes effect at the next ~/reset."
 MAX_FRAME_LENGTH = 256
 # tf2 and REP 105 frame ids: letters, digits, '_', '-', '.', '/' separating names, no leading '/'
 _FRAME = re.compile(r"^[A-Za-z0-9_.\-]+(/[A-Za-z0-9_.\-]+)*$")
-_FRAME_RULE = (f"1 to {MAX_FRAME_LENGTH} characters: letters, digits, '_', '-', '.', and '/' between names; "
-               "no leading '/'")
+_FRAME_CHARACTERS = "letters, digits, '_', '-', '.', and '/' between names; no leading '/'"
+_FRAME_RULE = f"1 to {MAX_FRAME_LENGTH} characters: {_FRAME_CHARACTERS}"
+_PREFIX_RULE = (f"empty, or the start of a frame id ({_FRAME_CHARACTERS}), e.g. 'sat1/' or 'sat1_'; "
+                f"with body_frame at most {MAX_FRAME_LENGTH} characters")
 SPECS = (
     ParameterSpec("scene", "", "Path of a scene file (YAML), or the name of a library scene (dzhanibekov, "
                   "explorer1, ...); empty = the built-in default scene. Once running, only library names, the "
@@ -104,11 +108,17 @@ SPECS = (
                   _FRAME_RULE),
     ParameterSpec("inertial_frame", "world", "header.frame_id of attitude (the inertial frame)." + _AT_RESET,
                   _FRAME_RULE),
+    ParameterSpec("frame_prefix", "",
+                  "Put before body_frame wherever the body frame is named (angular_velocity, /tf's child, the "
+                  "outputs, the frame of body-frame commands), not before inertial_frame: nodes in several "
+                  "namespaces then publish distinct bodies (sat1/body, sat2/body) under one shared inertial "
+                  "frame on /tf. Empty = none." + _AT_RESET, _PREFIX_RULE),
     ParameterSpec("propagator", "auto",
                   "auto (the exact solution for a torque-free scene, DOP853 at the scene's accuracy when an effect "
                   "changes the motion) or a registered propagator." + _AT_RESET,
                   "one of: " + ", ".join(["auto", *sorted(PROPAGATORS)])),
-    ParameterSpec("qos_depth", 10, "History depth of the reliable publishers (read at start-up only).",
+    ParameterSpec("qos_depth", 10, "History depth of the reliable publishers (/tf at least 100, as tf2_ros's "
+                  "broadcaster) and of the best-effort command inputs (read at start-up only).",
                   "an integer in [1, 10000]", read_only=True, number_range=(1, 10000)),
     ParameterSpec("lockstep", False,
                   "Closed loop in lock-step (read at start-up only): after publishing sample k the node waits for "
@@ -191,6 +201,11 @@ def check_value(name: str, parameter: Parameter):
             known = ", ".join(["auto", *sorted(PROPAGATORS)])
             raise ValueError(f"{name}: unknown propagator {shown(value)} (known: {known})")
         return value
+    if name == "frame_prefix":
+        # a prefix is a frame id's start: whatever frame follows it, "x" or "body", the whole is one
+        if value and (len(value) >= MAX_FRAME_LENGTH or not _FRAME.match(value + "x")):
+            raise ValueError(f"{name}: expected {_PREFIX_RULE}, got {shown(value)}")
+        return value
     if len(value) > MAX_FRAME_LENGTH or not _FRAME.match(value):
         raise ValueError(f"{name}: expected a frame id of {_FRAME_RULE}, got {shown(value)}")
     return value
@@ -220,9 +235,6 @@ class ScenePolicy:
 
 
 _OVERRIDES = ("inertia", "angular_velocity", "orientation")
-#: integrator steps one sample may take in the node (~1 s of the slowest method, rk4 with effects):
-#: a sample loop, a reset and a shutdown then never wait long for one sample
-MAX_STEPS_PER_SAMPLE = 10_000
 
 
 def run_request(values: dict) -> RunRequest:
@@ -260,7 +272,11 @@ def run_request(values: dict) -> RunRequest:
     if missing:
         left_out = (f"not published: {', '.join(missing)} (its message package is not installed here; every "
                     "ROS 2 install has it, and torquefree_bag writes it to bags without it)")
-    return RunRequest(propagator, values["publish_rate"], values["real_time_factor"], values["body_frame"],
+    body_frame = values["frame_prefix"] + values["body_frame"]
+    if len(body_frame) > MAX_FRAME_LENGTH:
+        raise ValueError(f"frame_prefix: with body_frame '{clip(values['body_frame'], 40)}' the body frame has "
+                         f"{len(body_frame)} characters, at most {MAX_FRAME_LENGTH} are allowed")
+    return RunRequest(propagator, values["publish_rate"], values["real_time_factor"], body_frame,
                       values["inertial_frame"], outputs, describe(values, scene), left_out, values["lockstep"],
                       values["lockstep_timeout"])
 

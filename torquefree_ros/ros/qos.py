@@ -1,12 +1,15 @@
 """Between rclpy's QoS profiles and the bag's (rosbag2 v9) ones, and rosbag2's rules for choosing the
-QoS a recorder requests and a player offers."""
+QoS a recorder requests and a player offers; the node's own profiles and its warnings when a peer's
+QoS cannot match them."""
 
 from __future__ import annotations
 
 import importlib
 
 from rclpy.duration import Duration
-from rclpy.qos import (DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSProfile, ReliabilityPolicy)
+from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
+from rclpy.qos import (DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSPolicyKind, QoSProfile,
+                       ReliabilityPolicy)
 
 from ..bag.qos import INFINITE_NS, BagQos
 
@@ -72,3 +75,63 @@ def message_class(type_name: str):
         return getattr(importlib.import_module(f"{package}.{namespace}"), name)
     except (ValueError, ImportError, AttributeError):
         raise ValueError(f"message type '{type_name}': not installed for Python") from None
+
+
+# -- the node's profiles --------------------------------------------------------------------------------
+TF_MESSAGE = "tf2_msgs/msg/TFMessage"
+#: tf2_ros's TransformBroadcaster publishes /tf keep-last 100 (DynamicBroadcasterQoS): a listener
+#: joining a busy /tf with its usual depth-100 subscription then matches what it expects
+TF_DEPTH = 100
+
+
+def sample_profile(depth: int, message_type: str = "") -> QoSProfile:
+    """What the node's publishers offer: reliable, volatile, keep-last ``depth`` (/tf at least TF_DEPTH)."""
+    if message_type == TF_MESSAGE:
+        depth = max(depth, TF_DEPTH)
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth, reliability=ReliabilityPolicy.RELIABLE)
+
+
+def command_profile(depth: int) -> QoSProfile:
+    """What a command subscription requests. Best effort, because it matches reliable and best-effort
+    publishers alike whenever they appear. Not BEST_AVAILABLE: rmw resolves it once, when the
+    subscription is created; with no publisher yet (the node starts before its controller) it becomes
+    reliable and never matches a best-effort publisher that comes later (seen with rmw_fastrtps_cpp,
+    Jazzy). The cost: a reliable publisher's commands arrive best effort, without resending; a lost one
+    is a missed step in lock-step (counted in /diagnostics), not a wrong sample."""
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth, reliability=ReliabilityPolicy.BEST_EFFORT)
+
+
+def describe_profile(profile: QoSProfile) -> str:
+    """``reliable, volatile, keep-last 10``: the policies that decide whether peers match."""
+    history = (f"keep-last {profile.depth}" if profile.history == HistoryPolicy.KEEP_LAST
+               else profile.history.name.lower().replace("_", "-"))
+    return ", ".join([profile.reliability.name.lower().replace("_", " "),
+                      profile.durability.name.lower().replace("_", " "), history])
+
+
+def _policy(event) -> str:
+    try:
+        return QoSPolicyKind(event.last_policy_kind).name.lower()
+    except ValueError:
+        return f"policy {event.last_policy_kind}"
+
+
+def publisher_warnings(logger, topic: str, offered: QoSProfile) -> PublisherEventCallbacks:
+    """Callbacks that warn on ``logger`` when a subscription asks ``topic`` for more than it offers
+    (rclpy's own line does not say what is offered nor that the peer gets nothing)."""
+    def incompatible(event) -> None:
+        logger.warning(f"{topic}: a subscription requests QoS this node does not offer (last policy in conflict: "
+                       f"{_policy(event)}; offered: {describe_profile(offered)}), so it receives no message "
+                       f"from this node (incompatible subscriptions so far: {event.total_count})")
+
+    return PublisherEventCallbacks(incompatible_qos=incompatible)
+
+
+def subscription_warnings(logger, topic: str, requested: QoSProfile) -> SubscriptionEventCallbacks:
+    """Callbacks that warn on ``logger`` when a publisher on ``topic`` offers less than is requested."""
+    def incompatible(event) -> None:
+        logger.warning(f"{topic}: a publisher offers QoS this node does not accept (last policy in conflict: "
+                       f"{_policy(event)}; requested: {describe_profile(requested)}), so none of its messages "
+                       f"arrive (incompatible publishers so far: {event.total_count})")
+
+    return SubscriptionEventCallbacks(incompatible_qos=incompatible)
