@@ -7,7 +7,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 PIP := $(PY) -m pip --disable-pip-version-check
 
-.PHONY: run test lock reference bench bench-exact bench-node bench-bag bench-bag-day bench-lockstep clean
+.PHONY: run test lock reference bench bench-exact bench-effects bench-node bench-bag bench-bag-day bench-lockstep clean
 
 $(VENV)/.installed: requirements.txt requirements-test.txt requirements.lock setup.py
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -44,6 +44,11 @@ bench: $(VENV)/.installed
 # the exact propagator's cost per sample (beside scipy's ellipj), per block, to build; propagate_batch
 bench-exact: $(VENV)/.installed
 	$(PY) tools/bench_exact.py --output docs/bench/exact.md
+
+# scenes with motion effects: the compiled path beside the reference path and cyrk (~30 s; cyrk comes
+# with the test requirements, as the bench extra's)
+bench-effects: $(VENV)/.installed
+	$(PY) tools/bench_effects.py --output docs/bench/effects.md
 
 bench-node: $(VENV)/.installed
 	$(PY) tools/bench_node.py --output docs/bench/node.md
