@@ -126,7 +126,7 @@ _CYRK = {}
 
 def _cyrk_setup():
     """The cfunc right-hand side (cyrk's diffeq signature: ``void(dy*, t, y*, args*)``) and an njit
-    driver. ``args`` = (n, model size, 3 floats of scratch, held torques (6), model): the scratch lives
+    driver. ``args`` = (n, model size, 3 unused floats (were scratch), held torques (6), model): they live
     in cyrk's own copy of ``args``, so the right-hand side allocates nothing."""
     if _CYRK:
         return _CYRK
@@ -147,7 +147,7 @@ def _cyrk_setup():
         head = carray(args, (2,))
         n, size = int(head[0]), int(head[1])
         a = carray(args, (11 + size,))
-        derivative(t, carray(y, (n,)), a[11:], a[5:11], a[2:5], carray(dy, (n,)))
+        derivative(t, carray(y, (n,)), a[11:], a[5:11], carray(dy, (n,)))
 
     @nb.njit
     def solve(address, t0, t1, y0, t_eval, args, rtol, atol, out):
@@ -279,7 +279,7 @@ def _stops(case: Case):
 
 def _diagnostics(cases: list[Case], calls: int) -> dict:
     """Where the compiled path's time goes, per case: building the propagator, its kernel's evaluate
-    (the stepping and the outputs), q normalised, the rest of states(); the kernel and cyrk stepping
+    (the stepping, the outputs and q normalised in them), the rest of states(); the kernel and cyrk stepping
     alone (outputs only at the breakpoints and the end), so that (all - stepping) / samples is the
     outputs' cost; scipy's DOP853 step count over the same run (solve_ivp on the compiled right-hand
     side, piece by piece: the compiled path takes scipy's steps) beside cyrk's."""
@@ -299,7 +299,7 @@ def _diagnostics(cases: list[Case], calls: int) -> dict:
     rows = {}
     for case in cases:
         compiled.ENABLED = True
-        build = evaluate = normalise = total = float("inf")
+        build = evaluate = total = float("inf")
         for _ in range(calls):
             started = time.process_time()
             p = case.propagator()
@@ -308,11 +308,8 @@ def _diagnostics(cases: list[Case], calls: int) -> dict:
             done = time.process_time()
             p._kernel.restart()
             again = time.process_time()
-            out = p._kernel.evaluate(case.times)
+            p._kernel.evaluate(case.times)
             evaluated = time.process_time()
-            q = out[:, 3:7]
-            q / np.linalg.norm(q, axis=1, keepdims=True)  # what DOP853Propagator._evaluate does with it
-            normalise = min(normalise, time.process_time() - evaluated)
             evaluate = min(evaluate, evaluated - again)
             build, total = min(build, built - started), min(total, done - started)
         stops = _stops(case)
@@ -328,11 +325,10 @@ def _diagnostics(cases: list[Case], calls: int) -> dict:
 
         model = compiled.build_model(p.dynamics)
         held = np.zeros(6)
-        m = np.empty(3)
 
         def f(t, y):
             out = np.empty_like(y)
-            motion_kernels.derivative(t, y, model, held, m, out)
+            motion_kernels.derivative(t, y, model, held, out)
             return out
 
         steps = 0
@@ -346,8 +342,8 @@ def _diagnostics(cases: list[Case], calls: int) -> dict:
             y, t0 = sol.y[:, -1], t1
         samples = case.times.size - stops.size
         rows[case.name] = {
-            "build_us": build * 1e6, "evaluate_us": evaluate * 1e6, "normalise_us": normalise * 1e6,
-            "rest_us": (total - build - evaluate - normalise) * 1e6, "steps": steps, "cyrk_steps": cyrk_steps,
+            "build_us": build * 1e6, "evaluate_us": evaluate * 1e6,
+            "rest_us": (total - build - evaluate) * 1e6, "steps": steps, "cyrk_steps": cyrk_steps,
             "kernel_step_us": kernel_stepping / steps * 1e6, "cyrk_step_us": cyrk_stepping / cyrk_steps * 1e6,
             "kernel_output_ns": (evaluate - kernel_stepping) / samples * 1e9,
             "cyrk_output_ns": (cyrk_all - cyrk_stepping) / samples * 1e9}
@@ -515,9 +511,8 @@ def main() -> int:
     report.add("## Where the compiled path's time goes")
     report.add("")
     report.add("Per case, the fastest of the calls: building the propagator; `DOP853Kernel.evaluate` alone from a "
-               "restart (all the stepping and the dense output: one numba call per smooth piece); q normalised on "
-               "output (`q / np.linalg.norm(q, axis=1, keepdims=True)` on the (N, 4) view, as "
-               "`DOP853Propagator._evaluate` does); the rest of `states()` (build + states() minus the parts, each "
+               "restart (all the stepping and the dense output, q normalised in each output row: one numba call per "
+               "smooth piece); the rest of `states()` (build + states() minus the parts, each "
                "the fastest of its own calls: it can come out slightly negative). Then the stepping alone, for the "
                "kernel and for cyrk: the same run asked only for the breakpoints and the end (no dense output), per "
                "step; and the outputs, (all samples − stepping alone) per sample (dense output and its 3 extra "
@@ -525,12 +520,12 @@ def main() -> int:
                "normalisation, the copy). DOP853 steps: scipy's (`solve_ivp` on the kernels' right-hand side, piece "
                "by piece; the compiled path reproduces scipy's step control and takes these steps) and cyrk's.")
     report.add("")
-    report.add("| case | build (µs) | kernel evaluate (µs) | q normalised (µs) | rest of states() (µs) | DOP853 steps "
+    report.add("| case | build (µs) | kernel evaluate (µs) | rest of states() (µs) | DOP853 steps "
                "(scipy / cyrk) | stepping, µs per step (kernel / cyrk) | outputs, ns per sample (kernel / cyrk) |")
-    report.add("|---|---|---|---|---|---|---|---|")
+    report.add("|---|---|---|---|---|---|---|")
     for case in cases:
         d = diagnostics[case.name]
-        report.add(f"| {case.name} | {d['build_us']:.0f} | {d['evaluate_us']:.0f} | {d['normalise_us']:.0f} | "
+        report.add(f"| {case.name} | {d['build_us']:.0f} | {d['evaluate_us']:.0f} | "
                    f"{d['rest_us']:.0f} | {d['steps']:,} / {d['cyrk_steps']:,} | "
                    f"{d['kernel_step_us']:.2f} / {d['cyrk_step_us']:.2f} | "
                    f"{d['kernel_output_ns']:.0f} / {d['cyrk_output_ns']:.0f} |")

@@ -118,7 +118,7 @@ class DOP853Kernel(_Kernel):
         p = self.propagator
         self.hold_from(t0)
         kernels.dop853_begin(t0, self.dynamics.next_breakpoint(t0), p.rtol, p.atol, p.min_step, self.solver,
-                             self.y, self.f, self.work, self.model, self.held, np.empty(3))
+                             self.y, self.f, self.work, self.model, self.held)
 
     def evaluate(self, times: np.ndarray) -> np.ndarray:
         out = np.empty((times.size, self.size))
@@ -158,7 +158,7 @@ class FixedStepKernel(_Kernel):
     next breakpoint, a step holding a breakpoint split there (numerical.py's ``_advance``)."""
 
     def __init__(self, propagator, method: int):
-        super().__init__(propagator, 10)
+        super().__init__(propagator, 9)
         self.method = method
         self.partial = np.empty(self.size)
 

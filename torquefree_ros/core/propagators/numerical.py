@@ -242,10 +242,9 @@ class DOP853Propagator(Propagator):
         self._step_start = t0
 
     def _evaluate(self, times):
-        if self._kernel is not None:
+        if self._kernel is not None:  # (q normalised by the kernel)
             out = self._kernel.evaluate(times)
-            q = out[:, 3:7]
-            return out[:, :3], q / np.linalg.norm(q, axis=1, keepdims=True), out[:, 7:]
+            return out[:, :3], out[:, 3:7], out[:, 7:]
         out = np.empty((times.size, 7 + self.dynamics.state_size))
         i = 0
         # scipy's min-step guard underflows (nextafter(0) - 0); a scene that overflows its stages ends in
