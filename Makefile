@@ -7,7 +7,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 PIP := $(PY) -m pip --disable-pip-version-check
 
-.PHONY: run test lock reference bench bench-exact bench-effects bench-node bench-bag bench-bag-day bench-lockstep clean
+.PHONY: run test lock reference bench bench-exact bench-effects bench-plant bench-node bench-bag bench-bag-day bench-lockstep clean
 
 $(VENV)/.installed: requirements.txt requirements-test.txt requirements.lock setup.py
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -49,6 +49,10 @@ bench-exact: $(VENV)/.installed
 # with the test requirements, as the bench extra's)
 bench-effects: $(VENV)/.installed
 	$(PY) tools/bench_effects.py --output docs/bench/effects.md
+
+# the plant (torquefree_ros.Plant): a step of one body, a batched step, 1 000 dispersed explorer1 bodies
+bench-plant: $(VENV)/.installed
+	$(PY) tools/bench_plant.py --output docs/bench/plant.md
 
 bench-node: $(VENV)/.installed
 	$(PY) tools/bench_node.py --output docs/bench/node.md

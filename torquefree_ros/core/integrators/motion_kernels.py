@@ -334,6 +334,39 @@ def dop853_outputs(times, first, out, max_steps, solver, y, y_old, f, K, F, work
     return i, DONE
 
 
+def next_sample_time(t, rate):
+    """The first sample time ``k / rate`` after ``t`` (Dynamics.next_breakpoint's rule for a torque held
+    from sample to sample, the same operations)."""
+    k = math.floor(t * rate) + 1
+    while k > 1 and (k - 1) / rate > t:
+        k -= 1
+    while k / rate <= t:
+        k += 1
+    return k / rate
+
+
+def dop853_outputs_batch(times, out, max_steps, sample_rate, solvers, ys, y_olds, fs, Ks, Fs, works, models, helds,
+                         rtols, atols, min_steps, A, B, C, E3, E5, D, status, reached):
+    """:func:`dop853_outputs` for each body ``b`` of a batch (row ``b`` of every array; ``out (N, M, n)``),
+    a new smooth piece begun where one ends, as the single-body driver begins it: at the next sample
+    time when ``sample_rate > 0`` (a torque held per sample: ``helds[b]`` holds over this call), else
+    unbounded. ``status[b]`` and ``reached[b]``: what dop853_outputs returned last for body ``b``."""
+    for b in range(solvers.shape[0]):
+        i = 0
+        while True:
+            i, st = dop853_outputs(times, i, out[b], max_steps, solvers[b], ys[b], y_olds[b], fs[b], Ks[b], Fs[b],
+                                   works[b], models[b], helds[b], A, B, C, E3, E5, D)
+            if st == SEGMENT_END:
+                t0 = solvers[b, T]
+                bound = next_sample_time(t0, sample_rate) if sample_rate > 0.0 else np.inf
+                dop853_begin(t0, bound, rtols[b], atols[b], min_steps[b], solvers[b], ys[b], fs[b], works[b],
+                             models[b], helds[b])
+                continue
+            status[b] = st
+            reached[b] = i
+            break
+
+
 # ==== fixed-step methods ================================================================================
 
 def _exp_times(q, vx, vy, vz, out):
@@ -428,6 +461,7 @@ def compile_kernels() -> None:
 
         for name in ("_gravity_gradient", "_damper", "_rotor", "_rotate_inverse", "derivative", "derivatives",
                      "_rms_scaled", "dop853_begin", "_dop853_step", "_dop853_dense", "dop853_outputs",
+                     "next_sample_time", "dop853_outputs_batch",
                      "_exp_times", "fixed_step", "fixed_steps"):
             globals()[name] = jit(globals()[name])
         _compiled = True

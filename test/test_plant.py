@@ -1,0 +1,138 @@
+"""The plant (torquefree_ros.Plant): stepped in process, it follows the node's command rules bit for bit
+(the same hold, the same integrator), a batch body is bit for bit the body alone, a rate-damping loop
+meets its sampled-data closed form, and a refused torque changes nothing."""
+
+import numpy as np
+import pytest
+
+from torquefree_ros import Plant, load_scene
+from torquefree_ros.core.scene import scene_from_mapping
+from torquefree_ros.core.simulation import Simulation
+
+RATE = 10.0
+
+
+def _plant_scene(inertia=(0.4, 4.6, 4.95), omega=(6.0, 0.05, 0.0), frame="body", damper=True, **command):
+    effects = [{"torque_command": {"frame": frame, "timeout": 0.35, "max_torque": 0.5, **command}}]
+    if damper:
+        effects.insert(0, {"damper": {"inertia": 0.05, "damping": 0.01}})
+    return scene_from_mapping({"body": {"inertia": list(inertia)}, "initial": {"angular_velocity": list(omega)},
+                               "effects": effects, "accuracy": 1e-10})
+
+
+def _commands(count, seed=0):
+    rng = np.random.default_rng(seed)
+    torques = 0.1 * rng.standard_normal((count, 3))
+    torques[5:9] = np.nan  # no new command for a while: the last one holds until its timeout, then zero
+    return torques
+
+
+def test_stepping_follows_the_node_rules_bit_for_bit():
+    """The node's path without DDS: each command offered to the run's hold at its sample, the interval
+    sealed, the sample computed by the Simulation; the plant gives the same samples, bit for bit."""
+    for frame in ("body", "inertial"):
+        scene = _plant_scene(frame=frame)
+        simulation = Simulation(scene.propagator(), RATE)
+        (_, hold), = simulation.command_holds
+        plant = Plant(scene, RATE)
+        for k, torque in enumerate(_commands(20)):
+            given = None if np.isnan(torque[0]) else torque
+            if given is not None:
+                assert hold.receive(hold.stamp_ns(k), given)[0]
+            hold.seal(k)
+            block = simulation.samples(k + 1, 1)
+            state = plant.step(given)
+            assert plant.k == k + 1
+            np.testing.assert_array_equal(state.omega_B, block.omega_B[0])
+            np.testing.assert_array_equal(state.q_NB, block.q_NB[0])
+            np.testing.assert_array_equal(state.internal, block.internal[0])
+
+
+def test_running_without_commands_is_the_scene_propagator_bit_for_bit():
+    plant = Plant("explorer1", 1.0)
+    run = plant.run(60.0)
+    omega, q, x = load_scene("explorer1").propagator().states(np.arange(1, 61) / 1.0)
+    np.testing.assert_array_equal(run.omega_B, omega)
+    np.testing.assert_array_equal(run.q_NB, q)
+    np.testing.assert_array_equal(run.internal, x)
+    assert plant.k == 60 and plant.t == 60.0
+
+
+def test_a_batch_body_is_bit_for_bit_the_body_alone():
+    rng = np.random.default_rng(7)
+    scenes = [_plant_scene(inertia=(2.0, 4.6, 4.95) * (1 + 0.02 * rng.standard_normal(3)),
+                           omega=(6.0, 0.05, 0.0) + 0.1 * rng.standard_normal(3)) for _ in range(12)]
+    batch = Plant(scenes, RATE)
+    alone = [Plant(scene, RATE) for scene in scenes]
+    torques = 0.05 * rng.standard_normal((15, 12, 3))
+    for step in torques:
+        states = batch.step(step)
+        for b, plant in enumerate(alone):
+            state = plant.step(step[b])
+            np.testing.assert_array_equal(states.omega_B[b], state.omega_B)
+            np.testing.assert_array_equal(states.q_NB[b], state.q_NB)
+            np.testing.assert_array_equal(states.internal[b], state.internal)
+    assert batch.state.omega_B.shape == (12, 3) and batch.state.q_NB.shape == (12, 4)
+
+
+def test_a_rate_damping_loop_on_a_sphere_meets_its_sampled_data_closed_form():
+    """tau_k = -K w_k held over each period h: w' = tau / J is constant on the interval, so
+    w_k+1 = (1 - K h / J) w_k exactly (DOP853 integrates a linear w to rounding), the continuous
+    w0 exp(-K t / J) in the limit h -> 0."""
+    J, K = 2.0, 0.5
+    scene = scene_from_mapping({"body": {"inertia": [J, J, J]}, "initial": {"angular_velocity": [0.4, -0.3, 0.5]},
+                                "effects": [{"torque_command": {"max_torque": 10.0}}], "accuracy": 1e-12})
+    plant = Plant(scene, RATE)
+    omega = [plant.state.omega_B]
+    for _ in range(100):
+        omega.append(plant.step(-K * omega[-1]).omega_B)
+    factor = 1.0 - K / (RATE * J)
+    expected = np.outer(factor ** np.arange(101), [0.4, -0.3, 0.5])
+    np.testing.assert_allclose(omega, expected, rtol=1e-12, atol=1e-15)
+    # and within the sampling's first-order error of the continuous law
+    continuous = np.outer(np.exp(-K * np.arange(101) / RATE / J), [0.4, -0.3, 0.5])
+    assert np.abs(np.array(omega) - continuous).max() < 0.5 * (K / (RATE * J)) ** 2 * 100 * 0.5
+
+
+@pytest.mark.parametrize("torque, reason", [
+    ([np.nan, 0.0, 0.0], "torque: not finite"),
+    ([0.0, 0.0], r"torque: expected shape \(3,\)"),
+    ([0.6, 0.0, 0.0], "torque: a component exceeds max_torque 0.5 N m"),
+    ("abc", "torque: expected numbers of shape"),
+])
+def test_a_refused_torque_raises_and_changes_nothing(torque, reason):
+    plant = Plant(_plant_scene(), RATE)
+    plant.step([0.1, 0.0, 0.0])
+    before, k = plant.state, plant.k
+    with pytest.raises(ValueError, match=reason):
+        plant.step(torque)
+    assert plant.k == k
+    for now, then in zip(plant.state, before):
+        np.testing.assert_array_equal(now, then)
+    # and the command in force is still the one given before
+    again = Plant(_plant_scene(), RATE)
+    again.step([0.1, 0.0, 0.0])
+    np.testing.assert_array_equal(plant.step().omega_B, again.step().omega_B)
+
+
+def test_a_scene_without_torque_command_takes_no_torque():
+    plant = Plant("explorer1", 1.0)
+    assert not plant.takes_torque
+    with pytest.raises(ValueError, match="the scene takes no torque"):
+        plant.step([0.0, 0.0, 0.01])
+    assert plant.k == 0
+
+
+def test_a_batch_of_different_kinds_is_refused_with_the_reason():
+    with pytest.raises(ValueError, match=r"scene\[1\]: its motion effects \(torque_command\) differ from scene\[0\]'s "
+                                         r"\(damper, torque_command\)"):
+        Plant([_plant_scene(), _plant_scene(damper=False)], RATE)
+
+
+def test_reset_starts_again_from_sample_0():
+    plant = Plant(_plant_scene(), RATE)
+    first = [plant.step([0.1, 0.0, 0.0]).omega_B for _ in range(3)]
+    plant.reset()
+    assert plant.k == 0
+    again = [plant.step([0.1, 0.0, 0.0]).omega_B for _ in range(3)]
+    np.testing.assert_array_equal(first, again)
