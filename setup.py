@@ -15,6 +15,9 @@ setup(
         ("share/" + package_name, ["package.xml"]),
         ("share/" + package_name + "/config", glob("config/*.yaml")),
         ("share/" + package_name + "/config/scenes", glob("torquefree_ros/scenes/*.yaml")),
+        ("share/" + package_name + "/launch", glob("launch/*.launch.py")),
+        ("share/" + package_name + "/rviz", glob("rviz/*.rviz")),
+        ("share/" + package_name + "/foxglove", glob("foxglove/*.json")),
     ],
     # What the package imports at run time, all from PyPI (exact versions: requirements.lock). In a
     # ROS install the same come from rosdep (package.xml); colcon does not install these.

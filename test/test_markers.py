@@ -1,6 +1,6 @@
 """The ``markers`` output: the box's geometry is the uniform box of the body's principal moments on
-its principal axes; the arrows are w and H in the inertial frame (H constant, re-sent at a low rate
-only while the scene conserves it); the encoding decodes in rclpy and is rosbags' own byte for byte;
+its principal axes; the arrows are w and H in the inertial frame, all three markers in every message
+(a viewer that seeks shows the latest message alone); the encoding decodes in rclpy and is rosbags' own byte for byte;
 bags (both independent readers) and the live node carry what the core computes."""
 
 from __future__ import annotations
@@ -86,28 +86,28 @@ def test_explicit_scales_are_lengths_per_unit():
     np.testing.assert_allclose(np.linalg.norm(rows[:, 10:13], axis=1), 0.1 * np.linalg.norm(h, axis=1), rtol=1e-14)
 
 
-def test_a_constant_h_goes_out_once_per_interval_however_blocks_are_cut():
-    simulation = _simulation({"inertia": [2.0, 3.0, 4.0]}, [0.4, -1.0, 0.7], {"markers": {"momentum_interval": 0.5}})
+def test_rows_do_not_depend_on_how_blocks_are_cut():
+    simulation = _simulation({"inertia": [2.0, 3.0, 4.0]}, [0.4, -1.0, 0.7], {"markers": {}})
     whole = simulation.samples(0, 120).outputs[0]
-    np.testing.assert_array_equal(np.flatnonzero(whole[:, 13]), [0, 25, 50, 75, 100])
     cut = np.vstack([simulation.samples(first, 7).outputs[0] for first in range(0, 120, 7)])[:120]
     np.testing.assert_array_equal(cut, whole)
 
 
-def test_h_goes_out_with_every_sample_when_a_torque_changes_it():
-    damped = _simulation({"inertia": [0.4, 4.6, 4.95]}, [6.0, 0.05, 0.0],
-                         {"damper": {"inertia": 0.05, "damping": 0.01}}, {"markers": {}})
-    assert np.flatnonzero(damped.samples(0, 120).outputs[0][:, 13]).tolist() == [0, 50, 100]  # H_N is conserved
+def test_the_h_arrow_follows_a_torque_that_changes_h():
     torqued = _simulation({"inertia": [2.0, 3.0, 4.0]}, [0.4, -1.0, 0.7],
                           {"external_torque": {"torque": [0.0, 0.0, 0.5]}}, {"markers": {}})
-    rows = torqued.samples(0, 60).outputs[0]
-    assert np.all(rows[:, 13] == 1.0)
+    block = torqued.samples(0, 60)
+    rows = block.outputs[0]
+    h_N = torqued.body.angular_momentum_inertial(block.omega_B, block.q_NB)
+    np.testing.assert_allclose(rows[:, 10:13], h_N * (1.25 / np.linalg.norm(h_N[0])), rtol=0, atol=1e-13)
     assert np.linalg.norm(rows[-1, 10:13] - rows[0, 10:13]) > 1e-3
 
 
 @pytest.mark.parametrize("parameters, reason", [
     ({"size": 0}, r"effects\[0\]\.markers\.size: must be > 0 m, got 0"),
-    ({"momentum_interval": -1}, r"effects\[0\]\.markers\.momentum_interval: must be > 0 s"),
+    # retired (issue 31): refused with what replaced it, whatever its value
+    ({"momentum_interval": 1.0}, r"effects\[0\]\.markers\.momentum_interval: no longer used: every MarkerArray now "
+                                 r"carries the H arrow.*remove this key"),
     ({"angular_velocity_scale": "big"}, r"effects\[0\]\.markers\.angular_velocity_scale: expected a finite number"),
     ({"colour": 1}, r"effects\[0\]\.markers\.colour: unknown key"),
 ])
@@ -125,7 +125,7 @@ def _decoded_fields(marker):
 
 
 def _rows(count=4):
-    simulation = _simulation({"inertia": GENERIC_TENSOR}, [0.4, -1.0, 0.7], {"markers": {"momentum_interval": 0.04}})
+    simulation = _simulation({"inertia": GENERIC_TENSOR}, [0.4, -1.0, 0.7], {"markers": {}})
     block = simulation.samples(0, count)
     return block.stamps_ns + 1_700_000_000_123_456_789, block.outputs[0]
 
@@ -139,10 +139,10 @@ def test_the_encoding_decodes_in_rclpy_and_is_byte_for_byte_rosbags_own(frame_id
     store = get_typestore(Stores.ROS2_JAZZY)
     stamps, rows = _rows()
     messages = encode_markers(stamps, frame_id, rows)
-    assert rows[:, 13].tolist() == [1.0, 0.0, 1.0, 0.0]  # both layouts: with and without the H arrow
+    assert len(messages) == len(rows)
     for stamp, row, message in zip(stamps, rows, messages):
         markers = deserialize_message(message, MarkerArray).markers
-        assert [m.ns for m in markers] == ["body", "angular_velocity", "angular_momentum"][:3 if row[13] else 2]
+        assert [m.ns for m in markers] == ["body", "angular_velocity", "angular_momentum"]
         assert {m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in markers} == {stamp}
         box, arrows = markers[0], markers[1:]
         longest = row[4:7].max()
@@ -174,7 +174,7 @@ def test_a_bag_carries_markers_as_the_core_computes_them_in_both_independent_rea
     assert connections["/markers"].msgtype == "visualization_msgs/msg/MarkerArray"
     arrays = [m.markers for _, m in messages["/markers"]]
     assert [stamp_ns(a[0].header) for a in arrays] == block.stamps_ns.tolist()
-    assert [len(a) for a in arrays] == [3 if flag else 2 for flag in rows[:, 13]]
+    assert {tuple(m.ns for m in a) for a in arrays} == {("body", "angular_velocity", "angular_momentum")}
     assert {m.header.frame_id for a in arrays for m in a} == {"odom"}
     np.testing.assert_array_equal([[a[0].pose.orientation.x, a[0].pose.orientation.y, a[0].pose.orientation.z,
                                     a[0].pose.orientation.w] for a in arrays], rows[:, 0:4])
@@ -183,6 +183,39 @@ def test_a_bag_carries_markers_as_the_core_computes_them_in_both_independent_rea
     decoded = read_with_mcap(bag)["/markers"]  # mcap-ros2 decodes from the bag's own schema text
     assert [m.ns for m in decoded[50][2].markers] == ["body", "angular_velocity", "angular_momentum"]
     assert decoded[50][2].markers[2].points[1].z == rows[50, 12]
+
+
+@pytest.mark.parametrize("seed", [3, 31])
+def test_one_marker_array_at_a_random_sample_of_a_bag_is_the_whole_picture(tmp_path, seed):
+    """What a viewer does after a seek: show the latest MarkerArray alone. Read just that one message
+    (the mcap reader, by log time) and find every marker, each where the core puts it."""
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    from torquefree_ros import load_scene
+    from torquefree_ros.cli.bag import main as bag_main
+
+    bag = tmp_path / "seek"
+    assert bag_main(["dzhanibekov", "--duration", "3", "--rate", "20", "--output", str(bag)]) == 0
+    k = int(np.random.default_rng(seed).integers(1, 61))
+    scene = load_scene("dzhanibekov")
+    block = Simulation(scene.propagator(), 20.0, outputs=scene.outputs).samples(k, 1)
+    (row,) = [rows[0] for output, rows in zip(scene.outputs, block.outputs) if output.name == "markers"]
+    stamp = int(block.stamps_ns[0])
+    (path,) = bag.glob("*.mcap")
+    with path.open("rb") as stream:
+        reader = make_reader(stream, decoder_factories=[DecoderFactory()])
+        (found,) = list(reader.iter_decoded_messages(topics=["/markers"], starting_at=stamp, ending_at=stamp))
+    markers = {m.ns: m for m in found.decoded_message.markers}
+    assert sorted(markers) == ["angular_momentum", "angular_velocity", "body"]
+    assert all(m.header.stamp.sec * 10**9 + m.header.stamp.nanosec == stamp for m in markers.values())
+    body = markers["body"]
+    assert [body.pose.orientation.x, body.pose.orientation.y, body.pose.orientation.z,
+            body.pose.orientation.w] == row[0:4].tolist()
+    assert [body.scale.x, body.scale.y, body.scale.z] == row[4:7].tolist()
+    for namespace, tip in (("angular_velocity", row[7:10]), ("angular_momentum", row[10:13])):
+        end = markers[namespace].points[1]
+        assert [end.x, end.y, end.z] == tip.tolist(), namespace
 
 
 def test_the_node_publishes_markers_as_the_core_computes_them():
@@ -207,7 +240,9 @@ def test_the_node_publishes_markers_as_the_core_computes_them():
     scene = load_scene("dzhanibekov")
     block = Simulation(scene.propagator(), 100.0, epoch, outputs=scene.outputs).samples(0, int(k.max()) + 1)
     (rows,) = [rows for output, rows in zip(scene.outputs, block.outputs) if output.name == "markers"]
-    assert [len(a.markers) for a in arrays] == [3 if k_ % 100 == 0 else 2 for k_ in k]  # H once per second
+    assert {tuple(m.ns for m in a.markers) for a in arrays} == {("body", "angular_velocity", "angular_momentum")}
+    np.testing.assert_array_equal([[a.markers[2].points[1].x, a.markers[2].points[1].y, a.markers[2].points[1].z]
+                                   for a in arrays], rows[k, 10:13])
     np.testing.assert_array_equal([[a.markers[0].pose.orientation.x, a.markers[0].pose.orientation.y,
                                     a.markers[0].pose.orientation.z, a.markers[0].pose.orientation.w]
                                    for a in arrays], rows[k, 0:4])

@@ -94,24 +94,51 @@ def encode_transforms(stamps_ns, frame_id: str, child_frame_id: str, values) -> 
     """``tf2_msgs/TFMessage`` holding one ``geometry_msgs/TransformStamped`` per row: a sequence
     length (1), the Header with ``frame_id`` and ``stamps_ns[i]``, ``child_frame_id``, then the row's
     7 float64s (translation ``x, y, z``, rotation ``x, y, z, w``)."""
+    return _encode_header_child_doubles(stamps_ns, frame_id, child_frame_id, values, sequence_count=1)
+
+
+#: nav_msgs/Odometry's float64s after child_frame_id: pose.pose (7), pose.covariance (36),
+#: twist.twist (6), twist.covariance (36)
+ODOMETRY_DOUBLES = 85
+_POSE_AT, _TWIST_AT = 0, 43
+
+
+def encode_odometry(stamps_ns, frame_id: str, child_frame_id: str, values) -> MessageBlock:
+    """``nav_msgs/Odometry`` per row of 13 float64s: ``pose.pose`` (position ``x, y, z``, orientation
+    ``x, y, z, w``), then ``twist.twist`` (linear, angular); both covariances zero (exact values)."""
+    values = np.asarray(values, dtype=np.float64)
+    if values.ndim != 2 or values.shape[1] != 13:
+        raise ValueError(f"odometry rows: expected 13 float64s per row (pose 7, twist 6), got shape {values.shape}")
+    doubles = np.zeros((values.shape[0], ODOMETRY_DOUBLES))
+    doubles[:, _POSE_AT:_POSE_AT + 7] = values[:, 0:7]
+    doubles[:, _TWIST_AT:_TWIST_AT + 6] = values[:, 7:13]
+    return _encode_header_child_doubles(stamps_ns, frame_id, child_frame_id, doubles)
+
+
+def _encode_header_child_doubles(stamps_ns, frame_id: str, child_frame_id: str, values,
+                                 sequence_count: int | None = None) -> MessageBlock:
+    """[a sequence length], a Header with ``frame_id`` and the stamp, a ``child_frame_id`` string,
+    then the row's float64s: TransformStamped in a TFMessage, Odometry."""
     values = np.asarray(values, dtype=np.float64)
     frame, child = _frame_bytes(frame_id, "frame_id"), _frame_bytes(child_frame_id, "child_frame_id")
     sec, nanosec = _stamp_fields(stamps_ns)
-    # offsets from the end of the encapsulation header: count, sec, nanosec, length, frame_id, then
+    width = values.shape[1]
+    # offsets from the end of the encapsulation header: [count], sec, nanosec, length, frame_id, then
     # child_frame_id's length on a 4-byte boundary, its bytes, the doubles on an 8-byte boundary
-    child_length_at = -(-(16 + len(frame) + 1) // 4) * 4
+    header_at = 0 if sequence_count is None else 4
+    child_length_at = -(-(header_at + 12 + len(frame) + 1) // 4) * 4
     data_at = -(-(child_length_at + 4 + len(child) + 1) // 8) * 8
-    record = np.dtype({
-        "names": ["encapsulation", "count", "sec", "nanosec", "length", "frame_id", "child_length", "child",
-                  "data"],
-        "formats": ["V4", "<u4", "<i4", "<u4", "<u4", f"V{len(frame) + 1}", "<u4", f"V{len(child) + 1}",
-                    ("<f8", (7,))],
-        "offsets": [0, 4, 8, 12, 16, 20, 4 + child_length_at, 8 + child_length_at, 4 + data_at],
-        "itemsize": 4 + data_at + 8 * 7,
-    })
+    names = ["encapsulation", "sec", "nanosec", "length", "frame_id", "child_length", "child", "data"]
+    formats = ["V4", "<i4", "<u4", "<u4", f"V{len(frame) + 1}", "<u4", f"V{len(child) + 1}", ("<f8", (width,))]
+    offsets = [0, 4 + header_at, 8 + header_at, 12 + header_at, 16 + header_at, 4 + child_length_at,
+               8 + child_length_at, 4 + data_at]
+    if sequence_count is not None:
+        names, formats, offsets = names + ["count"], formats + ["<u4"], offsets + [4]
+    record = np.dtype({"names": names, "formats": formats, "offsets": offsets, "itemsize": 4 + data_at + 8 * width})
     records = np.zeros(values.shape[0], dtype=record)
     records["encapsulation"] = np.void(CDR_LE)
-    records["count"] = 1
+    if sequence_count is not None:
+        records["count"] = sequence_count
     records["sec"] = sec
     records["nanosec"] = nanosec
     records["length"] = len(frame) + 1

@@ -1,10 +1,10 @@
 """The ``markers`` output's ``visualization_msgs/MarkerArray``, encoded a block at a time from its rows
-(:data:`~torquefree_ros.core.effects.outputs.MARKER_ROW`): the box (a CUBE), then ARROWs from the
-box's centre along ``w`` and, on the samples that carry it, ``H``, all in the inertial frame. Each
-marker has its own namespace and id 0, so every message replaces the last; lifetime 0 keeps the ``H``
-arrow between its re-sends. Arrows are given by start and end points (scale: shaft and head
-diameters; head length 0, so viewers size the head from the length), which RViz, Foxglove and
-Lichtblick all draw. numpy only, like :mod:`.cdr`.
+(``core.effects.outputs.MARKER_ROW``): the box (a CUBE), then ARROWs from the box's centre along
+``w`` and ``H``, all in the inertial frame and all in every message, so that the latest message alone
+(what a viewer shows after a seek or a late join) is the whole picture. Each marker has its own
+namespace and id 0, so every message replaces the last; lifetime 0. Arrows are given by start and end
+points (scale: shaft and head diameters; head length 0, so viewers size the head from the length),
+which RViz, Foxglove and Lichtblick all draw. numpy only, like :mod:`.cdr`.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import functools
 
 import numpy as np
 
-from .cdr import CdrTemplate
+from .cdr import CdrTemplate, MessageBlock
 
 CUBE, ARROW, ADD = 1, 0, 0  # visualization_msgs/Marker constants
 # (namespace, marker type, RGBA, shaft and head diameter as fractions of the box's longest side)
@@ -55,36 +55,32 @@ def _marker(template: CdrTemplate, frame_id: str, style) -> None:
     template.boolean(False)  # mesh_use_embedded_materials
 
 
+STYLES = (BODY, ANGULAR_VELOCITY, ANGULAR_MOMENTUM)  # every message, in this order
+
+
 @functools.lru_cache(maxsize=16)
-def _template(frame_id: str, with_momentum: bool) -> CdrTemplate:
-    styles = (BODY, ANGULAR_VELOCITY) + ((ANGULAR_MOMENTUM,) if with_momentum else ())
+def _template(frame_id: str) -> CdrTemplate:
     template = CdrTemplate()
-    template.uint32(len(styles))
-    for style in styles:
+    template.uint32(len(STYLES))
+    for style in STYLES:
         _marker(template, frame_id, style)
     return template
 
 
-def _columns(rows: np.ndarray, with_momentum: bool) -> dict:
+def _columns(rows: np.ndarray) -> dict:
     longest = rows[:, 4:7].max(axis=1, keepdims=True)
     columns = {"body.orientation": rows[:, 0:4], "body.scale": rows[:, 4:7]}
-    arrows = ((ANGULAR_VELOCITY, rows[:, 7:10]),) + (((ANGULAR_MOMENTUM, rows[:, 10:13]),) if with_momentum else ())
-    for (namespace, _, _, (shaft, head)), tip in arrows:
+    for (namespace, _, _, (shaft, head)), tip in ((ANGULAR_VELOCITY, rows[:, 7:10]),
+                                                  (ANGULAR_MOMENTUM, rows[:, 10:13])):
         columns[f"{namespace}.scale"] = longest * np.array([shaft, head, 0.0])
         columns[f"{namespace}.tip"] = tip
     return columns
 
 
-def encode_markers(stamps_ns, frame_id: str, rows) -> list[bytes]:
-    """One MarkerArray per row; rows with their last column set carry the ``H`` arrow too."""
+def encode_markers(stamps_ns, frame_id: str, rows) -> MessageBlock:
+    """One MarkerArray per row, each with the box, the ``w`` arrow and the ``H`` arrow."""
     rows = np.asarray(rows, dtype=np.float64)
     stamps_ns = np.asarray(stamps_ns, dtype=np.int64)
-    messages: list = [None] * rows.shape[0]
-    with_momentum = rows[:, 13] != 0.0
-    for flag in (False, True):
-        picked = np.flatnonzero(with_momentum == flag)
-        if picked.size:
-            encoded = _template(frame_id, flag).fill(stamps_ns[picked], _columns(rows[picked], flag))
-            for position, message in zip(picked.tolist(), encoded):
-                messages[position] = message
-    return messages
+    if rows.shape[0] == 0:  # an output at a rate of its own may have no sample in a block
+        return MessageBlock(b"", 0)
+    return _template(frame_id).fill(stamps_ns, _columns(rows))

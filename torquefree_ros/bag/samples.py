@@ -3,7 +3,7 @@ writing them to a bag. One source for the node (which publishes and records them
 ``torquefree_bag``: the same topics, types, QoS, stamps and bytes.
 
 A sample is ``/clock`` (on a clock of our own), ``angular_velocity``, ``attitude``, then the
-scene's outputs (``imu``, ``pose``, ``markers``, ...) in the order the scene names them;
+scene's outputs (``imu``, ``pose``, ``odometry``, ``markers``, ...) in the order the scene names them;
 only those exist.
 """
 
@@ -13,7 +13,7 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from .cdr import encode_stamped_doubles, encode_times, encode_transforms
+from .cdr import encode_odometry, encode_stamped_doubles, encode_times, encode_transforms
 from .markers import encode_markers
 from .qos import BagQos
 from .writer import BagWriter
@@ -65,6 +65,8 @@ def _encode_output(output, stamps, rows, body_frame: str, inertial_frame: str) -
     frame = body_frame if output.frame == "body" else inertial_frame
     if output.layout == "transform":  # parent: the output's frame; child: the body
         return encode_transforms(stamps, frame, body_frame, rows)
+    if output.layout == "odometry":  # header.frame_id: the output's frame; child_frame_id: the body
+        return encode_odometry(stamps, frame, body_frame, rows)
     if output.layout == "markers":
         return encode_markers(stamps, frame, rows)
     return encode_stamped_doubles(stamps, frame, rows)

@@ -126,6 +126,15 @@ def topic_name(value, path):
     return value
 
 
+def retired(reason: str) -> Checker:
+    """A key that is no longer used: any value is refused with ``reason`` (what replaced it, what to do),
+    so an old scene file fails with an explanation rather than an "unknown key" guess."""
+    def check(value, path):
+        raise FieldError(path, f"no longer used: {reason}")
+
+    return check
+
+
 def choice(*options: str) -> Checker:
     def check(value, path):
         if value not in options:

@@ -116,7 +116,8 @@ class OutputEffect(Effect):
     message_type: ClassVar[str]
     frame: ClassVar[str]
     #: the message's form: "doubles" (a Header, then the row's float64s), "transform" (parent
-    #: ``frame``, child the body frame) or "markers" (a MarkerArray drawn from the row)
+    #: ``frame``, child the body frame), "odometry" (nav_msgs/Odometry, parent ``frame``, child the
+    #: body frame) or "markers" (a MarkerArray drawn from the row)
     layout: ClassVar[str] = "doubles"
     RATE = Param(number(positive=True, unit="Hz"), None, "its own rate; must divide the sample rate")
 

@@ -13,6 +13,13 @@ inertial frame, child the body frame, rotation ``q_NB``, zero translation (REP 1
 ``pose`` is the attitude as ``geometry_msgs/PoseStamped`` (inertial frame, zero position, ``q_NB``),
 what the 3-D panels of RViz and Foxglove draw.
 
+``odometry`` is the whole ground truth in the message estimators and ``robot_localization`` take,
+``nav_msgs/Odometry``: ``header.frame_id`` the inertial frame, ``child_frame_id`` the body frame, zero
+position, orientation ``q_NB``, ``twist.angular`` the body rates ``w`` in the child (body) frame as
+REP 105 wants, zero linear velocity: bit for bit the numbers ``attitude`` and ``angular_velocity``
+carry. Both covariances are zero: the values are exact, not estimates (zero, not REP 145's ``-1``,
+which would say "not provided").
+
 ``star_tracker`` measures the attitude: ``q_meas = q_NB ⊗ exp(n / 2)`` with ``n`` a rotation vector
 in the body frame, ``n = sigma_cross (g1 e1 + g2 e2) + sigma_about g3 b`` (``b`` the boresight,
 ``e1, e2`` across it, ``g`` standard normal), published as ``sensor_msgs/Imu`` with only the
@@ -22,9 +29,9 @@ Its draws are seeded and consumed in sample order like the ``imu``'s.
 ``markers`` draws the motion for RViz/Foxglove as ``visualization_msgs/MarkerArray`` in the inertial
 frame (no ``/tf`` needed): the uniform box with the body's principal moments (sides
 ``d_i ~ sqrt(J_j + J_k - J_i)``, the longest ``size`` m), oriented by its principal axes, and arrows
-from its centre along ``w`` and ``H``. Box and ``w`` change every sample; ``H`` is constant when the
-scene conserves it, so it is re-sent only about once per simulated ``momentum_interval`` (for viewers
-that join or seek late), else every sample.
+from its centre along ``w`` and ``H``. Every message carries all three markers, even when ``H`` is
+constant: a viewer shows the latest MarkerArray, so one that joins late or seeks in a bag shows the
+whole picture at every sample (``momentum_interval``, which thinned the ``H`` arrow out, is refused).
 
 ``euler_angles`` are the 3-2-1 angles of seed 000 (yaw psi about z, then pitch theta about the new
 y, then roll phi about the new x) of ``[BN] = R(q_NB)^T``, published as Vector3Stamped
@@ -39,8 +46,8 @@ import math
 import numpy as np
 
 from .. import quaternion
-from ..schema import FieldError, Param, child, integer, number, topic_name, vector
-from .base import MOMENTUM, OutputEffect, OutputStream, register
+from ..schema import FieldError, Param, child, integer, number, retired, topic_name, vector
+from .base import OutputEffect, OutputStream, register
 
 # sensor_msgs/Imu after its header: orientation [0:4], its covariance [4:13], angular_velocity
 # [13:16], its covariance [16:25], linear_acceleration [25:28], its covariance [28:37]
@@ -189,6 +196,33 @@ class _PoseStream(OutputStream):
         return rows
 
 
+@register
+class Odometry(OutputEffect):
+    name = "odometry"
+    summary = ("nav_msgs/Odometry ground truth: inertial frame -> body frame, zero position, q_NB, body rates in "
+               "the body frame (REP 105), zero linear velocity; covariances zero (exact values)")
+    message_type = "nav_msgs/msg/Odometry"
+    frame = "inertial"  # header.frame_id; child_frame_id is the body frame
+    layout = "odometry"
+    parameters = {"topic": Param(topic_name, "odometry"), "rate": OutputEffect.RATE}
+
+    def stream(self, rate, propagator):
+        return _OdometryStream()
+
+
+# an odometry row: position (x, y, z) [0:3], orientation (x, y, z, w) [3:7], linear velocity [7:10],
+# angular velocity (body frame) [10:13]; the covariances are not in the row (zero: exact values)
+ODOMETRY_ROW = 13
+
+
+class _OdometryStream(OutputStream):
+    def rows(self, first, times, omega_B, q_NB, internal):
+        rows = np.zeros((times.shape[0], ODOMETRY_ROW))
+        rows[:, 3:7] = q_NB  # copies: the very floats of attitude and angular_velocity
+        rows[:, 10:13] = omega_B
+        return rows
+
+
 ARCSEC = math.pi / (180.0 * 3600.0)
 
 
@@ -263,7 +297,7 @@ class _StarTrackerStream(_SeededStream):
 class Markers(OutputEffect):
     name = "markers"
     summary = ("visualization_msgs/MarkerArray in the inertial frame: the body's inertia box on its principal "
-               "axes, arrows along w and H (H re-sent at a low rate while constant)")
+               "axes, arrows along w and H, all three in every message")
     message_type = "visualization_msgs/msg/MarkerArray"
     frame = "inertial"
     layout = "markers"
@@ -273,8 +307,9 @@ class Markers(OutputEffect):
                                         "arrow length per rad/s; default: the initial w is size long"),
         "momentum_scale": Param(number(positive=True, unit="m/(kg m^2/s)"), None,
                                 "arrow length per kg m^2/s; default: the initial H is 1.25 size long"),
-        "momentum_interval": Param(number(positive=True, unit="s"), 1.0,
-                                   "simulated time between re-sends of a constant H"),
+        # refused rather than ignored: a key that silently does nothing misleads whoever set it
+        "momentum_interval": Param(retired("every MarkerArray now carries the H arrow, so that a viewer that "
+                                           "seeks or joins late shows it; remove this key"), None),
         "topic": Param(topic_name, "markers"),
         "rate": OutputEffect.RATE,
     }
@@ -294,8 +329,8 @@ class Markers(OutputEffect):
 
 MIN_SIDE = 0.01  # of the longest side: what a rod's or a plate's thin sides are drawn as
 # a markers row: box orientation (x, y, z, w) [0:4] and sides [4:7], the tips of the w [7:10] and H
-# [10:13] arrows (inertial frame, from the box's centre), 1.0 when the H arrow goes out [13]
-MARKER_ROW = 14
+# [10:13] arrows (inertial frame, from the box's centre)
+MARKER_ROW = 13
 
 
 class _MarkerStream(OutputStream):
@@ -310,8 +345,6 @@ class _MarkerStream(OutputStream):
         h0 = float(np.linalg.norm(propagator.momentum_B(omega0, x0)))
         self.omega_scale = values["angular_velocity_scale"] or (size / w0 if w0 > 0.0 else size)
         self.momentum_scale = values["momentum_scale"] or (1.25 * size / h0 if h0 > 0.0 else size)
-        constant = MOMENTUM in propagator.conserved
-        self.momentum_every = max(1, round(values["momentum_interval"] * rate)) if constant else 1
 
     def rows(self, first, times, omega_B, q_NB, internal):
         count = times.shape[0]
@@ -324,5 +357,4 @@ class _MarkerStream(OutputStream):
         rows[:, 7:10] = self.omega_scale * np.einsum("...ij,...j->...i", to_inertial, omega_B)
         rows[:, 10:13] = self.momentum_scale * np.einsum("...ij,...j->...i", to_inertial,
                                                          self.momentum_B(omega_B, internal))
-        rows[:, 13] = (np.arange(first, first + count) % self.momentum_every) == 0
         return rows
