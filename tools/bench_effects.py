@@ -51,6 +51,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from bench_report import Report, spread  # noqa: E402
+from bench_report import fastest as fastest_of  # noqa: E402
 
 RATE = 100.0  # Hz
 TIGHT_RTOL, TIGHT_ATOL = 1e-13, 1e-15
@@ -289,12 +290,7 @@ def _diagnostics(cases: list[Case], calls: int) -> dict:
     from torquefree_ros.core.integrators import compiled, motion_kernels
 
     def fastest(function):
-        best = float("inf")
-        for _ in range(calls):
-            started = time.process_time()
-            function()
-            best = min(best, time.process_time() - started)
-        return best
+        return fastest_of(function, calls, time.process_time)
 
     rows = {}
     for case in cases:

@@ -35,19 +35,11 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_report import Report, spread  # noqa: E402
+from bench_report import Report, fastest, spread  # noqa: E402
 
 BLOCK, SMALL_BLOCK = 10_000, 256
 BODIES, BODY_SAMPLES = 1_000, 100
 
-
-def _fastest(function, calls: int) -> float:
-    best = float("inf")
-    for _ in range(calls):
-        started = time.perf_counter()
-        function()
-        best = min(best, time.perf_counter() - started)
-    return best
 
 
 def _use(path: str) -> None:
@@ -83,14 +75,14 @@ def _case_round(case, calls: int) -> dict:
     small = times[:SMALL_BLOCK] + 0.5 * case.horizon  # away from t = 0, as later blocks are
     m = 1.0 - polhode.jacobi.mc if polhode is not None else 0.5
     u = times * (polhode.rate if polhode is not None else 1.0)
-    per_sample = _fastest(lambda: propagator(times), calls) / BLOCK
+    per_sample = fastest(lambda: propagator(times), calls) / BLOCK
     return {
         "sample_ns": per_sample * 1e9,
-        "ellipj_ratio": per_sample / (_fastest(lambda: ellipj(u, m), calls) / BLOCK),
-        "generic_ellipj_ratio": per_sample / (_fastest(lambda: ellipj(u, 0.5), calls) / BLOCK),
-        "small_block_ratio": _fastest(lambda: propagator(small), 10 * calls) / SMALL_BLOCK / per_sample,
-        "one_sample_us": _fastest(lambda: propagator(small[:1]), 20 * calls) * 1e6,
-        "build_us": _fastest(lambda: make_propagator(case.inertia, case.angular_velocity, case.orientation),
+        "ellipj_ratio": per_sample / (fastest(lambda: ellipj(u, m), calls) / BLOCK),
+        "generic_ellipj_ratio": per_sample / (fastest(lambda: ellipj(u, 0.5), calls) / BLOCK),
+        "small_block_ratio": fastest(lambda: propagator(small), 10 * calls) / SMALL_BLOCK / per_sample,
+        "one_sample_us": fastest(lambda: propagator(small[:1]), 20 * calls) * 1e6,
+        "build_us": fastest(lambda: make_propagator(case.inertia, case.angular_velocity, case.orientation),
                              20 * calls) * 1e6,
     }
 
@@ -106,9 +98,9 @@ def _batch_round(calls: int) -> dict:
     orientation = np.tile([0.0, 0.0, 0.0, 1.0], (BODIES, 1))
     times = np.linspace(0.0, 30.0, BODY_SAMPLES)
     stream = np.linspace(0.0, 30.0 * BODIES, BODIES * BODY_SAMPLES)
-    batch = _fastest(lambda: propagate_batch(inertia, omega0, orientation, times), calls)
-    one = _fastest(lambda: propagate(inertia[0], omega0[0], orientation[0], stream), calls)
-    loop = _fastest(lambda: [propagate(inertia[i], omega0[i], orientation[i], times) for i in range(BODIES)], calls)
+    batch = fastest(lambda: propagate_batch(inertia, omega0, orientation, times), calls)
+    one = fastest(lambda: propagate(inertia[0], omega0[0], orientation[0], stream), calls)
+    loop = fastest(lambda: [propagate(inertia[i], omega0[i], orientation[i], times) for i in range(BODIES)], calls)
     samples = BODIES * BODY_SAMPLES
     return {"batch_ns": batch / samples * 1e9, "stream_ns": one / samples * 1e9, "loop_ns": loop / samples * 1e9,
             "batch_ratio": batch / one, "loop_ratio": loop / one}

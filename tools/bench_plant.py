@@ -17,14 +17,13 @@ from __future__ import annotations
 import argparse
 import statistics
 import sys
-import time
 from dataclasses import replace
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_report import Report, spread  # noqa: E402
+from bench_report import Report, fastest, spread  # noqa: E402
 
 BODIES = 1_000
 RATE = 10.0
@@ -51,14 +50,6 @@ def _dispersed(count, seed):
     return inertia, omega
 
 
-def _fastest(function, calls: int) -> float:
-    best = float("inf")
-    for _ in range(calls):
-        started = time.perf_counter()
-        function()
-        best = min(best, time.perf_counter() - started)
-    return best
-
 
 def measure_round(calls: int) -> dict:
     import numpy as np
@@ -75,7 +66,7 @@ def measure_round(calls: int) -> dict:
         for _ in range(STEPS):
             one.step(torques[0])
 
-    step_one = _fastest(one_body, calls) / STEPS
+    step_one = fastest(one_body, calls) / STEPS
 
     batch = Plant([_commanded_scene(i, w) for i, w in zip(inertia, omega)], RATE)
     batch.step(torques)
@@ -84,7 +75,7 @@ def measure_round(calls: int) -> dict:
         for _ in range(BATCH_STEPS):
             batch.step(torques)
 
-    step_batch = _fastest(batched, calls) / BATCH_STEPS / BODIES
+    step_batch = fastest(batched, calls) / BATCH_STEPS / BODIES
 
     explorer = load_scene("explorer1")
     rng = np.random.default_rng(3)
@@ -93,8 +84,8 @@ def measure_round(calls: int) -> dict:
                       angular_velocity=tuple(np.array(explorer.angular_velocity) + 0.1 * rng.standard_normal(3)))
               for _ in range(BODIES)]
     alone = scenes[:LONE]
-    lone = _fastest(lambda: [Plant(scene, 1.0).run(900.0) for scene in alone], calls) / LONE
-    many = _fastest(lambda: Plant(scenes, 1.0).run(900.0), max(1, calls // 2)) / BODIES
+    lone = fastest(lambda: [Plant(scene, 1.0).run(900.0) for scene in alone], calls) / LONE
+    many = fastest(lambda: Plant(scenes, 1.0).run(900.0), max(1, calls // 2)) / BODIES
     return {"step_one_us": step_one * 1e6, "step_batch_us": step_batch * 1e6,
             "batch_over_one": step_batch / step_one, "explorer_one_ms": lone * 1e3,
             "explorer_batch_ms": many * 1e3, "explorer_ratio": many / lone}

@@ -182,6 +182,16 @@ def dop853_begin(t0, t_bound, rtol, atol, min_step, solver, y, f, work, model, h
     solver[H_ABS] = min(100.0 * h0, h1, interval)
 
 
+def _stage_state(K, A, s, y, h, stage):
+    """``stage = y + h sum_j A[s, j] K[j]`` over the stages before ``s`` (scipy's ``np.dot(K[:s].T,
+    a[:s]) * h``), the sum over stages innermost, in a register."""
+    for i in range(y.size):
+        total = 0.0
+        for j in range(s):
+            total += K[j, i] * A[s, j]
+        stage[i] = y[i] + total * h
+
+
 def _dop853_step(solver, y, y_old, f, K, work, model, held, A, B, C, E3, E5):
     """One accepted step (scipy's RungeKutta._step_impl); False when the step fell below scipy's floor.
     The sums run over stages innermost, in a register (faster here than rows of K at a time)."""
@@ -205,11 +215,7 @@ def _dop853_step(solver, y, y_old, f, K, work, model, held, A, B, C, E3, E5):
         for i in range(n):
             K[0, i] = f[i]
         for s in range(1, STAGES):
-            for i in range(n):
-                total = 0.0
-                for j in range(s):
-                    total += K[j, i] * A[s, j]
-                stage[i] = y[i] + total * h
+            _stage_state(K, A, s, y, h, stage)
             derivative(t + C[s] * h, stage, model, held, K[s])
         for i in range(n):
             total = 0.0
@@ -265,11 +271,7 @@ def _dop853_dense(solver, y, y_old, f, K, F, work, model, held, A, C, D):
     t_old = solver[T_OLD]
     stage = work[1]
     for s in range(STAGES + 1, STAGES_EXTENDED):
-        for i in range(n):
-            total = 0.0
-            for j in range(s):
-                total += K[j, i] * A[s, j]
-            stage[i] = y_old[i] + total * h
+        _stage_state(K, A, s, y_old, h, stage)
         derivative(t_old + C[s] * h, stage, model, held, K[s])
     for i in range(n):
         delta = y[i] - y_old[i]
@@ -434,7 +436,7 @@ def fixed_steps(method, j, j_end, step, bound, y, model, held, work):
 
 # ==== loading ===========================================================================================
 
-_INLINED = {"derivative", "_gravity_gradient", "_damper", "_rotor", "_rotate_inverse"}
+_INLINED = {"derivative", "_gravity_gradient", "_damper", "_rotor", "_rotate_inverse", "_stage_state"}
 _compiling = threading.Lock()
 _compiled = False
 
@@ -460,7 +462,7 @@ def compile_kernels() -> None:
                 return numba.njit(error_model="numpy", **extra)(function)
 
         for name in ("_gravity_gradient", "_damper", "_rotor", "_rotate_inverse", "derivative", "derivatives",
-                     "_rms_scaled", "dop853_begin", "_dop853_step", "_dop853_dense", "dop853_outputs",
+                     "_rms_scaled", "dop853_begin", "_stage_state", "_dop853_step", "_dop853_dense", "dop853_outputs",
                      "next_sample_time", "dop853_outputs_batch",
                      "_exp_times", "fixed_step", "fixed_steps"):
             globals()[name] = jit(globals()[name])
