@@ -161,9 +161,36 @@ class FixedStepKernel(_Kernel):
         super().__init__(propagator, 9)
         self.method = method
         self.partial = np.empty(self.size)
+        self.grid = np.zeros(1)  # the grid index the kernel's loop reached
 
     def restart(self) -> None:
         self.y[:] = self.initial
+        self.grid[0] = 0.0
+
+    @property
+    def whole_loop(self) -> bool:
+        """No breakpoint anywhere (no schedule, no torque held per sample): the loop over the times
+        runs in the kernel, with the held torques of t = 0 throughout."""
+        return not self.dynamics.breakpoints and self.dynamics.sample_rate is None
+
+    def evaluate(self, times: np.ndarray) -> np.ndarray:
+        """Every sample at ``times`` (for :attr:`whole_loop` scenes)."""
+        out = np.empty((times.size, self.size))
+        budget = self.propagator.max_steps_per_sample
+        budget = -1 if budget is None else int(budget)
+        self.hold_from(0.0)
+        i = 0
+        while i < times.size:
+            i, status = kernels.fixed_outputs(self.method, times, i, out, budget, self.propagator.step, self.grid,
+                                              self.y, self.partial, self.model, self.held, self.work)
+            if status == kernels.RESTART:
+                self.propagator._restart()
+            elif status == kernels.BUDGET:
+                from ..propagators.base import StepBudgetExceeded
+
+                raise StepBudgetExceeded(self.propagator, float(times[i]), self.propagator.step)
+        self.propagator._grid_index = int(self.grid[0])
+        return out
 
     def advance_grid(self, j: int, j_end: int, step: float) -> None:
         """From grid point ``j`` to ``j_end``, in place."""

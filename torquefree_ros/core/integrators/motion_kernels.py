@@ -422,6 +422,48 @@ def fixed_step(method, t, y, h, model, held, work):
             y[3 + i] = q_new[i] / norm
 
 
+def fixed_outputs(method, times, first, out, max_steps, step, grid, y, partial, model, held, work):
+    """A fixed-step propagator's whole loop over sorted ``times`` (numerical.py's ``_evaluate``) for a
+    scene without breakpoints: the grid point at or below each time (a time within 4 rounding units of
+    a grid point is on it), whole steps up to it, one partial step from a copy. ``grid[0]``: the grid
+    index reached, kept between calls. Returns ``(index, status)``: DONE, RESTART (a time before the
+    grid index) or BUDGET (more than ``max_steps`` steps for one time; < 0: no bound)."""
+    n = y.size
+    i = first
+    while i < times.size:
+        t = times[i]
+        j = int(np.rint(t / step))  # Python's round: half to even
+        if abs(t - j * step) <= 4.0 * (np.nextafter(t, np.inf) - t):  # math.ulp(t), t >= 0
+            h = 0.0
+        else:
+            j = math.floor(t / step)
+            if (j + 1) * step <= t:
+                j += 1
+            elif j * step > t:
+                j -= 1
+            h = t - j * step
+        index = int(grid[0])
+        if j < index:
+            return i, RESTART
+        if 0 <= max_steps < j - index:
+            return i, BUDGET
+        while index < j:
+            fixed_step(method, index * step, y, step, model, held, work)
+            index += 1
+        grid[0] = index
+        if h > 0.0:
+            for k in range(n):
+                partial[k] = y[k]
+            fixed_step(method, j * step, partial, h, model, held, work)
+            for k in range(n):
+                out[i, k] = partial[k]
+        else:
+            for k in range(n):
+                out[i, k] = y[k]
+        i += 1
+    return i, DONE
+
+
 def fixed_steps(method, j, j_end, step, bound, y, model, held, work):
     """Whole grid steps ``[j step, (j + 1) step]`` from ``j`` while ``j < j_end`` and no breakpoint
     lies inside the step (``bound``: the first breakpoint after ``j step``); returns the ``j`` reached."""
@@ -464,6 +506,6 @@ def compile_kernels() -> None:
         for name in ("_gravity_gradient", "_damper", "_rotor", "_rotate_inverse", "derivative", "derivatives",
                      "_rms_scaled", "dop853_begin", "_stage_state", "_dop853_step", "_dop853_dense", "dop853_outputs",
                      "next_sample_time", "dop853_outputs_batch",
-                     "_exp_times", "fixed_step", "fixed_steps"):
+                     "_exp_times", "fixed_step", "fixed_outputs", "fixed_steps"):
             globals()[name] = jit(globals()[name])
         _compiled = True

@@ -93,6 +93,12 @@ class FixedStepPropagator(Propagator):
         return j, t - j * self.step
 
     def _evaluate(self, times):
+        if self._kernel is not None and self._kernel.whole_loop:
+            out = self._kernel.evaluate(times)
+            q = out[:, 3:7]
+            if not self.geometric:
+                q = q / np.linalg.norm(q, axis=1, keepdims=True)
+            return out[:, :3], q, out[:, 7:]
         out = np.empty((times.size, 7 + self.dynamics.state_size))
         for i, t in enumerate(times.tolist()):
             j, partial = self._grid_point(t)
