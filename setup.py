@@ -28,6 +28,8 @@ setup(
     # mujoco 4.0.0 on PyPI is a shell around the not-yet-usable mujoco-core; 3.x is the real one.
     # fast: numba, now a runtime dependency; the extra stays so that '.[fast]' keeps working
     extras_require={"plot": ["matplotlib>=3.7"], "bench": ["matplotlib>=3.7", "mujoco>=3.1,<4", "cyrk>=0.20"],
+                    # gym: torquefree_ros.plant.gym (Gymnasium 1.x: AutoresetMode, vector_entry_point)
+                    "gym": ["gymnasium>=1.0,<2"],
                     "fast": ["numba>=0.60"]},
     zip_safe=False,  # the scene library and bench data are read as files
     maintainer="torquefree_ros maintainers",
