@@ -9,7 +9,8 @@ setup(
     version="0.1.0",
     packages=find_packages(exclude=["test", "test.*", "tools"]),
     # the scene library ships inside the package, so load_scene("explorer1") works in every install
-    package_data={"torquefree_ros": ["scenes/*.yaml", "interfaces/*/msg/*"], "torquefree_ros.bench": ["hard_cases.json"]},
+    package_data={"torquefree_ros": ["scenes/*.yaml", "interfaces/*/msg/*"], "torquefree_ros.bench": ["hard_cases.json"],
+                  "torquefree_ros.campaigns": ["library/*.yaml"]},
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
         ("share/" + package_name, ["package.xml"]),
@@ -22,9 +23,10 @@ setup(
     # What the package imports at run time, all from PyPI (exact versions: requirements.lock). In a
     # ROS install the same come from rosdep (package.xml); colcon does not install these.
     # numba compiles the exact attitude (core/attitude_kernels.py) and the integrators of scenes with
-    # effects (core/integrators/); TORQUEFREE_ROS_KERNELS=numpy runs the numpy/scipy reference instead
-    install_requires=["numpy>=1.26", "scipy>=1.11", "PyYAML>=6", "mcap>=1.2", "numba>=0.60",
-                      "ros-jazzy-rclpy[fastrtps]", "ros-jazzy-common-interfaces"],
+    # effects (core/integrators/); TORQUEFREE_ROS_KERNELS=numpy runs the numpy/scipy reference instead.
+    # pyarrow and dask[distributed]: campaigns (the Parquet table, the engine on a local or remote cluster)
+    install_requires=["numpy>=1.26", "scipy>=1.11", "PyYAML>=6", "mcap>=1.2", "numba>=0.60", "pyarrow>=26",
+                      "dask[distributed]>=2026.8", "ros-jazzy-rclpy[fastrtps]", "ros-jazzy-common-interfaces"],
     # mujoco 4.0.0 on PyPI is a shell around the not-yet-usable mujoco-core; 3.x is the real one.
     # fast: numba, now a runtime dependency; the extra stays so that '.[fast]' keeps working
     extras_require={"plot": ["matplotlib>=3.7"], "bench": ["matplotlib>=3.7", "mujoco>=3.1,<4", "cyrk>=0.20"],
@@ -46,6 +48,7 @@ setup(
             "torquefree_play = torquefree_ros.cli.play:run",
             "torquefree_plot = torquefree_ros.cli.plot:main",
             "torquefree_bench = torquefree_ros.cli.bench:main",
+            "torquefree_campaign = torquefree_ros.cli.campaign:main",
         ],
     },
 )

@@ -21,7 +21,7 @@ from torquefree_ros.cli.common import Progress
 
 BIN = Path(sys.prefix) / "bin"
 SCRIPTS = ["torquefree_sim", "torquefree_propagate", "torquefree_bag", "torquefree_record", "torquefree_play",
-           "torquefree_plot", "torquefree_bench"]
+           "torquefree_plot", "torquefree_bench", "torquefree_campaign"]
 HAND_TYPED = [0.2, 0.1, -0.3, 0.927]  # |q| = 0.99966: four typed digits
 TIMEOUT = 60  # s; a script's start-up re-executes the interpreter once (ros_wheels_bootstrapper)
 

@@ -1,0 +1,291 @@
+"""Metrics: what a campaign keeps of each run, one or more numbers a run (Basilisk's retained
+variables, reduced to a row). One registry, :data:`METRICS`; a metric is a Python function.
+
+Adding a metric::
+
+    import numpy as np
+    from torquefree_ros.campaigns import metric
+    from torquefree_ros.core.schema import Param, number
+
+    @metric("peak_rate", unit="rad/s", parameters={"scale": Param(number(positive=True), 1.0)})
+    def peak_rate(samples, scale):
+        "The largest |w| over the run, times scale."
+        return scale * samples.rate_norm().max(axis=1)
+
+and name it in a campaign file (``metrics: [peak_rate, {peak_rate: {scale: 2}}]`` — each name once).
+The function gets a :class:`Samples` of ``n`` runs (``omega_B (n, M, 3)``, ``q_NB (n, M, 4)``,
+``internal (n, M, s)``, the bodies, the ``times (M,)`` of samples ``0 .. M-1`` including the initial
+state) and the checked parameters, and returns an ``(n,)`` array (one column, named after the
+metric) or a dict ``column -> (n,)`` array whose keys are the ``columns`` declared. It must treat
+each run on its own (a row may not depend on the other runs of its chunk: the table does not
+depend on chunking). In a table, a metric is null for a run that failed and NaN where it is
+undefined for a run that did not (``settle_time`` of a run that never settles). Metrics run on Dask
+workers: define them in an importable module (or in ``__main__``, which Dask ships by value) and
+import it before the campaign is loaded.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from ..core.schema import FieldError, Param, child, choice, fields, number, one_key, shown, vector
+
+
+@dataclass(frozen=True)
+class Metric:
+    name: str
+    function: Callable
+    columns: tuple
+    parameters: dict = field(default_factory=dict)
+    unit: str = ""
+    dtype: str = "float64"  # float64 | int64
+    needs_nominal: bool = False  # the engine computes the undispersed run beside the chunk
+    summary: str = ""
+
+
+#: metric name -> Metric
+METRICS: dict[str, Metric] = {}
+
+
+def metric(name: str, *, columns=None, parameters=None, unit: str = "", dtype: str = "float64",
+           needs_nominal: bool = False):
+    """Register ``function(samples, **parameters)`` as the metric ``name`` (see the module docstring)."""
+    if dtype not in ("float64", "int64"):
+        raise ValueError(f"metric {name}: dtype must be float64 or int64, got {dtype!r}")
+
+    def register(function):
+        summary = (function.__doc__ or "").strip().split("\n\n")[0].replace("\n", " ")
+        METRICS[name] = Metric(name, function, tuple(columns or (name,)), dict(parameters or {}), unit, dtype,
+                               needs_nominal, summary)
+        return function
+
+    return register
+
+
+@dataclass(frozen=True)
+class MetricUse:
+    """A metric as a campaign names it: the metric and its checked parameters."""
+
+    metric: Metric
+    values: dict
+
+    def evaluate(self, samples: "Samples") -> dict:
+        result = self.metric.function(samples, **self.values)
+        if not isinstance(result, dict):
+            result = {self.metric.columns[0]: result}
+        if set(result) != set(self.metric.columns):
+            raise ValueError(f"metric {self.metric.name} returned columns {sorted(result)}, declared "
+                             f"{list(self.metric.columns)}")
+        n = samples.count
+        out = {}
+        for column in self.metric.columns:
+            array = np.asarray(result[column], dtype=self.metric.dtype)
+            if array.shape != (n,):
+                raise ValueError(f"metric {self.metric.name}: column {column} has shape {array.shape}, expected ({n},)")
+            out[column] = array
+        return out
+
+
+DEFAULT_METRICS = ("final_rates", "cone_angle", "flips", "energy_drift", "momentum_drift")
+
+
+def parse_metrics(value, path: str) -> tuple:
+    if not isinstance(value, list) or not value:
+        raise FieldError(path, f"expected a list of metric names (known: {', '.join(sorted(METRICS))}), got "
+                               f"{shown(value)}")
+    uses, seen, columns = [], {}, {}
+    for index, entry in enumerate(value):
+        where = child(path, index)
+        name, parameters = one_key({entry: None} if isinstance(entry, str) else entry, where, METRICS, "metric")
+        if name in seen:
+            raise FieldError(where, f"{name} is already metrics[{seen[name]}]")
+        seen[name] = index
+        found = METRICS[name]
+        for column in found.columns:
+            if column in columns:
+                raise FieldError(where, f"{name}'s column {column} is also {columns[column]}'s")
+            columns[column] = name
+        uses.append(MetricUse(found, fields(parameters, child(where, name), found.parameters)))
+    return tuple(uses)
+
+
+# -- what a metric sees ---------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Samples:
+    """``n`` runs on one time grid. Every derived quantity is written out component by component, so a
+    run's numbers are the same whichever runs share its chunk."""
+
+    times: np.ndarray  # (M,) s, sample 0 is the initial state
+    omega_B: np.ndarray  # (n, M, 3) rad/s, body frame
+    q_NB: np.ndarray  # (n, M, 4) x, y, z, w
+    internal: np.ndarray  # (n, M, s) the effects' own states
+    tensor: np.ndarray  # (n, 3, 3) kg m^2, body frame
+    moments: np.ndarray  # (n, 3) principal moments (in the order of principal_axes' columns)
+    principal_axes: np.ndarray  # (n, 3, 3) columns = principal axes in B
+    nominal: "Samples | None" = None  # the undispersed run (n = 1), for metrics that ask for it
+
+    @property
+    def count(self) -> int:
+        return self.omega_B.shape[0]
+
+    def momentum_B(self) -> np.ndarray:
+        """``H_B = I w`` (n, M, 3), kg m^2/s: the rigid body's own momentum (not an effect's)."""
+        I, w = self.tensor[:, None, :, :], self.omega_B
+        return np.stack([I[..., r, 0] * w[..., 0] + I[..., r, 1] * w[..., 1] + I[..., r, 2] * w[..., 2]
+                         for r in range(3)], axis=-1)
+
+    def momentum_N(self) -> np.ndarray:
+        """``H_N = R(q_NB) H_B`` (n, M, 3)."""
+        return rotate(self.q_NB, self.momentum_B())
+
+    def energy(self) -> np.ndarray:
+        """``T = w . I w / 2`` (n, M), J: the rigid body's own kinetic energy."""
+        return 0.5 * dot(self.omega_B, self.momentum_B())
+
+    def rate_norm(self) -> np.ndarray:
+        """``|w|`` (n, M), rad/s."""
+        return norm(self.omega_B)
+
+
+def dot(a, b):
+    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
+
+
+def norm(a):
+    return np.sqrt(dot(a, a))
+
+
+def rotate(q, v):
+    """``R(q) v`` elementwise: ``v + 2 w (u x v) + 2 u x (u x v)``."""
+    ux, uy, uz, w = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    vx, vy, vz = v[..., 0], v[..., 1], v[..., 2]
+    tx, ty, tz = 2.0 * (uy * vz - uz * vy), 2.0 * (uz * vx - ux * vz), 2.0 * (ux * vy - uy * vx)
+    return np.stack([vx + w * tx + uy * tz - uz * ty, vy + w * ty + uz * tx - ux * tz,
+                     vz + w * tz + ux * ty - uy * tx], axis=-1)
+
+
+def _ratio(numerator, denominator):
+    """``numerator / denominator``, NaN where the denominator is 0."""
+    out = np.full(np.broadcast(numerator, denominator).shape, np.nan)
+    np.divide(numerator, denominator, out=out, where=denominator != 0)
+    return out
+
+
+# -- built-in metrics -----------------------------------------------------------------------------------
+@metric("final_rates", columns=("final_wx", "final_wy", "final_wz"), unit="rad/s")
+def final_rates(samples):
+    """The body rates at the last sample, body frame."""
+    last = samples.omega_B[:, -1, :]
+    return {"final_wx": last[:, 0], "final_wy": last[:, 1], "final_wz": last[:, 2]}
+
+
+@metric("settle_time", unit="s", parameters={
+    "threshold": Param(number(positive=True, unit="rad/s"), help="the |w| a run must stay under, rad/s")})
+def settle_time(samples, threshold):
+    """The time of the first sample from which ``|w| < threshold`` at every later sample (0 if always);
+    NaN if ``|w|`` is not under it at the last sample."""
+    over = samples.rate_norm() >= threshold
+    M = over.shape[1]
+    last_over = np.where(over.any(axis=1), M - 1 - np.argmax(over[:, ::-1], axis=1), -1)
+    settled = last_over < M - 1
+    return np.where(settled, samples.times[np.minimum(last_over + 1, M - 1)], np.nan)
+
+
+_AXES = ("major", "intermediate", "minor", "x", "y", "z")
+
+
+def _axis(value, path):
+    if isinstance(value, str):
+        return choice(*_AXES)(value, path)
+    axis = vector(3)(value, path)
+    length = float(np.sqrt(axis @ axis))
+    if not length > 0:
+        raise FieldError(path, "the axis must not be zero")
+    return tuple(float(x) / length for x in axis)
+
+
+def body_axis(samples: Samples, axis) -> np.ndarray:
+    """``(n, 3)`` unit axes in B: a principal axis (signed so that ``H_B(0)`` is on its positive side),
+    a body axis ``x | y | z``, or a given direction."""
+    n = samples.count
+    if not isinstance(axis, str):
+        return np.tile(np.asarray(axis, dtype=float), (n, 1))
+    if axis in ("x", "y", "z"):
+        return np.tile(np.eye(3)[("x", "y", "z").index(axis)], (n, 1))
+    order = np.argsort(samples.moments, axis=1, kind="stable")  # ascending: minor, intermediate, major
+    column = order[:, {"minor": 0, "intermediate": 1, "major": 2}[axis]]
+    axes = samples.principal_axes[np.arange(n), :, column]
+    sign = np.where(dot(axes, samples.momentum_B()[:, 0, :]) < 0.0, -1.0, 1.0)
+    return axes * sign[:, None]
+
+
+@metric("cone_angle", unit="rad", parameters={
+    "axis": Param(_axis, "major", "major | intermediate | minor | x | y | z | [ax, ay, az] (body frame)")})
+def cone_angle(samples, axis):
+    """The largest angle between ``H`` and a body axis over the run (nutation / cone angle), in
+    [0, pi]: ``atan2(|a x H_B|, a . H_B)``. A principal axis is signed so that the angle starts below
+    pi/2. NaN for a body at rest."""
+    a = body_axis(samples, axis)[:, None, :]
+    H = samples.momentum_B()
+    cross = np.stack([a[..., 1] * H[..., 2] - a[..., 2] * H[..., 1], a[..., 2] * H[..., 0] - a[..., 0] * H[..., 2],
+                      a[..., 0] * H[..., 1] - a[..., 1] * H[..., 0]], axis=-1)
+    angle = np.arctan2(norm(cross), dot(a, H))
+    return np.where(norm(H).max(axis=1) > 0.0, angle.max(axis=1), np.nan)
+
+
+@metric("flips", dtype="int64", parameters={
+    "margin": Param(number(minimum=0.0, maximum=89.0, unit="deg"), 30.0,
+                    "hysteresis: a flip must carry h_int from above sin(margin) to below -sin(margin), deg")})
+def flips(samples, margin):
+    """How many times the intermediate principal axis turns over relative to ``H`` (Dzhanibekov flips):
+    ``h = H_B . e_int / |H|`` moving from above ``+sin(margin)`` to below ``-sin(margin)`` or back
+    (the band between is hysteresis, so a spin about a stable axis, whose ``h`` wobbles about 0,
+    counts none). ``e_int`` is the principal axis of the middle moment (for an axisymmetric body, the
+    second of the equal pair). 0 for a body at rest."""
+    n = samples.count
+    order = np.argsort(samples.moments, axis=1, kind="stable")
+    e_int = samples.principal_axes[np.arange(n), :, order[:, 1]][:, None, :]
+    H = samples.momentum_B()
+    h = _ratio(dot(H, e_int), norm(H))
+    band = math.sin(math.radians(margin))
+    state = np.where(h > band, 1, np.where(h < -band, -1, 0))
+    M = state.shape[1]
+    last = np.maximum.accumulate(np.where(state != 0, np.arange(M), 0), axis=1)  # latest side taken so far
+    held = np.take_along_axis(state, last, axis=1)
+    return np.count_nonzero(held[:, 1:] * held[:, :-1] < 0, axis=1)
+
+
+@metric("energy_drift")
+def energy_drift(samples):
+    """``max_k |T_k - T_0| / T_0``: the rigid body's kinetic energy, relative (a conservation check for
+    a torque-free scene; the energy an effect takes out otherwise). NaN for a body at rest."""
+    T = samples.energy()
+    return _ratio(np.abs(T - T[:, :1]).max(axis=1), T[:, 0])
+
+
+@metric("momentum_drift")
+def momentum_drift(samples):
+    """``max_k |H_N(t_k) - H_N(0)| / |H_N(0)|``: the rigid body's inertial angular momentum, relative
+    (checks the rates and the attitude together; an effect's own momentum, a damper's or a rotor's, is
+    not included). NaN for a body at rest."""
+    H = samples.momentum_N()
+    return _ratio(norm(H - H[:, :1, :]).max(axis=1), norm(H[:, 0, :]))
+
+
+@metric("nominal_attitude_error", unit="rad", needs_nominal=True)
+def nominal_attitude_error(samples):
+    """The largest attitude difference from the nominal (undispersed) run over the samples, rad:
+    the angle of ``q_nom* ⊗ q``."""
+    p, q = samples.nominal.q_NB, samples.q_NB  # (1, M, 4), (n, M, 4)
+    px, py, pz, pw = -p[..., 0], -p[..., 1], -p[..., 2], p[..., 3]
+    qx, qy, qz, qw = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    dx = pw * qx + px * qw + py * qz - pz * qy
+    dy = pw * qy - px * qz + py * qw + pz * qx
+    dz = pw * qz + px * qy - py * qx + pz * qw
+    dw = pw * qw - px * qx - py * qy - pz * qz
+    angle = 2.0 * np.arctan2(np.sqrt(dx * dx + dy * dy + dz * dz), np.abs(dw))
+    return angle.max(axis=1)

@@ -1,0 +1,86 @@
+"""Results: one table, a row per run (pyarrow; written as Parquet).
+
+Columns, in order: ``run`` (int64), ``status`` (``ok | invalid_body | invalid_scene | failed``),
+``reason`` (null when ok), ``redraws`` (int64), the drawn inputs (float64, one column per component,
+named by target path: ``body.moments[0]``, ``initial.orientation[3]``, ``effects[0].damper.damping``),
+then the metrics' columns (null for a run that did not finish; NaN where a metric is undefined for a
+run that did). The schema's metadata holds the campaign file's text (``torquefree_ros.campaign``),
+what the campaign measured when loaded (``torquefree_ros.campaign_summary``, JSON) and the versions
+that made the table (``torquefree_ros.versions``, JSON); nothing in it depends on the engine, so the
+same campaign gives the same table, metadata included, in-process or on any cluster.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+from importlib import metadata as importlib_metadata
+from pathlib import Path
+
+import numpy as np
+
+RESULTS_FILE = "runs.parquet"
+CAMPAIGN_FILE = "campaign.yaml"
+_VERSIONED = ("numpy", "scipy", "numba", "pyarrow", "dask", "distributed", "PyYAML")
+
+
+def versions() -> dict:
+    from .. import __version__
+
+    found = {"torquefree_ros": __version__, "python": platform.python_version()}
+    for name in _VERSIONED:
+        try:
+            found[name] = importlib_metadata.version(name)
+        except importlib_metadata.PackageNotFoundError:
+            found[name] = None
+    return found
+
+
+def build_table(campaign, parts: list[dict]):
+    import pyarrow as pa
+
+    def joined(name):
+        return np.concatenate([part[name] for part in parts]) if parts else np.empty(0)
+
+    status = [s for part in parts for s in part["status"]]
+    failed = np.array([s != "ok" for s in status], dtype=bool)
+    arrays = {"run": pa.array(joined("run"), pa.int64()), "status": pa.array(status, pa.string()),
+              "reason": pa.array([r for part in parts for r in part["reason"]], pa.string()),
+              "redraws": pa.array(joined("redraws"), pa.int64())}
+    for column in campaign.input_columns:
+        arrays[column] = pa.array(joined(column), pa.float64())
+    for use in campaign.metrics:
+        kind = pa.int64() if use.metric.dtype == "int64" else pa.float64()
+        for column in use.metric.columns:
+            arrays[column] = pa.array(joined(column), kind, mask=failed)
+    summary = {"source": campaign.source, "scene": campaign.scene.source, "runs": campaign.runs,
+               "seed": campaign.seed, "duration": campaign.duration, "rate": campaign.rate,
+               "samples": campaign.samples, "body_acceptance": campaign.body_acceptance,
+               "metrics": {use.metric.name: {"columns": list(use.metric.columns), "unit": use.metric.unit,
+                                             "parameters": _plain(use.values)} for use in campaign.metrics}}
+    meta = {b"torquefree_ros.campaign": campaign.text.encode("utf-8"),
+            b"torquefree_ros.campaign_summary": json.dumps(summary, sort_keys=True).encode("utf-8"),
+            b"torquefree_ros.versions": json.dumps(versions(), sort_keys=True).encode("utf-8")}
+    return pa.table(arrays).replace_schema_metadata(meta)
+
+
+def _plain(values: dict) -> dict:
+    return {k: (list(v) if isinstance(v, (tuple, np.ndarray)) else v) for k, v in values.items()}
+
+
+def write_results(table, campaign, directory, overwrite: bool = False) -> Path:
+    """``DIRECTORY/runs.parquet`` (and the campaign's text as ``campaign.yaml``), written whole: a
+    temporary file renamed into place."""
+    import pyarrow.parquet as pq
+
+    directory = Path(directory)
+    target = directory / RESULTS_FILE
+    if target.exists() and not overwrite:
+        raise FileExistsError(f"{target} exists (resuming a campaign is not implemented yet; --overwrite replaces it)")
+    directory.mkdir(parents=True, exist_ok=True)
+    temporary = directory / f".{RESULTS_FILE}.{os.getpid()}.tmp"
+    pq.write_table(table, temporary, compression="zstd")
+    os.replace(temporary, target)
+    (directory / CAMPAIGN_FILE).write_text(campaign.text, encoding="utf-8")
+    return target

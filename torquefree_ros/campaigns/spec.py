@@ -1,0 +1,234 @@
+"""The campaign file: a base scene, its dispersions, the number of runs, the seed, the time grid and
+the metrics, checked like a scene (every error names the file and the field path)::
+
+    description: one line                    # optional
+    scene: dzhanibekov                       # a library scene's name, or a scene file (relative to this file)
+    runs: 1000
+    seed: 2026                               # run i draws from SeedSequence(seed).spawn(runs)[i]
+    duration: 60                             # s; samples k = 0 .. floor(duration * rate), both ends kept
+    rate: 10                                 # Hz
+    invalid_body: redraw                     # redraw (default) | fail
+    max_redraws: 100                         # redraw: how many more bodies a run may draw
+    dispersions: {TARGET: DISPERSION, ...}   # see campaigns.dispersions
+    metrics: [final_rates, {settle_time: {threshold: 0.01}}, ...]   # see campaigns.metrics
+
+**Impossible bodies.** A drawn body is checked as a scene's is (``RigidBody.from_inertia``: positive
+moments, triangle inequality). ``redraw``: the run draws its body again, up to ``max_redraws`` times,
+then fails with the last reason; the ``redraws`` column counts them. ``fail``: the run fails at once
+(Basilisk's behaviour). Either way a failed run is a row with its status and reason, never the end of
+the campaign. A nominal body on the triangle limit (``[3, 2, 1]``, or the library's Dzhanibekov
+``[1, 2, 3]``) makes about half of the draws of a relative dispersion of its moments impossible: with
+``redraw`` the kept bodies are the dispersion *conditioned* on being physical (a one-sided
+distribution about the limit), with ``fail`` about half the runs fail; the campaign measures the
+share of physical bodies over its first runs when it is loaded (``body_acceptance``, kept in the
+table's metadata), and refuses a dispersion that gives none.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import yaml
+
+from ..core import library
+from ..core.rigid_body import RigidBody
+from ..core.safe_files import clip, load_yaml, read_regular_file
+from ..core.scene import DEFAULT_SCENE_DATA, MAX_SCENE_BYTES, Scene, SceneError, _SceneLoader, load_scene
+from ..core.schema import FieldError, Param, child, choice, fields, integer, number, text
+from ..core.timing import MAX_RATE
+from .dispersions import EffectTarget, OrientationTarget, VectorTarget, parse_target, run_generator
+from .metrics import DEFAULT_METRICS, parse_metrics
+
+LIBRARY_DIRECTORY = Path(__file__).resolve().parent / "library"
+MAX_RUNS = 10_000_000
+MAX_SAMPLES = 10_000_000  # per run: a run's samples are held whole while its metrics are computed
+ACCEPTANCE_PROBE = 1000  # runs whose bodies are drawn when the campaign is loaded
+
+
+class CampaignError(ValueError):
+    """A campaign that cannot be run; the message starts with the file and the field path."""
+
+
+@dataclass(frozen=True)
+class Campaign:
+    source: str  # the file, or "<mapping>"
+    text: str  # the campaign file's text (a mapping: its YAML dump), kept in the results
+    description: str
+    scene: Scene
+    scene_document: dict  # the scene's YAML mapping: runs with effects are built from a copy of it
+    runs: int
+    seed: int
+    duration: float
+    rate: float
+    invalid_body: str
+    max_redraws: int
+    targets: tuple  # non-body targets, in draw order
+    body_target: VectorTarget | None
+    metrics: tuple  # MetricUse
+    body_acceptance: float | None = None  # share of physical bodies over the first runs' first draws
+
+    @property
+    def samples(self) -> int:
+        return int(math.floor(self.duration * self.rate + 1e-9)) + 1
+
+    @property
+    def input_columns(self) -> tuple:
+        targets = self.targets + ((self.body_target,) if self.body_target else ())
+        return tuple(column for target in targets for column in target.columns)
+
+    @property
+    def metric_columns(self) -> tuple:
+        return tuple(column for use in self.metrics for column in use.metric.columns)
+
+    @property
+    def needs_nominal(self) -> bool:
+        return any(use.metric.needs_nominal for use in self.metrics)
+
+
+def library_campaigns() -> dict[str, Path]:
+    return {path.stem: path for path in sorted(LIBRARY_DIRECTORY.glob("*.yaml"))}
+
+
+def load_campaign(path_or_name_or_mapping) -> Campaign:
+    """A campaign file, a library campaign's name, or a mapping (its scene path relative to the
+    working directory)."""
+    if isinstance(path_or_name_or_mapping, Campaign):
+        return path_or_name_or_mapping
+    if isinstance(path_or_name_or_mapping, dict):
+        data = path_or_name_or_mapping
+        return campaign_from_mapping(data, "<mapping>", yaml.safe_dump(data, sort_keys=False), Path.cwd())
+    name = str(path_or_name_or_mapping)
+    path = Path(name)
+    if not _exists(path) and library.is_scene_name(name):
+        campaigns = library_campaigns()
+        if name not in campaigns:
+            raise CampaignError(f"campaign: '{clip(name)}' is neither a file nor a library campaign (library: "
+                                f"{', '.join(sorted(campaigns)) or 'none installed'})")
+        path = campaigns[name]
+    try:
+        data = read_regular_file(path, MAX_SCENE_BYTES)
+    except OSError as error:
+        raise CampaignError(f"campaign: cannot read {clip(str(path))!r}: {error.strerror or error}") from None
+    except ValueError as error:
+        raise CampaignError(f"campaign: {error}") from None
+    try:
+        text_ = data.decode("utf-8")
+    except UnicodeDecodeError as error:
+        raise CampaignError(f"{path}: not UTF-8 text (byte {error.start})") from None
+    try:
+        document = load_yaml(text_, str(path), _SceneLoader)
+    except ValueError as error:
+        raise CampaignError(str(error)) from None
+    return campaign_from_mapping(document, str(path), text_, path.resolve().parent)
+
+
+def _exists(path: Path) -> bool:
+    try:
+        return path.exists()
+    except (OSError, ValueError):
+        return False
+
+
+_TOP = {
+    "description": Param(text(allow_empty=True), ""),
+    "scene": Param(text(), help="a library scene's name or a scene file"),
+    "runs": Param(integer(1, MAX_RUNS), help="how many runs"),
+    "seed": Param(integer(0, 2**63 - 1), help="the campaign's seed (run i: SeedSequence(seed).spawn(runs)[i])"),
+    "duration": Param(number(minimum=0.0, unit="s"), help="simulated time of each run, s"),
+    "rate": Param(number(positive=True, maximum=MAX_RATE, unit="Hz"), help="samples per simulated second, Hz"),
+    "invalid_body": Param(choice("redraw", "fail"), "redraw"),
+    "max_redraws": Param(integer(0, 10_000), 100),
+    "dispersions": Param(lambda value, path: value, {}),  # checked against the scene below
+    "metrics": Param(parse_metrics, None),
+}
+
+
+def campaign_from_mapping(data, source: str, text_: str, base: Path) -> Campaign:
+    try:
+        values = fields(data, "", _TOP)
+        scene, document = _scene(values["scene"], base)
+        if values["duration"] * values["rate"] + 1 > MAX_SAMPLES:
+            raise FieldError("duration", f"{values['duration']:g} s at {values['rate']:g} Hz is more than "
+                                         f"{MAX_SAMPLES:,} samples a run")
+        targets, body_target = _dispersions(values["dispersions"], scene, document)
+        metrics = values["metrics"] if values["metrics"] is not None else parse_metrics(list(DEFAULT_METRICS), "metrics")
+        campaign = Campaign(source, text_, values["description"], scene, document, values["runs"], values["seed"],
+                            values["duration"], values["rate"], values["invalid_body"], values["max_redraws"],
+                            targets, body_target, metrics)
+        if body_target is not None:
+            campaign = _with_acceptance(campaign)
+        _check_plant(campaign)
+    except FieldError as error:
+        raise CampaignError(f"{source}: {error}") from None
+    return campaign
+
+
+def _scene(name: str, base: Path) -> tuple[Scene, dict]:
+    candidate = base / name
+    target = str(candidate) if not library.is_scene_name(name) or _exists(candidate) else name
+    try:
+        scene = load_scene(target)
+    except SceneError as error:
+        raise FieldError("scene", str(error)) from None
+    if scene.source == "<built-in default>":
+        document = copy.deepcopy(DEFAULT_SCENE_DATA)
+    else:
+        document = load_yaml(read_regular_file(Path(scene.source), MAX_SCENE_BYTES).decode("utf-8"), scene.source,
+                             _SceneLoader)
+    if scene.sweep_members:
+        raise FieldError("scene", f"{scene.source} is an energy sweep; a campaign disperses one scene (a sweep of "
+                                  "initial rates: a 'values' dispersion of initial.angular_velocity)")
+    return scene, document
+
+
+def _dispersions(value, scene: Scene, document: dict):
+    if not isinstance(value, dict):
+        raise FieldError("dispersions", "expected a mapping TARGET: DISPERSION")
+    targets, body = [], None
+    if "body.moments" in value and "body.inertia" in value:
+        raise FieldError("dispersions.body.inertia", "disperse either body.moments or body.inertia, not both")
+    for key, entry in value.items():
+        target = parse_target(key, entry, child("dispersions", key), scene, document)
+        if key in ("body.moments", "body.inertia"):
+            body = target
+        else:
+            targets.append(target)
+    return tuple(sorted(targets, key=lambda t: t.path)), body
+
+
+def _with_acceptance(campaign: Campaign) -> Campaign:
+    """Draw the first runs' first bodies: refuse a dispersion that gives no physical body, and keep
+    the share that are."""
+    from .engine import body_from_draw
+
+    probe = min(campaign.runs, ACCEPTANCE_PROBE)
+    valid, first_reason = 0, None
+    for run in range(probe):
+        rng = run_generator(campaign.seed, run)
+        for target in campaign.targets:  # the body draws after them: the same numbers as the run's
+            target.draw(rng, run)
+        try:
+            RigidBody.from_inertia(body_from_draw(campaign, campaign.body_target.draw(rng, run)), "inertia")
+            valid += 1
+        except ValueError as error:
+            first_reason = first_reason or str(error).split(": ", 1)[-1]
+    if valid == 0:
+        raise FieldError(f"dispersions.{campaign.body_target.path}",
+                         f"gives no physical body: the first draw of each of the first {probe} runs is impossible "
+                         f"(run 0: {first_reason})")
+    from dataclasses import replace
+    return replace(campaign, body_acceptance=valid / probe)
+
+
+def _check_plant(campaign: Campaign) -> None:
+    """A scene with effects must be one the batched plant can run."""
+    if campaign.scene.torque_free:
+        return
+    from ..plant import Plant
+    try:
+        Plant([campaign.scene], campaign.rate)
+    except ValueError as error:
+        raise FieldError("scene", str(error).split(": ", 1)[-1]) from None
