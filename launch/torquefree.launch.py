@@ -11,9 +11,10 @@ Arguments (``ros2 launch torquefree_ros torquefree.launch.py --show-args``):
 * ``params_file``: the node's parameter file (default: the shipped ``config/torquefree.yaml``, every parameter
   at its default); ``scene`` and ``record_bag`` given here override it.
 * ``namespace``: the node's namespace (its relative topics move into it; ``/tf`` stays shared).
-* ``use_sim_time``: for the node's neighbours started here (RViz). The simulator itself never takes it: it is the
-  clock (it publishes ``/clock`` whenever ``real_time_factor`` is not 1, set in the parameter file). With
-  ``real_time_factor: 1`` it publishes no ``/clock``, so leave ``use_sim_time`` false then.
+* ``use_sim_time``: ``true`` makes the node's neighbours started here (RViz) follow the simulator's ``/clock``,
+  and sets the simulator's ``publish_clock`` so that there is one whatever ``real_time_factor`` the parameter
+  file sets (at 1 it would publish none, and a neighbour on sim time would wait for it forever). The simulator
+  itself never takes ``use_sim_time``: it is the clock. ``false`` (default) leaves ``publish_clock`` to the file.
 * ``record_bag``: a bag directory to record every sample into; empty = no recording.
 * ``rviz``: ``true`` opens RViz on ``share/torquefree_ros/rviz/torquefree.rviz``.
 """
@@ -37,7 +38,8 @@ ARGUMENTS = (
     ("scene", "", "library scene name or scene file; empty = the parameter file's"),
     ("params_file", "", "the node's parameter file; empty = the shipped config/torquefree.yaml"),
     ("namespace", "", "the node's namespace; empty = none"),
-    ("use_sim_time", "false", "true: the neighbours started here (RViz) follow the simulator's /clock"),
+    ("use_sim_time", "false", "true: the neighbours started here (RViz) follow the simulator's /clock, which "
+     "the simulator then publishes at any real_time_factor (publish_clock)"),
     ("record_bag", "", "bag directory to record the samples into; empty = no recording"),
     ("rviz", "false", "true: open RViz on the shipped configuration"),
 )
@@ -61,6 +63,8 @@ def _actions(context):
     overrides = {"scene": value("scene"), "record_bag": value("record_bag")}
     parameters = [value("params_file") or os.path.join(share, PARAMS_FILE)]
     parameters += [{name: given} for name, given in overrides.items() if given]
+    if use_sim_time:  # a neighbour on sim time needs a /clock, also at real_time_factor 1
+        parameters.append({"publish_clock": True})
     actions = [Node(package=PACKAGE, executable=EXECUTABLE, name="torquefree", namespace=namespace,
                     parameters=parameters, output="screen", emulate_tty=True)]
     if _is_true(value("rviz"), "rviz"):

@@ -116,7 +116,7 @@ def test_the_launch_file_gives_the_simulator_only_parameters_it_declares(launch_
     others = {id(d) for c in calls if c is not simulator[0] for d in ast.walk(c) if isinstance(d, ast.Dict)}
     keys = {key.value for d in ast.walk(function) if isinstance(d, ast.Dict) and id(d) not in others
             for key in d.keys if isinstance(key, ast.Constant)}
-    assert keys == {"scene", "record_bag"}
+    assert keys == {"scene", "record_bag", "publish_clock"}
     assert keys <= SPEC_BY_NAME.keys(), keys - SPEC_BY_NAME.keys()
     assert ast.unparse(_keyword(simulator[0], "package")) in ("PACKAGE", repr(PACKAGE))
     assert constants["PACKAGE"] == PACKAGE
@@ -214,12 +214,21 @@ def test_given_arguments_override_the_parameter_file_and_rviz_opens_on_the_shipp
     node, rviz = _launch(monkeypatch, share, scene="dzhanibekov", params_file=str(own), namespace="/sat1/",
                          record_bag=str(tmp_path / "bag"), rviz="true", use_sim_time="true")
     assert node.kwargs["namespace"] == "sat1"
-    assert node.kwargs["parameters"] == [str(own), {"scene": "dzhanibekov"}, {"record_bag": str(tmp_path / "bag")}]
+    # use_sim_time: the simulator publishes /clock whatever real_time_factor the file sets
+    assert node.kwargs["parameters"] == [str(own), {"scene": "dzhanibekov"}, {"record_bag": str(tmp_path / "bag")},
+                                         {"publish_clock": True}]
     assert rviz.kwargs["executable"] == "rviz2"
     assert rviz.kwargs["arguments"] == ["-d", str(share / "rviz" / "torquefree.rviz")]
     assert rviz.kwargs["parameters"] == [{"use_sim_time": True}]
     # the view's absolute topics follow the node into its namespace
     assert rviz.kwargs["remappings"] == [("/markers", "/sat1/markers"), ("/pose", "/sat1/pose")]
+
+
+def test_use_sim_time_false_leaves_publish_clock_to_the_parameter_file(monkeypatch, share):
+    (node,) = _launch(monkeypatch, share, use_sim_time="false")
+    assert node.kwargs["parameters"] == [str(share / "config" / "torquefree.yaml")]
+    with pytest.raises(ValueError, match=r"use_sim_time: expected true or false, got 'on'"):
+        _launch(monkeypatch, share, use_sim_time="on")
 
 
 def test_a_launch_flag_that_is_not_true_or_false_is_refused_with_its_name(monkeypatch, share):
@@ -232,16 +241,20 @@ def test_the_node_starts_from_what_the_launch_gives_it(monkeypatch, share, tmp_p
     from sim_harness import connected_harness
 
     bag = tmp_path / "recorded"
-    (node,) = _launch(monkeypatch, share, scene="dzhanibekov", record_bag=str(bag))
+    (node,) = _launch(monkeypatch, share, scene="dzhanibekov", record_bag=str(bag), use_sim_time="true")
     params_file, *overrides = node.kwargs["parameters"]
     arguments = ["--ros-args", "--params-file", params_file]
     for override in overrides:
         (name, value), = override.items()
-        arguments += ["-p", f"{name}:={value}"]
+        arguments += ["-p", f"{name}:={str(value).lower() if isinstance(value, bool) else value}"]
     with connected_harness(args=arguments) as harness:
         assert harness.get_parameter("scene") == "dzhanibekov"
         assert harness.get_parameter("record_bag") == str(bag)
+        assert harness.get_parameter("publish_clock") is True
+        assert harness.get_parameter("real_time_factor") == 1.0  # the shipped file's: /clock all the same
         harness.wait_samples(5)
+        stamps = set(harness.omega)
+        harness.spin_until(lambda: any(c in stamps for c in harness.clock), what="/clock at the samples' stamps")
     assert (bag / "metadata.yaml").is_file()
 
 

@@ -31,7 +31,7 @@ def _parser() -> argparse.ArgumentParser:
         prog="torquefree_sim", formatter_class=argparse.RawDescriptionHelpFormatter,
         description="The torque-free attitude simulator node (default name 'torquefree'). It publishes "
         "angular_velocity (Vector3Stamped, body frame) and attitude (QuaternionStamped, q_NB), serves ~/reset "
-        "(std_srvs/Trigger) and reports on /diagnostics. Ctrl-C or SIGTERM stop it with exit status 0.",
+        "(std_srvs/Trigger) and ~/pause (std_srvs/SetBool) and reports on /diagnostics. Ctrl-C or SIGTERM stop it with exit status 0.",
         epilog=_parameter_help() + "\n\nexample: torquefree_sim --ros-args -p scene:=dzhanibekov -p publish_rate:=200.0")
 
 

@@ -1,7 +1,8 @@
 """The attitude simulator node ``TorqueFreeSim`` (default name ``torquefree``; ``cli.sim`` runs it).
 
 A thin layer over the dynamics core: parameters (``parameters``) describe a simulation, the
-sample loop (``sample_loop``) publishes it, ``~/reset`` restarts it, ``/diagnostics`` reports it.
+sample loop (``sample_loop``) publishes it, ``~/reset`` restarts it, ``~/pause`` pauses and resumes it
+(the rule: ``pause``), ``/diagnostics`` reports it.
 The node computes nothing physical itself.
 """
 
@@ -14,7 +15,7 @@ from rclpy.exceptions import InvalidParameterValueException
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock
-from std_srvs.srv import Trigger
+from std_srvs.srv import SetBool, Trigger
 
 from ..bag import BagError, BagWriter
 from ..bag.samples import ANGULAR_VELOCITY, ATTITUDE, CLOCK, INERTIA_KEY, SampleRecorder, sample_qos
@@ -23,6 +24,7 @@ from ..core.safe_files import clip
 from .commands import CommandInputs, command_diagnostics
 from .guarded_parameters import MAX_REASON_LENGTH, GuardedParameterService
 from .parameters import SPEC_BY_NAME, SPECS, ConfigurationError, ScenePolicy, check_value, rejection, run_request
+from .pause import seconds_text
 from .qos import message_class, publisher_warnings, sample_profile
 from .sample_loop import RunRequest, SampleLoop
 
@@ -34,7 +36,8 @@ LATE_WARNING_FRACTION = 0.01
 
 class _Publishers:
     """The node's sample publishers by topic: ``angular_velocity`` and ``attitude`` always, ``/clock``
-    from the first run on a clock of our own, an output's topic only while a scene names it."""
+    from the first run that publishes it (a clock of our own, or ``publish_clock``), an output's topic
+    only while a scene names it."""
 
     def __init__(self, node: Node, depth: int):
         self._node, self._depth = node, depth
@@ -56,7 +59,7 @@ class _Publishers:
 
     def ensure(self, request: RunRequest) -> None:
         """Create what ``request`` publishes on (before the run starts)."""
-        if not request.wall_clock and CLOCK[0] not in self._by_topic:
+        if request.clock and CLOCK[0] not in self._by_topic:
             self._by_topic[CLOCK[0]] = self._create(Clock, *CLOCK)
         for output in request.outputs:
             if output.topic not in self._by_topic:
@@ -117,6 +120,7 @@ class TorqueFreeSim(Node):
         self._outputs.ensure(request)
         self._commands.ensure(request)
         self.create_service(Trigger, "~/reset", self._on_reset)
+        self.create_service(SetBool, "~/pause", self._on_pause)
         diagnostics_qos = QoSProfile(depth=10)
         self._diagnostics = self.create_publisher(
             DiagnosticArray, "/diagnostics", diagnostics_qos,
@@ -238,10 +242,28 @@ class TorqueFreeSim(Node):
         self._note_inertia(simulation)
         response.success = True
         response.message = f"{run.configuration}; {simulation.summary()}"
+        if self._loop.paused:
+            response.message += ("; paused: its sample 0 goes out when ~/pause false resumes"
+                                 + (" (its stamps then move on by the time paused)" if run.wall_clock else ""))
         self.get_logger().info(f"reset: {response.message}")
         if run.left_out:
             response.message += f"; {run.left_out}"
             self.get_logger().warning(run.left_out)
+        return response
+
+    # -- pause -------------------------------------------------------------------------------------
+    def _on_pause(self, request, response):
+        try:
+            report = self._loop.pause(bool(request.data))
+        except RuntimeError as error:
+            response.success = False
+            response.message = clip(f"{'pause' if request.data else 'resume'} not done: {error}", MAX_REASON_LENGTH)
+            self.get_logger().warning(response.message)
+            return response
+        response.success = True
+        response.message = report.message()
+        if report.changed:
+            self.get_logger().info(response.message)
         return response
 
     # -- diagnostics -------------------------------------------------------------------------------
@@ -274,6 +296,10 @@ class TorqueFreeSim(Node):
             simulation.command_holds, last.index if last is not None and last.simulation is simulation else None,
             loop.missed_steps, loop.request.lockstep)
         values.update(command_values)
+        values["paused"] = "true" if loop.paused else "false"
+        if loop.request.wall_clock:
+            # how far pauses moved this run's wall-clock stamps (s): stamp = epoch + shift + t_k
+            values["stamp_shift"] = seconds_text(loop.stamp_shift_ns)
         if self._bag is not None:
             values["record_bag"] = str(self._bag.writer.path)
             values["messages_recorded"] = str(self._bag.writer.message_count)
@@ -287,6 +313,10 @@ class TorqueFreeSim(Node):
             status.level, status.message = DiagnosticStatus.WARN, "more than 1% of samples published late"
         else:
             status.level, status.message = DiagnosticStatus.OK, "running"
+        if loop.paused:
+            values["paused_at"] = loop.paused_at
+            status.message = f"paused at {loop.paused_at}" + ("" if status.message == "running"
+                                                             else f"; {status.message}")
         status.values = [KeyValue(key=key, value=value) for key, value in values.items()]
         array = DiagnosticArray(status=[status])
         stamp = loop.clock_now_ns

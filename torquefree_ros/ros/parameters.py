@@ -104,6 +104,11 @@ SPECS = (
                   "1 = wall-clock pace with wall-clock stamps; other values pace simulated time at this "
                   "multiple of wall time and publish /clock; 0 = as fast as possible." + _AT_RESET,
                   f">= 0 and <= {MAX_REAL_TIME_FACTOR:g}", number_range=(0.0, MAX_REAL_TIME_FACTOR)),
+    ParameterSpec("publish_clock", False,
+                  "Publish /clock at real_time_factor 1 too: one message per sample, at its stamp, just before "
+                  "it, so that neighbours started with use_sim_time:=true follow the simulator (they wait "
+                  "forever for a /clock otherwise). Any other real_time_factor, or lockstep, always publishes "
+                  "/clock." + _AT_RESET, "true or false"),
     ParameterSpec("body_frame", "body", "header.frame_id of angular_velocity (the body frame)." + _AT_RESET,
                   _FRAME_RULE),
     ParameterSpec("inertial_frame", "world", "header.frame_id of attitude (the inertial frame)." + _AT_RESET,
@@ -163,7 +168,7 @@ def check_value(name: str, parameter: Parameter):
         if name == "angular_velocity":
             return tuple(finite_vector(value, name, (3,)).tolist())
         return tuple(unit_quaternion(value, name).tolist())
-    if name == "lockstep":
+    if name in ("lockstep", "publish_clock"):
         if kind != Parameter.Type.BOOL:
             raise ValueError(f"{name}: expected true or false, got {_type_name(kind)} {shown(value)}")
         return bool(value)
@@ -278,7 +283,7 @@ def run_request(values: dict) -> RunRequest:
                          f"{len(body_frame)} characters, at most {MAX_FRAME_LENGTH} are allowed")
     return RunRequest(propagator, values["publish_rate"], values["real_time_factor"], body_frame,
                       values["inertial_frame"], outputs, describe(values, scene), left_out, values["lockstep"],
-                      values["lockstep_timeout"])
+                      values["lockstep_timeout"], values["publish_clock"])
 
 
 def _installed(type_name: str) -> bool:

@@ -14,10 +14,19 @@ the torque over the interval before them is sealed (commands arriving later hold
 interval); in lock-step the loop first waits for the controller's answer to the last sample (a
 command stamped at or after it), at most ``lockstep_timeout`` wall seconds, and always runs on its
 own clock. The commands that hold go into the bag, logged at the sample they hold from.
+
+Pause (``pause(True)``, the node's ``~/pause``): taken between two samples, like a restart; from then
+on no sample goes out and nothing is recorded, the simulated clock stands still (``/clock``, when the
+run publishes it, is republished at its held value every ``HELD_CLOCK_PERIOD`` wall seconds and not
+recorded), and a lock-step wait for the controller is interrupted. ``pause(False)`` resumes the same
+run: the samples that follow are those of a run never paused, with the same indices and values. On a
+clock of our own the stamps simply continue (the clock held); with wall-clock stamps the run's epoch
+moves on by the time paused (see :data:`.pause.WALL_CLOCK_RULE`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import threading
 import time
 from dataclasses import dataclass
@@ -25,11 +34,13 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from ..bag.samples import encode_block, encode_command
+from ..bag.cdr import encode_times
+from ..bag.samples import CLOCK, encode_block, encode_command
 from ..bag.writer import BagError
 from ..core.propagators import Propagator
 from ..core.simulation import SampleBlock, Simulation
 from ..core.timing import restart_epoch_ns, stamps_ns
+from .pause import PauseReport, where
 
 # Samples computed ahead in one vectorised call: at most MAX_BLOCK, and at most this much wall time
 # of samples (a reset discards the rest). When paced, the block is also kept small enough that
@@ -41,6 +52,9 @@ BLOCK_WALL_SECONDS = 0.25
 #: the longest single wait for a deadline (s): the loop then checks again. A deadline can lie beyond
 #: what a wait takes (a real_time_factor of 1e-300 puts the next sample centuries away)
 MAX_WAIT = 1.0
+#: while paused, /clock (when the run publishes it) goes out again at its held value this often (wall s):
+#: a neighbour that starts during the pause learns the time, as under a paused Gazebo
+HELD_CLOCK_PERIOD = 0.1
 
 
 @dataclass(frozen=True)
@@ -55,10 +69,16 @@ class RunRequest:
     left_out: str = ""  # the scene's outputs this Python cannot publish, and why ("" when none)
     lockstep: bool = False  # wait for the controller's answer to each sample (a clock of our own)
     lockstep_timeout: float = 1.0  # wall s to wait for it before going on with the command in force
+    publish_clock: bool = False  # /clock with wall-clock stamps too (a clock of our own always has it)
 
     @property
     def wall_clock(self) -> bool:
         return self.real_time_factor == 1.0 and not self.lockstep
+
+    @property
+    def clock(self) -> bool:
+        """Whether the run publishes ``/clock`` (one message per sample, at its stamp, just before it)."""
+        return self.publish_clock or not self.wall_clock
 
 
 class LastSample(NamedTuple):
@@ -91,10 +111,36 @@ class _Run:
         self.columns: tuple = ()  # bag.samples.SampleColumn per topic, in publishing order
         self.position = 0
         self.holds = simulation.command_holds  # closed loop: (effect, hold) per command input
+        self.shift_ns = 0  # wall clock: how far pauses moved the run's stamps (its epoch) in all
         if self.holds:
             self.max_block = 1  # each sample computed when due, under the commands received by then
             for effect, hold in self.holds:
                 hold.frame_id = effect.frame_id(request.body_frame, request.inertial_frame)
+
+    @property
+    def next_out(self) -> int:
+        """The index of the next sample to go out."""
+        return self.block.first + self.position if self.block is not None else self.next_index
+
+    def resume(self, paused_ns: int) -> int:
+        """Continue after ``paused_ns`` (monotonic) paused; returns how far the stamps moved (ns).
+        A clock of our own held: only the pacing moves on. Wall-clock stamps: the run's epoch moves on
+        by the time paused, and with it the stamps of the samples computed ahead (re-encoded from the
+        same values), the command holds' grid and the commands in force (so a command's timeout counts
+        simulated time, which stood still)."""
+        if not self.request.wall_clock:
+            self.mono_ref += paused_ns * 1e-9
+            return 0
+        self.simulation.epoch_ns += paused_ns
+        for _, hold in self.holds:
+            _shift_hold(hold, paused_ns)
+        if self.block is not None and self.position < len(self.block):
+            self.block = dataclasses.replace(self.block, stamps_ns=self.block.stamps_ns + np.int64(paused_ns))
+            request = self.request
+            self.columns = encode_block(self.block, request.body_frame, request.inertial_frame,
+                                        self.simulation.outputs, clock=request.clock)
+        self.shift_ns += paused_ns
+        return paused_ns
 
     def stamp_of(self, index: int) -> int:
         return int(stamps_ns(self.simulation.epoch_ns, np.array([index / self.simulation.rate]))[0])
@@ -112,7 +158,7 @@ class _Run:
         block = self.simulation.samples(self.next_index, self.block_size)
         request = self.request
         self.columns = encode_block(block, request.body_frame, request.inertial_frame, self.simulation.outputs,
-                                    clock=not request.wall_clock)
+                                    clock=request.clock)
         self.block = block
         self.next_index += len(block)
         self.position = 0
@@ -169,6 +215,10 @@ class SampleLoop:
         self.late = 0
         self.missed_steps = 0  # lock-step: samples computed without the controller's answer
         self.failure = ""
+        self._pause_request: tuple[bool, threading.Event, list] | None = None
+        self._paused_since_ns: int | None = None  # monotonic; None: running
+        self.paused_at = ""  # while paused: the sample that goes out next, as "sample k (t = ... s)"
+        self._clock_ns: int | None = None  # the last /clock value published
 
     # -- called from the executor thread ---------------------------------------------------------
     def start(self, request: RunRequest) -> Simulation:
@@ -178,7 +228,8 @@ class SampleLoop:
         return self._run.simulation
 
     def restart(self, request: RunRequest, timeout: float = 10.0) -> Simulation:
-        """Apply ``request`` between two samples; returns the new simulation once it is running."""
+        """Apply ``request`` between two samples; returns the new simulation once it is running (while
+        paused, once it is in place: it starts paused, and its sample 0 goes out on resuming)."""
         done, result = threading.Event(), []
         with self._lock:
             if self._stopping or not self.running:
@@ -188,6 +239,29 @@ class SampleLoop:
         if not done.wait(timeout):
             raise RuntimeError(f"the sample loop did not take the restart within {timeout:g} s")
         return result[0]
+
+    def pause(self, paused: bool, timeout: float = 10.0) -> PauseReport:
+        """Pause (True) or resume (False) between two samples; returns once the loop has done it (from
+        then on, while paused, no sample goes out)."""
+        done, result = threading.Event(), []
+        with self._lock:
+            if self._stopping or not self.running:
+                raise RuntimeError("the sample loop is not running")
+            self._pause_request = (bool(paused), done, result)
+        self._wake.set()
+        if not done.wait(timeout):
+            raise RuntimeError(f"the sample loop did not take the {'pause' if paused else 'resume'} within "
+                               f"{timeout:g} s; it applies at the next sample")
+        return result[0]
+
+    @property
+    def paused(self) -> bool:
+        return self._paused_since_ns is not None
+
+    @property
+    def stamp_shift_ns(self) -> int:
+        """How far pauses moved the running run's wall-clock stamps (0 on a clock of our own)."""
+        return self._run.shift_ns if self._run else 0
 
     def stop(self, timeout: float = 5.0) -> None:
         with self._lock:
@@ -238,17 +312,60 @@ class SampleLoop:
         return run
 
     def _take_pending(self) -> bool:
+        """Apply a pending restart (True when there was one), then a pending pause or resume."""
         with self._lock:
             if self._stopping:
                 raise _Stop
             pending, self._pending = self._pending, None
-        if pending is None:
-            return False
-        request, done, result = pending
-        self._run = self._begin(request)
-        result.append(self._run.simulation)
-        done.set()
-        return True
+            pause, self._pause_request = self._pause_request, None
+        if pending is not None:
+            request, done, result = pending
+            self._run = self._begin(request)
+            if self.paused:  # the new run starts paused: its pause counts from here
+                self._paused_since_ns = time.monotonic_ns()
+                self.paused_at = where(0, self._run.simulation.rate)
+            result.append(self._run.simulation)
+            done.set()
+        if pause is not None:
+            wanted, done, result = pause
+            result.append(self._apply_pause(wanted))
+            done.set()
+        return pending is not None
+
+    def _apply_pause(self, wanted: bool) -> PauseReport:
+        run, now = self._run, time.monotonic_ns()
+        changed = wanted != self.paused
+        paused_for = now - self._paused_since_ns if self.paused else 0
+        shift = 0
+        if changed and wanted:
+            self.paused_at = where(run.next_out, run.simulation.rate)
+            self._paused_since_ns = now
+            if self._recorder is not None:  # the open chunk goes out now, not after the pause
+                self._to_bag(lambda recorder: recorder.writer.flush())
+        elif changed:
+            self._paused_since_ns = None
+            shift = run.resume(paused_for)
+        report = PauseReport(
+            changed=changed, paused=wanted, next_index=run.next_out, rate=run.simulation.rate,
+            clock_ns=self._clock_ns if run.request.clock else None, paused_for_ns=paused_for, shift_ns=shift,
+            wall_clock=run.request.wall_clock, total_shift_ns=run.shift_ns)
+        if changed and not wanted:
+            self.paused_at = ""
+        return report
+
+    def _while_paused(self) -> None:
+        """Until resumed (restarts may come meanwhile): no sample; the held /clock now and then."""
+        next_clock = 0.0
+        while True:
+            self._take_pending()
+            if not self.paused:
+                return
+            clock = self._run.request.clock
+            if clock and self._clock_ns is not None and time.monotonic() >= next_clock:
+                self._publishers.get(CLOCK[0]).publish(encode_times([self._clock_ns])[0])
+                next_clock = time.monotonic() + HELD_CLOCK_PERIOD
+            if self._wake.wait(HELD_CLOCK_PERIOD if clock else MAX_WAIT):
+                self._wake.clear()
 
     def _main(self) -> None:
         try:
@@ -264,6 +381,9 @@ class SampleLoop:
     def _loop(self) -> None:
         while True:
             self._take_pending()
+            if self.paused:
+                self._while_paused()
+                continue
             run = self._run
             if run.block is None or run.position == len(run.block):
                 if run.holds and not self._close_interval(run):
@@ -291,6 +411,8 @@ class SampleLoop:
                     publisher.publish(message)
             if self._recorder is not None:
                 self._record(stamp, run.columns, i)
+            if run.request.clock:
+                self._clock_ns = stamp
             run.position = i + 1
             self.published += 1
             self.last = LastSample(run.simulation, block.first + i, stamp, block.omega_B[i], block.internal[i])
@@ -351,6 +473,14 @@ class SampleLoop:
         while not self._take_pending():
             self._wake.wait()
             self._wake.clear()
+
+
+def _shift_hold(hold, offset_ns: int) -> None:
+    """Move a command hold's grid and the commands it keeps by ``offset_ns``, under its lock (commands
+    arrive on the executor's thread meanwhile). (Belongs in ``CommandHold`` itself, as ``shift``.)"""
+    with hold._lock:  # noqa: SLF001
+        hold.epoch_ns += offset_ns
+        hold.commands[:] = [command._replace(stamp_ns=command.stamp_ns + offset_ns) for command in hold.commands]
 
 
 class _Stop(Exception):
