@@ -35,8 +35,8 @@ import yaml
 
 from ..core import library
 from ..core.rigid_body import RigidBody
-from ..core.safe_files import clip, load_yaml, read_regular_file
-from ..core.scene import DEFAULT_SCENE_DATA, MAX_SCENE_BYTES, Scene, SceneError, _SceneLoader, load_scene
+from ..core.safe_files import clip
+from ..core.scene import DEFAULT_SCENE_DATA, Scene, SceneError, load_scene, read_document
 from ..core.schema import FieldError, Param, child, choice, fields, integer, number, text
 from ..core.timing import MAX_RATE
 from .dispersions import EffectTarget, OrientationTarget, VectorTarget, parse_target, run_generator
@@ -108,20 +108,7 @@ def load_campaign(path_or_name_or_mapping) -> Campaign:
             raise CampaignError(f"campaign: '{clip(name)}' is neither a file nor a library campaign (library: "
                                 f"{', '.join(sorted(campaigns)) or 'none installed'})")
         path = campaigns[name]
-    try:
-        data = read_regular_file(path, MAX_SCENE_BYTES)
-    except OSError as error:
-        raise CampaignError(f"campaign: cannot read {clip(str(path))!r}: {error.strerror or error}") from None
-    except ValueError as error:
-        raise CampaignError(f"campaign: {error}") from None
-    try:
-        text_ = data.decode("utf-8")
-    except UnicodeDecodeError as error:
-        raise CampaignError(f"{path}: not UTF-8 text (byte {error.start})") from None
-    try:
-        document = load_yaml(text_, str(path), _SceneLoader)
-    except ValueError as error:
-        raise CampaignError(str(error)) from None
+    text_, document = read_document(path, CampaignError, "campaign")
     return campaign_from_mapping(document, str(path), text_, path.resolve().parent)
 
 
@@ -176,8 +163,7 @@ def _scene(name: str, base: Path) -> tuple[Scene, dict]:
     if scene.source == "<built-in default>":
         document = copy.deepcopy(DEFAULT_SCENE_DATA)
     else:
-        document = load_yaml(read_regular_file(Path(scene.source), MAX_SCENE_BYTES).decode("utf-8"), scene.source,
-                             _SceneLoader)
+        _, document = read_document(Path(scene.source))
     if scene.sweep_members:
         raise FieldError("scene", f"{scene.source} is an energy sweep; a campaign disperses one scene (a sweep of "
                                   "initial rates: a 'values' dispersion of initial.angular_velocity)")

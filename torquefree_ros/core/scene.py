@@ -125,21 +125,28 @@ def load_scene(path_or_name) -> Scene:
             known = ", ".join(sorted(scenes)) or "none installed"
             raise SceneError(f"scene: '{clip(name)}' is neither a file nor a library scene (library: {known})")
         path = scenes[name]
+    _, document = read_document(path)
+    return scene_from_mapping(document, source=str(path))
+
+
+def read_document(path, error: type[Exception] = SceneError, what: str = "scene") -> tuple[str, object]:
+    """A YAML file read as scenes are: a regular file of at most MAX_SCENE_BYTES, UTF-8, YAML 1.2
+    numbers, keys given once, bounded nesting; returns ``(text, document)``. Every failure is an
+    ``error`` naming the file (``what`` before a failure to read it at all)."""
     try:
         data = read_regular_file(path, MAX_SCENE_BYTES)
-    except OSError as error:
-        raise SceneError(f"scene: cannot read {clip(str(path))!r}: {error.strerror or error}") from None
-    except ValueError as error:
-        raise SceneError(f"scene: {error}") from None
+    except OSError as failure:
+        raise error(f"{what}: cannot read {clip(str(path))!r}: {failure.strerror or failure}") from None
+    except ValueError as failure:
+        raise error(f"{what}: {failure}") from None
     try:
         text_ = data.decode("utf-8")
-    except UnicodeDecodeError as error:
-        raise SceneError(f"{path}: not UTF-8 text (byte {error.start})") from None
+    except UnicodeDecodeError as failure:
+        raise error(f"{path}: not UTF-8 text (byte {failure.start})") from None
     try:
-        document = load_yaml(text_, str(path), _SceneLoader)
-    except ValueError as error:
-        raise SceneError(str(error)) from None
-    return scene_from_mapping(document, source=str(path))
+        return text_, load_yaml(text_, str(path), _SceneLoader)
+    except ValueError as failure:
+        raise error(str(failure)) from None
 
 
 def _exists(path: Path) -> bool:
