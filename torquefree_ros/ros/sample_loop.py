@@ -133,7 +133,7 @@ class _Run:
             return 0
         self.simulation.epoch_ns += paused_ns
         for _, hold in self.holds:
-            _shift_hold(hold, paused_ns)
+            hold.shift(paused_ns)
         if self.block is not None and self.position < len(self.block):
             self.block = dataclasses.replace(self.block, stamps_ns=self.block.stamps_ns + np.int64(paused_ns))
             request = self.request
@@ -473,14 +473,6 @@ class SampleLoop:
         while not self._take_pending():
             self._wake.wait()
             self._wake.clear()
-
-
-def _shift_hold(hold, offset_ns: int) -> None:
-    """Move a command hold's grid and the commands it keeps by ``offset_ns``, under its lock (commands
-    arrive on the executor's thread meanwhile). (Belongs in ``CommandHold`` itself, as ``shift``.)"""
-    with hold._lock:  # noqa: SLF001
-        hold.epoch_ns += offset_ns
-        hold.commands[:] = [command._replace(stamp_ns=command.stamp_ns + offset_ns) for command in hold.commands]
 
 
 class _Stop(Exception):

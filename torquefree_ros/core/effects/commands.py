@@ -117,6 +117,13 @@ class CommandHold:
     def start(self, rate: float, epoch_ns: int, frame_id: str = "") -> None:
         self.rate, self.epoch_ns, self.frame_id = float(rate), int(epoch_ns), frame_id
 
+    def shift(self, offset_ns: int) -> None:
+        """Move the grid and the commands kept by ``offset_ns`` (a paused run resuming on wall-clock
+        stamps: its epoch moved on, and a command's timeout counts simulated time, which stood still)."""
+        with self._lock:  # commands arrive on another thread meanwhile
+            self.epoch_ns += int(offset_ns)
+            self.commands[:] = [command._replace(stamp_ns=command.stamp_ns + int(offset_ns)) for command in self.commands]
+
     # -- the grid -------------------------------------------------------------------------------
     def stamp_ns(self, k: int) -> int:
         """The stamp of sample ``k``, as the simulation stamps it."""
