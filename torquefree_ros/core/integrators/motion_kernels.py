@@ -479,6 +479,11 @@ def fixed_steps(method, j, j_end, step, bound, y, model, held, work):
 # ==== loading ===========================================================================================
 
 _INLINED = {"derivative", "_gravity_gradient", "_damper", "_rotor", "_rotate_inverse", "_stage_state"}
+# The entry points that can run long (a block of samples, 10 000 steps a sample at the step budget)
+# release the GIL: holding it, a 0.25 s block left the node's other threads (its executor: services,
+# parameters, Ctrl-C) one switch interval per block, and a start-up took minutes as fast as possible
+# with rk4 at 0.1 Hz. (The exact solution's kernels keep it: their calls are microseconds.)
+_RELEASING_THE_GIL = {"dop853_outputs", "dop853_outputs_batch", "fixed_outputs", "fixed_steps"}
 _compiling = threading.Lock()
 _compiled = False
 
@@ -498,6 +503,8 @@ def compile_kernels() -> None:
             # the right-hand side inlined into the steps: each call of a compiled function with array
             # arguments pays reference counting (~50 ns a call here, 10 % of explorer1's run)
             extra = {"inline": "always"} if function.__name__ in _INLINED else {}
+            if function.__name__ in _RELEASING_THE_GIL:
+                extra["nogil"] = True
             try:
                 return numba.njit(cache=True, error_model="numpy", **extra)(function)
             except RuntimeError:  # no writable cache anywhere: compile in every process
