@@ -34,6 +34,7 @@ body (so that redrawing an impossible body does not move the other draws).
 
 from __future__ import annotations
 
+import abc
 import math
 import re
 from dataclasses import dataclass
@@ -48,12 +49,12 @@ MODES = ("relative", "absolute", "replace")
 
 
 # -- distributions of one number ------------------------------------------------------------------------
-class Distribution:
+class Distribution(abc.ABC):
     name = ""
     parameters: dict = {}
 
-    def draw(self, rng: np.random.Generator, run: int) -> float:
-        raise NotImplementedError
+    @abc.abstractmethod
+    def draw(self, rng: np.random.Generator, run: int) -> float: ...
 
     def describe(self) -> str:
         return self.name

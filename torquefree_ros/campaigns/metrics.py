@@ -32,6 +32,7 @@ from typing import Callable
 
 import numpy as np
 
+from ..core import quaternion
 from ..core.schema import FieldError, Param, child, choice, fields, number, one_key, shown, vector
 
 
@@ -280,12 +281,5 @@ def momentum_drift(samples):
 def nominal_attitude_error(samples):
     """The largest attitude difference from the nominal (undispersed) run over the samples, rad:
     the angle of ``q_nom* ⊗ q``."""
-    p, q = samples.nominal.q_NB, samples.q_NB  # (1, M, 4), (n, M, 4)
-    px, py, pz, pw = -p[..., 0], -p[..., 1], -p[..., 2], p[..., 3]
-    qx, qy, qz, qw = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    dx = pw * qx + px * qw + py * qz - pz * qy
-    dy = pw * qy - px * qz + py * qw + pz * qx
-    dz = pw * qz + px * qy - py * qx + pz * qw
-    dw = pw * qw - px * qx - py * qy - pz * qz
-    angle = 2.0 * np.arctan2(np.sqrt(dx * dx + dy * dy + dz * dz), np.abs(dw))
-    return angle.max(axis=1)
+    # (1, M, 4) against (n, M, 4): quaternion's element-wise product, so no run depends on its chunk
+    return quaternion.angle_between(samples.nominal.q_NB, samples.q_NB).max(axis=1)

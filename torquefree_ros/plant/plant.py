@@ -22,8 +22,8 @@ import numpy as np
 
 from ..core.integrators import compiled
 from ..core.integrators import motion_kernels as kernels
-from ..core.propagators import ATOL_PER_RTOL, DEFAULT_ACCURACY, MAX_STEPS_PER_SAMPLE, StepBudgetExceeded
-from ..core.propagators.base import StepTooSmall
+from ..core.effects.commands import sample_stamp_ns, timed_out
+from ..core.propagators import ATOL_PER_RTOL, DEFAULT_ACCURACY, MAX_STEPS_PER_SAMPLE
 from ..core.scene import Scene, load_scene
 from ..core.timing import check_rate
 
@@ -102,7 +102,7 @@ class Plant:
     def _build(self) -> None:
         kernels.compile_kernels()
         propagators = []
-        for index, scene in enumerate(self.scenes):
+        for scene in self.scenes:
             accuracy = DEFAULT_ACCURACY if scene.accuracy is None else scene.accuracy
             propagators.append(scene.propagator("dop853", rtol=accuracy, atol=accuracy * ATOL_PER_RTOL))
         layouts = [_layout(p) for p in propagators]
@@ -152,9 +152,6 @@ class Plant:
         else:
             self._commands = None
 
-    def _stamp_ns(self, k: int) -> int:
-        return round(k / self.rate * 1e9)  # CommandHold.stamp_ns with epoch 0
-
     def _accept(self, torque) -> None:
         commands = self._commands
         if commands is None:
@@ -176,7 +173,7 @@ class Plant:
             raise ValueError(f"torque: a component exceeds max_torque {commands.max_torque[b]:g} N m (body {b}): "
                              f"{values[b].tolist()}")
         commands.torque[:] = values
-        commands.stamp_ns[:] = self._stamp_ns(self.k)
+        commands.stamp_ns[:] = sample_stamp_ns(self.k, self.rate)
 
     def _hold(self) -> None:
         """The torque over ``[t_k, t_k+1)``: the command in force (zero once it timed out), in its frame,
@@ -184,7 +181,7 @@ class Plant:
         commands = self._commands
         if commands is None:
             return
-        in_force = (self._stamp_ns(self.k) - commands.stamp_ns) < commands.timeout_ns
+        in_force = ~timed_out(sample_stamp_ns(self.k, self.rate), commands.stamp_ns, commands.timeout_ns)
         held = np.where(in_force[:, None], commands.torque, 0.0)
         self._helds[:] = self._base_held
         if commands.inertial:
@@ -213,17 +210,10 @@ class Plant:
     def _fail(self, body: int, times: np.ndarray):
         """A body could not reach its sample. The kernels' state is mid-step for some bodies, so the plant
         refuses to go on until ``reset()``; ``state`` stays the last sample reached."""
-        status, p = int(self._status[body]), self._propagators[body]
         t = float(times[min(int(self._reached[body]), times.size - 1)])
-        if status == kernels.BUDGET:
-            error = StepBudgetExceeded(p, t, float(self._solvers[body, kernels.H_ABS]))
-        elif status == kernels.TOO_SMALL:
-            error = StepTooSmall(p, t)
-        else:
-            error = RuntimeError(f"dop853: the step collapsed before t = {t:.6g} s: the scene's effects are too "
-                                 "stiff for an explicit integrator")
+        error = compiled.dop853_error(int(self._status[body]), self._propagators[body], t, self._solvers[body])
         self._failed = f"{'body %d: ' % body if self.batch else ''}{error}"
-        raise type(error)(*error.args) if type(error) is RuntimeError else error
+        raise error
 
     def _shaped(self, rows: np.ndarray, samples_axis: bool = False) -> PlantState:
         rows = rows if samples_axis else rows[:, -1, :]

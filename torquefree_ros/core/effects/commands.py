@@ -127,7 +127,7 @@ class CommandHold:
     # -- the grid -------------------------------------------------------------------------------
     def stamp_ns(self, k: int) -> int:
         """The stamp of sample ``k``, as the simulation stamps it."""
-        return self.epoch_ns + round(k / self.rate * 1e9)
+        return sample_stamp_ns(k, self.rate, self.epoch_ns)
 
     def index_at_or_after(self, stamp_ns: int) -> int:
         """The first sample ``k >= 0`` whose stamp is at or after ``stamp_ns``."""
@@ -206,9 +206,7 @@ class CommandHold:
         with self._lock:  # sealing may trim the lists meanwhile
             index = bisect.bisect_right(self._starts, k) - 1
             command = self.commands[index] if index >= 0 else None
-        if command is None:
-            return None
-        if self.stamp_ns(k) - command.stamp_ns >= self.timeout_ns:
+        if command is None or timed_out(self.stamp_ns(k), command.stamp_ns, self.timeout_ns):
             return None
         return command
 
@@ -217,7 +215,7 @@ class CommandHold:
         with self._lock:
             index = bisect.bisect_right(self._starts, k) - 1
             since = self.commands[index].stamp_ns if index >= 0 else self.epoch_ns
-        return self.stamp_ns(k) - since >= self.timeout_ns
+        return timed_out(self.stamp_ns(k), since, self.timeout_ns)
 
     def torque_at(self, t: float) -> np.ndarray:
         command = self.in_force(self.interval_at(t))
@@ -234,6 +232,16 @@ class CommandHold:
                     return False
                 self._arrived.wait(min(remaining, 0.05))
             return True
+
+
+def sample_stamp_ns(k: int, rate: float, epoch_ns: int = 0) -> int:
+    """The stamp of sample ``k`` of a run at ``rate`` Hz from ``epoch_ns``, as the simulation stamps it."""
+    return epoch_ns + round(k / rate * 1e9)
+
+
+def timed_out(now_ns, since_ns, timeout_ns):
+    """The timeout rule: no command for ``timeout`` since ``since_ns`` (integers, or arrays of them)."""
+    return now_ns - since_ns >= timeout_ns
 
 
 _ZERO = np.zeros(3)

@@ -136,21 +136,23 @@ class DOP853Kernel(_Kernel):
             elif status == kernels.SEGMENT_END:
                 self._begin(float(self.solver[kernels.T]))
             else:
-                self._fail(status, float(times[i]))
+                raise dop853_error(status, self.propagator, float(times[i]), self.solver)
         return out
 
-    def _fail(self, status: int, t: float):
-        from ..propagators.base import StepBudgetExceeded, StepTooSmall
 
-        step = abs(float(self.solver[kernels.H_PREVIOUS])) or float(self.solver[kernels.H_ABS])
-        at = float(self.solver[kernels.T])
-        if status == kernels.BUDGET:
-            raise StepBudgetExceeded(self.propagator, t, step)
-        if status == kernels.TOO_SMALL:
-            raise StepTooSmall(self.propagator, at)
-        raise RuntimeError(
-            f"dop853: the step fell to {step:.2g} s at t = {at:.6g} s, under {self.propagator.min_step:.2g} s "
-            f"(1e-7 of a turn): the scene's effects are too stiff for an explicit integrator")
+def dop853_error(status: int, propagator, t: float, solver: np.ndarray) -> RuntimeError:
+    """The error for a DOP853 kernel's ``status`` (BUDGET, TOO_SMALL, STIFF) on the way to ``t``, in the
+    reference path's words."""
+    from ..propagators.base import StepBudgetExceeded, StepTooSmall
+
+    step = abs(float(solver[kernels.H_PREVIOUS])) or float(solver[kernels.H_ABS])
+    at = float(solver[kernels.T])
+    if status == kernels.BUDGET:
+        return StepBudgetExceeded(propagator, t, step)
+    if status == kernels.TOO_SMALL:
+        return StepTooSmall(propagator, at)
+    return RuntimeError(f"dop853: the step fell to {step:.2g} s at t = {at:.6g} s, under {propagator.min_step:.2g} s "
+                        f"(1e-7 of a turn): the scene's effects are too stiff for an explicit integrator")
 
 
 class FixedStepKernel(_Kernel):
