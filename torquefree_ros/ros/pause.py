@@ -32,8 +32,8 @@ class PauseReport(NamedTuple):
     next_index: int  # the sample that goes out next (k)
     rate: float  # publish_rate: t_k = k / rate
     clock_ns: int | None  # the value /clock holds (None: the run publishes no /clock, or none yet)
-    paused_for_ns: int  # how long it had been paused (monotonic ns; 0 when it was running)
-    shift_ns: int  # resuming with wall-clock stamps: how far this resume moved the stamps (= paused_for_ns)
+    paused_for_ns: int  # how long it had been paused (monotonic ns; 0 when it was running); resuming with
+    # wall-clock stamps, also how far this resume moved them
     wall_clock: bool  # the run's stamps are wall-clock time
     total_shift_ns: int  # how far all pauses of the run moved its stamps
 
@@ -56,7 +56,7 @@ class PauseReport(NamedTuple):
                     f"on resuming, {rule}")
         paused = f"after {self.paused_for_ns * 1e-9:.3f} s paused"
         if self.wall_clock:
-            return (f"resumed at {self.where} {paused}; stamps shifted by +{seconds_text(self.shift_ns)} s "
+            return (f"resumed at {self.where} {paused}; stamps shifted by +{seconds_text(self.paused_for_ns)} s "
                     f"(+{seconds_text(self.total_shift_ns)} s in this run): {WALL_CLOCK_RULE}")
         return f"resumed at {self.where} {paused}: {OWN_CLOCK_RULE}"
 

@@ -122,15 +122,15 @@ class _Run:
         """The index of the next sample to go out."""
         return self.block.first + self.position if self.block is not None else self.next_index
 
-    def resume(self, paused_ns: int) -> int:
-        """Continue after ``paused_ns`` (monotonic) paused; returns how far the stamps moved (ns).
+    def resume(self, paused_ns: int) -> None:
+        """Continue after ``paused_ns`` (monotonic) paused.
         A clock of our own held: only the pacing moves on. Wall-clock stamps: the run's epoch moves on
         by the time paused, and with it the stamps of the samples computed ahead (re-encoded from the
         same values), the command holds' grid and the commands in force (so a command's timeout counts
         simulated time, which stood still)."""
         if not self.request.wall_clock:
             self.mono_ref += paused_ns * 1e-9
-            return 0
+            return
         self.simulation.epoch_ns += paused_ns
         for _, hold in self.holds:
             hold.shift(paused_ns)
@@ -140,7 +140,6 @@ class _Run:
             self.columns = encode_block(self.block, request.body_frame, request.inertial_frame,
                                         self.simulation.outputs, clock=request.clock)
         self.shift_ns += paused_ns
-        return paused_ns
 
     def stamp_of(self, index: int) -> int:
         return int(stamps_ns(self.simulation.epoch_ns, np.array([index / self.simulation.rate]))[0])
@@ -336,7 +335,6 @@ class SampleLoop:
         run, now = self._run, time.monotonic_ns()
         changed = wanted != self.paused
         paused_for = now - self._paused_since_ns if self.paused else 0
-        shift = 0
         if changed and wanted:
             self.paused_at = where(run.next_out, run.simulation.rate)
             self._paused_since_ns = now
@@ -344,10 +342,10 @@ class SampleLoop:
                 self._to_bag(lambda recorder: recorder.writer.flush())
         elif changed:
             self._paused_since_ns = None
-            shift = run.resume(paused_for)
+            run.resume(paused_for)
         report = PauseReport(
             changed=changed, paused=wanted, next_index=run.next_out, rate=run.simulation.rate,
-            clock_ns=self._clock_ns if run.request.clock else None, paused_for_ns=paused_for, shift_ns=shift,
+            clock_ns=self._clock_ns if run.request.clock else None, paused_for_ns=paused_for,
             wall_clock=run.request.wall_clock, total_shift_ns=run.shift_ns)
         if changed and not wanted:
             self.paused_at = ""
