@@ -1,6 +1,6 @@
 """Closing the loop through the node: an in-process PD (rate-damping) controller detumbles a body in
-lock-step as the closed loop predicts; two runs are bit-identical; the recorded commands re-simulate
-offline into the very same samples; without lock-step the hold times out to zero and /diagnostics
+lock-step as the closed loop predicts; two runs are bit-identical; the same controller stepping the
+plant in process and the recorded commands re-simulated offline give the very same samples; without lock-step the hold times out to zero and /diagnostics
 warns; malformed commands are counted there; a scene without the effect has no subscription."""
 
 from __future__ import annotations
@@ -67,6 +67,7 @@ def test_lockstep_detumbles_as_predicted_reproducibly_and_replays_offline_bit_fo
     from bag_checks import read_with_rosbags, stamp_ns
     from sim_harness import connected_harness
 
+    from torquefree_ros import Plant, load_scene
     from torquefree_ros.cli.bag import main as bag_main
 
     scene = _scene(tmp_path)
@@ -88,6 +89,13 @@ def test_lockstep_detumbles_as_predicted_reproducibly_and_replays_offline_bit_fo
     # the same controller, the same samples, bit for bit
     np.testing.assert_array_equal(omega_again, omega)
     np.testing.assert_array_equal(q_again, q)
+    # and in process: the same controller stepping the plant gives the node's samples, bit for bit
+    plant = Plant(load_scene(scene), RATE)
+    np.testing.assert_array_equal(plant.state.omega_B, omega[0])
+    for j in range(1, count):
+        state = plant.step([-GAIN * omega[j - 1][0], -GAIN * omega[j - 1][1], -GAIN * omega[j - 1][2]])
+        np.testing.assert_array_equal(state.omega_B, omega[j])
+        np.testing.assert_array_equal(state.q_NB, q[j])
 
     # the bag holds the commands; re-simulated offline from them, the first run comes out bit for bit.
     # A command is logged at the stamp of the sample it holds from, so the first run's are those logged
@@ -217,6 +225,24 @@ def test_a_scene_without_the_effect_has_no_command_subscription(tmp_path):
         assert harness.set_parameters(scene="default")[0].successful
         assert harness.reset().success
         assert not any(name.endswith("/torque_command") for name in subscribed())
+
+
+def test_lockstep_without_answers_goes_on_at_each_timeout_and_counts_the_missed_steps(tmp_path):
+    import time
+
+    from sim_harness import connected_harness
+
+    timeout = 0.1
+    with connected_harness(publish_rate=RATE, real_time_factor=0.0, lockstep=True, lockstep_timeout=timeout,
+                           scene=str(_scene(tmp_path))) as harness:
+        loop = harness.node.sample_loop
+        harness.spin_until(lambda: loop.published >= 2, what="samples without a controller")
+        first, started = loop.published, time.monotonic()
+        harness.spin_until(lambda: loop.published >= first + 4, what="4 more samples without a controller")
+        elapsed, published = time.monotonic() - started, loop.published
+        # every sample after the first waited the whole timeout for an answer that never came
+        assert elapsed >= 3 * timeout
+        assert loop.missed_steps >= published - 1
 
 
 def test_lockstep_is_read_only():

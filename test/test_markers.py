@@ -91,6 +91,16 @@ def test_rows_do_not_depend_on_how_blocks_are_cut():
     whole = simulation.samples(0, 120).outputs[0]
     cut = np.vstack([simulation.samples(first, 7).outputs[0] for first in range(0, 120, 7)])[:120]
     np.testing.assert_array_equal(cut, whole)
+    # one sample at a time (a closed loop's blocks) is computed on floats rather than arrays
+    single = np.vstack([simulation.samples(first, 1).outputs[0] for first in range(120)])
+    np.testing.assert_array_equal(single, whole)
+
+
+def test_one_message_at_a_time_is_the_blocks_bytes():
+    # one message is packed field by field, a block through numpy: the same bytes
+    stamps, rows = _rows(count=9)
+    whole = encode_markers(stamps, "world", rows)
+    assert [encode_markers(stamps[i:i + 1], "world", rows[i:i + 1])[0] for i in range(9)] == list(whole)
 
 
 def test_the_h_arrow_follows_a_torque_that_changes_h():

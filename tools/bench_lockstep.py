@@ -81,6 +81,83 @@ def round_trips(seconds: float) -> dict:
     return {"rate": published / wall, "missed": missed, "cpu": cpu / wall}
 
 
+def ping_pong(seconds: float, threaded: bool) -> float:
+    """Round trips per second of rclpy alone: this process publishes a raw angular_velocity sample and
+    waits for the same controller's answer before the next. ``threaded``: as the node does it, the
+    sample goes out from a thread of its own that waits for the executor's thread to hand it the
+    answer; otherwise the answer's callback publishes the next sample (one thread, the floor)."""
+    import threading
+
+    import rclpy
+    from geometry_msgs.msg import Vector3Stamped, WrenchStamped
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from rclpy.serialization import serialize_message
+
+    controller = subprocess.Popen([sys.executable, "-c", CONTROLLER], stdout=subprocess.PIPE, text=True)
+    context = rclpy.Context()
+    try:
+        assert controller.stdout.readline().strip() == "ready"
+        rclpy.init(context=context)
+        node = rclpy.create_node("bench_ping", context=context)
+        qos = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
+        publisher = node.create_publisher(Vector3Stamped, "angular_velocity", qos)
+        sample = serialize_message(Vector3Stamped())
+        answered = threading.Event()
+        counts = [0]
+
+        def on_answer(_):
+            counts[0] += 1
+            if threaded:
+                answered.set()
+            else:
+                publisher.publish(sample)
+
+        node.create_subscription(WrenchStamped, "torque_command", on_answer, qos, raw=True)
+        executor = SingleThreadedExecutor(context=context)
+        executor.add_node(node)
+        deadline = time.monotonic() + 20.0
+        while not (publisher.get_subscription_count() and node.count_publishers("torque_command")):
+            if time.monotonic() > deadline:
+                raise RuntimeError("the controller was not discovered")
+            time.sleep(0.01)
+        stop = threading.Event()
+
+        def ping():
+            while not stop.is_set():
+                answered.clear()
+                publisher.publish(sample)
+                answered.wait(0.2)
+
+        spinner = threading.Thread(target=lambda: _spin_until(executor, stop), daemon=True)
+        spinner.start()
+        if threaded:
+            pinger = threading.Thread(target=ping, daemon=True)
+            pinger.start()
+        else:
+            publisher.publish(sample)
+        time.sleep(1.0)  # warm-up
+        count0, wall0 = counts[0], time.monotonic()
+        time.sleep(seconds)
+        rate = (counts[0] - count0) / (time.monotonic() - wall0)
+        stop.set()
+        spinner.join(5.0)
+        if threaded:
+            pinger.join(5.0)
+        executor.shutdown()
+        node.destroy_node()
+    finally:
+        context.try_shutdown()
+        controller.send_signal(2)
+        controller.communicate(timeout=20)
+    return rate
+
+
+def _spin_until(executor, stop) -> None:
+    while not stop.is_set():
+        executor.spin_once(timeout_sec=0.05)
+
+
 def step_costs(steps: int = 2000) -> dict:
     """Seconds per lock-step step of the node's own work, and of rclpy's publish and take."""
     import numpy as np
@@ -142,11 +219,22 @@ def main(argv=None) -> int:
     report = Report("Closed loop in lock-step", "make bench-lockstep")
     report.add(f"{args.repeats} runs, median (min–max); ROS domain {os.environ['ROS_DOMAIN_ID']}")
     report.add("")
-    runs = [round_trips(args.seconds) for _ in range(args.repeats)]
+    runs, floors, handoffs = [], [], []
+    for _ in range(args.repeats):  # interleaved, so that a noisy moment hits all three alike
+        floors.append(ping_pong(args.seconds, threaded=False))
+        runs.append(round_trips(args.seconds))
+        handoffs.append(ping_pong(args.seconds, threaded=True))
+    ratios = [r["rate"] / f for r, f in zip(runs, floors)]
     report.add(f"Round trips per second (library scene `detumble` at 100 Hz, DOP853 at 1e-10 across each hold, the "
                f"controller in another process, {args.seconds:g} s each): {spread([r['rate'] for r in runs])}; "
                f"missed steps {spread([r['missed'] for r in runs])}; the node's process CPU "
                f"{spread([100 * r['cpu'] for r in runs])} % of a core.")
+    report.add("")
+    report.add(f"rclpy's floor, side by side (the same controller; this process publishes a raw sample and waits for "
+               f"the answer before the next): answered from the answer's callback, one thread, "
+               f"{spread(floors)} round trips per second; from a thread of its own handed each answer by the "
+               f"executor's thread, as the node's sample loop is, {spread(handoffs)}.")
+    report.add(f"The node's lock-step / the floor, run by run: {spread(ratios)}.")
     report.add("")
     costs = [step_costs() for _ in range(args.repeats)]
     report.add("Per step, µs, in one process: the node's own work (command into the hold, seal, one sample "

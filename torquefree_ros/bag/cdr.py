@@ -12,6 +12,7 @@ numpy only: no ROS import, so the offline bag tools can use it too.
 from __future__ import annotations
 
 import operator
+import struct
 from collections.abc import Sequence
 
 import numpy as np
@@ -177,6 +178,7 @@ class CdrTemplate:
         self._buffer = bytearray(CDR_LE)
         self._fields: dict[str, tuple[int, np.dtype, int]] = {}  # name -> offset, type, count
         self._stamps: list[tuple[str, str]] = []
+        self._pack_cache: tuple | None = None  # (buffer length, _packs)
 
     def _put(self, dtype: str, values, name: str | None = None) -> None:
         dtype = np.dtype(dtype)
@@ -216,19 +218,46 @@ class CdrTemplate:
 
     def fill(self, stamps_ns, columns: dict) -> MessageBlock:
         """One message per stamp: every stamp field set to it, ``columns[name][i]`` into field
-        ``name`` of message ``i``; fields not given keep the template's values."""
+        ``name`` of message ``i`` (or one value for all); fields not given keep the template's values."""
         sec, nanosec = _stamp_fields(stamps_ns)
         count = sec.shape[0]
-        messages = np.tile(np.frombuffer(bytes(self._buffer), dtype=np.uint8), (count, 1))
+        if count == 1 and self._packs is not None:
+            return self._fill_one(int(sec[0]), int(nanosec[0]), columns)
+        template = np.frombuffer(self._buffer, dtype=np.uint8)
+        messages = np.empty((count, template.size), dtype=np.uint8)
+        messages[:] = template
         values = dict(columns)
         for sec_name, nanosec_name in self._stamps:
             values[sec_name], values[nanosec_name] = sec, nanosec
         for name, column in values.items():
             offset, dtype, width = self._fields[name]
-            column = np.ascontiguousarray(np.broadcast_to(np.asarray(column, dtype=dtype).reshape(count, -1),
-                                                          (count, width)))
-            messages[:, offset:offset + dtype.itemsize * width] = column.view(np.uint8)
+            # the field in every message, as a (count, width) array of its type (unaligned: numpy copes)
+            field = messages[:, offset:offset + dtype.itemsize * width].view(dtype)
+            field[...] = np.asarray(column).reshape(-1, width) if np.ndim(column) else column
         return MessageBlock(messages.tobytes(), messages.shape[1])
+
+    @property
+    def _packs(self) -> dict | None:
+        """name -> (offset, struct format) of every field, for one message at a time (a closed loop's
+        samples); None when a field is float32 (struct refuses what numpy rounds to infinity)."""
+        if self._pack_cache is None or self._pack_cache[0] != len(self._buffer):
+            codes = {"<f8": "d", "<i4": "i", "<u4": "I"}
+            packs = {name: (offset, "<" + codes[dtype.str] * width) for name, (offset, dtype, width) in self._fields.items()
+                     if dtype.str in codes}
+            self._pack_cache = (len(self._buffer), packs if len(packs) == len(self._fields) else None)
+        return self._pack_cache[1]
+
+    def _fill_one(self, sec: int, nanosec: int, columns: dict) -> MessageBlock:
+        packs = self._packs
+        message = bytearray(self._buffer)
+        for sec_name, nanosec_name in self._stamps:
+            struct.pack_into("<i", message, packs[sec_name][0], sec)
+            struct.pack_into("<I", message, packs[nanosec_name][0], nanosec)
+        for name, column in columns.items():
+            offset, form = packs[name]
+            values = np.asarray(column, dtype=np.float64 if form[1] == "d" else np.int64).ravel().tolist()
+            struct.pack_into(form, message, offset, *values)
+        return MessageBlock(bytes(message), len(message))
 
 
 def decode_stamped_doubles(message: bytes, width: int) -> tuple[int, str, np.ndarray]:

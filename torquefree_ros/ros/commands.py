@@ -25,9 +25,10 @@ class CommandInputs:
     """``holds()`` gives the running simulation's ``(effect, hold)`` pairs; a command goes to the hold
     of the effect on its topic. Refusals and an ignored force are logged once per run and reason."""
 
-    def __init__(self, node: Node, depth: int, holds: Callable[[], tuple]):
+    def __init__(self, node: Node, depth: int, holds: Callable[[], tuple], accepted: Callable[[], None]):
         self._node = node
         self._holds = holds
+        self._accepted = accepted  # called after a command went into its hold
         self._qos = command_profile(depth)  # best effort: it matches every controller (why: command_profile)
         self._subscriptions: dict = {}
         self._logged: set = set()  # (id of the hold, what) already said
@@ -63,8 +64,10 @@ class CommandInputs:
             if not accepted:
                 self._once(hold, reason.split(":", 1)[0], f"{topic}: command refused ({reason}); further refusals "
                            "for this reason are only counted (/diagnostics)")
-            elif hold.force_seen:
-                self._once(hold, "force", f"{topic}: wrench.force is ignored: only the torque acts on the body")
+            else:
+                if hold.force_seen:
+                    self._once(hold, "force", f"{topic}: wrench.force is ignored: only the torque acts on the body")
+                self._accepted()
 
     def _once(self, hold, what: str, text: str) -> None:
         key = (id(hold), what)

@@ -114,7 +114,7 @@ class TorqueFreeSim(Node):
         depth = self.get_parameter("qos_depth").value
         writer = self._open_bag()
         self._outputs = _Publishers(self, depth)
-        self._commands = CommandInputs(self, depth, self._command_holds)
+        self._commands = CommandInputs(self, depth, self._command_holds, self._command_accepted)
         if writer is not None:
             self._bag = SampleRecorder(writer, self._resolved, sample_qos(depth))
         self._outputs.ensure(request)
@@ -143,6 +143,10 @@ class TorqueFreeSim(Node):
     @property
     def sample_loop(self) -> SampleLoop:
         return self._loop
+
+    def _command_accepted(self) -> None:
+        if self._loop is not None:
+            self._loop.command_arrived()  # lock-step as fast as possible: the next sample goes out now
 
     def _command_holds(self) -> tuple:
         simulation = self._loop.simulation if self._loop is not None else None

@@ -15,6 +15,12 @@ interval); in lock-step the loop first waits for the controller's answer to the 
 command stamped at or after it), at most ``lockstep_timeout`` wall seconds, and always runs on its
 own clock. The commands that hold go into the bag, logged at the sample they hold from.
 
+Lock-step as fast as possible (``real_time_factor`` 0): the answer's own callback, on the executor's
+thread, seals the interval, computes the next sample and publishes it (:meth:`SampleLoop.command_arrived`)
+while the loop's thread waits for it: handing each answer over to the loop's thread would cost a thread
+switch per round trip (``make bench-lockstep`` measures both). The two threads take turns under one
+lock, and the loop's thread alone applies restarts, pauses, failures and the missed answers' timeout.
+
 Pause (``pause(True)``, the node's ``~/pause``): taken between two samples, like a restart; from then
 on no sample goes out and nothing is recorded, the simulated clock stands still (``/clock``, when the
 run publishes it, is republished at its held value every ``HELD_CLOCK_PERIOD`` wall seconds and not
@@ -112,10 +118,22 @@ class _Run:
         self.position = 0
         self.holds = simulation.command_holds  # closed loop: (effect, hold) per command input
         self.shift_ns = 0  # wall clock: how far pauses moved the run's stamps (its epoch) in all
+        self.publishers: list = []  # of self.columns' topics
+        self.stopped_by = ""  # lock-step: why the executor's thread could not compute the next sample
         if self.holds:
             self.max_block = 1  # each sample computed when due, under the commands received by then
             for effect, hold in self.holds:
                 hold.frame_id = effect.frame_id(request.body_frame, request.inertial_frame)
+
+    @property
+    def answered_in_turn(self) -> bool:
+        """Lock-step as fast as possible: the answer's callback computes the next sample."""
+        return self.request.lockstep and self.request.real_time_factor == 0.0
+
+    def answered(self) -> bool:
+        """Lock-step: every hold has the controller's answer to the last sample out."""
+        answer = self.stamp_of(self.next_index - 1)
+        return all(hold.answered(answer) for _, hold in self.holds)
 
     @property
     def next_out(self) -> int:
@@ -218,6 +236,11 @@ class SampleLoop:
         self._paused_since_ns: int | None = None  # monotonic; None: running
         self.paused_at = ""  # while paused: the sample that goes out next, as "sample k (t = ... s)"
         self._clock_ns: int | None = None  # the last /clock value published
+        # lock-step as fast as possible: whoever computes a sample holds _turn; the loop's thread sets
+        # _awaiting (the run) while it waits on _turn for the answer to the last sample, due by _answer_due
+        self._turn = threading.Condition()
+        self._awaiting: _Run | None = None
+        self._answer_due = 0.0
 
     # -- called from the executor thread ---------------------------------------------------------
     def start(self, request: RunRequest) -> Simulation:
@@ -234,7 +257,7 @@ class SampleLoop:
             if self._stopping or not self.running:
                 raise RuntimeError("the sample loop is not running")
             self._pending = (request, done, result)
-        self._wake.set()
+        self._signal()
         if not done.wait(timeout):
             raise RuntimeError(f"the sample loop did not take the restart within {timeout:g} s")
         return result[0]
@@ -247,11 +270,30 @@ class SampleLoop:
             if self._stopping or not self.running:
                 raise RuntimeError("the sample loop is not running")
             self._pause_request = (bool(paused), done, result)
-        self._wake.set()
+        self._signal()
         if not done.wait(timeout):
             raise RuntimeError(f"the sample loop did not take the {'pause' if paused else 'resume'} within "
                                f"{timeout:g} s; it applies at the next sample")
         return result[0]
+
+    def command_arrived(self) -> None:
+        """Called on the executor's thread after a command went into its hold: in lock-step as fast as
+        possible, if it answers the sample the loop waits on, the next sample is computed and published
+        here and now (see the module's docstring)."""
+        if self._awaiting is None:  # (read again under the lock)
+            return
+        with self._turn:
+            run = self._awaiting
+            if run is None or self._wake.is_set() or not run.answered():
+                return
+            try:
+                self._step(run)
+            except Exception as error:  # noqa: BLE001 - the loop's thread reports it (not the executor)
+                if self._stopping or not self._keep_going():
+                    return
+                run.stopped_by = f"{type(error).__name__}: {error}"
+            if run.stopped_by:
+                self._turn.notify_all()
 
     @property
     def paused(self) -> bool:
@@ -265,7 +307,7 @@ class SampleLoop:
     def stop(self, timeout: float = 5.0) -> None:
         with self._lock:
             self._stopping = True
-        self._wake.set()
+        self._signal()
         if self._thread is not None and self._thread is not threading.current_thread():
             self._thread.join(timeout)
 
@@ -343,6 +385,7 @@ class SampleLoop:
         elif changed:
             self._paused_since_ns = None
             run.resume(paused_for)
+            self._answer_due = time.monotonic() + run.request.lockstep_timeout  # the wait starts again
         report = PauseReport(
             changed=changed, paused=wanted, next_index=run.next_out, rate=run.simulation.rate,
             clock_ns=self._clock_ns if run.request.clock else None, paused_for_ns=paused_for,
@@ -383,17 +426,16 @@ class SampleLoop:
                 self._while_paused()
                 continue
             run = self._run
+            if run.holds and run.answered_in_turn:
+                self._lockstep_turn(run)
+                continue
             if run.block is None or run.position == len(run.block):
                 if run.holds and not self._close_interval(run):
                     continue  # a restart or a stop is pending, or the sample is not due yet
-                try:
-                    run.refill()
-                except (ValueError, ArithmeticError, RuntimeError) as error:  # RuntimeError: a step bound
-                    self._fail(f"cannot compute samples {run.next_index}..: {error}")
+                if not self._refill(run):
+                    self._fail(run.stopped_by)
                     continue
-                publishers = [self._publishers.get(column.topic) for column in run.columns]
-            block, i = run.block, run.position
-            stamp = int(block.stamps_ns[i])
+            stamp = int(run.block.stamps_ns[run.position])
             deadline = run.deadline(stamp)
             if deadline is not None:
                 delay = deadline - time.monotonic()
@@ -403,17 +445,70 @@ class SampleLoop:
                     continue  # re-check for a restart or a stop, then for the deadline
                 if -delay > run.period_wall:
                     self.late += 1
-            for publisher, column in zip(publishers, run.columns):
-                message = column.messages[i]
-                if message is not None:  # None: an output at a rate of its own skips this sample
-                    publisher.publish(message)
-            if self._recorder is not None:
-                self._record(stamp, run.columns, i)
-            if run.request.clock:
-                self._clock_ns = stamp
-            run.position = i + 1
-            self.published += 1
-            self.last = LastSample(run.simulation, block.first + i, stamp, block.omega_B[i], block.internal[i])
+            self._send(run)
+
+    def _refill(self, run: _Run) -> bool:
+        """The next block computed and encoded; False (the reason in ``run.stopped_by``) when it cannot be."""
+        try:
+            run.refill()
+        except (ValueError, ArithmeticError, RuntimeError) as error:  # RuntimeError: a step bound
+            run.stopped_by = f"cannot compute samples {run.next_index}..: {error}"
+            return False
+        run.publishers = [self._publishers.get(column.topic) for column in run.columns]
+        return True
+
+    def _send(self, run: _Run) -> None:
+        """Publish (and record) the block's next sample."""
+        block, i = run.block, run.position
+        stamp = int(block.stamps_ns[i])
+        for publisher, column in zip(run.publishers, run.columns):
+            message = column.messages[i]
+            if message is not None:  # None: an output at a rate of its own skips this sample
+                publisher.publish(message)
+        if self._recorder is not None:
+            self._record(stamp, run.columns, i)
+        if run.request.clock:
+            self._clock_ns = stamp
+        run.position = i + 1
+        self.published += 1
+        self.last = LastSample(run.simulation, block.first + i, stamp, block.omega_B[i], block.internal[i])
+
+    def _lockstep_turn(self, run: _Run) -> None:
+        """Lock-step as fast as possible, on the loop's thread: wait (on ``_turn``) for the answer to the
+        last sample; the answer's callback computes and publishes the next one meanwhile, unless the
+        answer came before the wait or does not come within ``lockstep_timeout`` (a missed step): then
+        this thread does. Returns after one sample, or early for a pending request or a failure."""
+        if run.stopped_by:
+            self._fail(run.stopped_by)
+            return
+        with self._turn:
+            n = run.next_index
+            if n > 0:
+                self._awaiting = run
+                try:
+                    while not run.answered():
+                        if run.next_index != n or run.stopped_by:
+                            return  # the callback computed it (or could not)
+                        if self._wake.is_set():
+                            self._wake.clear()
+                            return  # a restart, a pause or a stop: applied between two samples
+                        remaining = self._answer_due - time.monotonic()
+                        if remaining <= 0.0:
+                            self.missed_steps += 1
+                            break
+                        self._turn.wait(min(remaining, MAX_WAIT))
+                finally:
+                    self._awaiting = None
+            self._step(run)
+
+    def _step(self, run: _Run) -> None:
+        """Closed loop, one sample: seal the interval before it, compute it, publish it (under ``_turn``)."""
+        n = run.next_index
+        if n > 0:
+            self._seal(run, n - 1)
+        if self._refill(run):
+            self._send(run)
+            self._answer_due = time.monotonic() + run.request.lockstep_timeout
 
     def _close_interval(self, run: _Run) -> bool:
         """Closed loop: fix the torque over ``[t_n-1, t_n)`` before sample ``n`` is computed: when
@@ -438,11 +533,20 @@ class SampleLoop:
                 return False
             if not answered:
                 self.missed_steps += 1
+        self._seal(run, n - 1)
+        return True
+
+    def _seal(self, run: _Run, through: int) -> None:
         for effect, hold in run.holds:
-            sealed = hold.seal(n - 1)
+            sealed = hold.seal(through)
             if sealed and self._recorder is not None:
                 self._record_commands(effect, hold, sealed)
-        return True
+
+    def _signal(self) -> None:
+        """Wake the loop's thread for a request, whichever wait it is in."""
+        self._wake.set()
+        with self._turn:
+            self._turn.notify_all()
 
     def _to_bag(self, write: Callable) -> None:
         """``write(recorder)``; if the bag fails, recording stops and publishing goes on."""

@@ -221,6 +221,11 @@ class CommandHold:
         command = self.in_force(self.interval_at(t))
         return command.torque if command is not None else _ZERO
 
+    def answered(self, stamp_ns: int) -> bool:
+        """Lock-step: an accepted command is stamped at or after ``stamp_ns``."""
+        with self._lock:
+            return bool(self.commands) and self.commands[-1].stamp_ns >= stamp_ns
+
     def wait_for(self, stamp_ns: int, timeout: float, interrupted) -> bool:
         """Lock-step: wait (wall clock, at most ``timeout`` s) for an accepted command stamped at or
         after ``stamp_ns``; ``interrupted()`` is polled so that a reset or a stop need not wait."""
