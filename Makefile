@@ -19,7 +19,7 @@ run: $(VENV)/.installed
 	$(VENV)/bin/torquefree_sim $(if $(ARGS),--ros-args $(ARGS))
 
 test: $(VENV)/.installed
-	$(PY) -m pytest
+	$(PY) -m pytest --cov --cov-report=term
 
 # Newest versions allowed by requirements*.txt, written to requirements.lock, then the tests on them.
 lock:
