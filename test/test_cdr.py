@@ -39,6 +39,8 @@ def test_stamped_doubles_equal_rclpy(stamps, frame_id, data):
             skip = set(_padding(frame_id))
             assert bytes(b for i, b in enumerate(ours) if i not in skip) == bytes(
                 b for i, b in enumerate(theirs) if i not in skip)
+            # one message alone is packed directly rather than through a block: the same bytes
+            assert encode_stamped_doubles(np.array([stamp], dtype=np.int64), frame_id, row[np.newaxis])[0] == ours
 
 
 @settings(max_examples=100, deadline=None)
@@ -49,3 +51,4 @@ def test_clock_equals_rclpy(stamps):
         message.clock.sec, message.clock.nanosec = divmod(stamp, 10**9)
         assert ours == serialize_message(message)  # no padding in a Clock: byte-identical
         assert deserialize_message(ours, Clock) == message
+        assert encode_times(np.array([stamp], dtype=np.int64))[0] == ours  # alone: packed directly, the same

@@ -73,6 +73,11 @@ def encode_stamped_doubles(stamps_ns, frame_id: str, values) -> MessageBlock:
     text_end = 12 + len(frame) + 1  # offsets from the end of the encapsulation header
     data_offset = -(-text_end // 8) * 8
     count, width = values.shape
+    if count == 1:  # a closed loop's one sample at a time: packed directly, the same bytes
+        padding = bytes(4 + data_offset - (16 + len(frame) + 1))
+        message = (CDR_LE + struct.pack("<iII", int(sec[0]), int(nanosec[0]), len(frame) + 1) + frame + b"\x00"
+                   + padding + struct.pack(f"<{width}d", *values[0].tolist()))
+        return MessageBlock(message, len(message))
     record = np.dtype(
         {
             "names": ["encapsulation", "sec", "nanosec", "length", "frame_id", "data"],
@@ -160,6 +165,8 @@ def _frame_bytes(frame_id: str, name: str) -> bytes:
 def encode_times(stamps_ns) -> MessageBlock:
     """``builtin_interfaces/Time`` alone: the layout of ``rosgraph_msgs/Clock``."""
     sec, nanosec = _stamp_fields(stamps_ns)
+    if sec.shape[0] == 1:  # one sample at a time (a closed loop): packed directly, the same bytes
+        return MessageBlock(CDR_LE + struct.pack("<iI", int(sec[0]), int(nanosec[0])), 12)
     record = np.dtype({"names": ["encapsulation", "sec", "nanosec"], "formats": ["V4", "<i4", "<u4"],
                        "offsets": [0, 4, 8], "itemsize": 12})
     records = np.zeros(sec.shape[0], dtype=record)
