@@ -7,7 +7,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 PIP := $(PY) -m pip --disable-pip-version-check
 
-.PHONY: run test lock reference bench bench-exact bench-effects bench-plant bench-node bench-bag bench-bag-day bench-lockstep clean
+.PHONY: run test lock reference bench bench-exact bench-effects bench-plant bench-campaign bench-node bench-bag bench-bag-day bench-lockstep bench-testing-kit clean
 
 $(VENV)/.installed: requirements.txt requirements-test.txt requirements.lock setup.py
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -54,12 +54,21 @@ bench-effects: $(VENV)/.installed
 bench-plant: $(VENV)/.installed
 	$(PY) tools/bench_plant.py --output docs/bench/plant.md
 
+# Monte Carlo campaigns: 10 000 torque-free runs on 1 and 2 local workers beside the bare compute,
+# 1 000 dispersed explorer1 runs, the engine's costs (~1 min)
+bench-campaign: $(VENV)/.installed
+	$(PY) tools/bench_campaign.py --output docs/bench/campaign.md
+
 bench-node: $(VENV)/.installed
 	$(PY) tools/bench_node.py --output docs/bench/node.md
 
 # closed loop: lock-step round trips with a controller in another process, and the cost of a step
 bench-lockstep: $(VENV)/.installed
 	$(PY) tools/bench_lockstep.py --output docs/bench/lockstep.md
+
+# the test kit (torquefree_ros.testing): set-up, teardown and advance(1), beside rclpy's round trip
+bench-testing-kit: $(VENV)/.installed
+	$(PY) tools/bench_testing_kit.py --output docs/bench/testing_kit.md
 
 bench-bag: $(VENV)/.installed
 	$(PY) tools/bench_bag.py --output docs/bench/bag.md

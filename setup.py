@@ -50,5 +50,7 @@ setup(
             "torquefree_bench = torquefree_ros.cli.bench:main",
             "torquefree_campaign = torquefree_ros.cli.campaign:main",
         ],
+        # the test kit's torquefree_sim fixture, in every pytest run of an environment with this package
+        "pytest11": ["torquefree_ros = torquefree_ros.testing.pytest_plugin"],
     },
 )

@@ -1,32 +1,29 @@
-"""In-process harness for the simulator node: a private rclpy context, the node under test, and a
-client node that subscribes, sets parameters and calls ``~/reset`` like any other participant.
-Everything is driven by spinning one executor until a condition holds (no sleeps)."""
+"""In-process harness for the simulator node: a client node beside the node under test that
+subscribes, sets parameters and calls ``~/reset`` like any other participant, on the public test kit
+(``torquefree_ros.testing.Simulator``, which owns the private context, the namespace, the executor
+and the teardown). The node paces itself here (``stepped=False``): these tests are about its pacing,
+resets and pauses as the world sees them. Everything is driven by spinning the kit's executor until a
+condition holds (no sleeps)."""
 
 from __future__ import annotations
 
 import contextlib
+import os
 import re
 import tempfile
-import time
 
 import numpy as np
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from std_srvs.srv import Trigger
 
-from torquefree_ros.ros.node import TorqueFreeSim
+from torquefree_ros.testing import Simulator, stamp_ns  # stamp_ns: the tests import it from here
 
 SPIN_TIMEOUT = 20.0  # s; generous for a loaded 2-core CI machine
-
-
-def stamp_ns(stamp) -> int:
-    return stamp.sec * 1_000_000_000 + stamp.nanosec
 
 
 def reset_epoch_ns(response) -> int:
@@ -56,18 +53,18 @@ class SimHarness:
     def __init__(self, args=None, namespace=None, **parameters):
         SimHarness._count += 1
         self.namespace = f"harness{SimHarness._count}" if namespace is None else namespace
-        self.context = rclpy.Context()
-        rclpy.init(args=args, context=self.context)
-        self.executor = SingleThreadedExecutor(context=self.context)
         # the tests write scene files under the temporary directory: let the node read them
         if args is None:  # (a parameter file given in args sets its own)
             parameters.setdefault("scene_directories", [tempfile.gettempdir()])
+        # the session's domain (conftest.py): some tests talk to nodes they start as processes
+        domain = os.environ.get("ROS_DOMAIN_ID")
+        self.sim = Simulator(stepped=False, namespace=self.namespace, args=args, timeout=SPIN_TIMEOUT,
+                             domain_id=int(domain) if domain else None, **parameters)
+        self.context, self.executor, self.node = self.sim.context, self.sim.executor, self.sim.node
         try:
-            overrides = [Parameter(name, value=value) for name, value in parameters.items()]
-            self.node = TorqueFreeSim(context=self.context, parameter_overrides=overrides, namespace=self.namespace)
-            self.client = rclpy.create_node("test_client", context=self.context, namespace=self.namespace)
+            self.client = self.sim.create_node("test_client")
         except BaseException:
-            self.context.try_shutdown()
+            self.sim.close()
             raise
         self.omega: dict[int, np.ndarray] = {}
         self.q: dict[int, np.ndarray] = {}
@@ -83,8 +80,6 @@ class SimHarness:
         node_name = self.node.get_fully_qualified_name()
         self.parameters = AsyncParameterClient(self.client, node_name)
         self.reset_client = self.client.create_client(Trigger, f"{node_name}/reset")
-        self.executor.add_node(self.node)
-        self.executor.add_node(self.client)
 
     def _on_omega(self, message: Vector3Stamped) -> None:
         v = message.vector
@@ -100,11 +95,7 @@ class SimHarness:
 
     # -- driving -----------------------------------------------------------------------------------
     def spin_until(self, condition, timeout: float = SPIN_TIMEOUT, what: str = "condition"):
-        deadline = time.monotonic() + timeout
-        while not condition():
-            if time.monotonic() > deadline:
-                raise AssertionError(f"timed out after {timeout} s waiting for {what}")
-            self.executor.spin_once(timeout_sec=0.05)
+        self.sim.spin_until(condition, timeout, f"waiting for {what}")
 
     def wait_future(self, future, what: str):
         self.spin_until(future.done, what=what)
@@ -145,10 +136,5 @@ class SimHarness:
         return self.wait_future(self.reset_client.call_async(Trigger.Request()), "~/reset")
 
     def close(self):
-        try:
-            self.executor.shutdown()
-            self.node.destroy_node()
-            self.client.destroy_node()
-        finally:
-            self.context.try_shutdown()
+        self.sim.close()  # the client too
 

@@ -19,16 +19,18 @@ BODIES = ("sat1", "sat2")
 
 
 @contextlib.contextmanager
-def formation(prefixed=True, **parameters):
-    """A node per body in namespace /<body> (frame_prefix '<body>/' when ``prefixed``), and a client;
-    yields (client, executor, nodes)."""
+def formation(prefixed=True, positions=None, **parameters):
+    """A node per body in namespace /<body> (frame_prefix '<body>/' when ``prefixed``; ``position``
+    ``positions[body]`` when given), and a client; yields (client, executor, nodes)."""
     context = rclpy.Context()
     rclpy.init(context=context)
     executor = SingleThreadedExecutor(context=context)
     nodes, client = [], None
     try:
         for body in BODIES:
-            values = {**parameters, "frame_prefix": f"{body}/"} if prefixed else parameters
+            values = {**parameters, "frame_prefix": f"{body}/"} if prefixed else dict(parameters)
+            if positions is not None:
+                values["position"] = positions[body]
             overrides = [Parameter(name, value=value) for name, value in values.items()]
             nodes.append(TorqueFreeSim(context=context, namespace=body, parameter_overrides=overrides))
         client = rclpy.create_node("formation_client", context=context)

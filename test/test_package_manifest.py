@@ -25,6 +25,7 @@ KEYS = {
     "dask": None,
     "pytest": ("python3-pytest", TEST),
     "pytest-cov": ("python3-pytest-cov", TEST),
+    "pytest-xdist": ("python3-pytest-xdist", TEST),
     "hypothesis": ("python3-hypothesis", TEST),
     "mpmath": None,
     "mcap-ros2-support": ("mcap-ros2-support", TEST),

@@ -18,3 +18,10 @@ def test_the_quick_tour_runs_as_written():
     assert namespace["W"].shape == (1000, 601, 3) and namespace["Q"].shape == (1000, 601, 4)
     summary = namespace["RigidBody"].from_inertia([1.0, 2.0, 3.0]).classify([1e-4, 1.0, 1e-4]).summary()
     assert f"# '{summary}'" in code  # the output the tour shows is the output it gives
+
+
+def test_the_example_test_shown_is_the_example_test():
+    text = README.read_text(encoding="utf-8")
+    section = text[text.index("### Testing your node against torquefree_ros"):]
+    shown = re.search(r"```python\n(.*?)```", section, re.S).group(1)
+    assert shown == (README.parent / "examples" / "test_attitude_estimator.py").read_text(encoding="utf-8")

@@ -30,7 +30,7 @@ def _marker(template: CdrTemplate, frame_id: str, style) -> None:
     template.int32(0)  # id
     template.int32(marker_type)
     template.int32(ADD)
-    template.float64([0.0, 0.0, 0.0])  # pose.position
+    template.float64([0.0, 0.0, 0.0], f"{namespace}.position")  # pose.position (the box; arrows use points)
     template.float64([0.0, 0.0, 0.0, 1.0], f"{namespace}.orientation")
     template.float64([0.0, 0.0, 0.0], f"{namespace}.scale")
     template.float32(color)
@@ -38,7 +38,7 @@ def _marker(template: CdrTemplate, frame_id: str, style) -> None:
     template.boolean(False)  # frame_locked
     if marker_type == ARROW:
         template.uint32(2)  # points: start, end
-        template.float64([0.0, 0.0, 0.0])
+        template.float64([0.0, 0.0, 0.0], f"{namespace}.start")
         template.float64([0.0, 0.0, 0.0], f"{namespace}.tip")
     else:
         template.uint32(0)
@@ -67,20 +67,34 @@ def _template(frame_id: str) -> CdrTemplate:
     return template
 
 
-def _columns(rows: np.ndarray) -> dict:
+def _columns(rows: np.ndarray, position) -> dict:
     longest = rows[:, 4:7].max(axis=1, keepdims=True)
     columns = {"body.orientation": rows[:, 0:4], "body.scale": rows[:, 4:7]}
     for (namespace, _, _, (shaft, head)), tip in ((ANGULAR_VELOCITY, rows[:, 7:10]),
                                                   (ANGULAR_MOMENTUM, rows[:, 10:13])):
         columns[f"{namespace}.scale"] = longest * np.array([shaft, head, 0.0])
-        columns[f"{namespace}.tip"] = tip
+        columns[f"{namespace}.tip"] = tip if position is None else tip + position
+        if position is not None:
+            columns[f"{namespace}.start"] = position
+    if position is not None:
+        columns["body.position"] = position
     return columns
 
 
-def encode_markers(stamps_ns, frame_id: str, rows) -> MessageBlock:
-    """One MarkerArray per row, each with the box, the ``w`` arrow and the ``H`` arrow."""
+def encode_markers(stamps_ns, frame_id: str, rows, position=None) -> MessageBlock:
+    """One MarkerArray per row, each with the box, the ``w`` arrow and the ``H`` arrow; ``position``
+    (x, y, z in ``frame_id``, m): where the body's centre is drawn (None: the origin)."""
     rows = np.asarray(rows, dtype=np.float64)
     stamps_ns = np.asarray(stamps_ns, dtype=np.int64)
     if rows.shape[0] == 0:  # an output at a rate of its own may have no sample in a block
         return MessageBlock(b"", 0)
-    return _template(frame_id).fill(stamps_ns, _columns(rows))
+    return _template(frame_id).fill(stamps_ns, _columns(rows, _offset(position)))
+
+
+def _offset(position) -> np.ndarray | None:
+    """``position`` as an array, or None at the origin (so that the origin's bytes stay those of no
+    offset: ``-0.0 + 0.0`` would turn a tip's negative zero positive)."""
+    if position is None:
+        return None
+    position = np.asarray(position, dtype=np.float64)
+    return position if np.any(position) else None

@@ -18,6 +18,7 @@ import numpy as np
 
 from ..core.simulation import MAX_STAMP_S, Simulation
 from ..core.timing import sample_count
+from ..core.validation import finite_vector
 from .cdr import decode_stamped_doubles
 from .reader import BagReader
 from .samples import INERTIA_KEY, SampleRecorder, encode_block, encode_command, resolve_topic, sample_qos
@@ -66,14 +67,17 @@ def write_scene_bag(scene, output, duration: float, rate: float, *, epoch_ns: in
                     body_frame: str = "body", inertial_frame: str = "world", namespace: str = "/",
                     overwrite: bool = False, compression: str = "none", qos_depth: int = 10,
                     progress: Callable[[int, int], None] | None = None, stop: Callable[[], bool] | None = None,
-                    commands_bag=None):
+                    commands_bag=None, position=None):
     """Writes samples ``0 … floor(duration·rate)`` of ``scene`` (of each member of a sweep); returns
     the bag's metadata. Everything is checked, and the output created, before the first sample is
     computed. ``progress(samples_done, samples_total)`` is called after each block; when ``stop()``
     turns true the bag is closed there, complete, with the samples written so far. ``commands_bag``:
     the commands it recorded on each ``torque_command`` effect's topic (in ``namespace``) drive the
     scene; those logged before ``epoch_ns`` belong to an earlier run and are left out. The commands
-    that hold go into the bag too."""
+    that hold go into the bag too. ``position``: where the outputs place the body's centre (x, y, z, m,
+    in the inertial frame; see ``encode_block``)."""
+    if position is not None:
+        position = finite_vector(position, "position", (3,))
     count = sample_count(duration, rate)
     if count > MAX_SAMPLES:
         raise ValueError(f"duration: {duration:g} s at {rate:g} Hz is {count:.3g} samples; at most {MAX_SAMPLES:.0e} "
@@ -104,7 +108,8 @@ def write_scene_bag(scene, output, duration: float, rate: float, *, epoch_ns: in
             for simulation, recorder in zip(simulations, recorders):
                 block = simulation.samples(first, size)
                 recorder.write_block(block.stamps_ns,
-                                     encode_block(block, body_frame, inertial_frame, simulation.outputs))
+                                     encode_block(block, body_frame, inertial_frame, simulation.outputs,
+                                                  position=position))
                 for effect, hold in simulation.command_holds:
                     for command in hold.commands:
                         if first <= command.start < first + size:

@@ -55,6 +55,9 @@ def _parser() -> argparse.ArgumentParser:
     options.add_argument("--inertial-frame", default="world", metavar="FRAME",
                          help="header.frame_id of attitude (default: world)")
     options.add_argument("--namespace", default="/", help="namespace of the topics (default: /)")
+    options.add_argument("--position", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                         help="where tf, pose, odometry and markers place the body's centre in the inertial "
+                              "frame, m (default: the origin); for bodies side by side in one view")
     options.add_argument("--commands", metavar="BAG_DIR",
                          help="re-simulate a scene with a torque_command effect under the commands this bag recorded "
                          "on its topic (in --namespace), each offered at its log time under the node's rules: with "
@@ -89,6 +92,8 @@ def main(argv=None) -> int:
         parser.error(f"missing {', '.join(missing)}")
     if not math.isfinite(args.start_time) or args.start_time < 0 or args.start_time >= 2**31:
         parser.error(f"--start-time: must be in [0, 2^31) s, got '{args.start_time}'")
+    if args.position is not None and not all(map(math.isfinite, args.position)):
+        parser.error(f"--position: every coordinate must be finite, got {args.position}")
     if not args.namespace.startswith("/"):
         parser.error(f"--namespace: must start with '/', got {args.namespace!r}")
     try:
@@ -102,6 +107,7 @@ def main(argv=None) -> int:
                     epoch_ns=int((args.start_time * 10**9).to_integral_value()), commands_bag=args.commands,
                     propagator=args.propagator, body_frame=args.body_frame, inertial_frame=args.inertial_frame,
                     namespace=args.namespace, overwrite=args.overwrite, compression=args.compression,
+                    position=args.position,
                     progress=progress.report, stop=stop)
             finally:
                 progress.close()

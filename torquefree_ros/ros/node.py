@@ -81,9 +81,10 @@ class _Publishers:
 class TorqueFreeSim(Node):
     """Publishes ``angular_velocity`` and ``attitude`` from the moment it is constructed; the caller
     spins it (services, parameters, diagnostics). Raises :class:`ConfigurationError` when the
-    start-up parameters do not describe a usable simulation."""
+    start-up parameters do not describe a usable simulation. ``stepped``: a sample goes out only when
+    ``sample_loop.step(n)`` lets it (``torquefree_ros.testing`` steps the node so)."""
 
-    def __init__(self, node_name: str = "torquefree", **node_options):
+    def __init__(self, node_name: str = "torquefree", *, stepped: bool = False, **node_options):
         # Undeclared names reach our on-set callback, whose reason names them (rclpy's does not).
         # rclpy's own parameter services end the spin on a malformed request; ours answer it
         super().__init__(node_name, allow_undeclared_parameters=True, start_parameter_services=False,
@@ -126,7 +127,7 @@ class TorqueFreeSim(Node):
             DiagnosticArray, "/diagnostics", diagnostics_qos,
             event_callbacks=publisher_warnings(self.get_logger(), "/diagnostics", diagnostics_qos))
         self.create_timer(DIAGNOSTICS_PERIOD, self._publish_diagnostics)
-        self._loop = SampleLoop(self._outputs, self.context.ok, self.get_logger(), self._bag)
+        self._loop = SampleLoop(self._outputs, self.context.ok, self.get_logger(), self._bag, stepped=stepped)
         simulation = self._loop.start(request)  # last: the first sample is due now
         self._note_inertia(simulation)
         topics = ", ".join(self._outputs.topic_names())

@@ -118,6 +118,11 @@ SPECS = (
                   "outputs, the frame of body-frame commands), not before inertial_frame: nodes in several "
                   "namespaces then publish distinct bodies (sat1/body, sat2/body) under one shared inertial "
                   "frame on /tf. Empty = none." + _AT_RESET, _PREFIX_RULE),
+    ParameterSpec("position", [0.0, 0.0, 0.0],
+                  "Where the body's centre sits in the inertial frame [x, y, z], m: /tf's translation, the "
+                  "position of pose and odometry, the markers' place. Constant (the simulator moves attitude "
+                  "only); for several bodies side by side in one view. [] = the origin." + _AT_RESET,
+                  "3 finite numbers"),
     ParameterSpec("propagator", "auto",
                   "auto (the exact solution for a torque-free scene, DOP853 at the scene's accuracy when an effect "
                   "changes the motion) or a registered propagator." + _AT_RESET,
@@ -168,6 +173,10 @@ def check_value(name: str, parameter: Parameter):
         if name == "angular_velocity":
             return tuple(finite_vector(value, name, (3,)).tolist())
         return tuple(unit_quaternion(value, name).tolist())
+    if name == "position":
+        if kind not in _ARRAY or kind == Parameter.Type.BYTE_ARRAY:
+            raise ValueError(f"{name}: expected an array of 3 numbers, got {_type_name(kind)} {shown(value)}")
+        return tuple(finite_vector(value, name, (3,)).tolist()) if len(value) else (0.0, 0.0, 0.0)
     if name in ("lockstep", "publish_clock"):
         if kind != Parameter.Type.BOOL:
             raise ValueError(f"{name}: expected true or false, got {_type_name(kind)} {shown(value)}")
@@ -283,7 +292,7 @@ def run_request(values: dict) -> RunRequest:
                          f"{len(body_frame)} characters, at most {MAX_FRAME_LENGTH} are allowed")
     return RunRequest(propagator, values["publish_rate"], values["real_time_factor"], body_frame,
                       values["inertial_frame"], outputs, describe(values, scene), left_out, values["lockstep"],
-                      values["lockstep_timeout"], values["publish_clock"])
+                      values["lockstep_timeout"], values["publish_clock"], values["position"])
 
 
 def _installed(type_name: str) -> bool:

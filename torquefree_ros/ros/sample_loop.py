@@ -28,6 +28,10 @@ recorded), and a lock-step wait for the controller is interrupted. ``pause(False
 run: the samples that follow are those of a run never paused, with the same indices and values. On a
 clock of our own the stamps simply continue (the clock held); with wall-clock stamps the run's epoch
 moves on by the time paused (see :data:`.pause.WALL_CLOCK_RULE`).
+
+Stepped (``stepped=True``, for ``torquefree_ros.testing``): a sample goes out only once a caller has
+let it (:meth:`SampleLoop.step`), on top of the rules above; meanwhile the loop waits between two samples,
+taking restarts, pauses and a stop as usual. Sample 0 of every run waits too, so a test misses none.
 """
 
 from __future__ import annotations
@@ -76,6 +80,7 @@ class RunRequest:
     lockstep: bool = False  # wait for the controller's answer to each sample (a clock of our own)
     lockstep_timeout: float = 1.0  # wall s to wait for it before going on with the command in force
     publish_clock: bool = False  # /clock with wall-clock stamps too (a clock of our own always has it)
+    body_position: tuple = (0.0, 0.0, 0.0)  # where tf, pose, odometry and markers place the body (m, inertial)
 
     @property
     def wall_clock(self) -> bool:
@@ -154,10 +159,13 @@ class _Run:
             hold.shift(paused_ns)
         if self.block is not None and self.position < len(self.block):
             self.block = dataclasses.replace(self.block, stamps_ns=self.block.stamps_ns + np.int64(paused_ns))
-            request = self.request
-            self.columns = encode_block(self.block, request.body_frame, request.inertial_frame,
-                                        self.simulation.outputs, clock=request.clock)
+            self.columns = self.encode(self.block)
         self.shift_ns += paused_ns
+
+    def encode(self, block: SampleBlock) -> tuple:
+        request = self.request
+        return encode_block(block, request.body_frame, request.inertial_frame, self.simulation.outputs,
+                            clock=request.clock, position=request.body_position)
 
     def stamp_of(self, index: int) -> int:
         return int(stamps_ns(self.simulation.epoch_ns, np.array([index / self.simulation.rate]))[0])
@@ -173,9 +181,7 @@ class _Run:
     def refill(self) -> None:
         started = time.perf_counter()
         block = self.simulation.samples(self.next_index, self.block_size)
-        request = self.request
-        self.columns = encode_block(block, request.body_frame, request.inertial_frame, self.simulation.outputs,
-                                    clock=request.clock)
+        self.columns = self.encode(block)
         self.block = block
         self.next_index += len(block)
         self.position = 0
@@ -215,7 +221,7 @@ class SampleLoop:
     published, with the same bytes; if the bag fails, recording stops and publishing goes on.
     """
 
-    def __init__(self, publishers, keep_going: Callable[[], bool], logger, recorder=None):
+    def __init__(self, publishers, keep_going: Callable[[], bool], logger, recorder=None, stepped: bool = False):
         self._publishers = publishers
         self._recorder = recorder
         self.recording_failure = ""
@@ -241,6 +247,8 @@ class SampleLoop:
         self._turn = threading.Condition()
         self._awaiting: _Run | None = None
         self._answer_due = 0.0
+        # stepped: how many more samples may go out (step() adds, each sample sent takes one); None: not stepped
+        self._steps: int | None = 0 if stepped else None
 
     # -- called from the executor thread ---------------------------------------------------------
     def start(self, request: RunRequest) -> Simulation:
@@ -284,7 +292,7 @@ class SampleLoop:
             return
         with self._turn:
             run = self._awaiting
-            if run is None or self._wake.is_set() or not run.answered():
+            if run is None or self._wake.is_set() or self._steps == 0 or not run.answered():
                 return
             try:
                 self._step(run)
@@ -294,6 +302,16 @@ class SampleLoop:
                 run.stopped_by = f"{type(error).__name__}: {error}"
             if run.stopped_by:
                 self._turn.notify_all()
+
+    def step(self, count: int) -> None:
+        """Stepped loop: let ``count`` more samples go out (a negative count takes back those not sent yet)."""
+        with self._lock:
+            if self._steps is None:
+                raise RuntimeError("the sample loop is not stepped")
+            self._steps = max(0, self._steps + int(count))
+            if self._run is not None:  # lock-step: the wait for the answer starts now (the loop was held)
+                self._answer_due = time.monotonic() + self._run.request.lockstep_timeout
+        self._signal()
 
     @property
     def paused(self) -> bool:
@@ -425,6 +443,10 @@ class SampleLoop:
             if self.paused:
                 self._while_paused()
                 continue
+            if self._steps == 0:  # stepped, and no sample let out yet: wait for step() (or a request)
+                if self._wake.wait(MAX_WAIT):
+                    self._wake.clear()
+                continue
             run = self._run
             if run.holds and run.answered_in_turn:
                 self._lockstep_turn(run)
@@ -471,6 +493,9 @@ class SampleLoop:
             self._clock_ns = stamp
         run.position = i + 1
         self.published += 1
+        if self._steps is not None:
+            with self._lock:
+                self._steps = max(0, self._steps - 1)
         self.last = LastSample(run.simulation, block.first + i, stamp, block.omega_B[i], block.internal[i])
 
     def _lockstep_turn(self, run: _Run) -> None:
@@ -486,12 +511,14 @@ class SampleLoop:
             if n > 0:
                 self._awaiting = run
                 try:
-                    while not run.answered():
+                    while True:
                         if run.next_index != n or run.stopped_by:
-                            return  # the callback computed it (or could not)
+                            return  # the callback computed it (or could not): start over from the top
                         if self._wake.is_set():
                             self._wake.clear()
                             return  # a restart, a pause or a stop: applied between two samples
+                        if run.answered():
+                            break
                         remaining = self._answer_due - time.monotonic()
                         if remaining <= 0.0:
                             self.missed_steps += 1

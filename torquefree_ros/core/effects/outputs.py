@@ -183,6 +183,7 @@ class Pose(OutputEffect):
     summary = "geometry_msgs/PoseStamped of the attitude (inertial frame, zero position), for 3-D panels"
     message_type = "geometry_msgs/msg/PoseStamped"
     frame = "inertial"
+    layout = "pose"  # stamped doubles (position, orientation), placed at the body's position
     parameters = {"topic": Param(topic_name, "pose"), "rate": OutputEffect.RATE}
 
     def stream(self, rate, propagator):
