@@ -1,6 +1,4 @@
-import fcntl
 import os
-import tempfile
 
 import numpy as np
 import pytest
@@ -67,24 +65,20 @@ def pytest_collection_modifyitems(items):
 
 
 # -- DDS isolation: each test session owns a ROS domain, so parallel runs never see each other -------
-_domain_lock = None
+_domain = None
 
 
 def pytest_configure(config):
-    """Claim the first free ROS domain id (a lock file per id) before any rclpy context exists, and
-    keep discovery on this machine."""
-    global _domain_lock
+    """Claim a free ROS domain id (the test kit's lock files, so sessions and the kit's simulators never
+    share one) before any rclpy context exists, and keep discovery on this machine."""
+    global _domain
+    from torquefree_ros.testing.domains import claim_domain
+
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
     # a node subprocess that dies of a signal (SIGABRT from the C++ runtime) prints its Python stacks
     os.environ["PYTHONFAULTHANDLER"] = "1"
-    for domain in range(1, 102):  # 0..101 is the portable range; 0 is everyone's default
-        lock = open(os.path.join(tempfile.gettempdir(), f"torquefree_ros_domain_{domain}.lock"), "w")
-        try:
-            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            lock.close()
-            continue
-        _domain_lock = lock
-        os.environ["ROS_DOMAIN_ID"] = str(domain)
-        return
-    raise pytest.UsageError("no free ROS domain id in 1..101 for this test session")
+    try:
+        _domain = claim_domain()
+    except RuntimeError as error:
+        raise pytest.UsageError(f"this test session: {error}") from None
+    os.environ["ROS_DOMAIN_ID"] = str(_domain.domain_id)
