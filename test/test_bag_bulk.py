@@ -82,3 +82,18 @@ def test_scene_bags_are_byte_identical_either_way(tmp_path, monkeypatch, scene):
         files.append((out / f"{scene}_0.mcap").read_bytes())
         shutil.rmtree(out.parent) if bulk_on else None
     assert files[0] == files[1]
+
+
+@pytest.mark.parametrize("scene", ["estimator", "dzhanibekov"])
+def test_scene_bags_do_not_depend_on_how_the_blocks_are_cut(tmp_path, monkeypatch, scene):
+    """The blocks adapt to the machine's speed (one sample at first, doubling while fast), so a bag
+    must not depend on them: blocks of one sample throughout, and blocks as large as allowed."""
+    from torquefree_ros.bag import offline
+
+    files = []
+    for seconds in (0.0, 1e9):  # always too slow: blocks stay at one sample; never: they grow to the limit
+        monkeypatch.setattr(offline, "BLOCK_SECONDS", seconds)
+        out = tmp_path / str(seconds) / scene
+        write_scene_bag(load_scene(scene), out, 5.0, 100.0)
+        files.append((out / f"{scene}_0.mcap").read_bytes())
+    assert files[0] == files[1]

@@ -26,6 +26,17 @@ def _block(count=40):
     return simulation, simulation.samples(0, count)
 
 
+def test_an_output_at_a_rate_of_its_own_before_pose_leaves_it_at_the_origin():
+    # regression: the own-rate output's sample indices once leaked into the position of the next output
+    scene = scene_from_mapping({**SCENE, "effects": [{"star_tracker": {"rate": 5.0}}, {"pose": {}}]})
+    simulation = Simulation(scene.propagator(), 20.0, outputs=scene.outputs)
+    block = simulation.samples(0, 12)
+    pose = encode_block(block, "body", "world", simulation.outputs)[-1]
+    assert pose.topic == "pose"
+    for message in pose.messages:
+        assert message[4 + 24:4 + 24 + 24] == bytes(24)  # position: after the header (stamp, "world"), zero
+
+
 @pytest.mark.parametrize("count", [1, 40])  # one sample (a closed loop's) is packed differently
 def test_the_origin_is_no_position_byte_for_byte(count):
     simulation, block = _block(count)

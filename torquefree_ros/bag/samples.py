@@ -51,34 +51,34 @@ def encode_block(block, body_frame: str, inertial_frame: str, outputs=(), clock:
     ``position`` (x, y, z, m, in the inertial frame; None: the origin): where the outputs that place the
     body (``tf``, ``pose``, ``odometry``, ``markers``) put its centre, so that several bodies sharing one
     inertial frame show side by side; the simulator moves attitude only, so it is constant."""
-    position = _offset(position)
+    place = _offset(position)
     stamps = block.stamps_ns
     columns = [SampleColumn(CLOCK[0], CLOCK[1], encode_times(stamps))] if clock else []
     columns.append(SampleColumn(*ANGULAR_VELOCITY, encode_stamped_doubles(stamps, body_frame, block.omega_B)))
     columns.append(SampleColumn(*ATTITUDE, encode_stamped_doubles(stamps, inertial_frame, block.q_NB)))
     for output, rows, positions in zip(outputs, block.outputs, block.output_positions or (None,) * len(outputs)):
         if positions is None:
-            messages = _encode_output(output, stamps, rows, body_frame, inertial_frame, position)
+            messages = _encode_output(output, stamps, rows, body_frame, inertial_frame, place)
         else:  # an output at a rate of its own: None where it does not go out
             messages = [None] * len(stamps)
-            encoded = _encode_output(output, stamps[positions], rows, body_frame, inertial_frame, position)
-            for position, message in zip(positions.tolist(), encoded):
-                messages[position] = message
+            encoded = _encode_output(output, stamps[positions], rows, body_frame, inertial_frame, place)
+            for index, message in zip(positions.tolist(), encoded):
+                messages[index] = message
         columns.append(SampleColumn(output.topic, output.message_type, messages))
     return tuple(columns)
 
 
-def _encode_output(output, stamps, rows, body_frame: str, inertial_frame: str, position) -> list[bytes]:
+def _encode_output(output, stamps, rows, body_frame: str, inertial_frame: str, place) -> list[bytes]:
     frame = body_frame if output.frame == "body" else inertial_frame
-    if position is not None and output.layout in PLACED:
+    if place is not None and output.layout in PLACED:
         rows = rows.copy()
-        rows[:, 0:3] = position  # these rows start with the body's position (zero: the core moves no body)
+        rows[:, 0:3] = place  # these rows start with the body's position (zero: the core moves no body)
     if output.layout == "transform":  # parent: the output's frame; child: the body
         return encode_transforms(stamps, frame, body_frame, rows)
     if output.layout == "odometry":  # header.frame_id: the output's frame; child_frame_id: the body
         return encode_odometry(stamps, frame, body_frame, rows)
     if output.layout == "markers":
-        return encode_markers(stamps, frame, rows, position)
+        return encode_markers(stamps, frame, rows, place)
     return encode_stamped_doubles(stamps, frame, rows)
 
 
