@@ -4,8 +4,10 @@ answers, and the engine's one promise: the same table, bit for bit, in-process, 
 
 Every Dask cluster here listens on 127.0.0.1 only and is closed by the test or fixture that made it."""
 
+import contextlib
 import math
 import os
+import signal
 import subprocess
 import sys
 import time
@@ -99,41 +101,101 @@ def test_a_scene_with_effects_gives_the_same_table_on_workers_and_failed_runs_ar
     assert_same_table(reference, run_campaign(damper_campaign(), scheduler=cluster.scheduler_address, chunk_size=8))
 
 
-def test_a_scheduler_and_workers_started_as_separate_processes_are_used_by_address(tmp_path):
-    """``dask scheduler`` and ``dask worker`` as subprocesses (what a cluster looks like), the campaign
-    pointed at the scheduler's address; both processes are ended by their pids."""
+def test_blocks_inside_a_chunk_change_nothing(monkeypatch):
+    """A chunk propagates and measures its runs a block at a time (engine.BLOCK_SAMPLES): blocks of a few
+    runs, failed runs among them, give the same table as one block a chunk."""
+    from torquefree_ros.campaigns import engine
+
+    references = [run_campaign(make(), scheduler="in-process") for make in (torque_free_campaign, damper_campaign)]
+    assert engine.block_runs(load_campaign(torque_free_campaign())) >= 600  # one block a chunk above
+    monkeypatch.setattr(engine, "BLOCK_SAMPLES", 3 * 61)
+    assert engine.block_runs(load_campaign(torque_free_campaign())) == 3
+    for make, reference in zip((torque_free_campaign, damper_campaign), references):
+        assert_same_table(reference, run_campaign(make(), scheduler="in-process", chunk_size=64))
+
+
+@contextlib.contextmanager
+def dask_processes(tmp_path, workers: list):
+    """``dask scheduler`` and one ``dask worker`` process per argument list in ``workers`` (what a
+    cluster looks like), all on loopback; yields ``(address, worker processes)``. Every process is
+    ended by its pid."""
     from distributed import Client
 
     scheduler_file = tmp_path / "scheduler.json"
     environment = dict(os.environ, DASK_DISTRIBUTED__WORKER__DAEMON="False")
-    started = []
+    scheduler, started = None, []
     try:
-        started.append(subprocess.Popen(
+        scheduler = subprocess.Popen(
             [str(VENV_BIN / "dask"), "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
              "--scheduler-file", str(scheduler_file)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-            env=environment))
+            env=environment)
         deadline = time.monotonic() + 60
         while not scheduler_file.exists() and time.monotonic() < deadline:
             time.sleep(0.1)
         assert scheduler_file.exists(), "the scheduler did not start in 60 s"
-        started.append(subprocess.Popen(
-            [str(VENV_BIN / "dask"), "worker", "--scheduler-file", str(scheduler_file), "--host", "127.0.0.1",
-             "--nworkers", "2", "--nthreads", "1", "--no-dashboard"], stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL, env=environment))
+        for arguments in workers:
+            started.append(subprocess.Popen(
+                [str(VENV_BIN / "dask"), "worker", "--scheduler-file", str(scheduler_file), "--host", "127.0.0.1",
+                 "--nthreads", "1", "--no-dashboard", *arguments], stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL, env=environment))
+        expected = sum(int(a[a.index("--nworkers") + 1]) if "--nworkers" in a else 1 for a in workers)
         with Client(scheduler_file=str(scheduler_file), timeout="60s") as client:
-            client.wait_for_workers(2, timeout=60)
+            client.wait_for_workers(expected, timeout=60)
             address = client.scheduler.address
+        yield address, started
+    finally:  # the workers first: a worker whose scheduler is gone may spend its timeout reconnecting
+        for group in (started, [scheduler] if scheduler else []):
+            for process in group:
+                if process.poll() is None:
+                    process.terminate()
+            for process in group:
+                try:
+                    process.wait(timeout=10)
+                except subprocess.TimeoutExpired:
+                    process.kill()
+                    process.wait()
+
+
+def test_a_scheduler_and_workers_started_as_separate_processes_are_used_by_address(tmp_path):
+    """The campaign pointed at a scheduler's address; the workers under a nanny, as ``dask worker`` starts them."""
+    with dask_processes(tmp_path, [["--nworkers", "2"]]) as (address, _):
         table = run_campaign(torque_free_campaign(300), scheduler=address, chunk_size=50)
-        assert_same_table(run_campaign(torque_free_campaign(300), scheduler="in-process"), table)
-    finally:
-        for process in reversed(started):
-            process.terminate()
-        for process in reversed(started):
-            try:
-                process.wait(timeout=30)
-            except subprocess.TimeoutExpired:
-                process.kill()
-                process.wait()
+    assert_same_table(run_campaign(torque_free_campaign(300), scheduler="in-process"), table)
+
+
+def test_a_worker_killed_mid_campaign_changes_nothing_in_the_table(tmp_path):
+    """Two workers without nannies (each its own process); when the first chunk is in, the worker that is
+    computing a chunk is killed (SIGKILL). The scheduler gives its chunks to the other: every chunk
+    arrives once, and the table is the in-process one bit for bit."""
+    from distributed import Client
+
+    data = torque_free_campaign(1024)
+    data.update(duration=400.0, rate=10.0)  # 16 chunks of 64 runs, ~0.1 s each: the kill lands mid-campaign
+    reference = run_campaign(data, scheduler="in-process")
+    with dask_processes(tmp_path, [["--no-nanny"], ["--no-nanny"]]) as (address, workers):
+        pids = {process.pid: process for process in workers}
+        killed, calls = [], []
+        with Client(address, timeout="30s") as observer:
+            def kill_a_busy_worker(done, total):
+                calls.append(done)
+                if killed or done == 0:
+                    return
+                load = observer.run_on_scheduler(lambda dask_scheduler: {
+                    ws.pid: len(ws.processing) for ws in dask_scheduler.workers.values()})
+                busy = [pid for pid, tasks in load.items() if tasks and pid in pids]
+                assert busy, f"no worker is computing a chunk after the first one ({load})"
+                pids[busy[0]].send_signal(signal.SIGKILL)
+                killed.append((busy[0], done))
+
+            table = run_campaign(data, scheduler=address, chunk_size=64, progress=kill_a_busy_worker)
+            survivors = observer.run_on_scheduler(lambda dask_scheduler: sorted(
+                ws.pid for ws in dask_scheduler.workers.values()))
+        (pid, at), = killed
+        assert pids[pid].wait(timeout=10) == -signal.SIGKILL and at < 1024
+        assert survivors == sorted(set(pids) - {pid})  # the scheduler saw it go
+    assert calls[0] == 0 and calls[-1] == 1024 and len(calls) == 1 + 16  # every chunk once, none twice
+    assert np.all(np.diff(calls) == 64)
+    assert_same_table(reference, table)
 
 
 def test_a_run_draws_from_its_own_seed_only():
@@ -368,3 +430,314 @@ def test_the_command_line_runs_a_file_and_refuses_a_bad_one_with_status_2(tmp_pa
     with pytest.raises(SystemExit) as exit_:
         campaign_cli.main(["run", str(good), "--output", str(tmp_path / "o3"), "--workers", "0"])
     assert exit_.value.code == 2
+
+
+# -- resuming an interrupted campaign ---------------------------------------------------------------------
+class Interrupted(Exception):
+    """What a test raises to stop a campaign part way (as Ctrl-C would)."""
+
+
+def interrupt_after(runs):
+    def progress(done, total):
+        if done >= runs:
+            raise Interrupted
+
+    return progress
+
+
+def computed_chunks(monkeypatch):
+    """The (start, stop) of every chunk the in-process engine computes from now on."""
+    from torquefree_ros.campaigns import engine
+
+    computed, original = [], engine.run_chunk
+    monkeypatch.setattr(engine, "run_chunk", lambda campaign, start, stop: (computed.append((start, stop)),
+                                                                            original(campaign, start, stop))[1])
+    return computed
+
+
+def test_an_interrupted_campaign_resumes_computing_only_the_missing_runs(tmp_path, monkeypatch):
+    """Interrupted after 3 of 8 chunks, a finished part lost besides (a hole): the resumed run, in other
+    chunks, computes exactly the runs no part holds, and the table is the uninterrupted one bit for bit."""
+    reference = run_campaign(torque_free_campaign(300), scheduler="in-process")
+    output = tmp_path / "out"
+    with pytest.raises(Interrupted):
+        run_campaign(torque_free_campaign(300), scheduler="in-process", output=output, chunk_size=40,
+                     progress=interrupt_after(120))
+    parts = sorted(p.name for p in (output / "parts").glob("*.parquet"))
+    assert parts == ["runs-000000000-000000040.parquet", "runs-000000040-000000080.parquet",
+                     "runs-000000080-000000120.parquet"]
+    assert not (output / "runs.parquet").exists()
+    (output / "parts" / parts[1]).unlink()
+    with pytest.raises(FileExistsError, match="80 of 300 runs .* --resume continues it, --overwrite starts over"):
+        run_campaign(torque_free_campaign(300), scheduler="in-process", output=output)
+
+    computed, progress = computed_chunks(monkeypatch), []
+    table = run_campaign(torque_free_campaign(300), scheduler="in-process", output=output, chunk_size=100,
+                         resume=True, progress=lambda done, total: progress.append(done))
+    assert computed == [(40, 80), (120, 220), (220, 300)]
+    assert progress == [80, 120, 220, 300]  # starts from the runs kept
+    assert_same_table(reference, table)
+    assert_same_table(reference, pq.read_table(output / "runs.parquet"))
+    assert not (output / "parts").exists()  # the parts are gone once the table is whole
+    computed.clear()  # resuming a finished campaign computes nothing and returns its table
+    assert_same_table(reference, run_campaign(torque_free_campaign(300), scheduler="in-process", output=output,
+                                              resume=True))
+    assert computed == []
+
+
+def test_a_campaign_interrupted_on_workers_resumes_on_workers(tmp_path, cluster):
+    """Stopped after its first chunks on the cluster, resumed on it: the runs computed are those missing."""
+    reference = run_campaign(damper_campaign(), scheduler="in-process")
+    output = tmp_path / "out"
+    with pytest.raises(Interrupted):
+        run_campaign(damper_campaign(), scheduler=cluster.scheduler_address, output=output, chunk_size=8,
+                     progress=interrupt_after(16))
+    kept = sum(int(p.name[15:24]) - int(p.name[5:14]) for p in (output / "parts").glob("runs-*.parquet"))
+    assert 16 <= kept < 60
+    progress = []
+    table = run_campaign(damper_campaign(), scheduler=cluster.scheduler_address, output=output, chunk_size=8,
+                         resume=True, progress=lambda done, total: progress.append(done))
+    assert progress[0] == kept and progress[-1] == 60 and len(progress) == 1 + math.ceil((60 - kept) / 8)
+    assert_same_table(reference, table)
+
+
+def test_resuming_refuses_another_campaign_scene_or_versions(tmp_path, monkeypatch):
+    from torquefree_ros.campaigns import results
+    from torquefree_ros.campaigns.store import ResumeError
+
+    scene = tmp_path / "body.yaml"
+    scene.write_text("body: {inertia: [1.0, 2.0, 2.5]}\ninitial: {angular_velocity: [0.3, 1.0, 0.2]}\n")
+    data = {"scene": str(scene), "runs": 40, "seed": 4, "duration": 2.0, "rate": 5.0, "metrics": ["final_rates"],
+            "dispersions": {"initial.angular_velocity": {"absolute": {"normal": {"sigma": 0.01}}}}}
+    output = tmp_path / "out"
+    with pytest.raises(Interrupted):
+        run_campaign(data, scheduler="in-process", output=output, chunk_size=10, progress=interrupt_after(10))
+    manifest = output / "parts" / "manifest.json"
+    with pytest.raises(ResumeError, match=r"cannot resume: its campaign file differs from <mapping> at line \d+ "
+                                          r"\('seed: 4', now 'seed: 5'\)\. --overwrite starts over"):
+        run_campaign(dict(data, seed=5), scheduler="in-process", output=output, resume=True)
+    scene.write_text("body: {inertia: [1.0, 2.0, 2.6]}\ninitial: {angular_velocity: [0.3, 1.0, 0.2]}\n")
+    with pytest.raises(ResumeError, match=f"^{manifest}: cannot resume: its scene \\({scene}\\) differs"):
+        run_campaign(data, scheduler="in-process", output=output, resume=True)
+    scene.write_text("body: {inertia: [1.0, 2.0, 2.5]}\ninitial: {angular_velocity: [0.3, 1.0, 0.2]}\n")
+    real = results.versions()
+    monkeypatch.setattr(results, "versions", lambda: dict(real, numpy="0.0.1"))
+    with pytest.raises(ResumeError, match=f"it was made with numpy {real['numpy']} \\(now 0.0.1\\), and runs made "
+                                          "by other versions need not be bit for bit this run's"):
+        run_campaign(data, scheduler="in-process", output=output, resume=True)
+    monkeypatch.undo()
+    # a torn part (a crash before its bytes reached the disk) is computed again; overwrite starts over
+    (output / "parts" / "runs-000000000-000000010.parquet").write_bytes(b"PAR1 torn")
+    table = run_campaign(data, scheduler="in-process", output=output, resume=True)
+    assert_same_table(run_campaign(data, scheduler="in-process"), table)
+    with pytest.raises(FileExistsError, match="a finished campaign.*--resume returns it"):
+        run_campaign(data, scheduler="in-process", output=output)
+    run_campaign(dict(data, seed=5), scheduler="in-process", output=output, overwrite=True)
+    metadata = pq.read_table(output / "runs.parquet").schema.metadata
+    assert yaml.safe_load(metadata[b"torquefree_ros.campaign"])["seed"] == 5
+
+
+def test_the_command_line_resumes_and_says_what_it_computed(tmp_path, capsys):
+    path = tmp_path / "c.yaml"
+    path.write_text(yaml.safe_dump(torque_free_campaign(60)))
+    output = tmp_path / "out"
+    with pytest.raises(Interrupted):
+        run_campaign(path, scheduler="in-process", output=output, chunk_size=20, progress=interrupt_after(20))
+    arguments = ["run", str(path), "--output", str(output), "--scheduler", "in-process"]
+    assert campaign_cli.main(arguments) == 2
+    assert "--resume continues it" in capsys.readouterr().err
+    assert campaign_cli.main(arguments + ["--resume"]) == 0
+    assert "60 runs (60 ok, 0 failed, 20 resumed); 40 computed in" in capsys.readouterr().out
+    assert campaign_cli.main(arguments + ["--resume"]) == 0
+    assert "finished before, nothing computed" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        campaign_cli.main(arguments + ["--resume", "--overwrite"])
+    assert "not allowed with argument" in capsys.readouterr().err
+    assert_same_table(run_campaign(path, scheduler="in-process"), pq.read_table(output / "runs.parquet"))
+
+
+# -- the progress line ----------------------------------------------------------------------------------
+def test_the_progress_line_counts_runs_speed_and_eta():
+    assert campaign_cli.progress_line(250, 1000, 50.0) == "250/1,000 runs (25 %), 50.0 runs/s, ETA 0:15"
+    assert (campaign_cli.progress_line(600, 1000, 25.0, 500)
+            == "600/1,000 runs (60 %, 500 resumed), 25.0 runs/s, ETA 0:16")
+    assert campaign_cli.progress_line(0, 10_000, 0.0).endswith("0.0 runs/s, ETA --")
+    assert campaign_cli.progress_line(5000, 90_000, 10.0).endswith("ETA 2:21:40")
+
+
+def test_the_progress_line_is_written_on_a_terminal_only_and_at_most_twice_a_second():
+    """A resumed campaign (100 runs kept) whose first chunk comes in after a slow start (2 s): the speed is
+    counted from that chunk on, the line rewritten at most every 0.5 s, and always at the end."""
+    import io
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    now = [0.0]
+    terminal = Terminal()
+    progress = campaign_cli.RunProgress(terminal, clock=lambda: now[0])
+    for done, at in ((100, 0.0), (110, 2.0), (120, 2.2), (130, 2.6), (140, 2.7), (160, 3.0)):
+        now[0] = at
+        progress(done, 160)
+    progress.close()
+    lines = terminal.getvalue().split("\r")
+    assert lines[1:] == ["110/160 runs (69 %, 100 resumed), 5.0 runs/s, ETA 0:10\033[K",  # the start: 10 runs in 2 s
+                         "130/160 runs (81 %, 100 resumed), 33.3 runs/s, ETA 0:01\033[K",  # 20 runs in 0.6 s
+                         "160/160 runs (100 %, 100 resumed), 50.0 runs/s, ETA 0:00\033[K", "\033[K"]
+    piped = io.StringIO()
+    quiet = campaign_cli.RunProgress(piped)
+    quiet(0, 10), quiet(10, 10), quiet.close()
+    assert piped.getvalue() == ""
+    forced = io.StringIO()
+    shown = campaign_cli.RunProgress(forced, enabled=True)
+    shown(0, 10), shown(10, 10)
+    assert "10/10 runs (100 %)" in forced.getvalue()
+
+
+def test_the_command_line_progress_can_be_forced(tmp_path, capsys):
+    path = tmp_path / "c.yaml"
+    path.write_text(yaml.safe_dump(torque_free_campaign(30)))
+    assert campaign_cli.main(["run", str(path), "--output", str(tmp_path / "out"), "--scheduler", "in-process",
+                              "--chunk", "10", "--progress", "always"]) == 0
+    err = capsys.readouterr().err
+    assert "\r30/30 runs (100 %), " in err and " runs/s, ETA 0:00" in err
+
+
+# -- the report ------------------------------------------------------------------------------------------
+def markdown_rows(text: str, header: str) -> dict:
+    """The rows of the Markdown table whose header row starts with ``header``: first cell -> cells."""
+    lines = text.splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith(header))
+    rows = {}
+    for line in lines[start + 2:]:
+        if not line.startswith("|"):
+            break
+        cells = [cell.strip() for cell in line.strip("|").split(" | ")]
+        rows[cells[0]] = cells[1:]
+    return rows
+
+
+def test_the_report_writes_its_files_and_its_numbers_are_the_tables(tmp_path):
+    """A campaign with failed runs (a damping drawn negative): the statuses and their reasons, each
+    metric's min, median, p95 and max, and the worst runs, against numpy on the table."""
+    from torquefree_ros.campaigns.report import write_report
+
+    output = tmp_path / "out"
+    data = damper_campaign(80)
+    data["metrics"].append({"settle_time": {"threshold": 6.0}})  # |w0| = 6 rad/s dispersed: some runs never settle
+    table = run_campaign(data, scheduler="in-process", output=output)
+    written = write_report(output)
+    assert [p.name for p in written] == ["summary.md", "histograms.png"]
+    assert all(p.parent == output / "report" for p in written)
+    assert written[1].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and written[1].stat().st_size > 10_000
+    text = written[0].read_text()
+    data = table.to_pydict()
+    status = np.array(data["status"])
+
+    runs = markdown_rows(text, "| status |")
+    assert set(runs) == set(status)
+    for name, (count, share, reasons) in runs.items():
+        assert int(count.replace(",", "")) == np.count_nonzero(status == name)
+        share_expected = 100 * np.count_nonzero(status == name) / 80
+        assert float(share.rstrip(" %")) == pytest.approx(share_expected, abs=0.05 + 1e-12)  # one decimal
+    failed = [i for i, s in enumerate(data["status"]) if s == "invalid_scene"]
+    assert failed and all(data["reason"][i].startswith("effects[0].damper.damping: must be > 0 N m s, got -")
+                          for i in failed)  # one kind of reason, its drawn number left out
+    assert runs["invalid_scene"][2] == (f"{len(failed)}× effects[0].damper.damping: must be > 0 N m s, got … "
+                                        f"(run {failed[0]})")
+
+    metrics = markdown_rows(text, "| metric | unit | runs |")
+    columns = ["final_wx", "final_wy", "final_wz", "cone_angle", "energy_drift", "nominal_attitude_error",
+               "settle_time"]
+    assert list(metrics) == columns
+    ok = status == "ok"
+    settle = np.array([np.nan if v is None else v for v in data["settle_time"]])[ok]
+    assert 0 < np.count_nonzero(np.isnan(settle)) < settle.size  # undefined values, counted apart
+    for column in columns:
+        values = np.array([np.nan if v is None else v for v in data[column]], dtype=float)[ok]
+        finite = values[np.isfinite(values)]
+        unit, count, undefined, *numbers = metrics[column]
+        assert int(count.replace(",", "")) == finite.size
+        assert int(undefined.replace(",", "")) == values.size - finite.size
+        expected = [finite.min(), np.median(finite), np.percentile(finite, 95), finite.max()]
+        assert np.allclose([float(x) for x in numbers], expected, rtol=5e-6, atol=0)  # written to 6 digits
+
+    worst = markdown_rows(text, "| metric | run | value |")
+    assert list(worst) == columns
+    for column in columns:
+        values = np.array([np.nan if v is None else v for v in data[column]], dtype=float)
+        run = int(np.nanargmax(np.abs(values)))
+        assert int(worst[column][0]) == run and float(worst[column][1]) == pytest.approx(values[run], rel=5e-6)
+        damping = data["effects[0].damper.damping"][run]
+        assert f"`effects[0].damper.damping` = {damping:.6g}" in worst[column][2]
+        drawn = ", ".join(f"{data[f'initial.angular_velocity[{k}]'][run]:.6g}" for k in range(3))
+        assert f"`initial.angular_velocity` = [{drawn}]" in worst[column][2]
+    assert "No percentile envelopes of the rates over time: campaigns keep metrics only" in text
+
+    other = write_report(output, tmp_path / "elsewhere")  # --output
+    assert other[0] == tmp_path / "elsewhere" / "summary.md" and other[0].read_text() == text
+
+
+def test_the_report_refuses_a_directory_without_a_campaign_table_naming_it(tmp_path, capsys):
+    from torquefree_ros.campaigns.report import ReportError, write_report
+
+    missing = tmp_path / "nowhere"
+    with pytest.raises(ReportError, match=f"^{missing}: no such directory$"):
+        write_report(missing)
+    plain = tmp_path / "plain.txt"
+    plain.write_text("x")
+    with pytest.raises(ReportError, match=f"^{plain}: not a directory"):
+        write_report(plain)
+    with pytest.raises(ReportError, match=f"^{tmp_path}: no runs.parquet \\(not a campaign's output directory\\)$"):
+        write_report(tmp_path)
+    unfinished = tmp_path / "unfinished"
+    with pytest.raises(Interrupted):
+        run_campaign(torque_free_campaign(40), scheduler="in-process", output=unfinished, chunk_size=10,
+                     progress=interrupt_after(10))
+    with pytest.raises(ReportError, match=f"^{unfinished}: the campaign is not finished .* --resume finishes it$"):
+        write_report(unfinished)
+    garbage = tmp_path / "garbage"
+    garbage.mkdir()
+    (garbage / "runs.parquet").write_bytes(b"not parquet")
+    with pytest.raises(ReportError, match=f"^{garbage / 'runs.parquet'}: cannot be read as Parquet"):
+        write_report(garbage)
+    foreign = tmp_path / "foreign"
+    foreign.mkdir()
+    pq.write_table(pa.table({"x": [1.0]}), foreign / "runs.parquet")
+    with pytest.raises(ReportError, match="not a campaign's table"):
+        write_report(foreign)
+    assert campaign_cli.main(["report", str(missing)]) == 2
+    assert capsys.readouterr().err == f"torquefree_campaign: {missing}: no such directory\n"
+
+
+def test_the_command_line_report(tmp_path, capsys):
+    output = tmp_path / "out"
+    run_campaign(torque_free_campaign(30), scheduler="in-process", output=output)
+    assert campaign_cli.main(["report", str(output), "--output", str(tmp_path / "r")]) == 0
+    assert capsys.readouterr().out.split() == [str(tmp_path / "r" / "summary.md"),
+                                               str(tmp_path / "r" / "histograms.png")]
+    assert "| flips | – | 30 | 0 |" in (tmp_path / "r" / "summary.md").read_text()
+
+
+def test_an_output_directory_with_a_damaged_manifest_or_stray_parts_is_refused(tmp_path):
+    from torquefree_ros.campaigns.store import ResumeError
+
+    output = tmp_path / "out"
+    with pytest.raises(Interrupted):
+        run_campaign(torque_free_campaign(40), scheduler="in-process", output=output, chunk_size=10,
+                     progress=interrupt_after(10))
+    manifest = output / "parts" / "manifest.json"
+    manifest.write_text("{not json")
+    with pytest.raises(ResumeError, match=f"^{manifest}: cannot be read .*--overwrite starts over$"):
+        run_campaign(torque_free_campaign(40), scheduler="in-process", output=output, resume=True)
+    manifest.unlink()
+    with pytest.raises(FileExistsError, match="holds part files but no manifest.json .*--overwrite starts over"):
+        run_campaign(torque_free_campaign(40), scheduler="in-process", output=output, resume=True)
+    plain = tmp_path / "plain"
+    plain.write_text("x")
+    with pytest.raises(NotADirectoryError, match=f"^{plain}: exists and is not a directory$"):
+        run_campaign(torque_free_campaign(40), scheduler="in-process", output=plain)
+    table = run_campaign(torque_free_campaign(40), scheduler="in-process", output=output, overwrite=True)
+    assert_same_table(run_campaign(torque_free_campaign(40), scheduler="in-process"), table)
+    assert sorted(p.name for p in output.iterdir()) == ["campaign.yaml", "runs.parquet"]

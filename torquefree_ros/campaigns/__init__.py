@@ -18,8 +18,13 @@ The room, in the order a campaign flows through it:
 * :mod:`.results` — **results**: one table (pyarrow, written as Parquet), a row per run with its
   drawn inputs, metrics and status, and the campaign file and versions in its metadata.
 
-``run_campaign(path_or_mapping)`` is the Python API; ``torquefree_campaign run`` the command line.
-The table is the same, bit for bit, in-process, on 1 or 2 workers, or with another chunk size.
+* :mod:`.store` — the **output directory**: each finished chunk as a part file as it completes, then
+  the table; an interrupted campaign resumes from its parts.
+* :mod:`.report` — the **report**: histograms of the metrics, the worst runs, a Markdown summary.
+
+``run_campaign(path_or_mapping)`` is the Python API; ``torquefree_campaign run`` and ``report`` the
+command line. The table is the same, bit for bit, in-process, on 1 or 2 workers, with another chunk
+size, or resumed after an interruption.
 """
 
 from __future__ import annotations
@@ -29,20 +34,59 @@ from .spec import Campaign, CampaignError, library_campaigns, load_campaign
 
 
 def run_campaign(path_or_mapping, scheduler=None, workers: int | None = None, output=None, *,
-                 chunk_size: int | None = None, overwrite: bool = False, progress=None):
+                 chunk_size: int | None = None, overwrite: bool = False, resume: bool = False, progress=None):
     """Run a campaign (a file, a library campaign's name, a mapping or a :class:`Campaign`) and return
-    its table (``pyarrow.Table``, see :mod:`.results`). ``scheduler``: ``None`` (a local cluster, or
-    this process for a campaign of one chunk), ``"in-process"``, ``"local"``, a Dask scheduler's
-    address or a ``distributed.Client``; ``workers``: the local cluster's worker processes (default:
-    one per core); ``output``: a directory to write ``runs.parquet`` into; ``chunk_size``: runs per
-    task (the table does not depend on it); ``progress(done_runs, total_runs)``."""
-    from .engine import execute
-    from .results import build_table, write_results
+    its table (``pyarrow.Table``, see :mod:`.results`).
+
+    ``scheduler``: ``None`` (a local cluster, or this process for a campaign of one chunk),
+    ``"in-process"``, ``"local"``, a Dask scheduler's address or a ``distributed.Client``; ``workers``:
+    the local cluster's worker processes (default: one per core); ``chunk_size``: runs per task (the
+    table does not depend on it); ``progress(done_runs, total_runs)``: called once before the first
+    chunk (``done_runs`` = the runs a resumed campaign already holds) and after each chunk.
+
+    ``output``: a directory (see :mod:`.store`) that keeps each finished chunk as it completes and then
+    the table as ``runs.parquet``. It must not hold a campaign yet, unless ``overwrite`` (start over)
+    or ``resume``: continue the campaign it holds, computing only the runs no finished chunk holds
+    (the result is bit for bit the uninterrupted run's table); the campaign file, its scene and the
+    versions must be the same (:class:`.store.ResumeError` says what differs). Resuming a finished
+    campaign returns its table."""
+    from .engine import chunk_runs, chunks, execute
+    from .results import build_table
+    from .store import CampaignDirectory
 
     campaign = load_campaign(path_or_mapping)
-    table = build_table(campaign, execute(campaign, scheduler, workers, chunk_size, progress))
-    if output is not None:
-        write_results(table, campaign, output, overwrite)
+    size = chunk_runs(campaign, chunk_size)
+    if output is None:
+        store, ranges, parts = None, chunks(campaign, size), {}
+    else:
+        store = CampaignDirectory.open(output, campaign, overwrite=overwrite, resume=resume)
+        if store.finished_table is not None:
+            if progress:
+                progress(campaign.runs, campaign.runs)
+            return store.finished_table
+        ranges, parts = store.missing(size), {}
+    done = store.done_runs if store else 0
+    if progress:
+        progress(done, campaign.runs)
+
+    def finished(start, stop, columns):
+        nonlocal done
+        if store:
+            store.write_part(start, stop, columns)
+        parts[start] = columns
+        done += stop - start
+        if progress:
+            progress(done, campaign.runs)
+
+    if ranges:
+        execute(campaign, ranges, scheduler, workers, finished)
+    if store:
+        for start in store.parts:
+            if start not in parts:
+                parts[start] = store.read_part(start)
+    table = build_table(campaign, [parts[start] for start in sorted(parts)])
+    if store:
+        store.finish(table)
     return table
 
 

@@ -14,6 +14,7 @@ one thread each, loopback only) for the campaign and closes it after; an address
 (``tcp://host:port``) or a ``distributed.Client`` uses an existing cluster. ``None`` is ``"local"``,
 or ``"in-process"`` for a campaign of one chunk (a cluster would only add its start-up).
 A worker process loads the compiled kernels once (they are module state), not once per chunk.
+Inside a chunk the runs go a block at a time (:data:`BLOCK_SAMPLES`): the arrays stay small.
 """
 
 from __future__ import annotations
@@ -33,7 +34,21 @@ from .metrics import Samples
 
 DEFAULT_CHUNK_RUNS = 256
 CHUNK_BYTES = 128 * 2**20  # samples held by one chunk at most (then fewer runs a chunk)
+# Inside a chunk, runs are propagated and measured a block of at most this many body-samples at a time
+# (the same numbers: every run is computed on its own): a block's arrays (2 MB a quaternion array) stay
+# in cache and far under the mmap threshold below, whatever the chunk's size and the runs' length.
+BLOCK_SAMPLES = 65_536
+# glibc's allocator for a local cluster's workers. Its default thresholds move with what was freed
+# last, and a block's arrays then keep going back to the kernel and faulting in afresh: measured,
+# 10 000 runs of 1 001 samples in one process took 0.5 to 1.6 s of system time beside 2.5 s of user
+# time, depending on the process's history; with these fixed thresholds, none.
+MALLOC_ENVIRONMENT = {"MALLOC_MMAP_THRESHOLD_": str(32 * 2**20), "MALLOC_TRIM_THRESHOLD_": str(128 * 2**20)}
 OK, INVALID_BODY, INVALID_SCENE, FAILED = "ok", "invalid_body", "invalid_scene", "failed"
+
+
+def block_runs(campaign) -> int:
+    """Runs propagated and measured together inside a chunk."""
+    return max(1, BLOCK_SAMPLES // campaign.samples)
 
 
 def chunk_runs(campaign, requested: int | None = None) -> int:
@@ -136,16 +151,24 @@ def _run_chunk(campaign, start: int, stop: int) -> dict:
                     scenes[draw.run] = _scene_of(campaign, draw)
                 except SceneError as error:
                     draw.status, draw.reason = INVALID_SCENE, str(error).split(": ", 1)[-1]
-    ok = [draw for draw in draws if draw.status == OK]
-    trajectories = _propagate(campaign, ok, scenes, times)
-    ok = [draw for draw in ok if draw.status == OK]
+    ready = [draw for draw in draws if draw.status == OK]
+    nominal = _nominal(campaign, times) if campaign.needs_nominal and ready else None
+    ok, blocks, size = [], [], block_runs(campaign)
+    for low in range(0, len(ready), size):  # a block at a time: see BLOCK_SAMPLES
+        block = ready[low:low + size]
+        trajectories = _propagate(campaign, block, scenes, times)
+        finished = [draw for draw in block if draw.status == OK]
+        if finished:
+            blocks.append(_metrics(campaign, finished, trajectories, times, nominal))
+            ok += finished
     columns = {"run": np.arange(start, stop, dtype=np.int64),
                "redraws": np.array([d.redraws for d in draws], dtype=np.int64)}
     for target in campaign.targets + ((campaign.body_target,) if campaign.body_target else ()):
         values = np.array([d.values[target.path] for d in draws]).reshape(len(draws), -1)
         for k, column in enumerate(target.columns):
             columns[column] = values[:, k]
-    metric_values = _metrics(campaign, ok, trajectories, times) if ok else {}
+    metric_values = {column: np.concatenate([block[column] for block in blocks])
+                     for column in campaign.metric_columns} if blocks else {}
     index = {draw.run - start: i for i, draw in enumerate(ok)}
     rows = np.array(sorted(index), dtype=np.int64)
     picked = np.array([index[r] for r in rows], dtype=np.int64)
@@ -206,8 +229,7 @@ def _samples(times, draws, omega, q, internal, nominal=None) -> Samples:
                    nominal)
 
 
-def _metrics(campaign, ok: list, trajectories: dict, times) -> dict:
-    nominal = _nominal(campaign, times) if campaign.needs_nominal else None
+def _metrics(campaign, ok: list, trajectories: dict, times, nominal) -> dict:
     stacked = [np.stack([trajectories[d.run][k] for d in ok]) for k in range(3)]
     samples = _samples(times, ok, *stacked, nominal=nominal)
     result = {}
@@ -233,23 +255,24 @@ def _metric_one_by_one(use, ok, stacked, times, nominal) -> dict:
 
 
 # -- engines --------------------------------------------------------------------------------------------
-def execute(campaign, scheduler=None, workers: int | None = None, chunk_size: int | None = None,
-            progress=None) -> list[dict]:
-    """Every chunk's columns, in run order. ``progress(done_runs, total_runs)`` after each chunk."""
-    size = chunk_runs(campaign, chunk_size)
-    parts = chunks(campaign, size)
+def execute(campaign, ranges=None, scheduler=None, workers: int | None = None, on_chunk=None) -> list[dict]:
+    """Every chunk's columns, in the order of ``ranges`` (``(start, stop)`` pairs; default: the whole
+    campaign in chunks of :func:`chunk_runs`). ``on_chunk(start, stop, columns)`` is called in this
+    process as each chunk completes (in completion order), once per chunk, even when Dask runs a
+    chunk again because its worker was lost (a chunk's columns depend only on the campaign and its runs)."""
+    parts = chunks(campaign, chunk_runs(campaign)) if ranges is None else list(ranges)
     if scheduler is None:
-        scheduler = "in-process" if len(parts) == 1 else "local"
+        scheduler = "in-process" if len(parts) <= 1 else "local"
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
         raise ValueError(f"workers: expected a positive integer, got {workers!r}")
     if scheduler == "in-process":
         results = []
         for start, stop in parts:
             results.append(run_chunk(campaign, start, stop))
-            if progress:
-                progress(stop, campaign.runs)
+            if on_chunk:
+                on_chunk(start, stop, results[-1])
         return results
-    return _on_dask(campaign, parts, scheduler, workers, progress)
+    return _on_dask(campaign, parts, scheduler, workers, on_chunk)
 
 
 def local_cluster(workers: int):
@@ -262,16 +285,18 @@ def local_cluster(workers: int):
 
     # Dask spawns workers with MALLOC_TRIM_THRESHOLD_=65536, which also freezes glibc's mmap threshold:
     # every array of a chunk is then fresh pages from the kernel, and a chunk takes twice as long
-    # (measured: 0.155 s against 0.076 s for 256 runs of 1001 samples). The thread limits stay.
+    # (measured: 0.155 s against 0.076 s for 256 runs of 1001 samples). Both thresholds are set instead
+    # (MALLOC_ENVIRONMENT). The thread limits stay.
     environment = {key: value for key, value in dask.config.get("distributed.nanny.pre-spawn-environ").items()
                    if key != "MALLOC_TRIM_THRESHOLD_"}
+    environment.update(MALLOC_ENVIRONMENT)
     with dask.config.set({"distributed.nanny.pre-spawn-environ": environment}):
         return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
                             dashboard_address=None, scheduler_kwargs={"dashboard": False,
                                                                       "dashboard_address": "127.0.0.1:0"})
 
 
-def _on_dask(campaign, parts, scheduler, workers, progress) -> list[dict]:
+def _on_dask(campaign, parts, scheduler, workers, on_chunk) -> list[dict]:
     from distributed import Client, as_completed
 
     cluster = None
@@ -293,15 +318,16 @@ def _on_dask(campaign, parts, scheduler, workers, progress) -> list[dict]:
                                  pure=False, retries=2): index
                    for index, (start, stop) in enumerate(parts)}
         results: list = [None] * len(parts)
-        done = 0
-        for future in as_completed(futures):
+        # as_completed yields each future once; a chunk whose worker died is run again by the scheduler
+        # (its result, if already computed and lost with the worker, too) before its future completes.
+        # It watches on this client's loop: by default it takes the default client's, another one when the
+        # process holds several clients, and a future reset after a lost worker then waits on the wrong loop.
+        for future in as_completed(futures, loop=client.loop):
             index = futures[future]
             results[index] = future.result()
             future.release()
-            start, stop = parts[index]
-            done += stop - start
-            if progress:
-                progress(done, campaign.runs)
+            if on_chunk:
+                on_chunk(*parts[index], results[index])
         return results
     finally:
         if own_client:

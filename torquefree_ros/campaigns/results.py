@@ -5,18 +5,18 @@ Columns, in order: ``run`` (int64), ``status`` (``ok | invalid_body | invalid_sc
 named by target path: ``body.moments[0]``, ``initial.orientation[3]``, ``effects[0].damper.damping``),
 then the metrics' columns (null for a run that did not finish; NaN where a metric is undefined for a
 run that did). The schema's metadata holds the campaign file's text (``torquefree_ros.campaign``),
-what the campaign measured when loaded (``torquefree_ros.campaign_summary``, JSON) and the versions
-that made the table (``torquefree_ros.versions``, JSON); nothing in it depends on the engine, so the
-same campaign gives the same table, metadata included, in-process or on any cluster.
+the scene it dispersed (``torquefree_ros.scene``, the scene file's mapping as JSON), what the
+campaign measured when loaded (``torquefree_ros.campaign_summary``, JSON) and the versions that made
+the table (``torquefree_ros.versions``, JSON); nothing in it depends on the engine, so the same
+campaign gives the same table, metadata included, in-process, on any cluster, or resumed.
+The table is written by :mod:`.store` (``DIR/runs.parquet``, assembled from per-chunk parts).
 """
 
 from __future__ import annotations
 
 import json
-import os
 import platform
 from importlib import metadata as importlib_metadata
-from pathlib import Path
 
 import numpy as np
 
@@ -35,6 +35,13 @@ def versions() -> dict:
         except importlib_metadata.PackageNotFoundError:
             found[name] = None
     return found
+
+
+def provenance(campaign) -> dict:
+    """What a campaign's runs are made of: its file's text, its scene (the scene file's mapping, so that
+    an edited scene file is noticed) and the versions. Runs of equal provenance are equal bit for bit."""
+    scene = json.loads(json.dumps(campaign.scene_document, sort_keys=True, default=str))
+    return {"campaign": campaign.text, "scene": scene, "versions": versions()}
 
 
 def build_table(campaign, parts: list[dict]):
@@ -59,28 +66,14 @@ def build_table(campaign, parts: list[dict]):
                "samples": campaign.samples, "body_acceptance": campaign.body_acceptance,
                "metrics": {use.metric.name: {"columns": list(use.metric.columns), "unit": use.metric.unit,
                                              "parameters": _plain(use.values)} for use in campaign.metrics}}
+    made_of = provenance(campaign)
     meta = {b"torquefree_ros.campaign": campaign.text.encode("utf-8"),
+            b"torquefree_ros.scene": json.dumps(made_of["scene"], sort_keys=True).encode("utf-8"),
             b"torquefree_ros.campaign_summary": json.dumps(summary, sort_keys=True).encode("utf-8"),
-            b"torquefree_ros.versions": json.dumps(versions(), sort_keys=True).encode("utf-8")}
+            b"torquefree_ros.versions": json.dumps(made_of["versions"], sort_keys=True).encode("utf-8")}
     return pa.table(arrays).replace_schema_metadata(meta)
 
 
 def _plain(values: dict) -> dict:
     return {k: (list(v) if isinstance(v, (tuple, np.ndarray)) else v) for k, v in values.items()}
 
-
-def write_results(table, campaign, directory, overwrite: bool = False) -> Path:
-    """``DIRECTORY/runs.parquet`` (and the campaign's text as ``campaign.yaml``), written whole: a
-    temporary file renamed into place."""
-    import pyarrow.parquet as pq
-
-    directory = Path(directory)
-    target = directory / RESULTS_FILE
-    if target.exists() and not overwrite:
-        raise FileExistsError(f"{target} exists (resuming a campaign is not implemented yet; --overwrite replaces it)")
-    directory.mkdir(parents=True, exist_ok=True)
-    temporary = directory / f".{RESULTS_FILE}.{os.getpid()}.tmp"
-    pq.write_table(table, temporary, compression="zstd")
-    os.replace(temporary, target)
-    (directory / CAMPAIGN_FILE).write_text(campaign.text, encoding="utf-8")
-    return target
