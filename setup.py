@@ -18,7 +18,7 @@ setup(
         ("share/" + package_name + "/config/scenes", glob("torquefree_ros/scenes/*.yaml")),
         ("share/" + package_name + "/launch", glob("launch/*.launch.py")),
         ("share/" + package_name + "/rviz", glob("rviz/*.rviz")),
-        ("share/" + package_name + "/foxglove", glob("foxglove/*.json")),
+        ("share/" + package_name + "/foxglove", glob("foxglove/*.json") + glob("foxglove/*.ts")),
     ],
     # What the package imports at run time, all from PyPI (exact versions: requirements.lock). In a
     # ROS install the same come from rosdep (package.xml); colcon does not install these.

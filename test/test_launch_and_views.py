@@ -330,7 +330,14 @@ def test_the_foxglove_layout_names_only_what_the_node_publishes(published):
     assert three_d["cameraState"]["distance"] <= 5.0  # the 1 m body fills the view, not a speck at 20 m
     plots = [config for name, config in panels.items() if name.startswith("Plot!")]
     plotted = [path["value"] for plot in plots for path in plot["paths"]]
-    assert plotted == ["/angular_velocity.vector.x", "/angular_velocity.vector.y", "/angular_velocity.vector.z"]
+    script_output = "/studio_script/torquefree_invariants"
+    assert plotted == ["/angular_velocity.vector.x", "/angular_velocity.vector.y", "/angular_velocity.vector.z",
+                       f"{script_output}.kinetic_energy", f"{script_output}.angular_momentum"]
+    # the user script's output is what it declares, computed from a topic the node publishes
+    (script,) = layout["userNodes"].values()
+    assert f'export const output = "{script_output}";' in script["sourceCode"]
+    assert 'export const inputs = ["/diagnostics"];' in script["sourceCode"] and "/diagnostics" in topics
+    plotted = [path for path in plotted if not path.startswith(script_output)]
     raw = [config["topicPath"] for name, config in panels.items() if name.startswith("RawMessages!")]
     assert raw
     # every panel in the layout tree is configured, every configured panel is in the tree
@@ -343,3 +350,51 @@ def test_the_foxglove_layout_names_only_what_the_node_publishes(published):
         layer["frameId"] for layer in three_d["layers"].values() if "frameId" in layer}
     assert named_topics <= topics, named_topics - topics
     assert named_frames == frames
+
+
+INVARIANTS_SCRIPT = ROOT / "foxglove" / "torquefree_invariants.ts"
+# the script's TypeScript annotations, removed to run it in node.js (a new annotation fails the run)
+_ANNOTATIONS = (": { message: { status: Status[] } }", ": Invariants | undefined", ": Invariants")
+
+
+def test_the_layout_embeds_the_invariants_script_file():
+    layout = json.loads(FOXGLOVE_FILE.read_text())
+    assert layout["userNodes"]["torquefree_invariants"]["sourceCode"] == INVARIANTS_SCRIPT.read_text()
+
+
+@pytest.mark.skipif(not any(os.access(Path(d) / "node", os.X_OK) for d in os.environ["PATH"].split(os.pathsep)),
+                    reason="node.js runs the layout's user script")
+def test_the_invariants_script_turns_the_nodes_diagnostics_into_numbers():
+    """The user script run (node.js, its type annotations stripped) on a /diagnostics message the node
+    published gives the very numbers the node wrote as text."""
+    import subprocess
+
+    from diagnostic_msgs.msg import DiagnosticArray
+    from rclpy.qos import QoSProfile
+    from sim_harness import connected_harness
+
+    arrays = []
+    with connected_harness(publish_rate=50.0) as harness:
+        harness.client.create_subscription(DiagnosticArray, "/diagnostics", arrays.append, QoSProfile(depth=10))
+
+        def values():
+            return {pair.key: pair.value for array in arrays for status in array.status for pair in status.values}
+        harness.spin_until(lambda: "kinetic_energy" in values(), timeout=30.0, what="the node's invariants")
+    array = next(a for a in arrays if any(p.key == "kinetic_energy" for s in a.status for p in s.values))
+    event = {"message": {"status": [{"name": s.name, "values": [{"key": p.key, "value": p.value} for p in s.values]}
+                                    for s in array.status]}}
+    source = INVARIANTS_SCRIPT.read_text()
+    for annotation in _ANNOTATIONS:
+        assert annotation in source
+        source = source.replace(annotation, "")
+    source = "\n".join(line for line in source.splitlines() if not line.startswith("type "))
+    source = source.replace("export const", "const").replace("export default function", "function")
+    program = f"{source}\nconsole.log(JSON.stringify([inputs, output, script({json.dumps(event)})]));\n"
+    result = subprocess.run(["node", "-e", program], capture_output=True, text=True, timeout=60)
+    assert result.returncode == 0, result.stderr
+    inputs, output, numbers = json.loads(result.stdout)
+    text = {p.key: p.value for s in array.status for p in s.values}
+    assert inputs == ["/diagnostics"] and output == "/studio_script/torquefree_invariants"
+    assert numbers == {key: float(text[key]) for key in
+                       ("kinetic_energy", "angular_momentum", "kinetic_energy_drift", "angular_momentum_drift")}
+    assert numbers["kinetic_energy"] > 0.0
