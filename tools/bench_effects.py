@@ -20,6 +20,11 @@ largest attitude error (rad) and angular-velocity error against a tight referenc
 at rtol 1e-13, atol 1e-15. The ratios compiled / reference and compiled / cyrk are taken within each
 round, on the same case, one run right after the other.
 
+Where the compiled path's time goes: building, stepping, outputs, per step and per right-hand-side
+call beside cyrk's (both take scipy's steps and call the right-hand side as often: counted). Then the
+floor of a DOP853 step: the operations it must run one after the other (``_critical_path``), at this
+machine's latencies measured here, against a quarter of cyrk's step (issue 27's target).
+
 Then what numba costs a process: a new process (``sys.executable -c``) that imports the package,
 builds explorer1's propagator and evaluates one sample, with the kernels loaded from numba's cache,
 with ``TORQUEFREE_ROS_KERNELS=numpy``, and with an empty cache (``NUMBA_CACHE_DIR`` a new directory:
@@ -37,6 +42,7 @@ import argparse
 import importlib.metadata
 import importlib.util
 import json
+import math
 import os
 import platform
 import statistics
@@ -285,6 +291,7 @@ def _diagnostics(cases: list[Case], calls: int) -> dict:
     outputs' cost; scipy's DOP853 step count over the same run (solve_ivp on the compiled right-hand
     side, piece by piece: the compiled path takes scipy's steps) beside cyrk's."""
     import numpy as np
+    from CyRK import pysolve_ivp
     from scipy.integrate import solve_ivp
 
     from torquefree_ros.core.integrators import compiled, motion_kernels
@@ -327,24 +334,124 @@ def _diagnostics(cases: list[Case], calls: int) -> dict:
             motion_kernels.derivative(t, y, model, held, out)
             return out
 
-        steps = 0
+        counter = [0]
+
+        def counted(t, y):
+            counter[0] += 1
+            return f(t, y)
+
+        steps = evaluations = cyrk_evaluations = 0
         t0, end = 0.0, float(case.times[-1])
         y = np.concatenate([p.omega0_B, p.q0_NB, p.x0])
+        y_cyrk = y.copy()
         while t0 < end:
             t1 = min(p.dynamics.next_breakpoint(t0), end)
             compiled.held_torques(p.dynamics, t0, held)
             sol = solve_ivp(f, (t0, t1), y, method="DOP853", rtol=case.rtol, atol=case.atol)
             steps += sol.t.size - 1
-            y, t0 = sol.y[:, -1], t1
+            evaluations += sol.nfev
+            # cyrk's right-hand-side calls: the same solver through its Python entry point, counted
+            counter[0] = 0
+            run = pysolve_ivp(counted, (t0, t1), y_cyrk, method="DOP853", rtol=case.rtol, atol=case.atol)
+            cyrk_evaluations += counter[0]
+            y, y_cyrk, t0 = sol.y[:, -1], np.ascontiguousarray(run.y[:, -1]), t1
         samples = case.times.size - stops.size
         rows[case.name] = {
             "build_us": build * 1e6, "evaluate_us": evaluate * 1e6,
             "rest_us": (total - build - evaluate) * 1e6, "steps": steps, "cyrk_steps": cyrk_steps,
+            "evaluations": evaluations, "cyrk_evaluations": cyrk_evaluations,
             "kernel_step_us": kernel_stepping / steps * 1e6, "cyrk_step_us": cyrk_stepping / cyrk_steps * 1e6,
+            "kernel_call_ns": kernel_stepping / evaluations * 1e9,
+            "cyrk_call_ns": cyrk_stepping / cyrk_evaluations * 1e9,
             "kernel_output_ns": (evaluate - kernel_stepping) / samples * 1e9,
             "cyrk_output_ns": (cyrk_all - cyrk_stepping) / samples * 1e9}
     compiled.ENABLED = True
     return rows
+
+
+# -- the floor of a step ----------------------------------------------------------------------------------
+
+def _latencies(calls: int) -> dict:
+    """ns of one operation in a chain of dependent ones (each waits for the one before), compiled:
+    double addition, multiplication, division, square root, and ``x ** -0.125`` (the C library's pow,
+    scipy's step factor)."""
+    import numba
+
+    @numba.njit
+    def add(n, x):
+        s = x
+        for _ in range(n):
+            s = s + x
+        return s
+
+    @numba.njit
+    def mul(n, x):
+        s = x
+        for _ in range(n):
+            s = s * x
+        return s
+
+    @numba.njit
+    def div(n, x):
+        s = x
+        for _ in range(n):
+            s = x / s
+        return s
+
+    @numba.njit
+    def sqrt(n, x):
+        s = x
+        for _ in range(n):
+            s = math.sqrt(s)
+        return s
+
+    @numba.njit
+    def pow_(n, x):  # s stays near 1.06 (no denormals, no overflow): 1 + 0.06 s^-1/8
+        s = x
+        for _ in range(n):
+            s = 1.0 + 0.06 * s ** -0.125
+        return s
+
+    result = {}
+    for name, function, count, x in (("add", add, 20_000_000, 1.0000001), ("mul", mul, 20_000_000, 1.0000001),
+                                     ("div", div, 5_000_000, 1.0000001), ("sqrt", sqrt, 5_000_000, 1.5),
+                                     ("pow", pow_, 2_000_000, 1.06)):
+        function(10, x)  # compiled
+        result[name] = fastest_of(lambda: function(count, x), calls, time.perf_counter) / count * 1e9
+    # pow's chain also holds one multiplication and one addition
+    result["pow"] -= result["mul"] + result["add"]
+    return result
+
+
+def _critical_path(n: int) -> dict:
+    """The operations one DOP853 step must run one after the other on explorer1's scene (``n`` state
+    components, a damper), however it is coded: each stage's state waits for the right-hand side of
+    the stage before, the next step waits for the step factor. A stage's sum over the earlier stages
+    can be added up while the newest one is computed; its newest term comes last in scipy's order of
+    ``j`` (which the samples keep), so what waits is that term's product and one addition:
+
+    - stages 2 to 11: the newest term (a multiplication, an addition), times ``h``, plus ``y``
+      (stage 1: times ``h``, plus ``y``); then the right-hand side on that state: ``I w`` (a
+      multiplication, two additions), ``(I w) x w`` (a multiplication, a subtraction), plus the held
+      torque and the damper's (two additions), ``I^-1 m`` (a multiplication, two additions);
+    - the new state: the solution's newest term (a multiplication, an addition), times ``h``, plus
+      ``y`` (the last right-hand side is not on the path: the error does not read it); the error
+      scale ``atol + max(|y|, |y_new|) rtol`` (a maximum, a multiplication, an addition);
+    - the error: a division by the scale, a square, the sum of squares over the ``n`` components,
+      ``err5 + 0.01 err3``, times ``n``, a square root, a division; the factor ``0.9 error^-1/8`` (pow,
+      a multiplication); ``h`` times it; the next step's ``t + h`` and ``h = t_new - t``.
+
+    Everything else (the other terms, the loads and stores, the other components, the last right-hand
+    side) is taken as free: a floor, not an estimate."""
+    from scipy.integrate._ivp import dop853_coefficients as tableau
+
+    # the newest stage's coefficient is not zero in any stage, nor in the solution's and error's weights
+    if not (all(tableau.A[s, s - 1] != 0 for s in range(2, 12)) and tableau.B[11] != 0 and tableau.E5[11] != 0):
+        raise AssertionError("scipy's DOP853 tableau changed: recount the critical path")
+    rhs_mul, rhs_add = 3, 7
+    muls = 1 + 10 * 2 + 11 * rhs_mul + 2 + 1 + 1 + 1 + 1 + 1
+    adds = 1 + 10 * 2 + 11 * rhs_add + 2 + 2 + n + 1 + 2  # the maximum counted as an addition
+    return {"add": adds, "mul": muls, "div": 2, "sqrt": 1, "pow": 1}
 
 
 # -- a new process ----------------------------------------------------------------------------------------
@@ -414,6 +521,43 @@ def _versions() -> str:
             f"of this package; it requires {requires})")
 
 
+def _report_floor(report: Report, cases: list[Case], rounds: list[dict], diagnostics: dict, latencies: dict) -> None:
+    """Why compiled ≤ 0.25x cyrk is out of reach for a step: the floor of a step (its critical path at
+    this machine's latencies) against a quarter of cyrk's step."""
+    case = next(c for c in cases if c.name == "explorer1 @ 1e-10")
+    d = diagnostics[case.name]
+    n = 7 + case.scene.propagator(rtol=case.rtol, atol=case.atol).dynamics.state_size
+    path = _critical_path(n)
+    floor_ns = sum(path[op] * latencies[op] for op in ("add", "mul", "div", "sqrt", "pow"))
+    cyrk_ns, kernel_ns = d["cyrk_step_us"] * 1e3, d["kernel_step_us"] * 1e3
+    cyrk_total = statistics.median(r[case.name, "cyrk"][0] for r in rounds) / case.duration * 1e6
+    steps_only = d["steps"] * floor_ns * 1e-3 / case.duration
+    report.add("## How far a step can go: the floor against a quarter of cyrk's")
+    report.add("")
+    report.add(f"Both solvers take scipy's steps and call the right-hand side as often (the table above), so "
+               f"compiled/cyrk is a ratio of costs per step. A DOP853 step on {case.name.split()[0]} (n = {n}, the "
+               f"damper) must run one after the other, however it is coded, at least {path['add']} additions, "
+               f"{path['mul']} multiplications, {path['div']} divisions, a square root and a `pow` (its critical "
+               f"path, counted from scipy's tableau and the right-hand side: `_critical_path` in this script says "
+               f"which). Latencies measured in this run (a chain of dependent operations, compiled): addition "
+               f"{latencies['add']:.2f} ns, multiplication {latencies['mul']:.2f}, division {latencies['div']:.2f}, "
+               f"square root {latencies['sqrt']:.2f}, `pow` {latencies['pow']:.1f}.")
+    report.add("")
+    report.add("| | ns per step | / cyrk's step |")
+    report.add("|---|---|---|")
+    report.add(f"| the floor: that path, every load, store and other operation free | {floor_ns:.0f} | "
+               f"{floor_ns / cyrk_ns:.2f} |")
+    report.add(f"| the target: a quarter of cyrk's step | {0.25 * cyrk_ns:.0f} | 0.25 |")
+    report.add(f"| the compiled path's step (stepping alone, above) | {kernel_ns:.0f} | {kernel_ns / cyrk_ns:.2f} |")
+    report.add(f"| cyrk's step | {cyrk_ns:.0f} | 1 |")
+    report.add("")
+    verdict = "below the floor: out of reach" if 0.25 * cyrk_ns < floor_ns else "above the floor"
+    report.add(f"A quarter of cyrk's step is {verdict}; the compiled step is {kernel_ns / floor_ns:.1f}x the floor. "
+               f"Per simulated second (the table's measure, which also holds the outputs, where cyrk is slower, and "
+               f"building the propagator): the steps alone at the floor would cost {steps_only:.2f} µs per simulated "
+               f"second on {case.name}, against a quarter of cyrk's whole run, {0.25 * cyrk_total:.2f} µs.")
+
+
 def _met(value: float, target: float) -> str:
     return "met" if value <= target else "**not met**"
 
@@ -442,6 +586,7 @@ def main() -> int:
             _run(case, path)
     rounds = [_round(cases, args.calls) for _ in range(args.rounds)]
     diagnostics = _diagnostics(cases, args.calls)
+    latencies = _latencies(args.calls)
     processes = _processes(args.rounds)
     elapsed = time.monotonic() - started
 
@@ -514,17 +659,25 @@ def main() -> int:
                "step; and the outputs, (all samples − stepping alone) per sample (dense output and its 3 extra "
                "right-hand-side calls per step, cyrk's storage of the samples; for cyrk also the Dynamics, the q "
                "normalisation, the copy). DOP853 steps: scipy's (`solve_ivp` on the kernels' right-hand side, piece "
-               "by piece; the compiled path reproduces scipy's step control and takes these steps) and cyrk's.")
+               "by piece; the compiled path reproduces scipy's step control and takes these steps) and cyrk's. "
+               "Right-hand-side calls of the stepping alone: scipy's `nfev` (the kernel's: 12 an attempted step, 2 "
+               "a piece's initial step) and cyrk's (its `pysolve_ivp`, the same C++ solver, on a Python right-hand "
+               "side that counts its calls); the stepping's time per call.")
     report.add("")
     report.add("| case | build (µs) | kernel evaluate (µs) | rest of states() (µs) | DOP853 steps "
-               "(scipy / cyrk) | stepping, µs per step (kernel / cyrk) | outputs, ns per sample (kernel / cyrk) |")
-    report.add("|---|---|---|---|---|---|---|")
+               "(scipy / cyrk) | right-hand-side calls, stepping (scipy / cyrk) | stepping, µs per step (kernel / cyrk) "
+               "| stepping, ns per right-hand-side call (kernel / cyrk) | outputs, ns per sample (kernel / cyrk) |")
+    report.add("|---|---|---|---|---|---|---|---|---|")
     for case in cases:
         d = diagnostics[case.name]
         report.add(f"| {case.name} | {d['build_us']:.0f} | {d['evaluate_us']:.0f} | "
                    f"{d['rest_us']:.0f} | {d['steps']:,} / {d['cyrk_steps']:,} | "
+                   f"{d['evaluations']:,} / {d['cyrk_evaluations']:,} | "
                    f"{d['kernel_step_us']:.2f} / {d['cyrk_step_us']:.2f} | "
+                   f"{d['kernel_call_ns']:.1f} / {d['cyrk_call_ns']:.1f} | "
                    f"{d['kernel_output_ns']:.0f} / {d['cyrk_output_ns']:.0f} |")
+    report.add("")
+    _report_floor(report, cases, rounds, diagnostics, latencies)
     report.add("")
     report.add("## What numba costs a process")
     report.add("")

@@ -22,7 +22,20 @@ own file changes, not when a file it calls into does (a stale kernel would survi
 DOP853 is scipy's: its tableau (``scipy.integrate._ivp.dop853_coefficients``, passed in as arrays),
 its error norm, step-size control (safety 0.9, factors 0.2 to 10, exponent -1/8), initial step
 (Hairer, Nørsett & Wanner, II.4) and 7th-order dense output, operation for operation but for the
-order of a few sums; ``rtol`` and ``atol`` mean what they mean there.
+order of a few sums; ``rtol`` and ``atol`` mean what they mean there. The tableau's zeros are skipped
+(34 of the 108 stage coefficients, 4 of 12 solution weights, 5 of 13 in each error estimate, 16 of 64
+interpolant weights): which coefficients are zero is read from scipy's tableau and compiled in as a
+constant, so each sum is unrolled with only its terms, in the same order, and the values still
+come from the arrays passed in. Adding ``K[j] * 0.0`` changed a sum by nothing but, at most, the sign
+of an exact zero (and a NaN for an infinite K[j], where an overflowed step is rejected either way).
+
+Speed (issue 27; docs/bench/effects.md): every kernel is compiled without numba's runtime
+(``_nrt=False``): they allocate nothing, and without it numba counts no references; with it, every
+array handed to an inlined helper or sliced paid an atomic increment and decrement, two calls that
+spill the registers (the right-hand side cost 45 ns a call that way, 9 ns without), and a DOP853 step
+on explorer1 0.95 µs instead of 0.3. The right-hand side and the effects are inlined by LLVM
+(``forceinline``), not by numba's IR inliner, which re-types a callee at every call (see "loading").
+The stages' states are rows of the scratch arrays, by index: a slice is a new array struct.
 """
 
 from __future__ import annotations
@@ -53,12 +66,13 @@ RK4, LIE_RK4 = 0, 1
 
 
 # ==== effects ===========================================================================================
+# Each takes the state's scalars and returns scalars: the right-hand side reads the state once.
 
-def _gravity_gradient(t, y, model, p):
+def _gravity_gradient(t, qx, qy, qz, qw, model, p):
     """``3 n^2 e_B x (I e_B)``, ``e_B = R(q)^T (cos u, sin u, 0)``, ``u = u0 + n t`` (GravityGradient)."""
     n = model[p]
     u = model[p + 1] + n * t
-    e1, e2, e3 = _rotate_inverse(y, math.cos(u), math.sin(u), 0.0)
+    e1, e2, e3 = _rotate_inverse(qx, qy, qz, qw, math.cos(u), math.sin(u), 0.0)
     i1 = model[p + 2] * e1 + model[p + 3] * e2 + model[p + 4] * e3
     i2 = model[p + 5] * e1 + model[p + 6] * e2 + model[p + 7] * e3
     i3 = model[p + 8] * e1 + model[p + 9] * e2 + model[p + 10] * e3
@@ -66,40 +80,36 @@ def _gravity_gradient(t, y, model, p):
     return k * (e2 * i3 - e3 * i2), k * (e3 * i1 - e1 * i3), k * (e1 * i2 - e2 * i1)
 
 
-def _damper(y, model, p, s, out):
-    """Torque ``c (nu - w)`` on the body (returned); ``nu' = -c/J (nu - w) - w x nu`` into ``out``
-    (Damper)."""
+def _damper(w1, w2, w3, n1, n2, n3, model, p):
+    """Torque ``c (nu - w)`` on the body, and the rotor's ``nu' = -c/J (nu - w) - w x nu`` (Damper)."""
     J, c = model[p], model[p + 1]
-    w1, w2, w3 = y[0], y[1], y[2]
-    n1, n2, n3 = y[s], y[s + 1], y[s + 2]
     d1, d2, d3 = n1 - w1, n2 - w2, n3 - w3
     r = -c / J
-    out[s] = r * d1 - (w2 * n3 - w3 * n2)
-    out[s + 1] = r * d2 - (w3 * n1 - w1 * n3)
-    out[s + 2] = r * d3 - (w1 * n2 - w2 * n1)
-    return c * d1, c * d2, c * d3
+    rate = (r * d1 - (w2 * n3 - w3 * n2), r * d2 - (w3 * n1 - w1 * n3), r * d3 - (w1 * n2 - w2 * n1))
+    return (c * d1, c * d2, c * d3), rate
 
 
-def _rotor(y, model, p):
+def _rotor(w1, w2, w3, model, p):
     """Torque ``h_B x w`` of a wheel of constant relative momentum (Rotor)."""
     h1, h2, h3 = model[p], model[p + 1], model[p + 2]
-    w1, w2, w3 = y[0], y[1], y[2]
     return h2 * w3 - h3 * w2, h3 * w1 - h1 * w3, h1 * w2 - h2 * w1
 
 
-def _rotate_inverse(y, vx, vy, vz):
-    """``R(q)^T v`` for ``q = y[3:7]`` (quaternion.rotate by the conjugate, the same operations)."""
-    ux, uy, uz, w = -y[3], -y[4], -y[5], y[6]
+def _rotate_inverse(qx, qy, qz, qw, vx, vy, vz):
+    """``R(q)^T v`` (quaternion.rotate by the conjugate, the same operations)."""
+    ux, uy, uz, w = -qx, -qy, -qz, qw
     tx, ty, tz = 2.0 * (uy * vz - uz * vy), 2.0 * (uz * vx - ux * vz), 2.0 * (ux * vy - uy * vx)
     return (vx + w * tx + uy * tz - uz * ty, vy + w * ty + uz * tx - ux * tz, vz + w * tz + ux * ty - uy * tx)
 
 
 # ==== the right-hand side ===============================================================================
 
-def derivative(t, y, model, held, out):
-    """``out = y'`` of ``y = (w, q, x)`` (Dynamics.derivative). The torque is summed in scalars, not
-    in a scratch array: stores and reloads through memory cost ~10x the arithmetic here."""
-    w1, w2, w3 = y[0], y[1], y[2]
+def _rhs(t, Y, r, model, held, OUT, o):
+    """``OUT[o] = y'`` of the state ``y = Y[r] = (w, q, x)`` (Dynamics.derivative): rows of 2-D arrays,
+    by index (the steps' stages are rows of their scratch). The torque is summed in scalars, not in a
+    scratch array: stores and reloads through memory cost ~10x the arithmetic here."""
+    w1, w2, w3 = Y[r, 0], Y[r, 1], Y[r, 2]
+    qx, qy, qz, qw = Y[r, 3], Y[r, 4], Y[r, 5], Y[r, 6]
     h1 = model[0] * w1 + model[1] * w2 + model[2] * w3
     h2 = model[3] * w1 + model[4] * w2 + model[5] * w3
     h3 = model[6] * w1 + model[7] * w2 + model[8] * w3
@@ -107,44 +117,56 @@ def derivative(t, y, model, held, out):
     m2 = (h3 * w1 - h1 * w3) + held[1]
     m3 = (h1 * w2 - h2 * w1) + held[2]
     if held[3] != 0.0 or held[4] != 0.0 or held[5] != 0.0:
-        r1, r2, r3 = _rotate_inverse(y, held[3], held[4], held[5])
+        r1, r2, r3 = _rotate_inverse(qx, qy, qz, qw, held[3], held[4], held[5])
         m1, m2, m3 = m1 + r1, m2 + r2, m3 + r3
     at = MODEL_HEADER
     for _ in range(int(model[18])):
         code = int(model[at])
         p = at + 2
         if code == GRAVITY_GRADIENT:
-            e1, e2, e3 = _gravity_gradient(t, y, model, p)
+            e1, e2, e3 = _gravity_gradient(t, qx, qy, qz, qw, model, p)
             at = p + 11
         elif code == DAMPER:
-            e1, e2, e3 = _damper(y, model, p, 7 + int(model[at + 1]), out)
+            s = 7 + int(model[at + 1])
+            (e1, e2, e3), (v1, v2, v3) = _damper(w1, w2, w3, Y[r, s], Y[r, s + 1], Y[r, s + 2], model, p)
+            OUT[o, s], OUT[o, s + 1], OUT[o, s + 2] = v1, v2, v3
             at = p + 2
         else:  # ROTOR
-            e1, e2, e3 = _rotor(y, model, p)
+            e1, e2, e3 = _rotor(w1, w2, w3, model, p)
             at = p + 3
         m1, m2, m3 = m1 + e1, m2 + e2, m3 + e3
-    out[0] = model[9] * m1 + model[10] * m2 + model[11] * m3
-    out[1] = model[12] * m1 + model[13] * m2 + model[14] * m3
-    out[2] = model[15] * m1 + model[16] * m2 + model[17] * m3
-    qx, qy, qz, qw = y[3], y[4], y[5], y[6]
-    out[3] = 0.5 * (qw * w1 + qy * w3 - qz * w2)  # q' = 1/2 q ⊗ (w, 0)
-    out[4] = 0.5 * (qw * w2 - qx * w3 + qz * w1)
-    out[5] = 0.5 * (qw * w3 + qx * w2 - qy * w1)
-    out[6] = -0.5 * (qx * w1 + qy * w2 + qz * w3)
+    OUT[o, 0] = model[9] * m1 + model[10] * m2 + model[11] * m3
+    OUT[o, 1] = model[12] * m1 + model[13] * m2 + model[14] * m3
+    OUT[o, 2] = model[15] * m1 + model[16] * m2 + model[17] * m3
+    OUT[o, 3] = 0.5 * (qw * w1 + qy * w3 - qz * w2)  # q' = 1/2 q ⊗ (w, 0)
+    OUT[o, 4] = 0.5 * (qw * w2 - qx * w3 + qz * w1)
+    OUT[o, 5] = 0.5 * (qw * w3 + qx * w2 - qy * w1)
+    OUT[o, 6] = -0.5 * (qx * w1 + qy * w2 + qz * w3)
+
+
+def derivative(t, y, model, held, out):
+    """``out = y'`` of one state ``y = (w, q, x)`` (1-D arrays; Dynamics.derivative)."""
+    _rhs(t, y[np.newaxis, :], 0, model, held, out[np.newaxis, :], 0)  # (reshape calls a helper each time)
 
 
 def derivatives(t, y, model, held, out):
     """``y'`` at many states ``y (N, n)`` (the tests' and the benchmarks' entry point)."""
     for i in range(y.shape[0]):
-        derivative(t[i], y[i], model, held, out[i])
+        _rhs(t[i], y, i, model, held, out, i)
 
 
 # ==== DOP853 ============================================================================================
+# Which of the tableau's coefficients are not zero: scipy's, read by compile_kernels (numba compiles
+# module arrays in as constants, so in a stage's sum, unrolled for a constant stage, the zero terms vanish)
+_A_USED = _B_USED = _E3_USED = _E5_USED = _D_USED = None
+# rows of the scratch ``work`` (3, n) during a step
+Y_NEW, STAGE, SCALE = 0, 1, 2
 
-def _rms_scaled(values, scale):
+
+def _rms_scaled(values, work):
     total = 0.0
     for i in range(values.size):
-        v = values[i] / scale[i]
+        v = values[i] / work[SCALE, i]
         total += v * v
     return math.sqrt(total / values.size)
 
@@ -160,21 +182,18 @@ def dop853_begin(t0, t_bound, rtol, atol, min_step, solver, y, f, work, model, h
     if interval == 0.0:
         solver[H_ABS] = 0.0
         return
-    scale = work[0]
     for i in range(n):
-        scale[i] = atol + abs(y[i]) * rtol
-    d0 = _rms_scaled(y, scale)
-    d1 = _rms_scaled(f, scale)
+        work[SCALE, i] = atol + abs(y[i]) * rtol
+    d0 = _rms_scaled(y, work)
+    d1 = _rms_scaled(f, work)
     h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
     h0 = min(h0, interval)
-    y1 = work[1]
     for i in range(n):
-        y1[i] = y[i] + h0 * f[i]
-    f1 = work[2]
-    derivative(t0 + h0, y1, model, held, f1)
+        work[0, i] = y[i] + h0 * f[i]
+    _rhs(t0 + h0, work, 0, model, held, work, 1)
     for i in range(n):
-        y1[i] = f1[i] - f[i]
-    d2 = _rms_scaled(y1, scale) / h0
+        work[0, i] = work[1, i] - f[i]
+    d2 = _rms_scaled(work[0], work) / h0
     if d1 <= 1e-15 and d2 <= 1e-15:
         h1 = max(1e-6, h0 * 1e-3)
     else:
@@ -182,14 +201,52 @@ def dop853_begin(t0, t_bound, rtol, atol, min_step, solver, y, f, work, model, h
     solver[H_ABS] = min(100.0 * h0, h1, interval)
 
 
-def _stage_state(K, A, s, y, h, stage):
-    """``stage = y + h sum_j A[s, j] K[j]`` over the stages before ``s`` (scipy's ``np.dot(K[:s].T,
-    a[:s]) * h``), the sum over stages innermost, in a register."""
+def _stage_sum(K, A, s, y, h, work):
+    """``work[STAGE] = y + h sum_j A[s, j] K[j]`` over the stages before ``s`` (scipy's ``np.dot(K[:s].T,
+    a[:s]) * h``), the sum over stages innermost, in a register, in the order of ``j``, the zero
+    coefficients left out (``s`` is a constant where this is inlined: the loop over ``j`` unrolls)."""
     for i in range(y.size):
         total = 0.0
         for j in range(s):
-            total += K[j, i] * A[s, j]
-        stage[i] = y[i] + total * h
+            if _A_USED[s, j]:
+                total += K[j, i] * A[s, j]
+        work[STAGE, i] = y[i] + total * h
+
+
+def _stage_state(K, A, s, y, h, work):
+    """:func:`_stage_sum` of stage ``s`` (1 to 11), each with its ``s`` a constant."""
+    if s == 1:
+        _stage_sum(K, A, 1, y, h, work)
+    elif s == 2:
+        _stage_sum(K, A, 2, y, h, work)
+    elif s == 3:
+        _stage_sum(K, A, 3, y, h, work)
+    elif s == 4:
+        _stage_sum(K, A, 4, y, h, work)
+    elif s == 5:
+        _stage_sum(K, A, 5, y, h, work)
+    elif s == 6:
+        _stage_sum(K, A, 6, y, h, work)
+    elif s == 7:
+        _stage_sum(K, A, 7, y, h, work)
+    elif s == 8:
+        _stage_sum(K, A, 8, y, h, work)
+    elif s == 9:
+        _stage_sum(K, A, 9, y, h, work)
+    elif s == 10:
+        _stage_sum(K, A, 10, y, h, work)
+    else:
+        _stage_sum(K, A, 11, y, h, work)
+
+
+def _extra_stage_state(K, A, s, y, h, work):
+    """:func:`_stage_sum` of the interpolant's stage ``s`` (13 to 15), each with its ``s`` a constant."""
+    if s == 13:
+        _stage_sum(K, A, 13, y, h, work)
+    elif s == 14:
+        _stage_sum(K, A, 14, y, h, work)
+    else:
+        _stage_sum(K, A, 15, y, h, work)
 
 
 def _dop853_step(solver, y, y_old, f, K, work, model, held, A, B, C, E3, E5):
@@ -202,7 +259,6 @@ def _dop853_step(solver, y, y_old, f, K, work, model, held, A, B, C, E3, E5):
     if h_abs < min_step:
         h_abs = min_step
     rejected = False
-    y_new, stage, scale = work[0], work[1], work[2]
     rtol, atol = solver[RTOL], solver[ATOL]
     while True:
         if h_abs < min_step:
@@ -215,21 +271,24 @@ def _dop853_step(solver, y, y_old, f, K, work, model, held, A, B, C, E3, E5):
         for i in range(n):
             K[0, i] = f[i]
         for s in range(1, STAGES):
-            _stage_state(K, A, s, y, h, stage)
-            derivative(t + C[s] * h, stage, model, held, K[s])
+            _stage_state(K, A, s, y, h, work)
+            _rhs(t + C[s] * h, work, STAGE, model, held, K, s)
         for i in range(n):
             total = 0.0
             for j in range(STAGES):
-                total += K[j, i] * B[j]
-            y_new[i] = y[i] + h * total
-        derivative(t + h, y_new, model, held, K[STAGES])
+                if _B_USED[j]:
+                    total += K[j, i] * B[j]
+            work[Y_NEW, i] = y[i] + h * total
+        _rhs(t + h, work, Y_NEW, model, held, K, STAGES)
         err5, err3 = 0.0, 0.0
         for i in range(n):
-            scale_i = atol + max(abs(y[i]), abs(y_new[i])) * rtol
+            scale_i = atol + max(abs(y[i]), abs(work[Y_NEW, i])) * rtol
             e5, e3 = 0.0, 0.0
             for j in range(STAGES + 1):
-                e5 += K[j, i] * E5[j]
-                e3 += K[j, i] * E3[j]
+                if _E5_USED[j]:
+                    e5 += K[j, i] * E5[j]
+                if _E3_USED[j]:
+                    e3 += K[j, i] * E3[j]
             e5 /= scale_i
             e3 /= scale_i
             err5 += e5 * e5
@@ -254,7 +313,7 @@ def _dop853_step(solver, y, y_old, f, K, work, model, held, A, B, C, E3, E5):
         rejected = True
     for i in range(n):
         y_old[i] = y[i]
-        y[i] = y_new[i]
+        y[i] = work[Y_NEW, i]
         f[i] = K[STAGES, i]
     solver[H_PREVIOUS] = h
     solver[T_OLD] = t
@@ -269,20 +328,27 @@ def _dop853_dense(solver, y, y_old, f, K, F, work, model, held, A, C, D):
     n = y.size
     h = solver[H_PREVIOUS]
     t_old = solver[T_OLD]
-    stage = work[1]
     for s in range(STAGES + 1, STAGES_EXTENDED):
-        _stage_state(K, A, s, y_old, h, stage)
-        derivative(t_old + C[s] * h, stage, model, held, K[s])
+        _extra_stage_state(K, A, s, y_old, h, work)
+        _rhs(t_old + C[s] * h, work, STAGE, model, held, K, s)
     for i in range(n):
         delta = y[i] - y_old[i]
         F[0, i] = delta
         F[1, i] = h * K[0, i] - delta
         F[2, i] = 2.0 * delta - h * (f[i] + K[0, i])
-        for r in range(INTERPOLATOR_POWER - 3):
-            total = 0.0
-            for j in range(STAGES_EXTENDED):
-                total += D[r, j] * K[j, i]
-            F[3 + r, i] = h * total
+        # the four sums of D K side by side, each in the order of j: each K[j, i] read once
+        t3, t4, t5, t6 = 0.0, 0.0, 0.0, 0.0
+        for j in range(STAGES_EXTENDED):
+            k = K[j, i]
+            if _D_USED[0, j]:
+                t3 += D[0, j] * k
+            if _D_USED[1, j]:
+                t4 += D[1, j] * k
+            if _D_USED[2, j]:
+                t5 += D[2, j] * k
+            if _D_USED[3, j]:
+                t6 += D[3, j] * k
+        F[3, i], F[4, i], F[5, i], F[6, i] = h * t3, h * t4, h * t5, h * t6
     solver[DENSE_READY] = 1.0
 
 
@@ -478,7 +544,15 @@ def fixed_steps(method, j, j_end, step, bound, y, model, held, work):
 
 # ==== loading ===========================================================================================
 
-_INLINED = {"derivative", "_gravity_gradient", "_damper", "_rotor", "_rotate_inverse", "_stage_state"}
+# Inlined where called, by LLVM (``forceinline``): the effects and the right-hand side into the steps, a
+# DOP853 step and its interpolant into the loop over the outputs. (numba's own inliner re-types the callee
+# at every call: inlining the right-hand side that way into each stage took most of the compile time.)
+_INLINED = {"_gravity_gradient", "_damper", "_rotor", "_rotate_inverse", "_rhs", "derivative", "_dop853_step",
+            "_dop853_dense", "_exp_times"}
+# Inlined by numba (``inline="always"``), small: the stage sums, so that each is typed with its stage a
+# literal (the loop over j unrolled, the zeros gone) without compiling a function per stage (LLVM's
+# inlining gave the same code, 10 % slower, for a second more of compile time).
+_INLINED_BY_NUMBA = {"_stage_sum", "_stage_state", "_extra_stage_state"}
 # The entry points that can run long (a block of samples, 10 000 steps a sample at the step budget)
 # release the GIL: holding it, a 0.25 s block left the node's other threads (its executor: services,
 # parameters, Ctrl-C) one switch interval per block, and a start-up took minutes as fast as possible
@@ -491,18 +565,26 @@ _compiled = False
 def compile_kernels() -> None:
     """Replace this module's functions by numba's compiled ones (once, before any is called: a compiled
     function calls what the module's globals hold when it compiles). Cached next to this file, or in
-    the user's cache directory when the install is read-only; the GIL stays held (attitude_kernels
-    says why)."""
-    global _compiled
+    the user's cache directory when the install is read-only."""
+    global _compiled, _A_USED, _B_USED, _E3_USED, _E5_USED, _D_USED
     with _compiling:
         if _compiled:
             return
         import numba
+        from scipy.integrate._ivp import dop853_coefficients as tableau
+
+        _A_USED, _B_USED = np.ascontiguousarray(tableau.A != 0.0), np.ascontiguousarray(tableau.B != 0.0)
+        _E3_USED, _E5_USED = np.ascontiguousarray(tableau.E3 != 0.0), np.ascontiguousarray(tableau.E5 != 0.0)
+        _D_USED = np.ascontiguousarray(tableau.D != 0.0)
 
         def jit(function):
-            # the right-hand side inlined into the steps: each call of a compiled function with array
-            # arguments pays reference counting (~50 ns a call here, 10 % of explorer1's run)
-            extra = {"inline": "always"} if function.__name__ in _INLINED else {}
+            # _nrt=False: no kernel allocates, and without numba's runtime no reference is counted (an
+            # array handed to an inlined helper, or sliced, was an atomic increment and decrement each,
+            # two calls that spill the registers: 80 % of a right-hand side's time); forceinline set on
+            # every kernel, True or False, so that none inherits it from the one compiling it
+            extra = {"_nrt": False, "forceinline": function.__name__ in _INLINED}
+            if function.__name__ in _INLINED_BY_NUMBA:
+                extra["inline"] = "always"
             if function.__name__ in _RELEASING_THE_GIL:
                 extra["nogil"] = True
             try:
@@ -510,9 +592,10 @@ def compile_kernels() -> None:
             except RuntimeError:  # no writable cache anywhere: compile in every process
                 return numba.njit(error_model="numpy", **extra)(function)
 
-        for name in ("_gravity_gradient", "_damper", "_rotor", "_rotate_inverse", "derivative", "derivatives",
-                     "_rms_scaled", "dop853_begin", "_stage_state", "_dop853_step", "_dop853_dense", "dop853_outputs",
-                     "next_sample_time", "dop853_outputs_batch",
+        for name in ("_gravity_gradient", "_damper", "_rotor", "_rotate_inverse", "_rhs", "derivative", "derivatives",
+                     "_rms_scaled", "dop853_begin", "_stage_sum", "_stage_state", "_extra_stage_state", "_dop853_step",
+                     "_dop853_dense",
+                     "dop853_outputs", "next_sample_time", "dop853_outputs_batch",
                      "_exp_times", "fixed_step", "fixed_outputs", "fixed_steps"):
             globals()[name] = jit(globals()[name])
         _compiled = True
