@@ -673,7 +673,8 @@ def test_the_report_writes_its_files_and_its_numbers_are_the_tables(tmp_path):
         assert f"`effects[0].damper.damping` = {damping:.6g}" in worst[column][2]
         drawn = ", ".join(f"{data[f'initial.angular_velocity[{k}]'][run]:.6g}" for k in range(3))
         assert f"`initial.angular_velocity` = [{drawn}]" in worst[column][2]
-    assert "No percentile envelopes of the rates over time: campaigns keep metrics only" in text
+    assert "No trajectories kept (the campaign file has no `trajectories` option), so no percentile envelopes" in text
+    assert not (output / "trajectories").exists()
 
     other = write_report(output, tmp_path / "elsewhere")  # --output
     assert other[0] == tmp_path / "elsewhere" / "summary.md" and other[0].read_text() == text
@@ -741,3 +742,147 @@ def test_an_output_directory_with_a_damaged_manifest_or_stray_parts_is_refused(t
     table = run_campaign(torque_free_campaign(40), scheduler="in-process", output=output, overwrite=True)
     assert_same_table(run_campaign(torque_free_campaign(40), scheduler="in-process"), table)
     assert sorted(p.name for p in output.iterdir()) == ["campaign.yaml", "runs.parquet"]
+
+
+# -- trajectories ----------------------------------------------------------------------------------------
+def trajectories_of(directory) -> pa.Table:
+    """DIR/trajectories opened as a notebook would (pyarrow.dataset), rows by run then time."""
+    import pyarrow.dataset as ds
+
+    return ds.dataset(directory / "trajectories", format="parquet").to_table().sort_by(
+        [("run", "ascending"), ("t", "ascending")])
+
+
+def assert_same_trajectories(a: pa.Table, b: pa.Table) -> None:
+    assert a.column_names == b.column_names and a.num_rows == b.num_rows
+    for name in a.column_names:
+        x, y = a.column(name).to_numpy(), b.column(name).to_numpy()
+        assert np.array_equal(x.view(np.int64), y.view(np.int64)), name  # every bit
+
+
+def test_trajectories_are_the_batch_propagation_at_the_kept_times_everywhere_and_after_a_resume(tmp_path, cluster):
+    """Every 4th sample of each run (12 s at 5 Hz: t = 0, 0.8, ..., 12): the batch propagation of the
+    table's inputs at those times, bit for bit; the same rows from 1 and 2 workers and after a resume
+    whose interruption left a trajectory part without its results part."""
+    data = dict(torque_free_campaign(90), trajectories={"every": 4})
+    reference_dir = tmp_path / "in-process"
+    table = run_campaign(data, scheduler="in-process", output=reference_dir, chunk_size=32)
+    assert sorted(p.name for p in (reference_dir / "trajectories").iterdir()) == [
+        "runs-000000000-000000032.parquet", "runs-000000032-000000064.parquet", "runs-000000064-000000090.parquet"]
+    reference = trajectories_of(reference_dir)
+    assert reference.column_names == ["run", "t", "w_x", "w_y", "w_z", "q_x", "q_y", "q_z", "q_w"]
+    times = np.arange(61)[::4] / 5.0
+    assert reference.num_rows == 90 * 16
+    assert np.array_equal(reference.column("t").to_numpy(), np.tile(times, 90))
+    assert reference.column("run").to_pylist() == [run for run in range(90) for _ in times]
+    run_campaign(dict(torque_free_campaign(90), trajectories={"rate": 1.25}), scheduler="in-process",
+                 output=tmp_path / "by-rate")
+    assert_same_trajectories(reference, trajectories_of(tmp_path / "by-rate"))  # {rate: 1.25} is {every: 4}
+    rows = table.to_pydict()
+    for run in (0, 41, 89):  # again, one at a time, from the table's inputs: the same numbers
+        moments = [[rows[f"body.moments[{k}]"][run] for k in range(3)]]
+        omega0 = [[rows[f"initial.angular_velocity[{k}]"][run] for k in range(3)]]
+        q0 = [[rows[f"initial.orientation[{k}]"][run] for k in range(4)]]
+        omega, q = propagate_batch(np.array(moments), np.array(omega0), np.array(q0), np.arange(61) / 5.0)
+        mine = reference.slice(run * 16, 16)
+        assert np.array_equal(np.column_stack([mine.column(f"w_{a}").to_numpy() for a in "xyz"]), omega[0, ::4])
+        assert np.array_equal(np.column_stack([mine.column(f"q_{a}").to_numpy() for a in "xyzw"]), q[0, ::4])
+    for scheduler, workers, size in ((cluster.scheduler_address, None, 16), ("local", 1, 45)):
+        output = tmp_path / f"workers-{size}"
+        assert_same_table(table, run_campaign(data, scheduler=scheduler, workers=workers, output=output,
+                                              chunk_size=size))
+        assert_same_trajectories(reference, trajectories_of(output))
+
+    output = tmp_path / "resumed"
+    with pytest.raises(Interrupted):
+        run_campaign(data, scheduler="in-process", output=output, chunk_size=20, progress=interrupt_after(60))
+    (output / "parts" / "runs-000000040-000000060.parquet").unlink()  # died between the trajectory part and this
+    assert (output / "trajectories" / "runs-000000040-000000060.parquet").exists()
+    assert_same_table(table, run_campaign(data, scheduler="in-process", output=output, chunk_size=25, resume=True))
+    assert_same_trajectories(reference, trajectories_of(output))
+    assert sorted(p.name for p in (output / "trajectories").iterdir()) == [
+        "runs-000000000-000000020.parquet", "runs-000000020-000000040.parquet", "runs-000000040-000000065.parquet",
+        "runs-000000065-000000090.parquet"]
+    # a resume that finds a results part without its trajectory part computes that chunk again
+    with pytest.raises(Interrupted):
+        run_campaign(data, scheduler="in-process", output=output, chunk_size=30, overwrite=True,
+                     progress=interrupt_after(60))
+    assert not (output / "runs.parquet").exists()
+    (output / "trajectories" / "runs-000000030-000000060.parquet").unlink()
+    assert_same_table(table, run_campaign(data, scheduler="in-process", output=output, resume=True))
+    assert_same_trajectories(reference, trajectories_of(output))
+
+
+def test_trajectories_of_a_scene_with_effects_keep_its_states_and_no_failed_run_and_the_report_plots_them(
+        tmp_path, capsys):
+    """explorer1 (a damper, 3 states) with some runs failed: the kept rows are the finished runs', equal to
+    the run's scene propagator at the kept times; the report's envelopes are numpy's percentiles of |w|."""
+    import pyarrow.compute as pc
+
+    from torquefree_ros.campaigns import engine
+    from torquefree_ros.campaigns.report import rate_envelopes, write_report
+
+    data = dict(damper_campaign(24), trajectories={"rate": 0.2})  # 30 s at 1 Hz: t = 0, 5, ..., 30
+    output = tmp_path / "out"
+    table = run_campaign(data, scheduler="in-process", output=output, chunk_size=10)
+    status = table.column("status").to_pylist()
+    ok = [run for run, s in enumerate(status) if s == "ok"]
+    assert 0 < len(ok) < 24
+    kept = trajectories_of(output)
+    assert kept.column_names[9:] == ["damper[0]", "damper[1]", "damper[2]"]
+    assert sorted(set(kept.column("run").to_pylist())) == ok  # failed runs have no rows
+    campaign = load_campaign(data)
+    times = np.arange(31) / 1.0
+    for run in ok[:2]:
+        scene = engine._scene_of(campaign, engine.draw_run(campaign, run))
+        omega, q, x = scene.propagator().states(times)
+        mine = kept.filter(pc.equal(kept.column("run"), run))
+        assert np.array_equal(mine.column("t").to_numpy(), times[::5])
+        found = np.column_stack([mine.column(name).to_numpy() for name in kept.column_names[2:]])
+        # the plant's samples are the scene propagator's (CONTRACT.md): compared within 1e-12 rad/s
+        np.testing.assert_allclose(found, np.concatenate([omega, q, x], axis=1)[::5], rtol=0, atol=1e-12)
+
+    envelopes = rate_envelopes(output)
+    w = np.column_stack([kept.column(f"w_{a}").to_numpy() for a in "xyz"])
+    magnitude = np.sqrt((w ** 2).sum(axis=1)).reshape(len(ok), 7)
+    assert np.array_equal(envelopes["times"], times[::5]) and envelopes["runs"].tolist() == ok
+    for p in (5, 50, 95):
+        np.testing.assert_allclose(envelopes["percentiles"][p], np.percentile(magnitude, p, axis=0), rtol=1e-14)
+    assert envelopes["worst_run"] == ok[int(np.argmax(magnitude[:, -1]))]
+    written = write_report(output)
+    assert [p.name for p in written] == ["summary.md", "histograms.png", "envelopes.png"]
+    assert written[2].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and written[2].stat().st_size > 10_000
+    text = written[0].read_text()
+    assert (f"Trajectories kept: every 5th sample (0.2 Hz, 7 samples a run) of each finished run ({len(ok)} runs)"
+            in text)
+    assert f"and the worst run, run {envelopes['worst_run']} (by the largest final |w|)" in text
+    assert "![percentile envelopes of |w|](envelopes.png)" in text
+    # the worst run by a named metric, from the command line
+    assert campaign_cli.main(["report", str(output), "--output", str(tmp_path / "r"), "--worst", "cone_angle"]) == 0
+    cone = table.column("cone_angle").to_pylist()
+    worst = max(ok, key=lambda run: (abs(cone[run]), -run))
+    assert f"run {worst} (by the largest |cone_angle|)" in (tmp_path / "r" / "summary.md").read_text()
+    assert capsys.readouterr().out.split()[-1] == str(tmp_path / "r" / "envelopes.png")
+    assert campaign_cli.main(["report", str(output), "--worst", "cone"]) == 2
+    assert "worst: 'cone' is not a metric column of the campaign" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("value, expected", [
+    ({"every": 0}, "trajectories.every: must lie in [1, 60], got 0"),
+    ({"every": 61}, "trajectories.every: must lie in [1, 60], got 61"),
+    ({"every": 2.5}, "trajectories.every: expected an integer, got 2.5"),
+    ({"rate": 0}, "trajectories.rate: must be > 0 Hz, got 0"),
+    ({"rate": 10}, "trajectories.rate: must be <= the campaign's rate, 5 Hz, got 10"),
+    ({"rate": 2}, "trajectories.rate: 2 Hz must divide the campaign's rate 5 Hz a whole number of times"),
+    ({"rate": 0.05}, "trajectories.rate: 0.05 Hz keeps only the first sample of 61"),
+    ({"evry": 2}, "trajectories.evry: unknown key; did you mean 'every'?"),
+    ({"every": 2, "rate": 1}, "trajectories: expected {every: N} (keep every Nth sample) or {rate: HZ}"),
+    (True, "trajectories: expected {every: N}"),
+])
+def test_a_bad_trajectories_value_names_the_file_and_the_field(value, expected, tmp_path):
+    data = {"scene": "dzhanibekov", "runs": 10, "seed": 1, "duration": 12, "rate": 5, "trajectories": value}
+    path = tmp_path / "bad.yaml"
+    path.write_text(yaml.safe_dump(data))
+    with pytest.raises(CampaignError) as error:
+        load_campaign(path)
+    assert str(error.value).startswith(f"{path}: {expected}"), str(error.value)

@@ -136,3 +136,55 @@ def test_reset_starts_again_from_sample_0():
     assert plant.k == 0
     again = [plant.step([0.1, 0.0, 0.0]).omega_B for _ in range(3)]
     np.testing.assert_array_equal(first, again)
+
+
+def _schedule_scene(frame="inertial", shift=0.0, commanded=False, starts=(0.35, 1.0, 1.7)):
+    """A damper body under a torque schedule (its switches between samples and on one, shift moves them),
+    with a torque_command too when ``commanded``."""
+    schedule = [{"start": 0.0, "torque": [0.01, 0.0, -0.02]}]
+    schedule += [{"start": start + shift, "torque": [0.02 * (-1) ** i, 0.01 * i, 0.005]} for i, start in enumerate(starts)]
+    effects = [{"damper": {"inertia": 0.05, "damping": 0.01}},
+               {"external_torque": {"schedule": schedule, "frame": frame}}]
+    if commanded:
+        effects.append({"torque_command": {"frame": "body", "timeout": 0.35, "max_torque": 0.5}})
+    return scene_from_mapping({"body": {"inertia": [0.4, 4.6, 4.95]}, "initial": {"angular_velocity": [6.0, 0.05, 0.0]},
+                               "effects": effects, "accuracy": 1e-10})
+
+
+@pytest.mark.parametrize("frame", ["inertial", "body"])
+def test_a_torque_schedule_runs_bit_for_bit_as_the_scene_propagator(frame):
+    scene = _schedule_scene(frame)
+    run = Plant(scene, RATE).run(2.5)  # the switches at 0.35 and 1.7 fall between samples, 1.0 on one
+    omega, q, x = scene.propagator().states(np.arange(1, 26) / RATE)
+    np.testing.assert_array_equal(run.omega_B, omega)
+    np.testing.assert_array_equal(run.q_NB, q)
+    np.testing.assert_array_equal(run.internal, x)
+    # the schedule acts: without it the motion differs
+    plain = Plant(_plant_scene(), RATE).run(2.5)
+    assert np.abs(plain.omega_B - run.omega_B).max() > 1e-4
+
+
+def test_a_schedule_and_commands_step_as_the_node_rules_bit_for_bit():
+    scene = _schedule_scene(commanded=True)
+    simulation = Simulation(scene.propagator(), RATE)
+    (_, hold), = simulation.command_holds
+    plant = Plant(scene, RATE)
+    for k, torque in enumerate(_commands(25)):
+        given = None if np.isnan(torque[0]) else torque
+        if given is not None:
+            assert hold.receive(hold.stamp_ns(k), given)[0]
+        hold.seal(k)
+        block = simulation.samples(k + 1, 1)
+        state = plant.step(given)
+        np.testing.assert_array_equal(state.omega_B, block.omega_B[0])
+        np.testing.assert_array_equal(state.q_NB, block.q_NB[0])
+        np.testing.assert_array_equal(state.internal, block.internal[0])
+
+
+def test_a_batch_of_bodies_with_their_own_schedules_is_each_body_alone():
+    scenes = [_schedule_scene(shift=0.013 * i, starts=(0.35, 1.0, 1.7)[: 1 + i % 3]) for i in range(6)]
+    batch = Plant(scenes, RATE).run(2.5)
+    for b, scene in enumerate(scenes):
+        alone = Plant(scene, RATE).run(2.5)
+        np.testing.assert_array_equal(batch.omega_B[b], alone.omega_B)
+        np.testing.assert_array_equal(batch.q_NB[b], alone.q_NB)

@@ -127,8 +127,7 @@ def main(argv=None) -> int:
                f"{column('explorer_batch_ms')} ms, {column('explorer_ratio')} of a body alone "
                f"({column('explorer_one_ms')} ms) | ≤ 1.5x one body | {'yes' if ratio <= 1.5 else '**no**'} |")
     report.add("")
-    report.add("Not measured here yet: the node's lock-step against the rclpy ping-pong floor (the node does not "
-               "step through the plant yet; `make bench-lockstep` has today's node).")
+    report.add("The node's lock-step against rclpy's ping-pong floor: `make bench-lockstep` (docs/bench/lockstep.md).")
     report.save(args.output)
     return 0
 

@@ -19,8 +19,10 @@ The room, in the order a campaign flows through it:
   drawn inputs, metrics and status, and the campaign file and versions in its metadata.
 
 * :mod:`.store` — the **output directory**: each finished chunk as a part file as it completes, then
-  the table; an interrupted campaign resumes from its parts.
-* :mod:`.report` — the **report**: histograms of the metrics, the worst runs, a Markdown summary.
+  the table; an interrupted campaign resumes from its parts; the decimated trajectories, when asked,
+  as Parquet parts a notebook opens lazily (``pyarrow.dataset``; ``dask.dataframe`` with pandas installed).
+* :mod:`.report` — the **report**: histograms of the metrics, the worst runs, percentile envelopes of
+  ``|w|`` over time when trajectories were kept, a Markdown summary.
 
 ``run_campaign(path_or_mapping)`` is the Python API; ``torquefree_campaign run`` and ``report`` the
 command line. The table is the same, bit for bit, in-process, on 1 or 2 workers, with another chunk
@@ -49,14 +51,20 @@ def run_campaign(path_or_mapping, scheduler=None, workers: int | None = None, ou
     or ``resume``: continue the campaign it holds, computing only the runs no finished chunk holds
     (the result is bit for bit the uninterrupted run's table); the campaign file, its scene and the
     versions must be the same (:class:`.store.ResumeError` says what differs). Resuming a finished
-    campaign returns its table."""
-    from .engine import chunk_runs, chunks, execute
+    campaign returns its table. A campaign file that asks for ``trajectories`` has its finished runs'
+    kept samples written to ``output/trajectories/`` (see :mod:`.store`); without ``output`` they are not
+    computed."""
+    from .engine import TRAJECTORIES, chunk_runs, chunks, execute
     from .results import build_table
     from .store import CampaignDirectory
 
     campaign = load_campaign(path_or_mapping)
     size = chunk_runs(campaign, chunk_size)
+    computed = campaign  # what the chunks run: the same runs, without trajectories when there is nowhere to write them
     if output is None:
+        if campaign.trajectory_every:
+            from dataclasses import replace
+            computed = replace(campaign, trajectory_every=None)
         store, ranges, parts = None, chunks(campaign, size), {}
     else:
         store = CampaignDirectory.open(output, campaign, overwrite=overwrite, resume=resume)
@@ -71,7 +79,10 @@ def run_campaign(path_or_mapping, scheduler=None, workers: int | None = None, ou
 
     def finished(start, stop, columns):
         nonlocal done
+        trajectories = columns.pop(TRAJECTORIES, None)
         if store:
+            if trajectories is not None:  # first: a results part on disk has its trajectory part beside it
+                store.write_trajectories(start, stop, trajectories)
             store.write_part(start, stop, columns)
         parts[start] = columns
         done += stop - start
@@ -79,7 +90,7 @@ def run_campaign(path_or_mapping, scheduler=None, workers: int | None = None, ou
             progress(done, campaign.runs)
 
     if ranges:
-        execute(campaign, ranges, scheduler, workers, finished)
+        execute(computed, ranges, scheduler, workers, finished)
     if store:
         for start in store.parts:
             if start not in parts:

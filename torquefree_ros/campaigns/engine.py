@@ -44,6 +44,8 @@ BLOCK_SAMPLES = 65_536
 # time, depending on the process's history; with these fixed thresholds, none.
 MALLOC_ENVIRONMENT = {"MALLOC_MMAP_THRESHOLD_": str(32 * 2**20), "MALLOC_TRIM_THRESHOLD_": str(128 * 2**20)}
 OK, INVALID_BODY, INVALID_SCENE, FAILED = "ok", "invalid_body", "invalid_scene", "failed"
+# a chunk's entry (not a column of the table) holding its runs' decimated samples, when the campaign keeps them
+TRAJECTORIES = "__trajectories__"
 
 
 def block_runs(campaign) -> int:
@@ -135,7 +137,8 @@ def _scene_of(campaign, draw: Draw):
 
 # -- a chunk --------------------------------------------------------------------------------------------
 def run_chunk(campaign, start: int, stop: int) -> dict:
-    """Runs ``start .. stop - 1``: a dict of columns (numpy arrays; ``status`` and ``reason`` lists)."""
+    """Runs ``start .. stop - 1``: a dict of columns (numpy arrays; ``status`` and ``reason`` lists), and
+    under :data:`TRAJECTORIES` the finished runs' kept samples (a dict of columns) when the campaign keeps them."""
     with np.errstate(divide="ignore", invalid="ignore", over="ignore", under="ignore"):  # the same on every worker
         return _run_chunk(campaign, start, stop)
 
@@ -154,6 +157,7 @@ def _run_chunk(campaign, start: int, stop: int) -> dict:
     ready = [draw for draw in draws if draw.status == OK]
     nominal = _nominal(campaign, times) if campaign.needs_nominal and ready else None
     ok, blocks, size = [], [], block_runs(campaign)
+    kept = [] if campaign.trajectory_every else None  # the decimated samples of the finished runs, by block
     for low in range(0, len(ready), size):  # a block at a time: see BLOCK_SAMPLES
         block = ready[low:low + size]
         trajectories = _propagate(campaign, block, scenes, times)
@@ -161,6 +165,9 @@ def _run_chunk(campaign, start: int, stop: int) -> dict:
         if finished:
             blocks.append(_metrics(campaign, finished, trajectories, times, nominal))
             ok += finished
+            if kept is not None:  # after the metrics: a run a metric failed on has no trajectory
+                kept += [(draw.run, *(a[::campaign.trajectory_every] for a in trajectories[draw.run]))
+                         for draw in finished if draw.status == OK]
     columns = {"run": np.arange(start, stop, dtype=np.int64),
                "redraws": np.array([d.redraws for d in draws], dtype=np.int64)}
     for target in campaign.targets + ((campaign.body_target,) if campaign.body_target else ()):
@@ -180,6 +187,22 @@ def _run_chunk(campaign, start: int, stop: int) -> dict:
             columns[column] = array
     columns["status"] = [d.status for d in draws]
     columns["reason"] = [d.reason for d in draws]
+    if kept is not None:
+        columns[TRAJECTORIES] = _trajectory_columns(campaign, kept)
+    return columns
+
+
+def _trajectory_columns(campaign, kept: list) -> dict:
+    """The chunk's kept samples as columns (:attr:`Campaign.trajectory_columns`), by run then time."""
+    t = campaign.trajectory_times
+    names = campaign.trajectory_columns
+    if not kept:
+        return {name: np.empty(0, dtype=np.int64 if name == "run" else float) for name in names}
+    run = np.repeat(np.array([k[0] for k in kept], dtype=np.int64), t.size)
+    values = np.concatenate([np.concatenate([omega, q, internal], axis=1) for _, omega, q, internal in kept])
+    columns = {"run": run, "t": np.tile(t, len(kept))}
+    for k, name in enumerate(names[2:]):
+        columns[name] = np.ascontiguousarray(values[:, k])
     return columns
 
 

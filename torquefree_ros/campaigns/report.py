@@ -6,12 +6,16 @@ write into ``DIR/report/`` (or ``--output``):
   95th percentile (numpy's default, linear interpolation) and max over the runs that finished with a
   finite value (a value that is NaN, such as ``settle_time`` of a run that never settles, is counted
   apart as undefined); the worst runs with their drawn inputs;
-* ``histograms.png`` — a histogram of each metric column, its worst run marked and named.
+* ``histograms.png`` — a histogram of each metric column, its worst run marked and named;
+* ``envelopes.png`` — when the campaign kept trajectories (``DIR/trajectories/``, see
+  :mod:`.store`): the 5th, 50th and 95th percentiles (numpy's default, linear interpolation) of
+  ``|w|`` across the runs at each kept time, and the worst run's ``|w|``: by default the run of the
+  largest final ``|w|`` (its last kept sample), or with ``worst=COLUMN`` the worst run of that metric.
 
 "Worst" is the largest ``|value|`` (every built-in metric but the final rates is non-negative, where
 larger is worse: drift, cone angle, settle time, flips, attitude error; a final rate counts by its
-size); ties go to the lowest run. Campaigns keep metrics only, no trajectories, so there are no
-percentile envelopes of the rates over time; the summary says so.
+size); ties go to the lowest run. The summary says whether trajectories were kept, and which (every
+how many samples, at what rate); without them there are no envelopes of the rates over time.
 """
 
 from __future__ import annotations
@@ -24,10 +28,12 @@ from pathlib import Path
 import numpy as np
 
 from .results import RESULTS_FILE
-from .store import MANIFEST_FILE, PARTS_DIRECTORY
+from .store import MANIFEST_FILE, PARTS_DIRECTORY, TRAJECTORIES_DIRECTORY
 
 SUMMARY_FILE = "summary.md"
 HISTOGRAMS_FILE = "histograms.png"
+ENVELOPES_FILE = "envelopes.png"
+PERCENTILES = (5, 50, 95)
 REPORT_DIRECTORY = "report"
 _FIXED = ("run", "status", "reason", "redraws")
 MAX_REASONS = 5  # distinct reasons listed per status
@@ -159,21 +165,77 @@ def _grouped(values: dict) -> dict:
     return grouped
 
 
+def rate_envelopes(directory, table=None, summary=None, worst: str | None = None) -> dict | None:
+    """The percentile envelopes of ``|w|`` over time from ``directory``'s trajectories, or None when the
+    campaign kept none: ``times`` (K,), ``runs`` (R,) the runs with a trajectory, ``magnitude`` (R, K)
+    their ``|w| = sqrt(w_x² + w_y² + w_z²)``, ``percentiles`` {5, 50, 95: (K,)} across the runs
+    (``np.percentile``, linear interpolation), ``worst_run`` (None without runs) and ``worst_by`` (what
+    made it the worst: ``"final |w|"`` or the metric column ``worst``)."""
+    if table is None or summary is None:
+        table, summary = read_campaign_table(directory)
+    kept = summary.get("trajectories")
+    path = Path(directory) / TRAJECTORIES_DIRECTORY
+    if not kept:
+        if worst is not None:
+            raise ReportError(f"{directory}: worst {worst!r}: the campaign kept no trajectories to plot")
+        return None
+    if not path.is_dir():
+        raise ReportError(f"{path}: missing (the campaign kept trajectories; the directory was moved or removed)")
+    import pyarrow.dataset as ds
+
+    try:
+        data = ds.dataset(path, format="parquet").to_table(columns=["run", "t", "w_x", "w_y", "w_z"])
+    except (OSError, ValueError) as error:  # pyarrow's ArrowInvalid is a ValueError
+        raise ReportError(f"{path}: cannot be read as the campaign's trajectories ({error})") from None
+    data = data.sort_by([("run", "ascending"), ("t", "ascending")])
+    samples = int(kept["samples"])
+    if data.num_rows % samples:
+        raise ReportError(f"{path}: {data.num_rows} rows are not whole runs of {samples} samples")
+    runs = data.column("run").to_numpy()[::samples]
+    times = data.column("t").to_numpy()[:samples]
+    w = [data.column(name).to_numpy() for name in ("w_x", "w_y", "w_z")]
+    magnitude = np.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).reshape(-1, samples)
+    if not runs.size:
+        times = np.arange(samples) / float(kept["rate"])
+    percentiles = {p: (np.percentile(magnitude, p, axis=0) if runs.size else np.full(samples, np.nan))
+                   for p in PERCENTILES}
+    worst_run, worst_by = None, "final |w|"
+    if worst is not None:
+        if worst not in metric_units(table, summary):
+            raise ReportError(f"worst: {worst!r} is not a metric column of the campaign (columns: "
+                              f"{', '.join(metric_units(table, summary))})")
+        worst_by = worst
+        found = [row for row in worst_runs(table, summary) if row["column"] == worst]
+        worst_run = found[0]["run"] if found else None
+    elif runs.size:
+        worst_run = int(runs[int(np.argmax(magnitude[:, -1]))])  # the first of equal sizes: the lowest run
+    return {"times": times, "runs": runs, "magnitude": magnitude, "percentiles": percentiles,
+            "worst_run": worst_run, "worst_by": worst_by, "every": int(kept["every"]), "rate": float(kept["rate"]),
+            "directory": path}
+
+
 # -- writing --------------------------------------------------------------------------------------------
-def write_report(directory, output=None) -> list[Path]:
-    """``summary.md`` and ``histograms.png`` of the campaign in ``directory``, into ``output``
-    (default ``directory/report``); returns the files written."""
+def write_report(directory, output=None, worst: str | None = None) -> list[Path]:
+    """``summary.md``, ``histograms.png`` and, when the campaign kept trajectories, ``envelopes.png`` of
+    the campaign in ``directory``, into ``output`` (default ``directory/report``); ``worst``: the metric
+    column whose worst run the envelopes show (default: the run of the largest final ``|w|``);
+    returns the files written."""
     table, summary = read_campaign_table(directory)
+    envelopes = rate_envelopes(directory, table, summary, worst)
     figure_class = _figure_class()
     output = Path(directory) / REPORT_DIRECTORY if output is None else Path(output)
     output.mkdir(parents=True, exist_ok=True)
-    worst = worst_runs(table, summary)
+    worst_rows = worst_runs(table, summary)
     histograms = output / HISTOGRAMS_FILE
-    _histograms(figure_class, table, summary, worst, histograms)
+    _histograms(figure_class, table, summary, worst_rows, histograms)
+    written = []
+    if envelopes is not None:
+        written.append(output / ENVELOPES_FILE)
+        _envelopes(figure_class, envelopes, written[-1])
     markdown = output / SUMMARY_FILE
-    markdown.write_text(summary_markdown(table, summary, Path(directory) / RESULTS_FILE, HISTOGRAMS_FILE),
-                        encoding="utf-8")
-    return [markdown, histograms]
+    markdown.write_text(summary_markdown(table, summary, Path(directory) / RESULTS_FILE, HISTOGRAMS_FILE,
+                                         envelopes, ENVELOPES_FILE), encoding="utf-8")
+    return [markdown, histograms, *written]
 
 
 def _figure_class():
@@ -204,7 +266,8 @@ def _inputs(inputs: dict) -> str:
     return "; ".join(f"`{path}` = {shown(value)}" for path, value in inputs.items()) or "none dispersed"
 
 
-def summary_markdown(table, summary: dict, source: Path, histograms: str) -> str:
+def summary_markdown(table, summary: dict, source: Path, histograms: str, envelopes: dict | None = None,
+                     envelopes_file: str = ENVELOPES_FILE) -> str:
     meta = table.schema.metadata or {}
     versions = json.loads(meta.get(b"torquefree_ros.versions", b"{}"))
     description = ""
@@ -251,10 +314,48 @@ def summary_markdown(table, summary: dict, source: Path, histograms: str) -> str
               "| metric | run | value | drawn inputs |", "|---|---:|---:|---|"]
     for row in worst_runs(table, summary):
         lines.append(f"| {row['column']} | {row['run']} | {_number(row['value'])} | {_inputs(row['inputs'])} |")
-    lines += ["", "## Rates over time", "",
-              "No percentile envelopes of the rates over time: campaigns keep metrics only (a campaign file has no "
-              "trajectory option yet), so the table holds no rates but the final ones.", ""]
+    lines += ["", "## Rates over time", ""]
+    if envelopes is None:
+        lines += ["No trajectories kept (the campaign file has no `trajectories` option), so no percentile envelopes "
+                  "of the rates over time: the table holds no rates but the final ones.", ""]
+        return "\n".join(lines)
+    every = envelopes["every"]
+    lines += [f"Trajectories kept: every {'sample' if every == 1 else f'{every}th sample'} "
+              f"({envelopes['rate']:g} Hz, {envelopes['times'].size:,} samples a run) of each finished run "
+              f"({envelopes['runs'].size:,} runs), in `{envelopes['directory']}` (Parquet parts: "
+              "`pyarrow.dataset.dataset(...)` opens them lazily).", ""]
+    if not envelopes["runs"].size:
+        lines += ["No finished run with a trajectory: no envelopes.", ""]
+        return "\n".join(lines)
+    by = ("the largest final |w|" if envelopes["worst_by"] == "final |w|"
+          else f"the largest |{envelopes['worst_by']}|")
+    worst = (f"and the worst run, run {envelopes['worst_run']} (by {by})" if envelopes["worst_run"] is not None
+             else f"(no run has a finite {envelopes['worst_by']}: no worst run)")
+    lines += [f"The 5th, 50th and 95th percentiles of |w| across the runs at each kept time, {worst}.", "",
+              f"![percentile envelopes of |w|]({envelopes_file})", ""]
     return "\n".join(lines)
+
+
+def _envelopes(Figure, envelopes: dict, path: Path) -> None:
+    figure = Figure(figsize=(7.5, 4.0), layout="constrained")
+    axis = figure.subplots()
+    times, bands = envelopes["times"], envelopes["percentiles"]
+    axis.set_xlabel("t (s)", fontsize=9)
+    axis.set_ylabel("|w| (rad/s)", fontsize=9)
+    axis.tick_params(labelsize=8)
+    runs = envelopes["runs"]
+    if not runs.size:
+        axis.text(0.5, 0.5, "no finished run with a trajectory", ha="center", va="center", transform=axis.transAxes)
+    else:
+        axis.fill_between(times, bands[5], bands[95], color="#4a7ab5", alpha=0.3, linewidth=0, label="5–95 %")
+        axis.plot(times, bands[50], color="#4a7ab5", linewidth=1.2, label="median")
+        row = int(np.searchsorted(runs, envelopes["worst_run"])) if envelopes["worst_run"] is not None else -1
+        if 0 <= row < runs.size and runs[row] == envelopes["worst_run"]:
+            axis.plot(times, envelopes["magnitude"][row], color="#c0392b", linewidth=1.0,
+                      label=f"worst: run {envelopes['worst_run']} ({envelopes['worst_by']})")
+        axis.legend(fontsize=8)
+    axis.set_title(f"|w| over time across {envelopes['runs'].size:,} runs", fontsize=10)
+    figure.savefig(path, dpi=110)
 
 
 def _histograms(Figure, table, summary, worst, path: Path) -> None:

@@ -6,7 +6,7 @@ named by target path: ``body.moments[0]``, ``initial.orientation[3]``, ``effects
 then the metrics' columns (null for a run that did not finish; NaN where a metric is undefined for a
 run that did). The schema's metadata holds the campaign file's text (``torquefree_ros.campaign``),
 the scene it dispersed (``torquefree_ros.scene``, the scene file's mapping as JSON), what the
-campaign measured when loaded (``torquefree_ros.campaign_summary``, JSON) and the versions that made
+campaign measured when loaded and the trajectories it keeps (``torquefree_ros.campaign_summary``, JSON) and the versions that made
 the table (``torquefree_ros.versions``, JSON); nothing in it depends on the engine, so the same
 campaign gives the same table, metadata included, in-process, on any cluster, or resumed.
 The table is written by :mod:`.store` (``DIR/runs.parquet``, assembled from per-chunk parts).
@@ -64,6 +64,10 @@ def build_table(campaign, parts: list[dict]):
     summary = {"source": campaign.source, "scene": campaign.scene.source, "runs": campaign.runs,
                "seed": campaign.seed, "duration": campaign.duration, "rate": campaign.rate,
                "samples": campaign.samples, "body_acceptance": campaign.body_acceptance,
+               "trajectories": ({"every": campaign.trajectory_every, "rate": campaign.rate / campaign.trajectory_every,
+                                 "samples": int(campaign.trajectory_times.size),
+                                 "columns": list(campaign.trajectory_columns)}
+                                if campaign.trajectory_every else None),
                "metrics": {use.metric.name: {"columns": list(use.metric.columns), "unit": use.metric.unit,
                                              "parameters": _plain(use.values)} for use in campaign.metrics}}
     made_of = provenance(campaign)

@@ -11,6 +11,14 @@ the metrics, checked like a scene (every error names the file and the field path
     max_redraws: 100                         # redraw: how many more bodies a run may draw
     dispersions: {TARGET: DISPERSION, ...}   # see campaigns.dispersions
     metrics: [final_rates, {settle_time: {threshold: 0.01}}, ...]   # see campaigns.metrics
+    trajectories: {every: 10}                # optional: keep every 10th sample of each run, or
+                                             # {rate: 1}: a rate (Hz) that divides `rate` (see below)
+
+**Trajectories** (optional; none by default). ``{every: N}`` keeps samples k = 0, N, 2N, ... up to
+``samples - 1`` (``N`` in ``[1, samples - 1]``: at least two samples a run); ``{rate: HZ}`` says the same as a rate: positive, at most
+``rate``, and ``rate / HZ`` a whole number (it is ``N``). With an output directory, each chunk writes
+its finished runs' kept samples (``run, t, w_x, w_y, w_z, q_x, q_y, q_z, q_w`` and the effects'
+states) to ``DIR/trajectories/`` (see campaigns.store); a failed run has none.
 
 **Impossible bodies.** A drawn body is checked as a scene's is (``RigidBody.from_inertia``: positive
 moments, triangle inequality). ``redraw``: the run draws its body again, up to ``max_redraws`` times,
@@ -31,13 +39,14 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import yaml
 
 from ..core import library
 from ..core.rigid_body import RigidBody
 from ..core.safe_files import clip
 from ..core.scene import DEFAULT_SCENE_DATA, Scene, SceneError, load_scene, read_document
-from ..core.schema import FieldError, Param, child, choice, fields, integer, number, text
+from ..core.schema import FieldError, Param, check_keys, child, choice, fields, integer, number, shown, text
 from ..core.timing import MAX_RATE
 from .dispersions import EffectTarget, OrientationTarget, VectorTarget, parse_target, run_generator
 from .metrics import DEFAULT_METRICS, parse_metrics
@@ -69,10 +78,28 @@ class Campaign:
     body_target: VectorTarget | None
     metrics: tuple  # MetricUse
     body_acceptance: float | None = None  # share of physical bodies over the first runs' first draws
+    trajectory_every: int | None = None  # trajectories: keep samples k = 0, N, 2N, ... (None: none kept)
 
     @property
     def samples(self) -> int:
         return int(math.floor(self.duration * self.rate + 1e-9)) + 1
+
+    @property
+    def trajectory_times(self) -> np.ndarray:
+        """The times of the kept samples (the campaign's own times ``k / rate``, k = 0, N, 2N, ...)."""
+        return (np.arange(self.samples) / self.rate)[::self.trajectory_every or 1]
+
+    @property
+    def trajectory_columns(self) -> tuple:
+        """A trajectory part's columns: ``run, t``, the rates, the attitude, then the effects' states
+        (``EFFECT[j]``, ``EFFECT#m[j]`` when two motion effects share a name; ``m`` counts motion effects)."""
+        effects = self.scene.effects
+        names = [effect.name for effect in effects]
+        internal = []
+        for m, effect in enumerate(effects):
+            label = effect.name if names.count(effect.name) == 1 else f"{effect.name}#{m}"
+            internal += [f"{label}[{j}]" for j in range(effect.state_size)]
+        return ("run", "t", "w_x", "w_y", "w_z", "q_x", "q_y", "q_z", "q_w", *internal)
 
     @property
     def input_columns(self) -> tuple:
@@ -130,6 +157,7 @@ _TOP = {
     "max_redraws": Param(integer(0, 10_000), 100),
     "dispersions": Param(lambda value, path: value, {}),  # checked against the scene below
     "metrics": Param(parse_metrics, None),
+    "trajectories": Param(lambda value, path: value, None),  # checked against the time grid below
 }
 
 
@@ -144,7 +172,10 @@ def campaign_from_mapping(data, source: str, text_: str, base: Path) -> Campaign
         metrics = values["metrics"] if values["metrics"] is not None else parse_metrics(list(DEFAULT_METRICS), "metrics")
         campaign = Campaign(source, text_, values["description"], scene, document, values["runs"], values["seed"],
                             values["duration"], values["rate"], values["invalid_body"], values["max_redraws"],
-                            targets, body_target, metrics)
+                            targets, body_target, metrics,
+                            trajectory_every=_trajectories(values["trajectories"], values["rate"],
+                                                           int(math.floor(values["duration"] * values["rate"]
+                                                                          + 1e-9)) + 1))
         if body_target is not None:
             campaign = _with_acceptance(campaign)
         _check_plant(campaign)
@@ -168,6 +199,34 @@ def _scene(name: str, base: Path) -> tuple[Scene, dict]:
         raise FieldError("scene", f"{scene.source} is an energy sweep; a campaign disperses one scene (a sweep of "
                                   "initial rates: a 'values' dispersion of initial.angular_velocity)")
     return scene, document
+
+
+def _trajectories(value, rate: float, samples: int) -> int | None:
+    """``{every: N}`` or ``{rate: HZ}`` -> N (None: no trajectories)."""
+    if value is None:
+        return None
+    top = max(1, samples - 1)
+    if not (isinstance(value, dict) and len(value) == 1 and next(iter(value)) in ("every", "rate")):
+        if isinstance(value, dict) and len(value) == 1:
+            check_keys(value, ("every", "rate"), "trajectories")
+        raise FieldError("trajectories", "expected {every: N} (keep every Nth sample) or {rate: HZ} (a rate that "
+                                         f"divides the campaign's {rate:g} Hz), got {shown(value)}")
+    ((key, given),) = value.items()
+    path = child("trajectories", key)
+    if key == "every":
+        every = integer(1, top)(given, path)
+    else:
+        kept = number(positive=True, unit="Hz")(given, path)
+        if kept > rate:
+            raise FieldError(path, f"must be <= the campaign's rate, {rate:g} Hz, got {shown(given)}")
+        every = round(rate / kept)
+        if abs(rate / kept - every) > 1e-9 * every:
+            raise FieldError(path, f"{kept:g} Hz must divide the campaign's rate {rate:g} Hz a whole number of times "
+                                   f"(rate / {kept:g} = {rate / kept:.6g}); {rate / max(every, 1):g} Hz would")
+        if every > top:
+            raise FieldError(path, f"{kept:g} Hz keeps only the first sample of {samples} (duration * rate); at "
+                                   f"least {rate / top:g} Hz")
+    return every
 
 
 def _dispersions(value, scene: Scene, document: dict):

@@ -7,6 +7,11 @@
                                           engine gave them (float64 bit for bit; no nulls yet)
     DIR/runs.parquet                      the table (results.build_table), assembled when every run is
                                           in a part; parts/ is removed after it
+    DIR/trajectories/runs-START-STOP.parquet   when the campaign file asks for trajectories: one chunk's
+                                          finished runs' kept samples, a row per run and time (columns
+                                          Campaign.trajectory_columns, float64 plain, by run then t);
+                                          they stay: ``pyarrow.dataset.dataset(DIR/"trajectories")``
+                                          opens them lazily (or dask.dataframe, with pandas)
 
 Every file is written whole: to a temporary name in its directory, then ``os.replace`` (a reader sees
 the old file or the new one, never half of one). A part is written by the driver as its chunk
@@ -18,7 +23,10 @@ directory is refused with what differs (runs made by other versions need not be 
 run's). The runs no part holds are then computed, in chunks of the requested size, and the table is
 assembled from old and new parts: bit for bit the table of an uninterrupted run (a run's row depends
 only on the campaign and the run's index). A part that cannot be read whole (a crash between the
-write and the rename's reaching the disk) is computed again.
+write and the rename's reaching the disk) is computed again. A chunk's trajectory part is written
+before its results part, and a results part counts as done only beside its whole trajectory part
+(when the campaign keeps trajectories): otherwise both are removed and the chunk is computed again,
+so the trajectory files of a resumed campaign hold the same rows as an uninterrupted run's.
 """
 
 from __future__ import annotations
@@ -31,6 +39,7 @@ from pathlib import Path
 from .results import CAMPAIGN_FILE, RESULTS_FILE, provenance
 
 PARTS_DIRECTORY = "parts"
+TRAJECTORIES_DIRECTORY = "trajectories"
 MANIFEST_FILE = "manifest.json"
 _PART = re.compile(r"^runs-(\d+)-(\d+)\.parquet$")
 _STRING_COLUMNS = ("status", "reason")
@@ -70,6 +79,10 @@ class CampaignDirectory:
         return self.directory / PARTS_DIRECTORY
 
     @property
+    def trajectories_directory(self) -> Path:
+        return self.directory / TRAJECTORIES_DIRECTORY
+
+    @property
     def results_path(self) -> Path:
         return self.directory / RESULTS_FILE
 
@@ -105,6 +118,10 @@ class CampaignDirectory:
         elif store._part_files():
             raise FileExistsError(f"{store.parts_directory} holds part files but no {MANIFEST_FILE} (what made them "
                                   "is unknown): --overwrite starts over")
+        elif store._trajectory_files():
+            raise FileExistsError(f"{store.trajectories_directory} holds trajectory files but there is no campaign "
+                                  f"({RESULTS_FILE} or {PARTS_DIRECTORY}/{MANIFEST_FILE}) that made them: --overwrite "
+                                  "starts over")
         store._start()
         return store
 
@@ -184,14 +201,44 @@ class CampaignDirectory:
                 whole = pq.read_metadata(path).num_rows == stop - start
             except (OSError, ValueError):
                 whole = False
+            if whole and self.campaign.trajectory_every:
+                whole = self._trajectory_part_whole(start, stop, path)
             if not whole:
                 path.unlink()
+                (self.trajectories_directory / part_name(start, stop)).unlink(missing_ok=True)
                 continue
             if previous is not None and start < previous[1]:
                 raise ResumeError(f"{path}: overlaps {self.parts_directory / part_name(*previous)}; "
                                   "--overwrite starts over")
             parts[start], previous = stop, (start, stop)
+        for start, stop, path in self._trajectory_files():  # written before a results part that never was
+            if parts.get(start) != stop:
+                path.unlink()
         return parts
+
+    def _trajectory_part_whole(self, start: int, stop: int, results_part: Path) -> bool:
+        """The chunk's trajectory part is there, readable, with this campaign's columns and a row per
+        finished run and kept time."""
+        import pyarrow.parquet as pq
+
+        try:
+            found = pq.read_metadata(self.trajectories_directory / part_name(start, stop))
+            finished = pq.read_table(results_part, columns=["status"]).column("status").to_pylist().count("ok")
+        except (OSError, ValueError, KeyError):
+            return False
+        return (tuple(found.schema.names) == self.campaign.trajectory_columns
+                and found.num_rows == finished * self.campaign.trajectory_times.size)
+
+    def _trajectory_files(self) -> list[tuple[int, int, Path]]:
+        found = []
+        if self.trajectories_directory.is_dir():
+            for path in self.trajectories_directory.iterdir():
+                match = _PART.match(path.name)
+                if match:
+                    found.append((int(match.group(1)), int(match.group(2)), path))
+            for leftover in self.trajectories_directory.glob(".*.tmp"):
+                leftover.unlink()
+        return sorted(found)
 
     def _remove_campaign_files(self) -> None:
         """Only the files a campaign writes: a directory's other contents stay."""
@@ -207,6 +254,12 @@ class CampaignDirectory:
                 pass  # something else lives there: leave it
         if self.results_path.exists():
             self.results_path.unlink()
+        for _, _, path in self._trajectory_files():
+            path.unlink()
+        try:
+            self.trajectories_directory.rmdir()
+        except OSError:
+            pass  # absent, or something else lives there
 
     # -- the runs ----------------------------------------------------------------------------------------
     def missing(self, size: int) -> list[tuple[int, int]]:
@@ -228,6 +281,18 @@ class CampaignDirectory:
         write_whole(self.parts_directory / part_name(start, stop),
                     lambda path: pq.write_table(table, path, compression="zstd", use_dictionary=list(_STRING_COLUMNS)))
         self.parts[start] = stop
+
+    def write_trajectories(self, start: int, stop: int, columns: dict) -> None:
+        """A chunk's kept samples as ``trajectories/runs-START-STOP.parquet`` (written whole; before the
+        chunk's results part, see :meth:`write_part`)."""
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        table = pa.table({name: pa.array(columns[name], pa.int64() if name == "run" else pa.float64())
+                          for name in self.campaign.trajectory_columns})
+        self.trajectories_directory.mkdir(parents=True, exist_ok=True)
+        write_whole(self.trajectories_directory / part_name(start, stop),
+                    lambda path: pq.write_table(table, path, compression="zstd", use_dictionary=False))
 
     def read_part(self, start: int) -> dict:
         """A part's columns as the engine gave them (numpy arrays; ``status`` and ``reason`` lists)."""

@@ -5,8 +5,10 @@ writes ``DIR/runs.parquet`` (a row per run: inputs, metrics, status) and ``DIR/c
 default on a local Dask cluster of this machine's cores (a campaign of one chunk runs in this
 process), ``--scheduler ADDRESS`` on an existing cluster, ``--scheduler in-process`` without Dask.
 Finished chunks are kept in ``DIR/parts/`` as they complete: ``--resume`` continues an interrupted
-campaign, ``--overwrite`` starts over. ``torquefree_campaign report DIR`` writes plots and a Markdown
-summary of the table (``DIR/report/`` by default).
+campaign, ``--overwrite`` starts over. A campaign file with ``trajectories: {every: N}`` (or
+``{rate: HZ}``) also keeps its runs' decimated samples in ``DIR/trajectories/`` (Parquet parts).
+``torquefree_campaign report DIR`` writes plots and a Markdown summary of the table (``DIR/report/``
+by default), with percentile envelopes of ``|w|`` over time when trajectories were kept.
 """
 
 from __future__ import annotations
@@ -52,10 +54,14 @@ def _parser() -> argparse.ArgumentParser:
     report = commands.add_parser(
         "report", help="plots and a Markdown summary of a campaign's table",
         description="Read DIR/runs.parquet and write summary.md (runs, statuses with their reasons, each metric's "
-        "min/median/p95/max, the worst runs with their drawn inputs) and histograms.png (each metric, its worst "
-        "run marked). Needs matplotlib: pip install '.[plot]'.")
+        "min/median/p95/max, the worst runs with their drawn inputs), histograms.png (each metric, its worst "
+        "run marked) and, when the campaign kept trajectories, envelopes.png (the 5/50/95 %% percentiles of |w| "
+        "over time across the runs, and the worst run). Needs matplotlib: pip install '.[plot]'.")
     report.add_argument("directory", metavar="DIR", help="a campaign's output directory (holding runs.parquet)")
     report.add_argument("--output", metavar="DIR", help="where to write the report (default: DIR/report)")
+    report.add_argument("--worst", metavar="COLUMN",
+                        help="envelopes.png: show the worst run of this metric column (largest |value|) instead of "
+                        "the run of the largest final |w|")
     return parser
 
 
@@ -129,7 +135,7 @@ def main(argv=None) -> int:
 def _run(args) -> int:
     from ..campaigns import run_campaign
     from ..campaigns.results import RESULTS_FILE
-    from ..campaigns.store import PARTS_DIRECTORY, ResumeError
+    from ..campaigns.store import PARTS_DIRECTORY, TRAJECTORIES_DIRECTORY, ResumeError
 
     try:
         campaign = load_campaign(args.campaign)
@@ -167,6 +173,10 @@ def _run(args) -> int:
             else "finished before, nothing computed")
     print(f"{args.output}/{RESULTS_FILE}: {table.num_rows} runs ({ok} ok, {table.num_rows - ok} failed"
           f"{f', {resumed:,} resumed' if resumed else ''}); {what}")
+    if campaign.trajectory_every:
+        every = "every sample" if campaign.trajectory_every == 1 else f"every {campaign.trajectory_every}th sample"
+        print(f"{args.output}/{TRAJECTORIES_DIRECTORY}: {every} ({campaign.rate / campaign.trajectory_every:g} Hz) "
+              f"of the {ok} finished runs")
     return 0
 
 
@@ -174,7 +184,7 @@ def _report(args) -> int:
     from ..campaigns.report import ReportError, write_report
 
     try:
-        written = write_report(args.directory, args.output)
+        written = write_report(args.directory, args.output, worst=args.worst)
     except ReportError as error:
         print(f"torquefree_campaign: {error}", file=sys.stderr)
         return BAD_INPUT

@@ -10,7 +10,8 @@ kernel (``motion_kernels.dop853_outputs_batch``) with the same numbers.
 
 The plant integrates with DOP853 at the scene's ``accuracy`` (``auto``'s settings), through the
 compiled kernels: the same steps as the ``dop853`` propagator of the same scene (the stepping starts
-again at every sample when the scene takes commands, as the node's does).
+again at every sample when the scene takes commands, as the node's does, and at every switch of a
+torque schedule, each body of a batch at its own).
 """
 
 from __future__ import annotations
@@ -111,19 +112,21 @@ class Plant:
                 raise ValueError(f"scene[{index}]: its motion effects ({', '.join(layout) or 'none'}) differ from "
                                  f"scene[0]'s ({', '.join(layouts[0]) or 'none'}): a batch steps bodies of one kind "
                                  "(make one plant per kind)")
-        for index, p in enumerate(propagators):
-            for effect in p.effects:
-                if effect.breakpoints():
-                    where = f"scene[{index}]" if self.batch else "scene"
-                    raise ValueError(f"{where}: {effect.describe()} switches its torque on a schedule; the plant "
-                                     "does not stop at a schedule's switches yet (use the scene's propagator)")
         n = 7 + propagators[0].dynamics.state_size
         count = len(propagators)
         self._width = n
         self._propagators = propagators
         self._models = np.stack([compiled.build_model(p.dynamics) for p in propagators])
-        self._base_held = np.stack([compiled.held_torques(p.dynamics, 0.0, np.zeros(6)) for p in propagators])
-        self._helds = self._base_held.copy()
+        # each body's schedule: its breakpoints (padded with inf) and the scene's held torques piece by piece
+        breaks = [list(p.dynamics.breakpoints) for p in propagators]
+        width = max(1, max(len(b) for b in breaks))
+        self._breaks = np.array([b + [np.inf] * (width - len(b)) for b in breaks])
+        self._piece_helds = np.zeros((count, width + 1, 6))
+        for body, (p, starts) in enumerate(zip(propagators, breaks)):
+            for piece, start in enumerate([0.0, *starts]):
+                compiled.held_torques(p.dynamics, start, self._piece_helds[body, piece])
+        self._command_helds = np.zeros((count, 6))
+        self._helds = np.zeros((count, 6))
         self._rtols = np.array([p.rtol for p in propagators])
         self._atols = np.array([p.atol for p in propagators])
         self._min_steps = np.array([p.min_step for p in propagators])
@@ -183,11 +186,11 @@ class Plant:
             return
         in_force = ~timed_out(sample_stamp_ns(self.k, self.rate), commands.stamp_ns, commands.timeout_ns)
         held = np.where(in_force[:, None], commands.torque, 0.0)
-        self._helds[:] = self._base_held
+        self._command_helds[:] = 0.0
         if commands.inertial:
-            self._helds[:, 3:] += held
+            self._command_helds[:, 3:] = held
         else:
-            self._helds[:, :3] += held
+            self._command_helds[:, :3] = held
 
     def _advance(self, times: np.ndarray) -> np.ndarray:
         if self._failed is not None:
@@ -195,7 +198,8 @@ class Plant:
         self._hold()
         out = np.empty((self.size, times.size, self._width))
         sample_rate = self.rate if self._commands is not None else 0.0
-        kernels.dop853_outputs_batch(times, out, MAX_STEPS_PER_SAMPLE, sample_rate, self._solvers, self._ys,
+        kernels.dop853_outputs_batch(times, out, MAX_STEPS_PER_SAMPLE, sample_rate, self._breaks, self._piece_helds,
+                                     self._command_helds, self._solvers, self._ys,
                                      self._y_olds, self._fs, self._Ks, self._Fs, self._works, self._models,
                                      self._helds, self._rtols, self._atols, self._min_steps, compiled._A,
                                      compiled._B, compiled._C, compiled._E3, compiled._E5, compiled._D,

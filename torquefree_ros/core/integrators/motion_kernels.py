@@ -413,12 +413,16 @@ def next_sample_time(t, rate):
     return k / rate
 
 
-def dop853_outputs_batch(times, out, max_steps, sample_rate, solvers, ys, y_olds, fs, Ks, Fs, works, models, helds,
-                         rtols, atols, min_steps, A, B, C, E3, E5, D, status, reached):
+def dop853_outputs_batch(times, out, max_steps, sample_rate, breaks, piece_helds, command_helds, solvers, ys,
+                         y_olds, fs, Ks, Fs, works, models, helds, rtols, atols, min_steps, A, B, C, E3, E5, D,
+                         status, reached):
     """:func:`dop853_outputs` for each body ``b`` of a batch (row ``b`` of every array; ``out (N, M, n)``),
-    a new smooth piece begun where one ends, as the single-body driver begins it: at the next sample
-    time when ``sample_rate > 0`` (a torque held per sample: ``helds[b]`` holds over this call), else
-    unbounded. ``status[b]`` and ``reached[b]``: what dop853_outputs returned last for body ``b``."""
+    a new smooth piece begun where one ends, as the single-body driver begins it: at body ``b``'s next
+    breakpoint (``breaks[b]``, ascending, padded with ``inf``) or, when ``sample_rate > 0``, the next
+    sample time, whichever comes first. A piece beginning at ``t0`` holds the torque of the scene's own
+    piece containing it (``piece_helds[b, j]``, ``j`` the breakpoints at or before ``t0``) plus the
+    commanded one (``command_helds[b]``, over this call), in ``helds[b]``. ``status[b]`` and
+    ``reached[b]``: what dop853_outputs returned last for body ``b``."""
     for b in range(solvers.shape[0]):
         i = 0
         while True:
@@ -426,7 +430,12 @@ def dop853_outputs_batch(times, out, max_steps, sample_rate, solvers, ys, y_olds
                                    works[b], models[b], helds[b], A, B, C, E3, E5, D)
             if st == SEGMENT_END:
                 t0 = solvers[b, T]
-                bound = next_sample_time(t0, sample_rate) if sample_rate > 0.0 else np.inf
+                j = np.searchsorted(breaks[b], t0, side="right")
+                bound = breaks[b, j] if j < breaks.shape[1] else np.inf
+                if sample_rate > 0.0:
+                    bound = min(bound, next_sample_time(t0, sample_rate))
+                for c in range(6):
+                    helds[b, c] = piece_helds[b, j, c] + command_helds[b, c]
                 dop853_begin(t0, bound, rtols[b], atols[b], min_steps[b], solvers[b], ys[b], fs[b], works[b],
                              models[b], helds[b])
                 continue
