@@ -27,25 +27,28 @@ def _commands(count, seed=0):
     return torques
 
 
-def test_stepping_follows_the_node_rules_bit_for_bit():
+def _assert_steps_as_the_node(scene, count):
     """The node's path without DDS: each command offered to the run's hold at its sample, the interval
     sealed, the sample computed by the Simulation; the plant gives the same samples, bit for bit."""
-    for frame in ("body", "inertial"):
-        scene = _plant_scene(frame=frame)
-        simulation = Simulation(scene.propagator(), RATE)
-        (_, hold), = simulation.command_holds
-        plant = Plant(scene, RATE)
-        for k, torque in enumerate(_commands(20)):
-            given = None if np.isnan(torque[0]) else torque
-            if given is not None:
-                assert hold.receive(hold.stamp_ns(k), given)[0]
-            hold.seal(k)
-            block = simulation.samples(k + 1, 1)
-            state = plant.step(given)
-            assert plant.k == k + 1
-            np.testing.assert_array_equal(state.omega_B, block.omega_B[0])
-            np.testing.assert_array_equal(state.q_NB, block.q_NB[0])
-            np.testing.assert_array_equal(state.internal, block.internal[0])
+    simulation = Simulation(scene.propagator(), RATE)
+    (_, hold), = simulation.command_holds
+    plant = Plant(scene, RATE)
+    for k, torque in enumerate(_commands(count)):
+        given = None if np.isnan(torque[0]) else torque
+        if given is not None:
+            assert hold.receive(hold.stamp_ns(k), given)[0]
+        hold.seal(k)
+        block = simulation.samples(k + 1, 1)
+        state = plant.step(given)
+        assert plant.k == k + 1
+        np.testing.assert_array_equal(state.omega_B, block.omega_B[0])
+        np.testing.assert_array_equal(state.q_NB, block.q_NB[0])
+        np.testing.assert_array_equal(state.internal, block.internal[0])
+
+
+@pytest.mark.parametrize("frame", ["body", "inertial"])
+def test_stepping_follows_the_node_rules_bit_for_bit(frame):
+    _assert_steps_as_the_node(_plant_scene(frame=frame), 20)
 
 
 def test_running_without_commands_is_the_scene_propagator_bit_for_bit():
@@ -165,20 +168,7 @@ def test_a_torque_schedule_runs_bit_for_bit_as_the_scene_propagator(frame):
 
 
 def test_a_schedule_and_commands_step_as_the_node_rules_bit_for_bit():
-    scene = _schedule_scene(commanded=True)
-    simulation = Simulation(scene.propagator(), RATE)
-    (_, hold), = simulation.command_holds
-    plant = Plant(scene, RATE)
-    for k, torque in enumerate(_commands(25)):
-        given = None if np.isnan(torque[0]) else torque
-        if given is not None:
-            assert hold.receive(hold.stamp_ns(k), given)[0]
-        hold.seal(k)
-        block = simulation.samples(k + 1, 1)
-        state = plant.step(given)
-        np.testing.assert_array_equal(state.omega_B, block.omega_B[0])
-        np.testing.assert_array_equal(state.q_NB, block.q_NB[0])
-        np.testing.assert_array_equal(state.internal, block.internal[0])
+    _assert_steps_as_the_node(_schedule_scene(commanded=True), 25)
 
 
 def test_a_batch_of_bodies_with_their_own_schedules_is_each_body_alone():

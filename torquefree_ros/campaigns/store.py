@@ -175,13 +175,7 @@ class CampaignDirectory:
         return table
 
     def _part_files(self) -> list[tuple[int, int, Path]]:
-        found = []
-        if self.parts_directory.is_dir():
-            for path in self.parts_directory.iterdir():
-                match = _PART.match(path.name)
-                if match:
-                    found.append((int(match.group(1)), int(match.group(2)), path))
-        return sorted(found)
+        return _parts_in(self.parts_directory)
 
     def _count_parts(self) -> int:
         return sum(stop - start for start, stop, _ in self._part_files())
@@ -230,15 +224,10 @@ class CampaignDirectory:
                 and found.num_rows == finished * self.campaign.trajectory_times.size)
 
     def _trajectory_files(self) -> list[tuple[int, int, Path]]:
-        found = []
         if self.trajectories_directory.is_dir():
-            for path in self.trajectories_directory.iterdir():
-                match = _PART.match(path.name)
-                if match:
-                    found.append((int(match.group(1)), int(match.group(2)), path))
-            for leftover in self.trajectories_directory.glob(".*.tmp"):
+            for leftover in self.trajectories_directory.glob(".*.tmp"):  # a write interrupted before its rename
                 leftover.unlink()
-        return sorted(found)
+        return _parts_in(self.trajectories_directory)
 
     def _remove_campaign_files(self) -> None:
         """Only the files a campaign writes: a directory's other contents stay."""
@@ -344,3 +333,13 @@ def _first_difference(old, new) -> str:
             return f" at line {number} ({a.strip()[:60]!r}, now {b.strip()[:60]!r})"
     return f" (line {min(len(old_lines), len(new_lines)) + 1}: one has more lines)"
 
+
+def _parts_in(directory: Path) -> list[tuple[int, int, Path]]:
+    """``(start, stop, path)`` of the part files in ``directory`` (none when it does not exist), by start."""
+    found = []
+    if directory.is_dir():
+        for path in directory.iterdir():
+            match = _PART.match(path.name)
+            if match:
+                found.append((int(match.group(1)), int(match.group(2)), path))
+    return sorted(found)
