@@ -19,7 +19,8 @@ run: $(VENV)/.installed
 	$(VENV)/bin/torquefree_sim $(if $(ARGS),--ros-args $(ARGS))
 
 test: $(VENV)/.installed
-	$(PY) -m pytest --cov --cov-report=term
+	$(PY) -m coverage run -m pytest
+	$(PY) -m coverage report
 
 # Newest versions allowed by requirements*.txt, written to requirements.lock, then the tests on them.
 lock:

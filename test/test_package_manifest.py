@@ -24,7 +24,7 @@ KEYS = {
     "pyarrow": None,
     "dask": None,
     "pytest": ("python3-pytest", TEST),
-    "pytest-cov": ("python3-pytest-cov", TEST),
+    "coverage": ("python3-coverage", TEST),
     "pytest-xdist": ("python3-pytest-xdist", TEST),
     "hypothesis": ("python3-hypothesis", TEST),
     "mpmath": None,
