@@ -181,6 +181,18 @@ def test_contract_sample_count_and_start_time(tmp_path):
     assert [log for log, _, _ in topics["/attitude"]] == [12_500_000_000, 12_525_000_000, 12_550_000_000]  # k = 0 … 2
 
 
+def test_start_time_now_stamps_sample_0_from_the_wall_clock(tmp_path):
+    import time
+
+    before = time.time_ns()
+    assert bag_main(["default", "--duration", "0.05", "--rate", "40", "--start-time", "now",
+                     "--output", str(tmp_path / "today")]) == 0
+    after = time.time_ns()
+    logs = [log for log, _, _ in read_with_mcap(tmp_path / "today")["/attitude"]]
+    assert before <= logs[0] <= after  # sample 0 at the moment the command read the clock
+    assert [log - logs[0] for log in logs] == [0, 25_000_000, 50_000_000]
+
+
 def test_an_existing_bag_is_never_overwritten_without_asking(offline_bag, tmp_path, capsys):
     before = mcap_file(offline_bag).read_bytes()
     assert bag_main(["default", "--duration", "1", "--rate", "10", "--output", str(offline_bag)]) == 1

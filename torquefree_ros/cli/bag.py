@@ -19,10 +19,12 @@ from .common import INTERRUPTED, GracefulStop, Progress, console_command
 
 
 def _seconds(text: str) -> Decimal:
+    if text == "now":  # the wall clock, to the nanosecond: viewers then show today rather than 1970
+        return Decimal(time.time_ns()) / 10**9
     try:
         return Decimal(text)
     except InvalidOperation:
-        raise argparse.ArgumentTypeError(f"expected a number of seconds, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expected a number of seconds or 'now', got {text!r}") from None
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -47,7 +49,9 @@ def _parser() -> argparse.ArgumentParser:
     options.add_argument("--compression", choices=sorted(COMPRESSIONS), default="none",
                          help="MCAP chunk compression (default: none, like rosbag2)")
     options.add_argument("--start-time", type=_seconds, default=Decimal(0), metavar="SECONDS",
-                         help="stamp of sample 0, s since the epoch, read to the nanosecond (default: 0)")
+                         help="stamp of sample 0, s since the epoch, read to the nanosecond, or 'now' (the wall "
+                              "clock; viewers then show the bag at today's date rather than in 1970) (default: 0, "
+                              "so that the same command writes the same bytes)")
     options.add_argument("--propagator", default="auto", choices=["auto", *sorted(PROPAGATORS)],
                          help="default: auto (the exact solution unless an effect changes the motion)")
     options.add_argument("--body-frame", default="body", metavar="FRAME",
