@@ -50,8 +50,8 @@ def _parser() -> argparse.ArgumentParser:
                          help="MCAP chunk compression (default: none, like rosbag2)")
     options.add_argument("--start-time", type=_seconds, default=Decimal(0), metavar="SECONDS",
                          help="stamp of sample 0, s since the epoch, read to the nanosecond, or 'now' (the wall "
-                              "clock; viewers then show the bag at today's date rather than in 1970) (default: 0, "
-                              "so that the same command writes the same bytes)")
+                              "clock: viewers then date the bag today rather than 1970, and each run writes other "
+                              "stamps) (default: 0)")
     options.add_argument("--propagator", default="auto", choices=["auto", *sorted(PROPAGATORS)],
                          help="default: auto (the exact solution unless an effect changes the motion)")
     options.add_argument("--body-frame", default="body", metavar="FRAME",
