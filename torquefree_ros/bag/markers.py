@@ -88,10 +88,10 @@ def encode_markers(stamps_ns, frame_id: str, rows, position=None) -> MessageBloc
     stamps_ns = np.asarray(stamps_ns, dtype=np.int64)
     if rows.shape[0] == 0:  # an output at a rate of its own may have no sample in a block
         return MessageBlock(b"", 0)
-    return _template(frame_id).fill(stamps_ns, _columns(rows, _offset(position)))
+    return _template(frame_id).fill(stamps_ns, _columns(rows, body_offset(position)))
 
 
-def _offset(position) -> np.ndarray | None:
+def body_offset(position) -> np.ndarray | None:
     """``position`` as an array, or None at the origin (so that the origin's bytes stay those of no
     offset: ``-0.0 + 0.0`` would turn a tip's negative zero positive)."""
     if position is None:

@@ -14,7 +14,7 @@ from typing import Callable, NamedTuple
 import numpy as np
 
 from .cdr import encode_odometry, encode_stamped_doubles, encode_times, encode_transforms
-from .markers import _offset, encode_markers
+from .markers import body_offset, encode_markers
 from .qos import BagQos
 from .writer import BagWriter
 
@@ -51,7 +51,7 @@ def encode_block(block, body_frame: str, inertial_frame: str, outputs=(), clock:
     ``position`` (x, y, z, m, in the inertial frame; None: the origin): where the outputs that place the
     body (``tf``, ``pose``, ``odometry``, ``markers``) put its centre, so that several bodies sharing one
     inertial frame show side by side; the simulator moves attitude only, so it is constant."""
-    place = _offset(position)
+    place = body_offset(position)
     stamps = block.stamps_ns
     columns = [SampleColumn(CLOCK[0], CLOCK[1], encode_times(stamps))] if clock else []
     columns.append(SampleColumn(*ANGULAR_VELOCITY, encode_stamped_doubles(stamps, body_frame, block.omega_B)))

@@ -161,12 +161,9 @@ def norm(a):
 
 
 def rotate(q, v):
-    """``R(q) v`` elementwise: ``v + 2 w (u x v) + 2 u x (u x v)``."""
-    ux, uy, uz, w = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    vx, vy, vz = v[..., 0], v[..., 1], v[..., 2]
-    tx, ty, tz = 2.0 * (uy * vz - uz * vy), 2.0 * (uz * vx - ux * vz), 2.0 * (ux * vy - uy * vx)
-    return np.stack([vx + w * tx + uy * tz - uz * ty, vy + w * ty + uz * tx - ux * tz,
-                     vz + w * tz + ux * ty - uy * tx], axis=-1)
+    """``R(q) v`` elementwise over the leading axes (quaternion.rotate_values on the components: no
+    3x3 matrix per sample)."""
+    return np.stack(quaternion.rotate_values(np.moveaxis(q, -1, 0), np.moveaxis(v, -1, 0)), axis=-1)
 
 
 def _ratio(numerator, denominator):

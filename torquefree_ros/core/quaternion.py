@@ -138,12 +138,16 @@ def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     v = np.asarray(v, dtype=float)
     if not _single(q, v):
         return np.einsum("...ij,...j->...i", to_matrix(q), v)
-    # v + 2 w (u x v) + 2 u x (u x v), u the vector part, w the scalar
-    ux, uy, uz, w = q.tolist()
-    vx, vy, vz = v.tolist()
+    return np.array(rotate_values(q.tolist(), v.tolist()))
+
+
+def rotate_values(q, v) -> tuple:
+    """``R(q) v`` of a quaternion and a vector given as values, floats or arrays (the same operations
+    as :func:`rotate` of one pair): ``v + 2 w (u x v) + 2 u x (u x v)``, u the vector part, w the scalar."""
+    ux, uy, uz, w = q
+    vx, vy, vz = v
     tx, ty, tz = 2.0 * (uy * vz - uz * vy), 2.0 * (uz * vx - ux * vz), 2.0 * (ux * vy - uy * vx)
-    return np.array([vx + w * tx + uy * tz - uz * ty, vy + w * ty + uz * tx - ux * tz,
-                     vz + w * tz + ux * ty - uy * tx])
+    return vx + w * tx + uy * tz - uz * ty, vy + w * ty + uz * tx - ux * tz, vz + w * tz + ux * ty - uy * tx
 
 
 def rotate_inverse(q: np.ndarray, v: np.ndarray) -> np.ndarray:

@@ -79,6 +79,10 @@ class Simulation:
         """``(effect, hold)`` of each effect that takes commands (``torque_command``), in scene order."""
         return tuple((effect, effect.hold) for effect in command_inputs(self.propagator.effects))
 
+    def stamp_ns(self, k: int) -> int:
+        """The stamp of sample ``k``, as :meth:`samples` stamps it."""
+        return int(stamps_ns(self.epoch_ns, np.array([k / self.rate]))[0])
+
     def samples(self, first: int, count: int) -> SampleBlock:
         times = np.arange(first, first + count) / self.rate
         if count and self.epoch_ns / 1e9 + times[-1] >= MAX_STAMP_S:

@@ -49,7 +49,7 @@ from ..bag.samples import CLOCK, encode_block, encode_command
 from ..bag.writer import BagError
 from ..core.propagators import Propagator
 from ..core.simulation import SampleBlock, Simulation
-from ..core.timing import restart_epoch_ns, stamps_ns
+from ..core.timing import restart_epoch_ns
 from .pause import PauseReport, where
 
 # Samples computed ahead in one vectorised call: at most MAX_BLOCK, and at most this much wall time
@@ -137,7 +137,7 @@ class _Run:
 
     def answered(self) -> bool:
         """Lock-step: every hold has the controller's answer to the last sample out."""
-        answer = self.stamp_of(self.next_index - 1)
+        answer = self.simulation.stamp_ns(self.next_index - 1)
         return all(hold.answered(answer) for _, hold in self.holds)
 
     @property
@@ -166,9 +166,6 @@ class _Run:
         request = self.request
         return encode_block(block, request.body_frame, request.inertial_frame, self.simulation.outputs,
                             clock=request.clock, position=request.body_position)
-
-    def stamp_of(self, index: int) -> int:
-        return int(stamps_ns(self.simulation.epoch_ns, np.array([index / self.simulation.rate]))[0])
 
     def deadline(self, stamp_ns: int) -> float | None:
         """Monotonic time at which the sample is due, or None when not paced."""
@@ -544,7 +541,7 @@ class SampleLoop:
         n = run.next_index
         if n == 0:
             return True
-        deadline = run.deadline(run.stamp_of(n))
+        deadline = run.deadline(run.simulation.stamp_ns(n))
         if deadline is not None:
             delay = deadline - time.monotonic()
             if delay > 0.0:
@@ -552,7 +549,7 @@ class SampleLoop:
                     self._wake.clear()
                 return False
         if run.request.lockstep:
-            answer = run.stamp_of(n - 1)
+            answer = run.simulation.stamp_ns(n - 1)
             answered = all(hold.wait_for(answer, run.request.lockstep_timeout, self._wake.is_set)
                            for _, hold in run.holds)
             if self._wake.is_set():

@@ -263,7 +263,7 @@ class Simulator:
     def _advance_one(self, timeout: float) -> Sample:
         self._sync()
         loop, k = self.node.sample_loop, self._next
-        stamp = self._stamp_of(k)
+        stamp = self._simulation.stamp_ns(k)
         expected = self._topics_of(k)
         watched = self._watched(expected)
         self._wait_matched(watched, timeout)
@@ -379,7 +379,7 @@ class Simulator:
 
     def _lockstep_wait(self, k: int) -> str:
         topics = ", ".join(self.node.resolve_topic_name(effect.topic) for effect, _ in self._simulation.command_holds)
-        return (f"in lock-step it waits for a command stamped {_seconds(self._stamp_of(k - 1))} or later on {topics} "
+        return (f"in lock-step it waits for a command stamped {_seconds(self._simulation.stamp_ns(k - 1))} or later on {topics} "
                 f"(the answer to sample {k - 1}) and none came within lockstep_timeout "
                 f"({self.node.sample_loop.request.lockstep_timeout:g} s); for an open loop pass lockstep=False")
 
@@ -432,7 +432,7 @@ class Simulator:
         self._sync()
         ns = stamp if isinstance(stamp, (int, np.integer)) else stamp_ns(stamp)
         k = round((ns - self._simulation.epoch_ns) * 1e-9 * self._simulation.rate)
-        if self._stamp_of(k) == ns:
+        if self._simulation.stamp_ns(k) == ns:
             return k / self._simulation.rate
         return (ns - self._simulation.epoch_ns) * 1e-9
 
@@ -491,11 +491,6 @@ class Simulator:
             raise RuntimeError("truth: the node's parameters changed between its last reset and the kit's first "
                                "look at the run: reset it with sim.reset()")
         return propagator
-
-    def _stamp_of(self, k: int) -> int:
-        from ..core.timing import stamps_ns
-
-        return int(stamps_ns(self._simulation.epoch_ns, np.array([k / self._simulation.rate]))[0])
 
     def _topics_of(self, k: int) -> dict:
         """resolved topic -> whether sample ``k`` goes out on it, for every topic the run publishes."""

@@ -224,14 +224,17 @@ class CommandHold:
     def answered(self, stamp_ns: int) -> bool:
         """Lock-step: an accepted command is stamped at or after ``stamp_ns``."""
         with self._lock:
-            return bool(self.commands) and self.commands[-1].stamp_ns >= stamp_ns
+            return self._answered(stamp_ns)
+
+    def _answered(self, stamp_ns: int) -> bool:  # (under the lock)
+        return bool(self.commands) and self.commands[-1].stamp_ns >= stamp_ns
 
     def wait_for(self, stamp_ns: int, timeout: float, interrupted) -> bool:
         """Lock-step: wait (wall clock, at most ``timeout`` s) for an accepted command stamped at or
         after ``stamp_ns``; ``interrupted()`` is polled so that a reset or a stop need not wait."""
         deadline = time.monotonic() + timeout
         with self._lock:
-            while not (self.commands and self.commands[-1].stamp_ns >= stamp_ns):
+            while not self._answered(stamp_ns):
                 remaining = deadline - time.monotonic()
                 if remaining <= 0.0 or interrupted():
                     return False
