@@ -1,60 +1,84 @@
-"""Independent readers for the bag tests: the ``mcap`` library with mcap-ros2-support's decoder, and
-``rosbags`` (AnyReader with the Jazzy typestore). Neither shares code with our writer."""
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Independent readers for the bag tests: the ``mcap`` library with mcap-ros2-support's decoder,
+and ``rosbags`` (AnyReader with the Jazzy typestore). Neither shares code with our writer.
+"""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-import yaml
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
+import numpy as np
 from rosbags.highlevel import AnyReader
-from rosbags.typesys import Stores, get_typestore
+from rosbags.typesys import get_typestore, Stores
+import yaml
 
-SEPARATOR = "=" * 80 + "\n"
+SEPARATOR = '=' * 80 + '\n'
 
 
 def mcap_file(bag: Path) -> Path:
-    return bag / f"{bag.name}_0.mcap"
+    return bag / f'{bag.name}_0.mcap'
 
 
 def read_with_mcap(bag: Path) -> dict:
     """topic -> list of (log_time, publish_time, decoded message), plus the file's summary."""
     out: dict = {}
-    with open(mcap_file(bag), "rb") as stream:
+    with open(mcap_file(bag), 'rb') as stream:
         reader = make_reader(stream, decoder_factories=[DecoderFactory()])
         for _, channel, message, decoded in reader.iter_decoded_messages(log_time_order=True):
-            out.setdefault(channel.topic, []).append((message.log_time, message.publish_time, decoded))
+            out.setdefault(channel.topic, []).append(
+                (message.log_time, message.publish_time, decoded)
+            )
     return out
 
 
 def stamps_and_last_messages(bag: Path) -> tuple[dict, dict, dict, dict]:
-    """For a long bag, without decoding every message: topic -> log times (mcap's reader), topic ->
-    count (rosbags'), and each topic's last message decoded by each reader."""
+    """
+    For a long bag, without decoding every message: topic -> log times (mcap's reader), topic ->
+    count (rosbags'), and each topic's last message decoded by each reader.
+    """
     log_times: dict = {}
     last_mcap: dict = {}
-    with open(mcap_file(bag), "rb") as stream:
+    with open(mcap_file(bag), 'rb') as stream:
         reader = make_reader(stream)
         for schema, channel, message in reader.iter_messages(log_time_order=True):
             log_times.setdefault(channel.topic, []).append(message.log_time)
             last_mcap[channel.topic] = (schema, channel, message)
     decoders = DecoderFactory()
-    decoded_mcap = {topic: decoders.decoder_for(channel.message_encoding, schema)(message.data)
-                    for topic, (schema, channel, message) in last_mcap.items()}
+    decoded_mcap = {
+        topic: decoders.decoder_for(channel.message_encoding, schema)(message.data)
+        for topic, (schema, channel, message) in last_mcap.items()
+    }
     counts: dict = {}
     last_raw: dict = {}
     with AnyReader([bag], default_typestore=get_typestore(Stores.ROS2_JAZZY)) as reader:
         for connection, _, raw in reader.messages():
             counts[connection.topic] = counts.get(connection.topic, 0) + 1
             last_raw[connection.topic] = (connection, raw)
-        decoded_rosbags = {topic: reader.deserialize(raw, connection.msgtype)
-                           for topic, (connection, raw) in last_raw.items()}
+        decoded_rosbags = {
+            topic: reader.deserialize(raw, connection.msgtype)
+            for topic, (connection, raw) in last_raw.items()
+        }
     return log_times, counts, decoded_mcap, decoded_rosbags
 
 
 def summary(bag: Path):
-    with open(mcap_file(bag), "rb") as stream:
+    with open(mcap_file(bag), 'rb') as stream:
         reader = make_reader(stream)
         return reader.get_header(), reader.get_summary(), list(reader.iter_metadata())
 
@@ -65,12 +89,14 @@ def read_with_rosbags(bag: Path) -> tuple[dict, dict]:
     with AnyReader([bag], default_typestore=get_typestore(Stores.ROS2_JAZZY)) as reader:
         connections = {c.topic: c for c in reader.connections}
         for connection, timestamp, raw in reader.messages():
-            messages.setdefault(connection.topic, []).append((timestamp, reader.deserialize(raw, connection.msgtype)))
+            messages.setdefault(connection.topic, []).append(
+                (timestamp, reader.deserialize(raw, connection.msgtype))
+            )
     return messages, connections
 
 
 def metadata(bag: Path) -> dict:
-    return yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    return yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
 
 
 def stamp_ns(header) -> int:
@@ -82,4 +108,6 @@ def vectors(messages) -> np.ndarray:
 
 
 def quaternions(messages) -> np.ndarray:
-    return np.array([[m.quaternion.x, m.quaternion.y, m.quaternion.z, m.quaternion.w] for *_, m in messages])
+    return np.array(
+        [[m.quaternion.x, m.quaternion.y, m.quaternion.z, m.quaternion.w] for *_, m in messages]
+    )

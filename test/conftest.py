@@ -1,56 +1,74 @@
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 import os
 
 import numpy as np
 import pytest
-
 from torquefree_ros.core import PROPAGATORS
 
 
 @pytest.fixture(autouse=True)
 def raise_on_float_errors():
     """Numeric tests run with every floating-point exception raised (overflow, invalid, ...)."""
-    with np.errstate(all="raise"):
+    with np.errstate(all='raise'):
         yield
 
 
-@pytest.fixture(params=["compiled", "numpy"])
+@pytest.fixture(params=['compiled', 'numpy'])
 def attitude_path(request, monkeypatch):
-    """Run a test on both evaluations of the exact attitude: numba's kernels (the ``fast`` extra, which
-    propagators use when it is installed) and numpy's arrays (the reference, always there). Without
-    numba the compiled run is skipped, except on CI, where requirements-test.txt installs it."""
+    """
+    Run a test on both evaluations of the exact attitude: numba's kernels (the ``fast`` extra,
+    which propagators use when it is installed) and numpy's arrays (the reference, always there).
+    Without numba the compiled run is skipped, except on CI, where requirements-test.txt installs
+    it.
+    """
     from torquefree_ros.core import attitude_kernels
 
-    if request.param == "compiled" and not attitude_kernels.AVAILABLE:
-        message = "numba (the fast extra) is not installed"
-        if os.environ.get("CI"):
-            pytest.fail(message + ": requirements-test.txt installs it")
+    if request.param == 'compiled' and not attitude_kernels.AVAILABLE:
+        message = 'numba (the fast extra) is not installed'
+        if os.environ.get('CI'):
+            pytest.fail(message + ': requirements-test.txt installs it')
         pytest.skip(message)
-    monkeypatch.setattr(attitude_kernels, "ENABLED", request.param == "compiled")
+    monkeypatch.setattr(attitude_kernels, 'ENABLED', request.param == 'compiled')
     return request.param
 
 
-@pytest.fixture(params=["compiled", "reference"])
+@pytest.fixture(params=['compiled', 'reference'])
 def integrator_path(request, monkeypatch):
-    """Run a test on both paths of the numerical propagators: numba's kernels (core/integrators, the
-    default) and the reference (scipy's DOP853, numpy's stages). Without numba the compiled run is
-    skipped, except on CI, where the requirements install it."""
+    """
+    Run a test on both paths of the numerical propagators: numba's kernels (core/integrators,
+    the default) and the reference (scipy's DOP853, numpy's stages). Without numba the compiled run
+    is skipped, except on CI, where the requirements install it.
+    """
     from torquefree_ros.core.integrators import compiled
 
-    if request.param == "compiled" and not compiled.AVAILABLE:
-        if os.environ.get("CI"):
-            pytest.fail("numba is not installed: the requirements install it")
-        pytest.skip("numba is not installed")
-    monkeypatch.setattr(compiled, "ENABLED", request.param == "compiled")
+    if request.param == 'compiled' and not compiled.AVAILABLE:
+        if os.environ.get('CI'):
+            pytest.fail('numba is not installed: the requirements install it')
+        pytest.skip('numba is not installed')
+    monkeypatch.setattr(compiled, 'ENABLED', request.param == 'compiled')
     return request.param
 
 
 # Settings at which each propagator is accurate enough for the shared convention checks below
 # (1e-8 rad over ~10 s of motion at |w| ~ 1 rad/s).
 ACCURATE_SETTINGS = {
-    "analytic": {},
-    "rk4": {"step": 1e-3},
-    "lie_rk4": {"step": 1e-3},
-    "dop853": {"rtol": 1e-12, "atol": 1e-14},
+    'analytic': {},
+    'rk4': {'step': 1e-3},
+    'lie_rk4': {'step': 1e-3},
+    'dop853': {'rtol': 1e-12, 'atol': 1e-14},
 }
 
 
@@ -61,24 +79,28 @@ def propagator_name(request):
 
 def pytest_collection_modifyitems(items):
     missing = set(PROPAGATORS) - set(ACCURATE_SETTINGS)
-    assert not missing, f"give ACCURATE_SETTINGS for new propagators: {missing}"
+    assert not missing, f'give ACCURATE_SETTINGS for new propagators: {missing}'
 
 
-# -- DDS isolation: each test session owns a ROS domain, so parallel runs never see each other -------
+# -- DDS isolation: each test session owns a ROS domain, so parallel runs never see each other
+# -------
 _domain = None
 
 
 def pytest_configure(config):
-    """Claim a free ROS domain id (the test kit's lock files, so sessions and the kit's simulators never
-    share one) before any rclpy context exists, and keep discovery on this machine."""
+    """
+    Claim a free ROS domain id (the test kit's lock files, so sessions and the kit's simulators
+    never share one) before any rclpy context exists, and keep discovery on this machine.
+    """
     global _domain
     from torquefree_ros.testing.domains import claim_domain
 
-    os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-    # a node subprocess that dies of a signal (SIGABRT from the C++ runtime) prints its Python stacks
-    os.environ["PYTHONFAULTHANDLER"] = "1"
+    os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+    # a node subprocess that dies of a signal (SIGABRT from the C++ runtime) prints its Python
+    # stacks
+    os.environ['PYTHONFAULTHANDLER'] = '1'
     try:
         _domain = claim_domain()
     except RuntimeError as error:
-        raise pytest.UsageError(f"this test session: {error}") from None
-    os.environ["ROS_DOMAIN_ID"] = str(_domain.domain_id)
+        raise pytest.UsageError(f'this test session: {error}') from None
+    os.environ['ROS_DOMAIN_ID'] = str(_domain.domain_id)

@@ -1,34 +1,52 @@
-"""Monte Carlo campaigns (issue 32): the campaign file's checks, the draws, the metrics against known
-answers, and the engine's one promise: the same table, bit for bit, in-process, on Dask workers
-(a LocalCluster, and a scheduler and workers started as separate processes) and with any chunking.
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
 
-Every Dask cluster here listens on 127.0.0.1 only and is closed by the test or fixture that made it."""
+"""
+Monte Carlo campaigns (issue 32): the campaign file's checks, the draws, the metrics against
+known answers, and the engine's one promise: the same table, bit for bit, in-process, on Dask
+workers (a LocalCluster, and a scheduler and workers started as separate processes) and with any
+chunking.
+
+Every Dask cluster here listens on 127.0.0.1 only and is closed by the test or fixture that made
+it.
+"""
 
 import contextlib
 import math
 import os
+from pathlib import Path
 import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
-import yaml
-
-from torquefree_ros import RigidBody, propagate_batch
-from torquefree_ros.campaigns import METRICS, CampaignError, load_campaign, metric, run_campaign
+from torquefree_ros import propagate_batch, RigidBody
+from torquefree_ros.campaigns import CampaignError, load_campaign, metric, METRICS, run_campaign
 from torquefree_ros.campaigns.dispersions import run_generator
 from torquefree_ros.campaigns.metrics import Samples
 from torquefree_ros.cli import campaign as campaign_cli
+import yaml
 
 VENV_BIN = Path(sys.executable).parent
 
 
-# -- helpers ---------------------------------------------------------------------------------------------
+# -- helpers
+# ---------------------------------------------------------------------------------------------
 def assert_same_table(a: pa.Table, b: pa.Table) -> None:
     """Bit for bit: the same columns, nulls, bytes of every float (NaN included) and metadata."""
     assert a.schema.equals(b.schema, check_metadata=True)
@@ -45,31 +63,63 @@ def assert_same_table(a: pa.Table, b: pa.Table) -> None:
 
 
 def torque_free_campaign(runs=600):
-    """A triaxial body near its limit (redraws happen), rates and attitude dispersed, every metric."""
-    return {"scene": "default", "runs": runs, "seed": 32, "duration": 12.0, "rate": 5.0,
-            "dispersions": {"body.moments": {"relative": {"normal": {"sigma": 0.03}}},
-                            "initial.angular_velocity": [{"absolute": {"uniform": {"low": -0.1, "high": 0.1}}},
-                                                         {"replace": {"values": [0.0, 0.2, 0.4]}}, None],
-                            "initial.orientation": {"small_rotation": {"sigma": 0.02}}},
-            "metrics": ["final_rates", {"settle_time": {"threshold": 1.2}}, "cone_angle", "flips", "energy_drift",
-                        "momentum_drift", "nominal_attitude_error"]}
+    """
+    A triaxial body near its limit (redraws happen), rates and attitude dispersed, every
+    metric.
+    """
+    return {
+        'scene': 'default',
+        'runs': runs,
+        'seed': 32,
+        'duration': 12.0,
+        'rate': 5.0,
+        'dispersions': {
+            'body.moments': {'relative': {'normal': {'sigma': 0.03}}},
+            'initial.angular_velocity': [
+                {'absolute': {'uniform': {'low': -0.1, 'high': 0.1}}},
+                {'replace': {'values': [0.0, 0.2, 0.4]}},
+                None,
+            ],
+            'initial.orientation': {'small_rotation': {'sigma': 0.02}},
+        },
+        'metrics': [
+            'final_rates',
+            {'settle_time': {'threshold': 1.2}},
+            'cone_angle',
+            'flips',
+            'energy_drift',
+            'momentum_drift',
+            'nominal_attitude_error',
+        ],
+    }
 
 
 def damper_campaign(runs=60):
-    """explorer1 through the batched Plant; a damping dispersion so wide that some runs draw a negative
-    coefficient, which the scene refuses: those rows fail with the reason, the others run."""
-    return {"scene": "explorer1", "runs": runs, "seed": 7, "duration": 30.0, "rate": 1.0,
-            "dispersions": {"effects[0].damper.damping": {"relative": {"normal": {"sigma": 1.0}}},
-                            "initial.angular_velocity": {"absolute": {"normal": {"sigma": 0.05}}}},
-            "metrics": ["final_rates", "cone_angle", "energy_drift", "nominal_attitude_error"]}
+    """
+    explorer1 through the batched Plant; a damping dispersion so wide that some runs draw a
+    negative coefficient, which the scene refuses: those rows fail with the reason, the others
+    run.
+    """
+    return {
+        'scene': 'explorer1',
+        'runs': runs,
+        'seed': 7,
+        'duration': 30.0,
+        'rate': 1.0,
+        'dispersions': {
+            'effects[0].damper.damping': {'relative': {'normal': {'sigma': 1.0}}},
+            'initial.angular_velocity': {'absolute': {'normal': {'sigma': 0.05}}},
+        },
+        'metrics': ['final_rates', 'cone_angle', 'energy_drift', 'nominal_attitude_error'],
+    }
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope='module')
 def cluster():
     """Two worker processes on loopback, started once for the module."""
     from torquefree_ros.campaigns.engine import local_cluster
 
-    with np.errstate(all="ignore"):  # the module-scoped fixture runs outside the per-test errstate
+    with np.errstate(all='ignore'):  # the module-scoped fixture runs outside the per-test errstate
         local = local_cluster(2)
     try:
         yield local
@@ -77,73 +127,126 @@ def cluster():
         local.close()
 
 
-# -- the engine: the same table everywhere ---------------------------------------------------------------
+# -- the engine: the same table everywhere
+# ---------------------------------------------------------------
 def test_same_table_in_process_on_two_workers_and_with_other_chunks(cluster):
-    reference = run_campaign(torque_free_campaign(), scheduler="in-process")
-    assert reference.num_rows == 600 and set(reference.column("status").to_pylist()) == {"ok"}
-    assert max(reference.column("redraws").to_pylist()) > 0  # the dispersion does reach the limit
-    assert_same_table(reference, run_campaign(torque_free_campaign(), scheduler="in-process", chunk_size=7))
-    on_workers = run_campaign(torque_free_campaign(), scheduler=cluster.scheduler_address, chunk_size=64)
+    reference = run_campaign(torque_free_campaign(), scheduler='in-process')
+    assert reference.num_rows == 600 and set(reference.column('status').to_pylist()) == {'ok'}
+    assert max(reference.column('redraws').to_pylist()) > 0  # the dispersion does reach the limit
+    assert_same_table(
+        reference, run_campaign(torque_free_campaign(), scheduler='in-process', chunk_size=7)
+    )
+    on_workers = run_campaign(
+        torque_free_campaign(), scheduler=cluster.scheduler_address, chunk_size=64
+    )
     assert_same_table(reference, on_workers)
 
 
 def test_a_scene_with_effects_gives_the_same_table_on_workers_and_failed_runs_are_rows(cluster):
-    reference = run_campaign(damper_campaign(), scheduler="in-process")
-    status = reference.column("status").to_pylist()
-    failed = [i for i, s in enumerate(status) if s != "ok"]
+    reference = run_campaign(damper_campaign(), scheduler='in-process')
+    status = reference.column('status').to_pylist()
+    failed = [i for i, s in enumerate(status) if s != 'ok']
     assert 0 < len(failed) < len(status)
     for i in failed:  # the scene's own check, with the field path, and no metric for that run
-        assert status[i] == "invalid_scene"
-        assert reference.column("reason")[i].as_py().startswith("effects[0].damper.damping: must be > 0")
-        assert reference.column("effects[0].damper.damping")[i].as_py() <= 0
-        assert not reference.column("final_wx")[i].is_valid
-    assert_same_table(reference, run_campaign(damper_campaign(), scheduler="in-process", chunk_size=11))
-    assert_same_table(reference, run_campaign(damper_campaign(), scheduler=cluster.scheduler_address, chunk_size=8))
+        assert status[i] == 'invalid_scene'
+        assert (
+            reference.column('reason')[i]
+            .as_py()
+            .startswith('effects[0].damper.damping: must be > 0')
+        )
+        assert reference.column('effects[0].damper.damping')[i].as_py() <= 0
+        assert not reference.column('final_wx')[i].is_valid
+    assert_same_table(
+        reference, run_campaign(damper_campaign(), scheduler='in-process', chunk_size=11)
+    )
+    assert_same_table(
+        reference,
+        run_campaign(damper_campaign(), scheduler=cluster.scheduler_address, chunk_size=8),
+    )
 
 
 def test_blocks_inside_a_chunk_change_nothing(monkeypatch):
-    """A chunk propagates and measures its runs a block at a time (engine.BLOCK_SAMPLES): blocks of a few
-    runs, failed runs among them, give the same table as one block a chunk."""
+    """
+    A chunk propagates and measures its runs a block at a time (engine.BLOCK_SAMPLES): blocks of
+    a few runs, failed runs among them, give the same table as one block a chunk.
+    """
     from torquefree_ros.campaigns import engine
 
-    references = [run_campaign(make(), scheduler="in-process") for make in (torque_free_campaign, damper_campaign)]
-    assert engine.block_runs(load_campaign(torque_free_campaign())) >= 600  # one block a chunk above
-    monkeypatch.setattr(engine, "BLOCK_SAMPLES", 3 * 61)
+    references = [
+        run_campaign(make(), scheduler='in-process')
+        for make in (torque_free_campaign, damper_campaign)
+    ]
+    assert (
+        engine.block_runs(load_campaign(torque_free_campaign())) >= 600
+    )  # one block a chunk above
+    monkeypatch.setattr(engine, 'BLOCK_SAMPLES', 3 * 61)
     assert engine.block_runs(load_campaign(torque_free_campaign())) == 3
     for make, reference in zip((torque_free_campaign, damper_campaign), references):
-        assert_same_table(reference, run_campaign(make(), scheduler="in-process", chunk_size=64))
+        assert_same_table(reference, run_campaign(make(), scheduler='in-process', chunk_size=64))
 
 
 @contextlib.contextmanager
 def dask_processes(tmp_path, workers: list):
-    """``dask scheduler`` and one ``dask worker`` process per argument list in ``workers`` (what a
+    """
+    ``dask scheduler`` and one ``dask worker`` process per argument list in ``workers`` (what a
     cluster looks like), all on loopback; yields ``(address, worker processes)``. Every process is
-    ended by its pid."""
+    ended by its pid.
+    """
     from distributed import Client
 
-    scheduler_file = tmp_path / "scheduler.json"
-    environment = dict(os.environ, DASK_DISTRIBUTED__WORKER__DAEMON="False")
+    scheduler_file = tmp_path / 'scheduler.json'
+    environment = dict(os.environ, DASK_DISTRIBUTED__WORKER__DAEMON='False')
     scheduler, started = None, []
     try:
         scheduler = subprocess.Popen(
-            [str(VENV_BIN / "dask"), "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
-             "--scheduler-file", str(scheduler_file)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-            env=environment)
+            [
+                str(VENV_BIN / 'dask'),
+                'scheduler',
+                '--host',
+                '127.0.0.1',
+                '--port',
+                '0',
+                '--no-dashboard',
+                '--scheduler-file',
+                str(scheduler_file),
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            env=environment,
+        )
         deadline = time.monotonic() + 60
         while not scheduler_file.exists() and time.monotonic() < deadline:
             time.sleep(0.1)
-        assert scheduler_file.exists(), "the scheduler did not start in 60 s"
+        assert scheduler_file.exists(), 'the scheduler did not start in 60 s'
         for arguments in workers:
-            started.append(subprocess.Popen(
-                [str(VENV_BIN / "dask"), "worker", "--scheduler-file", str(scheduler_file), "--host", "127.0.0.1",
-                 "--nthreads", "1", "--no-dashboard", *arguments], stdout=subprocess.DEVNULL,
-                stderr=subprocess.DEVNULL, env=environment))
-        expected = sum(int(a[a.index("--nworkers") + 1]) if "--nworkers" in a else 1 for a in workers)
-        with Client(scheduler_file=str(scheduler_file), timeout="60s") as client:
+            started.append(
+                subprocess.Popen(
+                    [
+                        str(VENV_BIN / 'dask'),
+                        'worker',
+                        '--scheduler-file',
+                        str(scheduler_file),
+                        '--host',
+                        '127.0.0.1',
+                        '--nthreads',
+                        '1',
+                        '--no-dashboard',
+                        *arguments,
+                    ],
+                    stdout=subprocess.DEVNULL,
+                    stderr=subprocess.DEVNULL,
+                    env=environment,
+                )
+            )
+        expected = sum(
+            int(a[a.index('--nworkers') + 1]) if '--nworkers' in a else 1 for a in workers
+        )
+        with Client(scheduler_file=str(scheduler_file), timeout='60s') as client:
             client.wait_for_workers(expected, timeout=60)
             address = client.scheduler.address
         yield address, started
-    finally:  # the workers first: a worker whose scheduler is gone may spend its timeout reconnecting
+    # the workers first: a worker whose scheduler is gone may spend its timeout reconnecting
+    finally:
         for group in (started, [scheduler] if scheduler else []):
             for process in group:
                 if process.poll() is None:
@@ -157,52 +260,70 @@ def dask_processes(tmp_path, workers: list):
 
 
 def test_a_scheduler_and_workers_started_as_separate_processes_are_used_by_address(tmp_path):
-    """The campaign pointed at a scheduler's address; the workers under a nanny, as ``dask worker`` starts them."""
-    with dask_processes(tmp_path, [["--nworkers", "2"]]) as (address, _):
+    """
+    The campaign pointed at a scheduler's address; the workers under a nanny, as ``dask worker``
+    starts them.
+    """
+    with dask_processes(tmp_path, [['--nworkers', '2']]) as (address, _):
         table = run_campaign(torque_free_campaign(300), scheduler=address, chunk_size=50)
-    assert_same_table(run_campaign(torque_free_campaign(300), scheduler="in-process"), table)
+    assert_same_table(run_campaign(torque_free_campaign(300), scheduler='in-process'), table)
 
 
 def test_a_worker_killed_mid_campaign_changes_nothing_in_the_table(tmp_path):
-    """Two workers without nannies (each its own process); when the first chunk is in, the worker that is
-    computing a chunk is killed (SIGKILL). The scheduler gives its chunks to the other: every chunk
-    arrives once, and the table is the in-process one bit for bit."""
+    """
+    Two workers without nannies (each its own process); when the first chunk is in, the worker
+    that is computing a chunk is killed (SIGKILL). The scheduler gives its chunks to the other:
+    every chunk arrives once, and the table is the in-process one bit for bit.
+    """
     from distributed import Client
 
     data = torque_free_campaign(1024)
-    data.update(duration=400.0, rate=10.0)  # 16 chunks of 64 runs, ~0.1 s each: the kill lands mid-campaign
-    reference = run_campaign(data, scheduler="in-process")
-    with dask_processes(tmp_path, [["--no-nanny"], ["--no-nanny"]]) as (address, workers):
+    data.update(
+        duration=400.0, rate=10.0
+    )  # 16 chunks of 64 runs, ~0.1 s each: the kill lands mid-campaign
+    reference = run_campaign(data, scheduler='in-process')
+    with dask_processes(tmp_path, [['--no-nanny'], ['--no-nanny']]) as (address, workers):
         pids = {process.pid: process for process in workers}
         killed, calls = [], []
-        with Client(address, timeout="30s") as observer:
+        with Client(address, timeout='30s') as observer:
+
             def kill_a_busy_worker(done, total):
                 calls.append(done)
                 if killed or done == 0:
                     return
-                load = observer.run_on_scheduler(lambda dask_scheduler: {
-                    ws.pid: len(ws.processing) for ws in dask_scheduler.workers.values()})
+                load = observer.run_on_scheduler(
+                    lambda dask_scheduler: {
+                        ws.pid: len(ws.processing) for ws in dask_scheduler.workers.values()
+                    }
+                )
                 busy = [pid for pid, tasks in load.items() if tasks and pid in pids]
-                assert busy, f"no worker is computing a chunk after the first one ({load})"
+                assert busy, f'no worker is computing a chunk after the first one ({load})'
                 pids[busy[0]].send_signal(signal.SIGKILL)
                 killed.append((busy[0], done))
 
-            table = run_campaign(data, scheduler=address, chunk_size=64, progress=kill_a_busy_worker)
-            survivors = observer.run_on_scheduler(lambda dask_scheduler: sorted(
-                ws.pid for ws in dask_scheduler.workers.values()))
-        (pid, at), = killed
+            table = run_campaign(
+                data, scheduler=address, chunk_size=64, progress=kill_a_busy_worker
+            )
+            survivors = observer.run_on_scheduler(
+                lambda dask_scheduler: sorted(ws.pid for ws in dask_scheduler.workers.values())
+            )
+        ((pid, at),) = killed
         assert pids[pid].wait(timeout=10) == -signal.SIGKILL and at < 1024
         assert survivors == sorted(set(pids) - {pid})  # the scheduler saw it go
-    assert calls[0] == 0 and calls[-1] == 1024 and len(calls) == 1 + 16  # every chunk once, none twice
+    assert (
+        calls[0] == 0 and calls[-1] == 1024 and len(calls) == 1 + 16
+    )  # every chunk once, none twice
     assert np.all(np.diff(calls) == 64)
     assert_same_table(reference, table)
 
 
 def test_a_run_draws_from_its_own_seed_only():
-    """Run i's inputs depend on (seed, i): the first runs of a longer campaign are the shorter one's, and
-    run i's generator is SeedSequence(seed).spawn(runs)[i]'s."""
-    short = run_campaign(torque_free_campaign(20), scheduler="in-process")
-    long = run_campaign(torque_free_campaign(60), scheduler="in-process").slice(0, 20)
+    """
+    Run i's inputs depend on (seed, i): the first runs of a longer campaign are the shorter
+    one's, and run i's generator is SeedSequence(seed).spawn(runs)[i]'s.
+    """
+    short = run_campaign(torque_free_campaign(20), scheduler='in-process')
+    long = run_campaign(torque_free_campaign(60), scheduler='in-process').slice(0, 20)
     for name in short.column_names:
         assert short.column(name).to_pylist() == long.column(name).to_pylist()
     spawned = np.random.SeedSequence(32).spawn(60)[17]
@@ -210,229 +331,364 @@ def test_a_run_draws_from_its_own_seed_only():
 
 
 def test_the_inputs_in_the_table_reproduce_each_run():
-    """The drawn inputs are what ran: propagating a row's body and initial state again gives its final rates."""
-    table = run_campaign(torque_free_campaign(40), scheduler="in-process").to_pydict()
-    moments = np.array([[table[f"body.moments[{k}]"][i] for k in range(3)] for i in range(40)])
-    omega0 = np.array([[table[f"initial.angular_velocity[{k}]"][i] for k in range(3)] for i in range(40)])
-    q0 = np.array([[table[f"initial.orientation[{k}]"][i] for k in range(4)] for i in range(40)])
-    assert omega0[:, 1].tolist() == [[0.0, 0.2, 0.4][i % 3] for i in range(40)]  # the sweep: values[i % 3]
+    """
+    The drawn inputs are what ran: propagating a row's body and initial state again gives its
+    final rates.
+    """
+    table = run_campaign(torque_free_campaign(40), scheduler='in-process').to_pydict()
+    moments = np.array([[table[f'body.moments[{k}]'][i] for k in range(3)] for i in range(40)])
+    omega0 = np.array(
+        [[table[f'initial.angular_velocity[{k}]'][i] for k in range(3)] for i in range(40)]
+    )
+    q0 = np.array([[table[f'initial.orientation[{k}]'][i] for k in range(4)] for i in range(40)])
+    assert omega0[:, 1].tolist() == [
+        [0.0, 0.2, 0.4][i % 3] for i in range(40)
+    ]  # the sweep: values[i % 3]
     assert np.all(np.abs(omega0[:, 2] - 1.0) == 0)  # not dispersed: the scene's own
     omega, _ = propagate_batch(moments, omega0, q0, np.arange(61) / 5.0)
-    assert np.array_equal(omega[:, -1, 0], table["final_wx"]) and np.array_equal(omega[:, -1, 2], table["final_wz"])
+    assert np.array_equal(omega[:, -1, 0], table['final_wx']) and np.array_equal(
+        omega[:, -1, 2], table['final_wz']
+    )
 
 
-# -- impossible bodies -----------------------------------------------------------------------------------
+# -- impossible bodies
+# -----------------------------------------------------------------------------------
 def limit_body(invalid_body, tmp_path):
-    scene = tmp_path / "flat.yaml"
-    scene.write_text("body: {inertia: [3.0, 2.0, 1.0]}\ninitial: {angular_velocity: [0.1, 1.0, 0.1]}\n")
-    return {"scene": str(scene), "runs": 400, "seed": 3, "duration": 1.0, "rate": 2.0, "invalid_body": invalid_body,
-            "dispersions": {"body.moments": {"relative": {"normal": {"sigma": 0.02}}}}, "metrics": ["final_rates"]}
+    scene = tmp_path / 'flat.yaml'
+    scene.write_text(
+        'body: {inertia: [3.0, 2.0, 1.0]}\ninitial: {angular_velocity: [0.1, 1.0, 0.1]}\n'
+    )
+    return {
+        'scene': str(scene),
+        'runs': 400,
+        'seed': 3,
+        'duration': 1.0,
+        'rate': 2.0,
+        'invalid_body': invalid_body,
+        'dispersions': {'body.moments': {'relative': {'normal': {'sigma': 0.02}}}},
+        'metrics': ['final_rates'],
+    }
 
 
 def test_a_nominal_body_on_the_triangle_limit_redraws_or_fails_as_the_file_says(tmp_path):
-    """[3, 2, 1] is a flat plate: about half the draws of independent moments are no body at all."""
-    campaign = load_campaign(limit_body("fail", tmp_path))
+    """
+    [3, 2, 1] is a flat plate: about half the draws of independent moments are no body at
+    all.
+    """
+    campaign = load_campaign(limit_body('fail', tmp_path))
     assert 0.4 < campaign.body_acceptance < 0.6  # measured when loaded, kept in the metadata
-    failing = run_campaign(campaign, scheduler="in-process").to_pydict()
-    bad = [i for i, s in enumerate(failing["status"]) if s != "ok"]
-    assert 0.4 < len(bad) / 400 < 0.6 and set(failing["status"][i] for i in bad) == {"invalid_body"}
-    assert all("triangle inequality" in failing["reason"][i] for i in bad)
-    assert all(failing["final_wx"][i] is None for i in bad)
-    redrawn = run_campaign(limit_body("redraw", tmp_path), scheduler="in-process").to_pydict()
-    assert set(redrawn["status"]) == {"ok"} and max(redrawn["redraws"]) > 0
-    m = np.array([[redrawn[f"body.moments[{k}]"][i] for k in range(3)] for i in range(400)])
-    assert np.all(m.max(axis=1) <= (m.sum(axis=1) - m.max(axis=1)) * (1 + 1e-9))  # every kept body is physical
+    failing = run_campaign(campaign, scheduler='in-process').to_pydict()
+    bad = [i for i, s in enumerate(failing['status']) if s != 'ok']
+    assert 0.4 < len(bad) / 400 < 0.6 and set(failing['status'][i] for i in bad) == {
+        'invalid_body'
+    }
+    assert all('triangle inequality' in failing['reason'][i] for i in bad)
+    assert all(failing['final_wx'][i] is None for i in bad)
+    redrawn = run_campaign(limit_body('redraw', tmp_path), scheduler='in-process').to_pydict()
+    assert set(redrawn['status']) == {'ok'} and max(redrawn['redraws']) > 0
+    m = np.array([[redrawn[f'body.moments[{k}]'][i] for k in range(3)] for i in range(400)])
+    assert np.all(
+        m.max(axis=1) <= (m.sum(axis=1) - m.max(axis=1)) * (1 + 1e-9)
+    )  # every kept body is physical
     # a run that drew a physical body first is the same run either way (the body draws last)
     for i in range(400):
-        if failing["status"][i] == "ok":
-            assert failing["body.moments[0]"][i] == redrawn["body.moments[0]"][i]
+        if failing['status'][i] == 'ok':
+            assert failing['body.moments[0]'][i] == redrawn['body.moments[0]'][i]
 
 
 def test_a_run_that_runs_out_of_redraws_fails_with_the_count(tmp_path):
-    data = limit_body("redraw", tmp_path)
-    data["max_redraws"] = 0
-    table = run_campaign(data, scheduler="in-process").to_pydict()
-    reasons = [r for r in table["reason"] if r]
-    assert reasons and all(r.endswith("(after 0 redraws)") for r in reasons)
+    data = limit_body('redraw', tmp_path)
+    data['max_redraws'] = 0
+    table = run_campaign(data, scheduler='in-process').to_pydict()
+    reasons = [r for r in table['reason'] if r]
+    assert reasons and all(r.endswith('(after 0 redraws)') for r in reasons)
 
 
-# -- bad campaign files -----------------------------------------------------------------------------------
+# -- bad campaign files
+# -----------------------------------------------------------------------------------
 BAD_FILES = {
-    "unknown distribution": ({"body.moments": {"relative": {"gaussian": {"sigma": 0.1}}}},
-                             "dispersions.body.moments.relative: unknown distribution 'gaussian' (known: normal, truncated_normal"),
-    "negative sigma": ({"initial.angular_velocity": {"absolute": {"normal": {"sigma": -0.1}}}},
-                       "dispersions.initial.angular_velocity.absolute.normal.sigma: must be >= 0"),
-    "no valid body": ({"body.moments": {"relative": {"uniform": {"low": -3.0, "high": -1.5}}}},
-                      "dispersions.body.moments: gives no physical body"),
-    "effect index outside the scene": ({"effects[5].damper.damping": {"relative": {"normal": {"sigma": 0.1}}}},
-                                       "dispersions.effects[5].damper.damping: outside the scene: it has 3 effects"),
-    "another effect": ({"effects[1].damper.damping": {"relative": {"normal": {"sigma": 0.1}}}},
-                       "dispersions.effects[1].damper.damping: outside the scene: effects[1] is tf, not 'damper'"),
-    "unknown parameter": ({"effects[0].damper.dampin": {"relative": {"normal": {"sigma": 0.1}}}},
-                          "has no parameter 'dampin'; did you mean 'damping'?"),
-    "unknown target": ({"body.mass": {"relative": {"normal": {"sigma": 0.1}}}}, "dispersions.body.mass: not a target"),
-    "wrong component count": ({"initial.angular_velocity": [{"absolute": {"normal": {"sigma": 0.1}}}]},
-                              "a list of 3 (one per component"),
-    "empty truncation": ({"initial.angular_velocity": {"absolute": {"truncated_normal": {
-        "sigma": 0.1, "low": 5.0, "high": 6.0}}}}, "holds no probability"),
-    "unknown mode": ({"body.moments": {"relativ": {"normal": {"sigma": 0.1}}}}, "did you mean 'relative'?"),
+    'unknown distribution': (
+        {'body.moments': {'relative': {'gaussian': {'sigma': 0.1}}}},
+        "dispersions.body.moments.relative: unknown distribution 'gaussian' (known: normal, truncated_normal",
+    ),
+    'negative sigma': (
+        {'initial.angular_velocity': {'absolute': {'normal': {'sigma': -0.1}}}},
+        'dispersions.initial.angular_velocity.absolute.normal.sigma: must be >= 0',
+    ),
+    'no valid body': (
+        {'body.moments': {'relative': {'uniform': {'low': -3.0, 'high': -1.5}}}},
+        'dispersions.body.moments: gives no physical body',
+    ),
+    'effect index outside the scene': (
+        {'effects[5].damper.damping': {'relative': {'normal': {'sigma': 0.1}}}},
+        'dispersions.effects[5].damper.damping: outside the scene: it has 3 effects',
+    ),
+    'another effect': (
+        {'effects[1].damper.damping': {'relative': {'normal': {'sigma': 0.1}}}},
+        "dispersions.effects[1].damper.damping: outside the scene: effects[1] is tf, not 'damper'",
+    ),
+    'unknown parameter': (
+        {'effects[0].damper.dampin': {'relative': {'normal': {'sigma': 0.1}}}},
+        "has no parameter 'dampin'; did you mean 'damping'?",
+    ),
+    'unknown target': (
+        {'body.mass': {'relative': {'normal': {'sigma': 0.1}}}},
+        'dispersions.body.mass: not a target',
+    ),
+    'wrong component count': (
+        {'initial.angular_velocity': [{'absolute': {'normal': {'sigma': 0.1}}}]},
+        'a list of 3 (one per component',
+    ),
+    'empty truncation': (
+        {
+            'initial.angular_velocity': {
+                'absolute': {'truncated_normal': {'sigma': 0.1, 'low': 5.0, 'high': 6.0}}
+            }
+        },
+        'holds no probability',
+    ),
+    'unknown mode': (
+        {'body.moments': {'relativ': {'normal': {'sigma': 0.1}}}},
+        "did you mean 'relative'?",
+    ),
 }
 
 
-@pytest.mark.parametrize("case", sorted(BAD_FILES))
+@pytest.mark.parametrize('case', sorted(BAD_FILES))
 def test_a_bad_campaign_file_names_the_file_and_the_field(case, tmp_path):
     dispersions, expected = BAD_FILES[case]
-    path = tmp_path / "bad.yaml"
-    path.write_text(yaml.safe_dump({"scene": "explorer1", "runs": 10, "seed": 1, "duration": 1, "rate": 1,
-                                    "dispersions": dispersions}))
+    path = tmp_path / 'bad.yaml'
+    path.write_text(
+        yaml.safe_dump(
+            {
+                'scene': 'explorer1',
+                'runs': 10,
+                'seed': 1,
+                'duration': 1,
+                'rate': 1,
+                'dispersions': dispersions,
+            }
+        )
+    )
     with pytest.raises(CampaignError) as error:
         load_campaign(path)
-    assert str(error.value).startswith(f"{path}: ")
+    assert str(error.value).startswith(f'{path}: ')
     assert expected in str(error.value)
 
 
-@pytest.mark.parametrize("change, expected", [
-    ({"metrics": ["final_rates", "settle_time"]}, "metrics[1].settle_time.threshold: missing"),
-    ({"metrics": ["flipz"]}, "metrics[0]: unknown metric 'flipz'; did you mean 'flips'?"),
-    ({"metrics": ["flips", "flips"]}, "metrics[1]: flips is already metrics[0]"),
-    ({"runs": 0}, "runs: must lie in"),
-    ({"scene": "no_such_scene"}, "scene: scene: 'no_such_scene' is neither a file nor a library scene"),
-    ({"invalid_body": "retry"}, "invalid_body: expected one of redraw, fail"),
-    ({"seeds": 1}, "seeds: unknown key; did you mean 'seed'?"),
-])
+@pytest.mark.parametrize(
+    'change, expected',
+    [
+        ({'metrics': ['final_rates', 'settle_time']}, 'metrics[1].settle_time.threshold: missing'),
+        ({'metrics': ['flipz']}, "metrics[0]: unknown metric 'flipz'; did you mean 'flips'?"),
+        ({'metrics': ['flips', 'flips']}, 'metrics[1]: flips is already metrics[0]'),
+        ({'runs': 0}, 'runs: must lie in'),
+        (
+            {'scene': 'no_such_scene'},
+            "scene: scene: 'no_such_scene' is neither a file nor a library scene",
+        ),
+        ({'invalid_body': 'retry'}, 'invalid_body: expected one of redraw, fail'),
+        ({'seeds': 1}, "seeds: unknown key; did you mean 'seed'?"),
+    ],
+)
 def test_bad_top_level_fields(change, expected, tmp_path):
-    data = {"scene": "dzhanibekov", "runs": 10, "seed": 1, "duration": 1, "rate": 1}
+    data = {'scene': 'dzhanibekov', 'runs': 10, 'seed': 1, 'duration': 1, 'rate': 1}
     data.update(change)
-    path = tmp_path / "bad.yaml"
+    path = tmp_path / 'bad.yaml'
     path.write_text(yaml.safe_dump(data))
-    with pytest.raises(CampaignError, match="^" + str(path).replace(".", r"\.") + ": ") as error:
+    with pytest.raises(CampaignError, match='^' + str(path).replace('.', r'\.') + ': ') as error:
         load_campaign(path)
     assert expected in str(error.value)
 
 
-# -- metrics against known answers ------------------------------------------------------------------------
+# -- metrics against known answers
+# ------------------------------------------------------------------------
 def samples_of(inertia, omega0, times, q0=(0.0, 0.0, 0.0, 1.0)):
     omega, q = propagate_batch([inertia], [omega0], [q0], times)
     body = RigidBody.from_inertia(inertia)
-    return Samples(times, omega, q, np.empty(omega.shape[:2] + (0,)), body.tensor[None], body.moments[None],
-                   body.principal_axes[None])
+    return Samples(
+        times,
+        omega,
+        q,
+        np.empty(omega.shape[:2] + (0,)),
+        body.tensor[None],
+        body.moments[None],
+        body.principal_axes[None],
+    )
 
 
 def test_cone_angle_of_a_symmetric_top_is_its_closed_form():
-    """An oblate top (I_T = 1, I_3 = 2): H keeps tan(theta) = I_T w_t / (I_3 w_3) from the symmetry axis."""
+    """
+    An oblate top (I_T = 1, I_3 = 2): H keeps tan(theta) = I_T w_t / (I_3 w_3) from the symmetry
+    axis.
+    """
     samples = samples_of([1.0, 1.0, 2.0], [0.3, 0.4, 1.0], np.linspace(0.0, 20.0, 401))
     expected = math.atan2(1.0 * 0.5, 2.0 * 1.0)
-    got = METRICS["cone_angle"].function(samples, axis="major")[0]
+    got = METRICS['cone_angle'].function(samples, axis='major')[0]
     assert abs(got - expected) < 1e-14  # a few ULPs of atan2 on exact rates (|H_B| constant)
-    assert abs(METRICS["cone_angle"].function(samples, axis="z")[0] - expected) < 1e-14
+    assert abs(METRICS['cone_angle'].function(samples, axis='z')[0] - expected) < 1e-14
 
 
 def test_flips_of_a_dzhanibekov_body_over_a_known_number_of_flip_periods():
-    """Spun about the intermediate axis, the nut reverses once a flip period (classify gives it); over
-    K periods starting mid-dwell, K reversals, half a period clear of either end."""
+    """
+    Spun about the intermediate axis, the nut reverses once a flip period (classify gives it);
+    over K periods starting mid-dwell, K reversals, half a period clear of either end.
+    """
     inertia, omega0 = [1.0, 2.0, 3.0], [0.001, 5.0, 0.001]
     period = RigidBody.from_inertia(inertia).classify(omega0).flip_period
-    assert "flip period" in RigidBody.from_inertia(inertia).classify(omega0).summary()
+    assert 'flip period' in RigidBody.from_inertia(inertia).classify(omega0).summary()
     for K in (1, 4, 7):
         samples = samples_of(inertia, omega0, np.linspace(0.0, K * period, 200 * K + 1))
-        assert METRICS["flips"].function(samples, margin=30.0)[0] == K
-    stable = samples_of(inertia, [0.3, 0.2, 5.0], np.linspace(0.0, 60.0, 601))  # near the major axis: no flip
-    assert METRICS["flips"].function(stable, margin=30.0)[0] == 0
+        assert METRICS['flips'].function(samples, margin=30.0)[0] == K
+    stable = samples_of(
+        inertia, [0.3, 0.2, 5.0], np.linspace(0.0, 60.0, 601)
+    )  # near the major axis: no flip
+    assert METRICS['flips'].function(stable, margin=30.0)[0] == 0
 
 
 def test_drifts_of_the_exact_solution_are_rounding():
-    samples = samples_of([1.0, 2.0, 2.5], [0.3, 1.0, 0.2], np.linspace(0.0, 100.0, 1001), (0.1, 0.2, 0.3, 0.927))
-    assert METRICS["energy_drift"].function(samples)[0] < 1e-13  # the exact solution conserves both to rounding
-    assert METRICS["momentum_drift"].function(samples)[0] < 1e-13
+    samples = samples_of(
+        [1.0, 2.0, 2.5], [0.3, 1.0, 0.2], np.linspace(0.0, 100.0, 1001), (0.1, 0.2, 0.3, 0.927)
+    )
+    assert (
+        METRICS['energy_drift'].function(samples)[0] < 1e-13
+    )  # the exact solution conserves both to rounding
+    assert METRICS['momentum_drift'].function(samples)[0] < 1e-13
 
 
 def test_settle_time_and_drifts_under_a_constant_torque_against_the_closed_form(tmp_path):
-    """A sphere (I = 1) spun at 1 rad/s about x under -0.1 N m about x: w_x = 1 - 0.1 t. |w| < 0.555 from
-    t > 4.45 s, first sample 4.5 s at 10 Hz (0.005 rad/s clear of the threshold); at 8 s: T drops by 1 - 0.2^2 = 0.96 of T_0, H_N (along x,
-    fixed) by 0.8 of |H_0|; the integrator's 1e-10 accuracy is far inside the 1e-8 allowed."""
-    scene = tmp_path / "brake.yaml"
-    scene.write_text("body: {inertia: [1.0, 1.0, 1.0]}\ninitial: {angular_velocity: [1.0, 0.0, 0.0]}\n"
-                     "effects: [{external_torque: {torque: [-0.1, 0.0, 0.0]}}]\naccuracy: 1.0e-10\n")
-    data = {"scene": str(scene), "runs": 1, "seed": 0, "duration": 8.0, "rate": 10.0,
-            "metrics": [{"settle_time": {"threshold": 0.555}}, "energy_drift", "momentum_drift", "final_rates"]}
-    row = run_campaign(data, scheduler="in-process").to_pylist()[0]
-    assert row["settle_time"] == pytest.approx(4.5, abs=1e-12)
-    assert row["energy_drift"] == pytest.approx(0.96, abs=1e-8)
-    assert row["momentum_drift"] == pytest.approx(0.8, abs=1e-8)
-    assert row["final_wx"] == pytest.approx(0.2, abs=1e-8)
-    data["duration"] = 20.0  # w_x = -1 at the end: |w| is back over the threshold
-    assert math.isnan(run_campaign(data, scheduler="in-process").to_pylist()[0]["settle_time"])
+    """
+    A sphere (I = 1) spun at 1 rad/s about x under -0.1 N m about x: w_x = 1 - 0.1 t. |w| <
+    0.555 from t > 4.45 s, first sample 4.5 s at 10 Hz (0.005 rad/s clear of the threshold); at 8
+    s: T drops by 1 - 0.2^2 = 0.96 of T_0, H_N (along x, fixed) by 0.8 of |H_0|; the integrator's
+    1e-10 accuracy is far inside the 1e-8 allowed.
+    """
+    scene = tmp_path / 'brake.yaml'
+    scene.write_text(
+        'body: {inertia: [1.0, 1.0, 1.0]}\ninitial: {angular_velocity: [1.0, 0.0, 0.0]}\n'
+        'effects: [{external_torque: {torque: [-0.1, 0.0, 0.0]}}]\naccuracy: 1.0e-10\n'
+    )
+    data = {
+        'scene': str(scene),
+        'runs': 1,
+        'seed': 0,
+        'duration': 8.0,
+        'rate': 10.0,
+        'metrics': [
+            {'settle_time': {'threshold': 0.555}},
+            'energy_drift',
+            'momentum_drift',
+            'final_rates',
+        ],
+    }
+    row = run_campaign(data, scheduler='in-process').to_pylist()[0]
+    assert row['settle_time'] == pytest.approx(4.5, abs=1e-12)
+    assert row['energy_drift'] == pytest.approx(0.96, abs=1e-8)
+    assert row['momentum_drift'] == pytest.approx(0.8, abs=1e-8)
+    assert row['final_wx'] == pytest.approx(0.2, abs=1e-8)
+    data['duration'] = 20.0  # w_x = -1 at the end: |w| is back over the threshold
+    assert math.isnan(run_campaign(data, scheduler='in-process').to_pylist()[0]['settle_time'])
 
 
 def test_attitude_error_from_the_nominal_run_is_the_drawn_inertial_rotation():
-    """A torque-free motion turned by an inertial rotation r stays r ⊗ q_nominal(t): the error is the
-    drawn rotation's angle at every sample."""
-    data = {"scene": "dzhanibekov", "runs": 30, "seed": 5, "duration": 20.0, "rate": 10.0,
-            "dispersions": {"initial.orientation": {"small_rotation": {"sigma": 0.05}}},
-            "metrics": ["nominal_attitude_error"]}
-    table = run_campaign(data, scheduler="in-process").to_pydict()
-    q0 = np.array([[table[f"initial.orientation[{k}]"][i] for k in range(4)] for i in range(30)])
-    drawn = 2.0 * np.arctan2(np.linalg.norm(q0[:, :3], axis=1), np.abs(q0[:, 3]))  # nominal q0 is identity
-    assert np.max(np.abs(np.array(table["nominal_attitude_error"]) - drawn)) < 1e-12  # rounding over 200 samples
+    """
+    A torque-free motion turned by an inertial rotation r stays r ⊗ q_nominal(t): the error is
+    the drawn rotation's angle at every sample.
+    """
+    data = {
+        'scene': 'dzhanibekov',
+        'runs': 30,
+        'seed': 5,
+        'duration': 20.0,
+        'rate': 10.0,
+        'dispersions': {'initial.orientation': {'small_rotation': {'sigma': 0.05}}},
+        'metrics': ['nominal_attitude_error'],
+    }
+    table = run_campaign(data, scheduler='in-process').to_pydict()
+    q0 = np.array([[table[f'initial.orientation[{k}]'][i] for k in range(4)] for i in range(30)])
+    drawn = 2.0 * np.arctan2(
+        np.linalg.norm(q0[:, :3], axis=1), np.abs(q0[:, 3])
+    )  # nominal q0 is identity
+    assert (
+        np.max(np.abs(np.array(table['nominal_attitude_error']) - drawn)) < 1e-12
+    )  # rounding over 200 samples
 
 
 def test_a_metric_added_as_a_python_function():
-    @metric("peak_rate_test", unit="rad/s")
+    @metric('peak_rate_test', unit='rad/s')
     def peak_rate(samples):
         """The largest |w| of the run."""
         return samples.rate_norm().max(axis=1)
 
     try:
-        data = {"scene": "dzhanibekov", "runs": 5, "seed": 1, "duration": 2.0, "rate": 10.0,
-                "dispersions": {"initial.angular_velocity": {"absolute": {"normal": {"sigma": 0.1}}}},
-                "metrics": ["peak_rate_test", "final_rates"]}
-        table = run_campaign(data, scheduler="in-process")
-        assert table.column_names[-4:] == ["peak_rate_test", "final_wx", "final_wy", "final_wz"]
-        assert all(v >= 4.5 for v in table.column("peak_rate_test").to_pylist())
+        data = {
+            'scene': 'dzhanibekov',
+            'runs': 5,
+            'seed': 1,
+            'duration': 2.0,
+            'rate': 10.0,
+            'dispersions': {'initial.angular_velocity': {'absolute': {'normal': {'sigma': 0.1}}}},
+            'metrics': ['peak_rate_test', 'final_rates'],
+        }
+        table = run_campaign(data, scheduler='in-process')
+        assert table.column_names[-4:] == ['peak_rate_test', 'final_wx', 'final_wy', 'final_wz']
+        assert all(v >= 4.5 for v in table.column('peak_rate_test').to_pylist())
     finally:
-        del METRICS["peak_rate_test"]
+        del METRICS['peak_rate_test']
 
 
-# -- results, library, command line ----------------------------------------------------------------------
+# -- results, library, command line
+# ----------------------------------------------------------------------
 def test_the_parquet_file_holds_the_table_the_campaign_and_the_versions(tmp_path):
-    path = tmp_path / "c.yaml"
+    path = tmp_path / 'c.yaml'
     path.write_text(yaml.safe_dump(torque_free_campaign(30)))
-    table = run_campaign(path, scheduler="in-process", output=tmp_path / "out")
-    back = pq.read_table(tmp_path / "out" / "runs.parquet")
+    table = run_campaign(path, scheduler='in-process', output=tmp_path / 'out')
+    back = pq.read_table(tmp_path / 'out' / 'runs.parquet')
     assert_same_table(table, back)
     meta = back.schema.metadata
-    assert meta[b"torquefree_ros.campaign"].decode() == path.read_text()
-    assert b'"numpy": "' + np.__version__.encode() in meta[b"torquefree_ros.versions"]
-    with pytest.raises(FileExistsError, match="--overwrite"):
-        run_campaign(path, scheduler="in-process", output=tmp_path / "out")
+    assert meta[b'torquefree_ros.campaign'].decode() == path.read_text()
+    assert b'"numpy": "' + np.__version__.encode() in meta[b'torquefree_ros.versions']
+    with pytest.raises(FileExistsError, match='--overwrite'):
+        run_campaign(path, scheduler='in-process', output=tmp_path / 'out')
 
 
 def test_the_library_campaigns_load_and_run_shortened():
-    for name in ("explorer1_damper", "dzhanibekov_rates"):
+    for name in ('explorer1_damper', 'dzhanibekov_rates'):
         campaign = load_campaign(name)
         data = yaml.safe_load(campaign.text)
-        data.update(runs=12, duration=min(data["duration"], 30.0))
-        table = run_campaign(data, scheduler="in-process")
-        assert table.num_rows == 12 and set(table.column("status").to_pylist()) == {"ok"}
+        data.update(runs=12, duration=min(data['duration'], 30.0))
+        table = run_campaign(data, scheduler='in-process')
+        assert table.num_rows == 12 and set(table.column('status').to_pylist()) == {'ok'}
 
 
 def test_the_command_line_runs_a_file_and_refuses_a_bad_one_with_status_2(tmp_path, capsys):
-    good = tmp_path / "good.yaml"
+    good = tmp_path / 'good.yaml'
     good.write_text(yaml.safe_dump(torque_free_campaign(20)))
-    assert campaign_cli.main(["run", str(good), "--output", str(tmp_path / "out"), "--scheduler", "in-process"]) == 0
-    assert "20 runs (20 ok, 0 failed)" in capsys.readouterr().out
-    assert pq.read_table(tmp_path / "out" / "runs.parquet").num_rows == 20
-    bad = tmp_path / "bad.yaml"
-    bad.write_text("scene: explorer1\nruns: 3\nseed: 1\nduration: 1\nrate: 1\n"
-                   "dispersions:\n  effects[0].damper.damping: {relative: {normal: {sigma: -1}}}\n")
-    assert campaign_cli.main(["run", str(bad), "--output", str(tmp_path / "o2")]) == 2
-    assert f"{bad}: dispersions.effects[0].damper.damping.relative.normal.sigma: must be >= 0" in capsys.readouterr().err
+    assert (
+        campaign_cli.main(
+            ['run', str(good), '--output', str(tmp_path / 'out'), '--scheduler', 'in-process']
+        )
+        == 0
+    )
+    assert '20 runs (20 ok, 0 failed)' in capsys.readouterr().out
+    assert pq.read_table(tmp_path / 'out' / 'runs.parquet').num_rows == 20
+    bad = tmp_path / 'bad.yaml'
+    bad.write_text(
+        'scene: explorer1\nruns: 3\nseed: 1\nduration: 1\nrate: 1\n'
+        'dispersions:\n  effects[0].damper.damping: {relative: {normal: {sigma: -1}}}\n'
+    )
+    assert campaign_cli.main(['run', str(bad), '--output', str(tmp_path / 'o2')]) == 2
+    assert (
+        f'{bad}: dispersions.effects[0].damper.damping.relative.normal.sigma: must be >= 0'
+        in capsys.readouterr().err
+    )
     with pytest.raises(SystemExit) as exit_:
-        campaign_cli.main(["run", str(good), "--output", str(tmp_path / "o3"), "--workers", "0"])
+        campaign_cli.main(['run', str(good), '--output', str(tmp_path / 'o3'), '--workers', '0'])
     assert exit_.value.code == 2
 
 
-# -- resuming an interrupted campaign ---------------------------------------------------------------------
+# -- resuming an interrupted campaign
+# ---------------------------------------------------------------------
 class Interrupted(Exception):
     """What a test raises to stop a campaign part way (as Ctrl-C would)."""
 
@@ -450,54 +706,103 @@ def computed_chunks(monkeypatch):
     from torquefree_ros.campaigns import engine
 
     computed, original = [], engine.run_chunk
-    monkeypatch.setattr(engine, "run_chunk", lambda campaign, start, stop: (computed.append((start, stop)),
-                                                                            original(campaign, start, stop))[1])
+    monkeypatch.setattr(
+        engine,
+        'run_chunk',
+        lambda campaign, start, stop: (
+            computed.append((start, stop)),
+            original(campaign, start, stop),
+        )[1],
+    )
     return computed
 
 
 def test_an_interrupted_campaign_resumes_computing_only_the_missing_runs(tmp_path, monkeypatch):
-    """Interrupted after 3 of 8 chunks, a finished part lost besides (a hole): the resumed run, in other
-    chunks, computes exactly the runs no part holds, and the table is the uninterrupted one bit for bit."""
-    reference = run_campaign(torque_free_campaign(300), scheduler="in-process")
-    output = tmp_path / "out"
+    """
+    Interrupted after 3 of 8 chunks, a finished part lost besides (a hole): the resumed run, in
+    other chunks, computes exactly the runs no part holds, and the table is the uninterrupted one
+    bit for bit.
+    """
+    reference = run_campaign(torque_free_campaign(300), scheduler='in-process')
+    output = tmp_path / 'out'
     with pytest.raises(Interrupted):
-        run_campaign(torque_free_campaign(300), scheduler="in-process", output=output, chunk_size=40,
-                     progress=interrupt_after(120))
-    parts = sorted(p.name for p in (output / "parts").glob("*.parquet"))
-    assert parts == ["runs-000000000-000000040.parquet", "runs-000000040-000000080.parquet",
-                     "runs-000000080-000000120.parquet"]
-    assert not (output / "runs.parquet").exists()
-    (output / "parts" / parts[1]).unlink()
-    with pytest.raises(FileExistsError, match="80 of 300 runs .* --resume continues it, --overwrite starts over"):
-        run_campaign(torque_free_campaign(300), scheduler="in-process", output=output)
+        run_campaign(
+            torque_free_campaign(300),
+            scheduler='in-process',
+            output=output,
+            chunk_size=40,
+            progress=interrupt_after(120),
+        )
+    parts = sorted(p.name for p in (output / 'parts').glob('*.parquet'))
+    assert parts == [
+        'runs-000000000-000000040.parquet',
+        'runs-000000040-000000080.parquet',
+        'runs-000000080-000000120.parquet',
+    ]
+    assert not (output / 'runs.parquet').exists()
+    (output / 'parts' / parts[1]).unlink()
+    with pytest.raises(
+        FileExistsError, match='80 of 300 runs .* --resume continues it, --overwrite starts over'
+    ):
+        run_campaign(torque_free_campaign(300), scheduler='in-process', output=output)
 
     computed, progress = computed_chunks(monkeypatch), []
-    table = run_campaign(torque_free_campaign(300), scheduler="in-process", output=output, chunk_size=100,
-                         resume=True, progress=lambda done, total: progress.append(done))
+    table = run_campaign(
+        torque_free_campaign(300),
+        scheduler='in-process',
+        output=output,
+        chunk_size=100,
+        resume=True,
+        progress=lambda done, total: progress.append(done),
+    )
     assert computed == [(40, 80), (120, 220), (220, 300)]
     assert progress == [80, 120, 220, 300]  # starts from the runs kept
     assert_same_table(reference, table)
-    assert_same_table(reference, pq.read_table(output / "runs.parquet"))
-    assert not (output / "parts").exists()  # the parts are gone once the table is whole
+    assert_same_table(reference, pq.read_table(output / 'runs.parquet'))
+    assert not (output / 'parts').exists()  # the parts are gone once the table is whole
     computed.clear()  # resuming a finished campaign computes nothing and returns its table
-    assert_same_table(reference, run_campaign(torque_free_campaign(300), scheduler="in-process", output=output,
-                                              resume=True))
+    assert_same_table(
+        reference,
+        run_campaign(
+            torque_free_campaign(300), scheduler='in-process', output=output, resume=True
+        ),
+    )
     assert computed == []
 
 
 def test_a_campaign_interrupted_on_workers_resumes_on_workers(tmp_path, cluster):
-    """Stopped after its first chunks on the cluster, resumed on it: the runs computed are those missing."""
-    reference = run_campaign(damper_campaign(), scheduler="in-process")
-    output = tmp_path / "out"
+    """
+    Stopped after its first chunks on the cluster, resumed on it: the runs computed are those
+    missing.
+    """
+    reference = run_campaign(damper_campaign(), scheduler='in-process')
+    output = tmp_path / 'out'
     with pytest.raises(Interrupted):
-        run_campaign(damper_campaign(), scheduler=cluster.scheduler_address, output=output, chunk_size=8,
-                     progress=interrupt_after(16))
-    kept = sum(int(p.name[15:24]) - int(p.name[5:14]) for p in (output / "parts").glob("runs-*.parquet"))
+        run_campaign(
+            damper_campaign(),
+            scheduler=cluster.scheduler_address,
+            output=output,
+            chunk_size=8,
+            progress=interrupt_after(16),
+        )
+    kept = sum(
+        int(p.name[15:24]) - int(p.name[5:14]) for p in (output / 'parts').glob('runs-*.parquet')
+    )
     assert 16 <= kept < 60
     progress = []
-    table = run_campaign(damper_campaign(), scheduler=cluster.scheduler_address, output=output, chunk_size=8,
-                         resume=True, progress=lambda done, total: progress.append(done))
-    assert progress[0] == kept and progress[-1] == 60 and len(progress) == 1 + math.ceil((60 - kept) / 8)
+    table = run_campaign(
+        damper_campaign(),
+        scheduler=cluster.scheduler_address,
+        output=output,
+        chunk_size=8,
+        resume=True,
+        progress=lambda done, total: progress.append(done),
+    )
+    assert (
+        progress[0] == kept
+        and progress[-1] == 60
+        and len(progress) == 1 + math.ceil((60 - kept) / 8)
+    )
     assert_same_table(reference, table)
 
 
@@ -505,69 +810,114 @@ def test_resuming_refuses_another_campaign_scene_or_versions(tmp_path, monkeypat
     from torquefree_ros.campaigns import results
     from torquefree_ros.campaigns.store import ResumeError
 
-    scene = tmp_path / "body.yaml"
-    scene.write_text("body: {inertia: [1.0, 2.0, 2.5]}\ninitial: {angular_velocity: [0.3, 1.0, 0.2]}\n")
-    data = {"scene": str(scene), "runs": 40, "seed": 4, "duration": 2.0, "rate": 5.0, "metrics": ["final_rates"],
-            "dispersions": {"initial.angular_velocity": {"absolute": {"normal": {"sigma": 0.01}}}}}
-    output = tmp_path / "out"
+    scene = tmp_path / 'body.yaml'
+    scene.write_text(
+        'body: {inertia: [1.0, 2.0, 2.5]}\ninitial: {angular_velocity: [0.3, 1.0, 0.2]}\n'
+    )
+    data = {
+        'scene': str(scene),
+        'runs': 40,
+        'seed': 4,
+        'duration': 2.0,
+        'rate': 5.0,
+        'metrics': ['final_rates'],
+        'dispersions': {'initial.angular_velocity': {'absolute': {'normal': {'sigma': 0.01}}}},
+    }
+    output = tmp_path / 'out'
     with pytest.raises(Interrupted):
-        run_campaign(data, scheduler="in-process", output=output, chunk_size=10, progress=interrupt_after(10))
-    manifest = output / "parts" / "manifest.json"
-    with pytest.raises(ResumeError, match=r"cannot resume: its campaign file differs from <mapping> at line \d+ "
-                                          r"\('seed: 4', now 'seed: 5'\)\. --overwrite starts over"):
-        run_campaign(dict(data, seed=5), scheduler="in-process", output=output, resume=True)
-    scene.write_text("body: {inertia: [1.0, 2.0, 2.6]}\ninitial: {angular_velocity: [0.3, 1.0, 0.2]}\n")
-    with pytest.raises(ResumeError, match=f"^{manifest}: cannot resume: its scene \\({scene}\\) differs"):
-        run_campaign(data, scheduler="in-process", output=output, resume=True)
-    scene.write_text("body: {inertia: [1.0, 2.0, 2.5]}\ninitial: {angular_velocity: [0.3, 1.0, 0.2]}\n")
+        run_campaign(
+            data,
+            scheduler='in-process',
+            output=output,
+            chunk_size=10,
+            progress=interrupt_after(10),
+        )
+    manifest = output / 'parts' / 'manifest.json'
+    with pytest.raises(
+        ResumeError,
+        match=r'cannot resume: its campaign file differs from <mapping> at line \d+ '
+        r"\('seed: 4', now 'seed: 5'\)\. --overwrite starts over",
+    ):
+        run_campaign(dict(data, seed=5), scheduler='in-process', output=output, resume=True)
+    scene.write_text(
+        'body: {inertia: [1.0, 2.0, 2.6]}\ninitial: {angular_velocity: [0.3, 1.0, 0.2]}\n'
+    )
+    with pytest.raises(
+        ResumeError, match=f'^{manifest}: cannot resume: its scene \\({scene}\\) differs'
+    ):
+        run_campaign(data, scheduler='in-process', output=output, resume=True)
+    scene.write_text(
+        'body: {inertia: [1.0, 2.0, 2.5]}\ninitial: {angular_velocity: [0.3, 1.0, 0.2]}\n'
+    )
     real = results.versions()
-    monkeypatch.setattr(results, "versions", lambda: dict(real, numpy="0.0.1"))
-    with pytest.raises(ResumeError, match=f"it was made with numpy {real['numpy']} \\(now 0.0.1\\), and runs made "
-                                          "by other versions need not be bit for bit this run's"):
-        run_campaign(data, scheduler="in-process", output=output, resume=True)
+    monkeypatch.setattr(results, 'versions', lambda: dict(real, numpy='0.0.1'))
+    with pytest.raises(
+        ResumeError,
+        match=f'it was made with numpy {real["numpy"]} \\(now 0.0.1\\), and runs made '
+        "by other versions need not be bit for bit this run's",
+    ):
+        run_campaign(data, scheduler='in-process', output=output, resume=True)
     monkeypatch.undo()
-    # a torn part (a crash before its bytes reached the disk) is computed again; overwrite starts over
-    (output / "parts" / "runs-000000000-000000010.parquet").write_bytes(b"PAR1 torn")
-    table = run_campaign(data, scheduler="in-process", output=output, resume=True)
-    assert_same_table(run_campaign(data, scheduler="in-process"), table)
-    with pytest.raises(FileExistsError, match="a finished campaign.*--resume returns it"):
-        run_campaign(data, scheduler="in-process", output=output)
-    run_campaign(dict(data, seed=5), scheduler="in-process", output=output, overwrite=True)
-    metadata = pq.read_table(output / "runs.parquet").schema.metadata
-    assert yaml.safe_load(metadata[b"torquefree_ros.campaign"])["seed"] == 5
+    # a torn part (a crash before its bytes reached the disk) is computed again; overwrite starts
+    # over
+    (output / 'parts' / 'runs-000000000-000000010.parquet').write_bytes(b'PAR1 torn')
+    table = run_campaign(data, scheduler='in-process', output=output, resume=True)
+    assert_same_table(run_campaign(data, scheduler='in-process'), table)
+    with pytest.raises(FileExistsError, match='a finished campaign.*--resume returns it'):
+        run_campaign(data, scheduler='in-process', output=output)
+    run_campaign(dict(data, seed=5), scheduler='in-process', output=output, overwrite=True)
+    metadata = pq.read_table(output / 'runs.parquet').schema.metadata
+    assert yaml.safe_load(metadata[b'torquefree_ros.campaign'])['seed'] == 5
 
 
 def test_the_command_line_resumes_and_says_what_it_computed(tmp_path, capsys):
-    path = tmp_path / "c.yaml"
+    path = tmp_path / 'c.yaml'
     path.write_text(yaml.safe_dump(torque_free_campaign(60)))
-    output = tmp_path / "out"
+    output = tmp_path / 'out'
     with pytest.raises(Interrupted):
-        run_campaign(path, scheduler="in-process", output=output, chunk_size=20, progress=interrupt_after(20))
-    arguments = ["run", str(path), "--output", str(output), "--scheduler", "in-process"]
+        run_campaign(
+            path,
+            scheduler='in-process',
+            output=output,
+            chunk_size=20,
+            progress=interrupt_after(20),
+        )
+    arguments = ['run', str(path), '--output', str(output), '--scheduler', 'in-process']
     assert campaign_cli.main(arguments) == 2
-    assert "--resume continues it" in capsys.readouterr().err
-    assert campaign_cli.main(arguments + ["--resume"]) == 0
-    assert "60 runs (60 ok, 0 failed, 20 resumed); 40 computed in" in capsys.readouterr().out
-    assert campaign_cli.main(arguments + ["--resume"]) == 0
-    assert "finished before, nothing computed" in capsys.readouterr().out
+    assert '--resume continues it' in capsys.readouterr().err
+    assert campaign_cli.main(arguments + ['--resume']) == 0
+    assert '60 runs (60 ok, 0 failed, 20 resumed); 40 computed in' in capsys.readouterr().out
+    assert campaign_cli.main(arguments + ['--resume']) == 0
+    assert 'finished before, nothing computed' in capsys.readouterr().out
     with pytest.raises(SystemExit):
-        campaign_cli.main(arguments + ["--resume", "--overwrite"])
-    assert "not allowed with argument" in capsys.readouterr().err
-    assert_same_table(run_campaign(path, scheduler="in-process"), pq.read_table(output / "runs.parquet"))
+        campaign_cli.main(arguments + ['--resume', '--overwrite'])
+    assert 'not allowed with argument' in capsys.readouterr().err
+    assert_same_table(
+        run_campaign(path, scheduler='in-process'), pq.read_table(output / 'runs.parquet')
+    )
 
 
-# -- the progress line ----------------------------------------------------------------------------------
+# -- the progress line
+# ----------------------------------------------------------------------------------
 def test_the_progress_line_counts_runs_speed_and_eta():
-    assert campaign_cli.progress_line(250, 1000, 50.0) == "250/1,000 runs (25 %), 50.0 runs/s, ETA 0:15"
-    assert (campaign_cli.progress_line(600, 1000, 25.0, 500)
-            == "600/1,000 runs (60 %, 500 resumed), 25.0 runs/s, ETA 0:16")
-    assert campaign_cli.progress_line(0, 10_000, 0.0).endswith("0.0 runs/s, ETA --")
-    assert campaign_cli.progress_line(5000, 90_000, 10.0).endswith("ETA 2:21:40")
+    assert (
+        campaign_cli.progress_line(250, 1000, 50.0)
+        == '250/1,000 runs (25 %), 50.0 runs/s, ETA 0:15'
+    )
+    assert (
+        campaign_cli.progress_line(600, 1000, 25.0, 500)
+        == '600/1,000 runs (60 %, 500 resumed), 25.0 runs/s, ETA 0:16'
+    )
+    assert campaign_cli.progress_line(0, 10_000, 0.0).endswith('0.0 runs/s, ETA --')
+    assert campaign_cli.progress_line(5000, 90_000, 10.0).endswith('ETA 2:21:40')
 
 
 def test_the_progress_line_is_written_on_a_terminal_only_and_at_most_twice_a_second():
-    """A resumed campaign (100 runs kept) whose first chunk comes in after a slow start (2 s): the speed is
-    counted from that chunk on, the line rewritten at most every 0.5 s, and always at the end."""
+    """
+    A resumed campaign (100 runs kept) whose first chunk comes in after a slow start (2 s): the
+    speed is counted from that chunk on, the line rewritten at most every 0.5 s, and always at the
+    end.
+    """
     import io
 
     class Terminal(io.StringIO):
@@ -581,176 +931,252 @@ def test_the_progress_line_is_written_on_a_terminal_only_and_at_most_twice_a_sec
         now[0] = at
         progress(done, 160)
     progress.close()
-    lines = terminal.getvalue().split("\r")
-    assert lines[1:] == ["110/160 runs (69 %, 100 resumed), 5.0 runs/s, ETA 0:10\033[K",  # the start: 10 runs in 2 s
-                         "130/160 runs (81 %, 100 resumed), 33.3 runs/s, ETA 0:01\033[K",  # 20 runs in 0.6 s
-                         "160/160 runs (100 %, 100 resumed), 50.0 runs/s, ETA 0:00\033[K", "\033[K"]
+    lines = terminal.getvalue().split('\r')
+    assert lines[1:] == [
+        # the start: 10 runs in 2 s
+        '110/160 runs (69 %, 100 resumed), 5.0 runs/s, ETA 0:10\033[K',
+        '130/160 runs (81 %, 100 resumed), 33.3 runs/s, ETA 0:01\033[K',  # 20 runs in 0.6 s
+        '160/160 runs (100 %, 100 resumed), 50.0 runs/s, ETA 0:00\033[K',
+        '\033[K',
+    ]
     piped = io.StringIO()
     quiet = campaign_cli.RunProgress(piped)
     quiet(0, 10), quiet(10, 10), quiet.close()
-    assert piped.getvalue() == ""
+    assert piped.getvalue() == ''
     forced = io.StringIO()
     shown = campaign_cli.RunProgress(forced, enabled=True)
     shown(0, 10), shown(10, 10)
-    assert "10/10 runs (100 %)" in forced.getvalue()
+    assert '10/10 runs (100 %)' in forced.getvalue()
 
 
 def test_the_command_line_progress_can_be_forced(tmp_path, capsys):
-    path = tmp_path / "c.yaml"
+    path = tmp_path / 'c.yaml'
     path.write_text(yaml.safe_dump(torque_free_campaign(30)))
-    assert campaign_cli.main(["run", str(path), "--output", str(tmp_path / "out"), "--scheduler", "in-process",
-                              "--chunk", "10", "--progress", "always"]) == 0
+    assert (
+        campaign_cli.main(
+            [
+                'run',
+                str(path),
+                '--output',
+                str(tmp_path / 'out'),
+                '--scheduler',
+                'in-process',
+                '--chunk',
+                '10',
+                '--progress',
+                'always',
+            ]
+        )
+        == 0
+    )
     err = capsys.readouterr().err
-    assert "\r30/30 runs (100 %), " in err and " runs/s, ETA 0:00" in err
+    assert '\r30/30 runs (100 %), ' in err and ' runs/s, ETA 0:00' in err
 
 
-# -- the report ------------------------------------------------------------------------------------------
+# -- the report
+# ------------------------------------------------------------------------------------------
 def markdown_rows(text: str, header: str) -> dict:
-    """The rows of the Markdown table whose header row starts with ``header``: first cell -> cells."""
+    """
+    The rows of the Markdown table whose header row starts with ``header``: first cell ->
+    cells.
+    """
     lines = text.splitlines()
     start = next(i for i, line in enumerate(lines) if line.startswith(header))
     rows = {}
     for line in lines[start + 2:]:
-        if not line.startswith("|"):
+        if not line.startswith('|'):
             break
-        cells = [cell.strip() for cell in line.strip("|").split(" | ")]
+        cells = [cell.strip() for cell in line.strip('|').split(' | ')]
         rows[cells[0]] = cells[1:]
     return rows
 
 
 def test_the_report_writes_its_files_and_its_numbers_are_the_tables(tmp_path):
-    """A campaign with failed runs (a damping drawn negative): the statuses and their reasons, each
-    metric's min, median, p95 and max, and the worst runs, against numpy on the table."""
+    """
+    A campaign with failed runs (a damping drawn negative): the statuses and their reasons, each
+    metric's min, median, p95 and max, and the worst runs, against numpy on the table.
+    """
     from torquefree_ros.campaigns.report import write_report
 
-    output = tmp_path / "out"
+    output = tmp_path / 'out'
     data = damper_campaign(80)
-    data["metrics"].append({"settle_time": {"threshold": 6.0}})  # |w0| = 6 rad/s dispersed: some runs never settle
-    table = run_campaign(data, scheduler="in-process", output=output)
+    data['metrics'].append(
+        {'settle_time': {'threshold': 6.0}}
+    )  # |w0| = 6 rad/s dispersed: some runs never settle
+    table = run_campaign(data, scheduler='in-process', output=output)
     written = write_report(output)
-    assert [p.name for p in written] == ["summary.md", "histograms.png"]
-    assert all(p.parent == output / "report" for p in written)
-    assert written[1].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and written[1].stat().st_size > 10_000
+    assert [p.name for p in written] == ['summary.md', 'histograms.png']
+    assert all(p.parent == output / 'report' for p in written)
+    assert (
+        written[1].read_bytes()[:8] == b'\x89PNG\r\n\x1a\n' and written[1].stat().st_size > 10_000
+    )
     text = written[0].read_text()
     data = table.to_pydict()
-    status = np.array(data["status"])
+    status = np.array(data['status'])
 
-    runs = markdown_rows(text, "| status |")
+    runs = markdown_rows(text, '| status |')
     assert set(runs) == set(status)
     for name, (count, share, reasons) in runs.items():
-        assert int(count.replace(",", "")) == np.count_nonzero(status == name)
+        assert int(count.replace(',', '')) == np.count_nonzero(status == name)
         share_expected = 100 * np.count_nonzero(status == name) / 80
-        assert float(share.rstrip(" %")) == pytest.approx(share_expected, abs=0.05 + 1e-12)  # one decimal
-    failed = [i for i, s in enumerate(data["status"]) if s == "invalid_scene"]
-    assert failed and all(data["reason"][i].startswith("effects[0].damper.damping: must be > 0 N m s, got -")
-                          for i in failed)  # one kind of reason, its drawn number left out
-    assert runs["invalid_scene"][2] == (f"{len(failed)}× effects[0].damper.damping: must be > 0 N m s, got … "
-                                        f"(run {failed[0]})")
+        assert float(share.rstrip(' %')) == pytest.approx(
+            share_expected, abs=0.05 + 1e-12
+        )  # one decimal
+    failed = [i for i, s in enumerate(data['status']) if s == 'invalid_scene']
+    assert failed and all(
+        data['reason'][i].startswith('effects[0].damper.damping: must be > 0 N m s, got -')
+        for i in failed
+    )  # one kind of reason, its drawn number left out
+    assert runs['invalid_scene'][2] == (
+        f'{len(failed)}× effects[0].damper.damping: must be > 0 N m s, got … (run {failed[0]})'
+    )
 
-    metrics = markdown_rows(text, "| metric | unit | runs |")
-    columns = ["final_wx", "final_wy", "final_wz", "cone_angle", "energy_drift", "nominal_attitude_error",
-               "settle_time"]
+    metrics = markdown_rows(text, '| metric | unit | runs |')
+    columns = [
+        'final_wx',
+        'final_wy',
+        'final_wz',
+        'cone_angle',
+        'energy_drift',
+        'nominal_attitude_error',
+        'settle_time',
+    ]
     assert list(metrics) == columns
-    ok = status == "ok"
-    settle = np.array([np.nan if v is None else v for v in data["settle_time"]])[ok]
+    ok = status == 'ok'
+    settle = np.array([np.nan if v is None else v for v in data['settle_time']])[ok]
     assert 0 < np.count_nonzero(np.isnan(settle)) < settle.size  # undefined values, counted apart
     for column in columns:
         values = np.array([np.nan if v is None else v for v in data[column]], dtype=float)[ok]
         finite = values[np.isfinite(values)]
         unit, count, undefined, *numbers = metrics[column]
-        assert int(count.replace(",", "")) == finite.size
-        assert int(undefined.replace(",", "")) == values.size - finite.size
+        assert int(count.replace(',', '')) == finite.size
+        assert int(undefined.replace(',', '')) == values.size - finite.size
         expected = [finite.min(), np.median(finite), np.percentile(finite, 95), finite.max()]
-        assert np.allclose([float(x) for x in numbers], expected, rtol=5e-6, atol=0)  # written to 6 digits
+        assert np.allclose(
+            [float(x) for x in numbers], expected, rtol=5e-6, atol=0
+        )  # written to 6 digits
 
-    worst = markdown_rows(text, "| metric | run | value |")
+    worst = markdown_rows(text, '| metric | run | value |')
     assert list(worst) == columns
     for column in columns:
         values = np.array([np.nan if v is None else v for v in data[column]], dtype=float)
         run = int(np.nanargmax(np.abs(values)))
-        assert int(worst[column][0]) == run and float(worst[column][1]) == pytest.approx(values[run], rel=5e-6)
-        damping = data["effects[0].damper.damping"][run]
-        assert f"`effects[0].damper.damping` = {damping:.6g}" in worst[column][2]
-        drawn = ", ".join(f"{data[f'initial.angular_velocity[{k}]'][run]:.6g}" for k in range(3))
-        assert f"`initial.angular_velocity` = [{drawn}]" in worst[column][2]
-    assert "No trajectories kept (the campaign file has no `trajectories` option), so no percentile envelopes" in text
-    assert not (output / "trajectories").exists()
+        assert int(worst[column][0]) == run and float(worst[column][1]) == pytest.approx(
+            values[run], rel=5e-6
+        )
+        damping = data['effects[0].damper.damping'][run]
+        assert f'`effects[0].damper.damping` = {damping:.6g}' in worst[column][2]
+        drawn = ', '.join(f'{data[f"initial.angular_velocity[{k}]"][run]:.6g}' for k in range(3))
+        assert f'`initial.angular_velocity` = [{drawn}]' in worst[column][2]
+    assert (
+        'No trajectories kept (the campaign file has no `trajectories` option), so no percentile envelopes'
+        in text
+    )
+    assert not (output / 'trajectories').exists()
 
-    other = write_report(output, tmp_path / "elsewhere")  # --output
-    assert other[0] == tmp_path / "elsewhere" / "summary.md" and other[0].read_text() == text
+    other = write_report(output, tmp_path / 'elsewhere')  # --output
+    assert other[0] == tmp_path / 'elsewhere' / 'summary.md' and other[0].read_text() == text
 
 
 def test_the_report_refuses_a_directory_without_a_campaign_table_naming_it(tmp_path, capsys):
     from torquefree_ros.campaigns.report import ReportError, write_report
 
-    missing = tmp_path / "nowhere"
-    with pytest.raises(ReportError, match=f"^{missing}: no such directory$"):
+    missing = tmp_path / 'nowhere'
+    with pytest.raises(ReportError, match=f'^{missing}: no such directory$'):
         write_report(missing)
-    plain = tmp_path / "plain.txt"
-    plain.write_text("x")
-    with pytest.raises(ReportError, match=f"^{plain}: not a directory"):
+    plain = tmp_path / 'plain.txt'
+    plain.write_text('x')
+    with pytest.raises(ReportError, match=f'^{plain}: not a directory'):
         write_report(plain)
-    with pytest.raises(ReportError, match=f"^{tmp_path}: no runs.parquet \\(not a campaign's output directory\\)$"):
+    with pytest.raises(
+        ReportError, match=f"^{tmp_path}: no runs.parquet \\(not a campaign's output directory\\)$"
+    ):
         write_report(tmp_path)
-    unfinished = tmp_path / "unfinished"
+    unfinished = tmp_path / 'unfinished'
     with pytest.raises(Interrupted):
-        run_campaign(torque_free_campaign(40), scheduler="in-process", output=unfinished, chunk_size=10,
-                     progress=interrupt_after(10))
-    with pytest.raises(ReportError, match=f"^{unfinished}: the campaign is not finished .* --resume finishes it$"):
+        run_campaign(
+            torque_free_campaign(40),
+            scheduler='in-process',
+            output=unfinished,
+            chunk_size=10,
+            progress=interrupt_after(10),
+        )
+    with pytest.raises(
+        ReportError, match=f'^{unfinished}: the campaign is not finished .* --resume finishes it$'
+    ):
         write_report(unfinished)
-    garbage = tmp_path / "garbage"
+    garbage = tmp_path / 'garbage'
     garbage.mkdir()
-    (garbage / "runs.parquet").write_bytes(b"not parquet")
-    with pytest.raises(ReportError, match=f"^{garbage / 'runs.parquet'}: cannot be read as Parquet"):
+    (garbage / 'runs.parquet').write_bytes(b'not parquet')
+    with pytest.raises(
+        ReportError, match=f'^{garbage / "runs.parquet"}: cannot be read as Parquet'
+    ):
         write_report(garbage)
-    foreign = tmp_path / "foreign"
+    foreign = tmp_path / 'foreign'
     foreign.mkdir()
-    pq.write_table(pa.table({"x": [1.0]}), foreign / "runs.parquet")
+    pq.write_table(pa.table({'x': [1.0]}), foreign / 'runs.parquet')
     with pytest.raises(ReportError, match="not a campaign's table"):
         write_report(foreign)
-    assert campaign_cli.main(["report", str(missing)]) == 2
-    assert capsys.readouterr().err == f"torquefree_campaign: {missing}: no such directory\n"
+    assert campaign_cli.main(['report', str(missing)]) == 2
+    assert capsys.readouterr().err == f'torquefree_campaign: {missing}: no such directory\n'
 
 
 def test_the_command_line_report(tmp_path, capsys):
-    output = tmp_path / "out"
-    run_campaign(torque_free_campaign(30), scheduler="in-process", output=output)
-    assert campaign_cli.main(["report", str(output), "--output", str(tmp_path / "r")]) == 0
-    assert capsys.readouterr().out.split() == [str(tmp_path / "r" / "summary.md"),
-                                               str(tmp_path / "r" / "histograms.png")]
-    assert "| flips | – | 30 | 0 |" in (tmp_path / "r" / "summary.md").read_text()
+    output = tmp_path / 'out'
+    run_campaign(torque_free_campaign(30), scheduler='in-process', output=output)
+    assert campaign_cli.main(['report', str(output), '--output', str(tmp_path / 'r')]) == 0
+    assert capsys.readouterr().out.split() == [
+        str(tmp_path / 'r' / 'summary.md'),
+        str(tmp_path / 'r' / 'histograms.png'),
+    ]
+    assert '| flips | – | 30 | 0 |' in (tmp_path / 'r' / 'summary.md').read_text()
 
 
 def test_an_output_directory_with_a_damaged_manifest_or_stray_parts_is_refused(tmp_path):
     from torquefree_ros.campaigns.store import ResumeError
 
-    output = tmp_path / "out"
+    output = tmp_path / 'out'
     with pytest.raises(Interrupted):
-        run_campaign(torque_free_campaign(40), scheduler="in-process", output=output, chunk_size=10,
-                     progress=interrupt_after(10))
-    manifest = output / "parts" / "manifest.json"
-    manifest.write_text("{not json")
-    with pytest.raises(ResumeError, match=f"^{manifest}: cannot be read .*--overwrite starts over$"):
-        run_campaign(torque_free_campaign(40), scheduler="in-process", output=output, resume=True)
+        run_campaign(
+            torque_free_campaign(40),
+            scheduler='in-process',
+            output=output,
+            chunk_size=10,
+            progress=interrupt_after(10),
+        )
+    manifest = output / 'parts' / 'manifest.json'
+    manifest.write_text('{not json')
+    with pytest.raises(
+        ResumeError, match=f'^{manifest}: cannot be read .*--overwrite starts over$'
+    ):
+        run_campaign(torque_free_campaign(40), scheduler='in-process', output=output, resume=True)
     manifest.unlink()
-    with pytest.raises(FileExistsError, match="holds part files but no manifest.json .*--overwrite starts over"):
-        run_campaign(torque_free_campaign(40), scheduler="in-process", output=output, resume=True)
-    plain = tmp_path / "plain"
-    plain.write_text("x")
-    with pytest.raises(NotADirectoryError, match=f"^{plain}: exists and is not a directory$"):
-        run_campaign(torque_free_campaign(40), scheduler="in-process", output=plain)
-    table = run_campaign(torque_free_campaign(40), scheduler="in-process", output=output, overwrite=True)
-    assert_same_table(run_campaign(torque_free_campaign(40), scheduler="in-process"), table)
-    assert sorted(p.name for p in output.iterdir()) == ["campaign.yaml", "runs.parquet"]
+    with pytest.raises(
+        FileExistsError, match='holds part files but no manifest.json .*--overwrite starts over'
+    ):
+        run_campaign(torque_free_campaign(40), scheduler='in-process', output=output, resume=True)
+    plain = tmp_path / 'plain'
+    plain.write_text('x')
+    with pytest.raises(NotADirectoryError, match=f'^{plain}: exists and is not a directory$'):
+        run_campaign(torque_free_campaign(40), scheduler='in-process', output=plain)
+    table = run_campaign(
+        torque_free_campaign(40), scheduler='in-process', output=output, overwrite=True
+    )
+    assert_same_table(run_campaign(torque_free_campaign(40), scheduler='in-process'), table)
+    assert sorted(p.name for p in output.iterdir()) == ['campaign.yaml', 'runs.parquet']
 
 
-# -- trajectories ----------------------------------------------------------------------------------------
+# -- trajectories
+# ----------------------------------------------------------------------------------------
 def trajectories_of(directory) -> pa.Table:
     """DIR/trajectories opened as a notebook would (pyarrow.dataset), rows by run then time."""
     import pyarrow.dataset as ds
 
-    return ds.dataset(directory / "trajectories", format="parquet").to_table().sort_by(
-        [("run", "ascending"), ("t", "ascending")])
+    return (
+        ds.dataset(directory / 'trajectories', format='parquet')
+        .to_table()
+        .sort_by([('run', 'ascending'), ('t', 'ascending')])
+    )
 
 
 def assert_same_trajectories(a: pa.Table, b: pa.Table) -> None:
@@ -760,129 +1186,207 @@ def assert_same_trajectories(a: pa.Table, b: pa.Table) -> None:
         assert np.array_equal(x.view(np.int64), y.view(np.int64)), name  # every bit
 
 
-def test_trajectories_are_the_batch_propagation_at_the_kept_times_everywhere_and_after_a_resume(tmp_path, cluster):
-    """Every 4th sample of each run (12 s at 5 Hz: t = 0, 0.8, ..., 12): the batch propagation of the
-    table's inputs at those times, bit for bit; the same rows from 1 and 2 workers and after a resume
-    whose interruption left a trajectory part without its results part."""
-    data = dict(torque_free_campaign(90), trajectories={"every": 4})
-    reference_dir = tmp_path / "in-process"
-    table = run_campaign(data, scheduler="in-process", output=reference_dir, chunk_size=32)
-    assert sorted(p.name for p in (reference_dir / "trajectories").iterdir()) == [
-        "runs-000000000-000000032.parquet", "runs-000000032-000000064.parquet", "runs-000000064-000000090.parquet"]
+def test_trajectories_are_the_batch_propagation_at_the_kept_times_everywhere_and_after_a_resume(
+    tmp_path, cluster
+):
+    """
+    Every 4th sample of each run (12 s at 5 Hz: t = 0, 0.8, ..., 12): the batch propagation of
+    the table's inputs at those times, bit for bit; the same rows from 1 and 2 workers and after a
+    resume whose interruption left a trajectory part without its results part.
+    """
+    data = dict(torque_free_campaign(90), trajectories={'every': 4})
+    reference_dir = tmp_path / 'in-process'
+    table = run_campaign(data, scheduler='in-process', output=reference_dir, chunk_size=32)
+    assert sorted(p.name for p in (reference_dir / 'trajectories').iterdir()) == [
+        'runs-000000000-000000032.parquet',
+        'runs-000000032-000000064.parquet',
+        'runs-000000064-000000090.parquet',
+    ]
     reference = trajectories_of(reference_dir)
-    assert reference.column_names == ["run", "t", "w_x", "w_y", "w_z", "q_x", "q_y", "q_z", "q_w"]
+    assert reference.column_names == ['run', 't', 'w_x', 'w_y', 'w_z', 'q_x', 'q_y', 'q_z', 'q_w']
     times = np.arange(61)[::4] / 5.0
     assert reference.num_rows == 90 * 16
-    assert np.array_equal(reference.column("t").to_numpy(), np.tile(times, 90))
-    assert reference.column("run").to_pylist() == [run for run in range(90) for _ in times]
-    run_campaign(dict(torque_free_campaign(90), trajectories={"rate": 1.25}), scheduler="in-process",
-                 output=tmp_path / "by-rate")
-    assert_same_trajectories(reference, trajectories_of(tmp_path / "by-rate"))  # {rate: 1.25} is {every: 4}
+    assert np.array_equal(reference.column('t').to_numpy(), np.tile(times, 90))
+    assert reference.column('run').to_pylist() == [run for run in range(90) for _ in times]
+    run_campaign(
+        dict(torque_free_campaign(90), trajectories={'rate': 1.25}),
+        scheduler='in-process',
+        output=tmp_path / 'by-rate',
+    )
+    assert_same_trajectories(
+        reference, trajectories_of(tmp_path / 'by-rate')
+    )  # {rate: 1.25} is {every: 4}
     rows = table.to_pydict()
     for run in (0, 41, 89):  # again, one at a time, from the table's inputs: the same numbers
-        moments = [[rows[f"body.moments[{k}]"][run] for k in range(3)]]
-        omega0 = [[rows[f"initial.angular_velocity[{k}]"][run] for k in range(3)]]
-        q0 = [[rows[f"initial.orientation[{k}]"][run] for k in range(4)]]
-        omega, q = propagate_batch(np.array(moments), np.array(omega0), np.array(q0), np.arange(61) / 5.0)
+        moments = [[rows[f'body.moments[{k}]'][run] for k in range(3)]]
+        omega0 = [[rows[f'initial.angular_velocity[{k}]'][run] for k in range(3)]]
+        q0 = [[rows[f'initial.orientation[{k}]'][run] for k in range(4)]]
+        omega, q = propagate_batch(
+            np.array(moments), np.array(omega0), np.array(q0), np.arange(61) / 5.0
+        )
         mine = reference.slice(run * 16, 16)
-        assert np.array_equal(np.column_stack([mine.column(f"w_{a}").to_numpy() for a in "xyz"]), omega[0, ::4])
-        assert np.array_equal(np.column_stack([mine.column(f"q_{a}").to_numpy() for a in "xyzw"]), q[0, ::4])
-    for scheduler, workers, size in ((cluster.scheduler_address, None, 16), ("local", 1, 45)):
-        output = tmp_path / f"workers-{size}"
-        assert_same_table(table, run_campaign(data, scheduler=scheduler, workers=workers, output=output,
-                                              chunk_size=size))
+        assert np.array_equal(
+            np.column_stack([mine.column(f'w_{a}').to_numpy() for a in 'xyz']), omega[0, ::4]
+        )
+        assert np.array_equal(
+            np.column_stack([mine.column(f'q_{a}').to_numpy() for a in 'xyzw']), q[0, ::4]
+        )
+    for scheduler, workers, size in ((cluster.scheduler_address, None, 16), ('local', 1, 45)):
+        output = tmp_path / f'workers-{size}'
+        assert_same_table(
+            table,
+            run_campaign(
+                data, scheduler=scheduler, workers=workers, output=output, chunk_size=size
+            ),
+        )
         assert_same_trajectories(reference, trajectories_of(output))
 
-    output = tmp_path / "resumed"
+    output = tmp_path / 'resumed'
     with pytest.raises(Interrupted):
-        run_campaign(data, scheduler="in-process", output=output, chunk_size=20, progress=interrupt_after(60))
-    (output / "parts" / "runs-000000040-000000060.parquet").unlink()  # died between the trajectory part and this
-    assert (output / "trajectories" / "runs-000000040-000000060.parquet").exists()
-    assert_same_table(table, run_campaign(data, scheduler="in-process", output=output, chunk_size=25, resume=True))
+        run_campaign(
+            data,
+            scheduler='in-process',
+            output=output,
+            chunk_size=20,
+            progress=interrupt_after(60),
+        )
+    (
+        output / 'parts' / 'runs-000000040-000000060.parquet'
+    ).unlink()  # died between the trajectory part and this
+    assert (output / 'trajectories' / 'runs-000000040-000000060.parquet').exists()
+    assert_same_table(
+        table,
+        run_campaign(data, scheduler='in-process', output=output, chunk_size=25, resume=True),
+    )
     assert_same_trajectories(reference, trajectories_of(output))
-    assert sorted(p.name for p in (output / "trajectories").iterdir()) == [
-        "runs-000000000-000000020.parquet", "runs-000000020-000000040.parquet", "runs-000000040-000000065.parquet",
-        "runs-000000065-000000090.parquet"]
+    assert sorted(p.name for p in (output / 'trajectories').iterdir()) == [
+        'runs-000000000-000000020.parquet',
+        'runs-000000020-000000040.parquet',
+        'runs-000000040-000000065.parquet',
+        'runs-000000065-000000090.parquet',
+    ]
     # a resume that finds a results part without its trajectory part computes that chunk again
     with pytest.raises(Interrupted):
-        run_campaign(data, scheduler="in-process", output=output, chunk_size=30, overwrite=True,
-                     progress=interrupt_after(60))
-    assert not (output / "runs.parquet").exists()
-    (output / "trajectories" / "runs-000000030-000000060.parquet").unlink()
-    assert_same_table(table, run_campaign(data, scheduler="in-process", output=output, resume=True))
+        run_campaign(
+            data,
+            scheduler='in-process',
+            output=output,
+            chunk_size=30,
+            overwrite=True,
+            progress=interrupt_after(60),
+        )
+    assert not (output / 'runs.parquet').exists()
+    (output / 'trajectories' / 'runs-000000030-000000060.parquet').unlink()
+    assert_same_table(
+        table, run_campaign(data, scheduler='in-process', output=output, resume=True)
+    )
     assert_same_trajectories(reference, trajectories_of(output))
 
 
 def test_trajectories_of_a_scene_with_effects_keep_its_states_and_no_failed_run_and_the_report_plots_them(
-        tmp_path, capsys):
-    """explorer1 (a damper, 3 states) with some runs failed: the kept rows are the finished runs', equal to
-    the run's scene propagator at the kept times; the report's envelopes are numpy's percentiles of |w|."""
+    tmp_path, capsys
+):
+    """
+    explorer1 (a damper, 3 states) with some runs failed: the kept rows are the finished runs',
+    equal to the run's scene propagator at the kept times; the report's envelopes are numpy's
+    percentiles of |w|.
+    """
     import pyarrow.compute as pc
-
     from torquefree_ros.campaigns import engine
     from torquefree_ros.campaigns.report import rate_envelopes, write_report
 
-    data = dict(damper_campaign(24), trajectories={"rate": 0.2})  # 30 s at 1 Hz: t = 0, 5, ..., 30
-    output = tmp_path / "out"
-    table = run_campaign(data, scheduler="in-process", output=output, chunk_size=10)
-    status = table.column("status").to_pylist()
-    ok = [run for run, s in enumerate(status) if s == "ok"]
+    data = dict(damper_campaign(24), trajectories={'rate': 0.2})  # 30 s at 1 Hz: t = 0, 5, ..., 30
+    output = tmp_path / 'out'
+    table = run_campaign(data, scheduler='in-process', output=output, chunk_size=10)
+    status = table.column('status').to_pylist()
+    ok = [run for run, s in enumerate(status) if s == 'ok']
     assert 0 < len(ok) < 24
     kept = trajectories_of(output)
-    assert kept.column_names[9:] == ["damper[0]", "damper[1]", "damper[2]"]
-    assert sorted(set(kept.column("run").to_pylist())) == ok  # failed runs have no rows
+    assert kept.column_names[9:] == ['damper[0]', 'damper[1]', 'damper[2]']
+    assert sorted(set(kept.column('run').to_pylist())) == ok  # failed runs have no rows
     campaign = load_campaign(data)
     times = np.arange(31) / 1.0
     for run in ok[:2]:
         scene = engine._scene_of(campaign, engine.draw_run(campaign, run))
         omega, q, x = scene.propagator().states(times)
-        mine = kept.filter(pc.equal(kept.column("run"), run))
-        assert np.array_equal(mine.column("t").to_numpy(), times[::5])
+        mine = kept.filter(pc.equal(kept.column('run'), run))
+        assert np.array_equal(mine.column('t').to_numpy(), times[::5])
         found = np.column_stack([mine.column(name).to_numpy() for name in kept.column_names[2:]])
         # the plant's samples are the scene propagator's (CONTRACT.md): compared within 1e-12 rad/s
-        np.testing.assert_allclose(found, np.concatenate([omega, q, x], axis=1)[::5], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(
+            found, np.concatenate([omega, q, x], axis=1)[::5], rtol=0, atol=1e-12
+        )
 
     envelopes = rate_envelopes(output)
-    w = np.column_stack([kept.column(f"w_{a}").to_numpy() for a in "xyz"])
-    magnitude = np.sqrt((w ** 2).sum(axis=1)).reshape(len(ok), 7)
-    assert np.array_equal(envelopes["times"], times[::5]) and envelopes["runs"].tolist() == ok
+    w = np.column_stack([kept.column(f'w_{a}').to_numpy() for a in 'xyz'])
+    magnitude = np.sqrt((w**2).sum(axis=1)).reshape(len(ok), 7)
+    assert np.array_equal(envelopes['times'], times[::5]) and envelopes['runs'].tolist() == ok
     for p in (5, 50, 95):
-        np.testing.assert_allclose(envelopes["percentiles"][p], np.percentile(magnitude, p, axis=0), rtol=1e-14)
-    assert envelopes["worst_run"] == ok[int(np.argmax(magnitude[:, -1]))]
+        np.testing.assert_allclose(
+            envelopes['percentiles'][p], np.percentile(magnitude, p, axis=0), rtol=1e-14
+        )
+    assert envelopes['worst_run'] == ok[int(np.argmax(magnitude[:, -1]))]
     written = write_report(output)
-    assert [p.name for p in written] == ["summary.md", "histograms.png", "envelopes.png"]
-    assert written[2].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and written[2].stat().st_size > 10_000
+    assert [p.name for p in written] == ['summary.md', 'histograms.png', 'envelopes.png']
+    assert (
+        written[2].read_bytes()[:8] == b'\x89PNG\r\n\x1a\n' and written[2].stat().st_size > 10_000
+    )
     text = written[0].read_text()
-    assert (f"Trajectories kept: every 5th sample (0.2 Hz, 7 samples a run) of each finished run ({len(ok)} runs)"
-            in text)
-    assert f"and the worst run, run {envelopes['worst_run']} (by the largest final |w|)" in text
-    assert "![percentile envelopes of |w|](envelopes.png)" in text
+    assert (
+        f'Trajectories kept: every 5th sample (0.2 Hz, 7 samples a run) of each finished run ({len(ok)} runs)'
+        in text
+    )
+    assert f'and the worst run, run {envelopes["worst_run"]} (by the largest final |w|)' in text
+    assert '![percentile envelopes of |w|](envelopes.png)' in text
     # the worst run by a named metric, from the command line
-    assert campaign_cli.main(["report", str(output), "--output", str(tmp_path / "r"), "--worst", "cone_angle"]) == 0
-    cone = table.column("cone_angle").to_pylist()
+    assert (
+        campaign_cli.main(
+            ['report', str(output), '--output', str(tmp_path / 'r'), '--worst', 'cone_angle']
+        )
+        == 0
+    )
+    cone = table.column('cone_angle').to_pylist()
     worst = max(ok, key=lambda run: (abs(cone[run]), -run))
-    assert f"run {worst} (by the largest |cone_angle|)" in (tmp_path / "r" / "summary.md").read_text()
-    assert capsys.readouterr().out.split()[-1] == str(tmp_path / "r" / "envelopes.png")
-    assert campaign_cli.main(["report", str(output), "--worst", "cone"]) == 2
+    assert (
+        f'run {worst} (by the largest |cone_angle|)' in (tmp_path / 'r' / 'summary.md').read_text()
+    )
+    assert capsys.readouterr().out.split()[-1] == str(tmp_path / 'r' / 'envelopes.png')
+    assert campaign_cli.main(['report', str(output), '--worst', 'cone']) == 2
     assert "worst: 'cone' is not a metric column of the campaign" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("value, expected", [
-    ({"every": 0}, "trajectories.every: must lie in [1, 60], got 0"),
-    ({"every": 61}, "trajectories.every: must lie in [1, 60], got 61"),
-    ({"every": 2.5}, "trajectories.every: expected an integer, got 2.5"),
-    ({"rate": 0}, "trajectories.rate: must be > 0 Hz, got 0"),
-    ({"rate": 10}, "trajectories.rate: must be <= the campaign's rate, 5 Hz, got 10"),
-    ({"rate": 2}, "trajectories.rate: 2 Hz must divide the campaign's rate 5 Hz a whole number of times"),
-    ({"rate": 0.05}, "trajectories.rate: 0.05 Hz keeps only the first sample of 61"),
-    ({"evry": 2}, "trajectories.evry: unknown key; did you mean 'every'?"),
-    ({"every": 2, "rate": 1}, "trajectories: expected {every: N} (keep every Nth sample) or {rate: HZ}"),
-    (True, "trajectories: expected {every: N}"),
-])
+@pytest.mark.parametrize(
+    'value, expected',
+    [
+        ({'every': 0}, 'trajectories.every: must lie in [1, 60], got 0'),
+        ({'every': 61}, 'trajectories.every: must lie in [1, 60], got 61'),
+        ({'every': 2.5}, 'trajectories.every: expected an integer, got 2.5'),
+        ({'rate': 0}, 'trajectories.rate: must be > 0 Hz, got 0'),
+        ({'rate': 10}, "trajectories.rate: must be <= the campaign's rate, 5 Hz, got 10"),
+        (
+            {'rate': 2},
+            "trajectories.rate: 2 Hz must divide the campaign's rate 5 Hz a whole number of times",
+        ),
+        ({'rate': 0.05}, 'trajectories.rate: 0.05 Hz keeps only the first sample of 61'),
+        ({'evry': 2}, "trajectories.evry: unknown key; did you mean 'every'?"),
+        (
+            {'every': 2, 'rate': 1},
+            'trajectories: expected {every: N} (keep every Nth sample) or {rate: HZ}',
+        ),
+        (True, 'trajectories: expected {every: N}'),
+    ],
+)
 def test_a_bad_trajectories_value_names_the_file_and_the_field(value, expected, tmp_path):
-    data = {"scene": "dzhanibekov", "runs": 10, "seed": 1, "duration": 12, "rate": 5, "trajectories": value}
-    path = tmp_path / "bad.yaml"
+    data = {
+        'scene': 'dzhanibekov',
+        'runs': 10,
+        'seed': 1,
+        'duration': 12,
+        'rate': 5,
+        'trajectories': value,
+    }
+    path = tmp_path / 'bad.yaml'
     path.write_text(yaml.safe_dump(data))
     with pytest.raises(CampaignError) as error:
         load_campaign(path)
-    assert str(error.value).startswith(f"{path}: {expected}"), str(error.value)
+    assert str(error.value).startswith(f'{path}: {expected}'), str(error.value)

@@ -1,18 +1,35 @@
-"""The vectorised CDR encoder against rclpy's own serializer: decode ours with rclpy and compare the
-values; compare our bytes with rclpy's everywhere except the alignment padding (Fast-CDR leaves
-padding uninitialised)."""
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
 
-import numpy as np
+"""
+The vectorised CDR encoder against rclpy's own serializer: decode ours with rclpy and compare
+the values; compare our bytes with rclpy's everywhere except the alignment padding (Fast-CDR leaves
+padding uninitialised).
+"""
+
 from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
 from hypothesis import given, settings
 from hypothesis import strategies as st
+import numpy as np
 from rclpy.serialization import deserialize_message, serialize_message
 from rosgraph_msgs.msg import Clock
-
 from torquefree_ros.bag.cdr import encode_stamped_doubles, encode_times
 
 stamps = st.lists(st.integers(0, 2**31 * 10**9 - 1), min_size=1, max_size=20)
-frame_ids = st.text(alphabet=st.characters(blacklist_characters="\x00", blacklist_categories=("Cs",)), max_size=12)
+frame_ids = st.text(
+    alphabet=st.characters(blacklist_characters='\x00', blacklist_categories=('Cs',)), max_size=12
+)
 doubles = st.floats(allow_nan=False, width=64)
 
 
@@ -24,11 +41,21 @@ def _padding(frame_id: str) -> range:
 @settings(max_examples=300, deadline=None)
 @given(stamps=stamps, frame_id=frame_ids, data=st.data())
 def test_stamped_doubles_equal_rclpy(stamps, frame_id, data):
-    for message_type, field, width in ((Vector3Stamped, "vector", 3), (QuaternionStamped, "quaternion", 4)):
-        values = np.array(data.draw(st.lists(st.lists(doubles, min_size=width, max_size=width),
-                                             min_size=len(stamps), max_size=len(stamps))))
+    for message_type, field, width in (
+        (Vector3Stamped, 'vector', 3),
+        (QuaternionStamped, 'quaternion', 4),
+    ):
+        values = np.array(
+            data.draw(
+                st.lists(
+                    st.lists(doubles, min_size=width, max_size=width),
+                    min_size=len(stamps),
+                    max_size=len(stamps),
+                )
+            )
+        )
         encoded = encode_stamped_doubles(np.array(stamps, dtype=np.int64), frame_id, values)
-        names = "xyzw"[:width]
+        names = 'xyzw'[:width]
         for stamp, row, ours in zip(stamps, values, encoded):
             message = deserialize_message(ours, message_type)
             assert (message.header.stamp.sec, message.header.stamp.nanosec) == divmod(stamp, 10**9)
@@ -38,9 +65,15 @@ def test_stamped_doubles_equal_rclpy(stamps, frame_id, data):
             assert len(theirs) == len(ours)
             skip = set(_padding(frame_id))
             assert bytes(b for i, b in enumerate(ours) if i not in skip) == bytes(
-                b for i, b in enumerate(theirs) if i not in skip)
+                b for i, b in enumerate(theirs) if i not in skip
+            )
             # one message alone is packed directly rather than through a block: the same bytes
-            assert encode_stamped_doubles(np.array([stamp], dtype=np.int64), frame_id, row[np.newaxis])[0] == ours
+            assert (
+                encode_stamped_doubles(
+                    np.array([stamp], dtype=np.int64), frame_id, row[np.newaxis]
+                )[0]
+                == ours
+            )
 
 
 @settings(max_examples=100, deadline=None)
@@ -51,4 +84,6 @@ def test_clock_equals_rclpy(stamps):
         message.clock.sec, message.clock.nanosec = divmod(stamp, 10**9)
         assert ours == serialize_message(message)  # no padding in a Clock: byte-identical
         assert deserialize_message(ours, Clock) == message
-        assert encode_times(np.array([stamp], dtype=np.int64))[0] == ours  # alone: packed directly, the same
+        assert (
+            encode_times(np.array([stamp], dtype=np.int64))[0] == ours
+        )  # alone: packed directly, the same

@@ -1,7 +1,24 @@
-"""Closing the loop through the node: an in-process PD (rate-damping) controller detumbles a body in
-lock-step as the closed loop predicts; two runs are bit-identical; the same controller stepping the
-plant in process and the recorded commands re-simulated offline give the very same samples; without lock-step the hold times out to zero and /diagnostics
-warns; malformed commands are counted there; a scene without the effect has no subscription."""
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Closing the loop through the node: an in-process PD (rate-damping) controller detumbles a body
+in lock-step as the closed loop predicts; two runs are bit-identical; the same controller stepping
+the plant in process and the recorded commands re-simulated offline give the very same samples;
+without lock-step the hold times out to zero and /diagnostics warns; malformed commands are counted
+there; a scene without the effect has no subscription.
+"""
 
 from __future__ import annotations
 
@@ -10,41 +27,58 @@ import math
 import numpy as np
 import pytest
 
-SPHERE = 2.0  # kg m^2: w x Jw = 0, so the held torque -K w_k gives w_k+1 = (1 - K h / J) w_k exactly
+SPHERE = (
+    2.0  # kg m^2: w x Jw = 0, so the held torque -K w_k gives w_k+1 = (1 - K h / J) w_k exactly
+)
 GAIN = 0.5  # N m s
 RATE = 20.0
 OMEGA0 = [0.4, -0.3, 0.5]
 
 
-def _scene(tmp_path, inertia=(SPHERE, SPHERE, SPHERE), extra=""):
-    path = tmp_path / "plant.yaml"
-    path.write_text(f"body: {{inertia: {list(inertia)}}}\ninitial: {{angular_velocity: {OMEGA0}}}\n"
-                    f"effects:\n  - torque_command: {{timeout: 0.5{extra}}}\naccuracy: 1.0e-12\n")
+def _scene(tmp_path, inertia=(SPHERE, SPHERE, SPHERE), extra=''):
+    path = tmp_path / 'plant.yaml'
+    path.write_text(
+        f'body: {{inertia: {list(inertia)}}}\ninitial: {{angular_velocity: {OMEGA0}}}\n'
+        f'effects:\n  - torque_command: {{timeout: 0.5{extra}}}\naccuracy: 1.0e-12\n'
+    )
     return path
 
 
 class RateDamper:
-    """The controller under test: answers each angular_velocity sample with ``-K w``, stamped with the
-    sample's stamp, in the body frame. The node must take commands already (its start-up scene)."""
+    """
+    The controller under test: answers each angular_velocity sample with ``-K w``, stamped with
+    the sample's stamp, in the body frame. The node must take commands already (its start-up
+    scene).
+    """
 
-    def __init__(self, harness, gain=GAIN, reliability="reliable"):
+    def __init__(self, harness, gain=GAIN, reliability='reliable'):
         from geometry_msgs.msg import Vector3Stamped, WrenchStamped
         from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-        qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE)
-        commands = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
-                              reliability=ReliabilityPolicy[reliability.upper()])
+        qos = QoSProfile(
+            history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE
+        )
+        commands = QoSProfile(
+            history=HistoryPolicy.KEEP_LAST,
+            depth=1000,
+            reliability=ReliabilityPolicy[reliability.upper()],
+        )
         self.gain, self.message = gain, WrenchStamped
-        self.publisher = harness.client.create_publisher(WrenchStamped, "torque_command", commands)
-        harness.client.create_subscription(Vector3Stamped, "angular_velocity", self.answer, qos)
-        harness.spin_until(lambda: self.publisher.get_subscription_count() > 0, what="the node's command input")
+        self.publisher = harness.client.create_publisher(WrenchStamped, 'torque_command', commands)
+        harness.client.create_subscription(Vector3Stamped, 'angular_velocity', self.answer, qos)
+        harness.spin_until(
+            lambda: self.publisher.get_subscription_count() > 0, what="the node's command input"
+        )
 
     def answer(self, sample) -> None:
         command = self.message()
-        command.header.stamp, command.header.frame_id = sample.header.stamp, "body"
+        command.header.stamp, command.header.frame_id = sample.header.stamp, 'body'
         v = sample.vector
         command.wrench.torque.x, command.wrench.torque.y, command.wrench.torque.z = (
-            -self.gain * v.x, -self.gain * v.y, -self.gain * v.z)
+            -self.gain * v.x,
+            -self.gain * v.y,
+            -self.gain * v.z,
+        )
         self.publisher.publish(command)
 
 
@@ -58,23 +92,35 @@ def _run(harness, scene, count):
     epoch = reset_epoch_ns(response)
     period = round(1e9 / RATE)
     stamps = [epoch + k * period for k in range(count)]
-    harness.spin_until(lambda: all(s in harness.omega and s in harness.q for s in stamps), timeout=60.0,
-                       what=f"{count} closed-loop samples")
-    return epoch, np.array([harness.omega[s] for s in stamps]), np.array([harness.q[s] for s in stamps])
+    harness.spin_until(
+        lambda: all(s in harness.omega and s in harness.q for s in stamps),
+        timeout=60.0,
+        what=f'{count} closed-loop samples',
+    )
+    return (
+        epoch,
+        np.array([harness.omega[s] for s in stamps]),
+        np.array([harness.q[s] for s in stamps]),
+    )
 
 
 def test_lockstep_detumbles_as_predicted_reproducibly_and_replays_offline_bit_for_bit(tmp_path):
     from bag_checks import read_with_rosbags, stamp_ns
     from sim_harness import connected_harness
-
-    from torquefree_ros import Plant, load_scene
+    from torquefree_ros import load_scene, Plant
     from torquefree_ros.cli.bag import main as bag_main
 
     scene = _scene(tmp_path)
-    recorded = tmp_path / "live"
+    recorded = tmp_path / 'live'
     count = 120
-    with connected_harness(publish_rate=RATE, real_time_factor=0.0, lockstep=True, lockstep_timeout=20.0,
-                           record_bag=str(recorded), scene=str(scene)) as harness:
+    with connected_harness(
+        publish_rate=RATE,
+        real_time_factor=0.0,
+        lockstep=True,
+        lockstep_timeout=20.0,
+        record_bag=str(recorded),
+        scene=str(scene),
+    ) as harness:
         RateDamper(harness)
         namespace = harness.node.get_namespace()
         epoch, omega, q = _run(harness, scene, count)
@@ -84,7 +130,7 @@ def test_lockstep_detumbles_as_predicted_reproducibly_and_replays_offline_bit_fo
     # the closed loop's prediction: |w_k| = |w_0| (1 - K h / J)^k, along w_0
     factor = 1.0 - GAIN / (RATE * SPHERE)
     k = np.arange(count)
-    np.testing.assert_allclose(omega, np.outer(factor ** k, OMEGA0), rtol=1e-12, atol=0)
+    np.testing.assert_allclose(omega, np.outer(factor**k, OMEGA0), rtol=1e-12, atol=0)
     assert np.linalg.norm(omega[-1]) < 0.25 * np.linalg.norm(OMEGA0)
     # the same controller, the same samples, bit for bit
     np.testing.assert_array_equal(omega_again, omega)
@@ -93,71 +139,120 @@ def test_lockstep_detumbles_as_predicted_reproducibly_and_replays_offline_bit_fo
     plant = Plant(load_scene(scene), RATE)
     np.testing.assert_array_equal(plant.state.omega_B, omega[0])
     for j in range(1, count):
-        state = plant.step([-GAIN * omega[j - 1][0], -GAIN * omega[j - 1][1], -GAIN * omega[j - 1][2]])
+        state = plant.step(
+            [-GAIN * omega[j - 1][0], -GAIN * omega[j - 1][1], -GAIN * omega[j - 1][2]]
+        )
         np.testing.assert_array_equal(state.omega_B, omega[j])
         np.testing.assert_array_equal(state.q_NB, q[j])
 
-    # the bag holds the commands; re-simulated offline from them, the first run comes out bit for bit.
-    # A command is logged at the stamp of the sample it holds from, so the first run's are those logged
-    # in its window [epoch, epoch + (count - 1) period]. The loop may run a few samples past `count`
-    # before the reset (logged later); an answer to the start-up run may arrive after the reset and be
-    # accepted, then superseded by this run's answer to sample 0 (logged at epoch, stamped before it);
-    # and a command is logged once the next sample seals it, so the one holding from sample count - 1
-    # may or may not be in the bag.
+    # the bag holds the commands; re-simulated offline from them, the first run comes out bit for
+    # bit. A command is logged at the stamp of the sample it holds from, so the first run's are
+    # those logged in its window [epoch, epoch + (count - 1) period]. The loop may run a few
+    # samples past `count` before the reset (logged later); an answer to the start-up run may
+    # arrive after the reset and be accepted, then superseded by this run's answer to sample 0
+    # (logged at epoch, stamped before it); and a command is logged once the next sample seals it,
+    # so the one holding from sample count - 1 may or may not be in the bag.
     messages, _ = read_with_rosbags(recorded)
     period = round(1e9 / RATE)
     window_end = epoch + (count - 1) * period
-    commands = [(log, m) for log, m in messages[f"{namespace}/torque_command"] if epoch <= log <= window_end]
+    commands = [
+        (log, m)
+        for log, m in messages[f'{namespace}/torque_command']
+        if epoch <= log <= window_end
+    ]
     # this run's own: the answer to sample k holds from sample k (lock-step: it came before k + 1)
     own = [(log, stamp_ns(m.header)) for log, m in commands if stamp_ns(m.header) >= epoch]
-    assert len(own) in (count - 1, count) and own == [(epoch + j * period,) * 2 for j in range(len(own))]
-    assert {m.header.frame_id for _, m in commands} == {"body"}
-    replay = tmp_path / "replay"
-    assert bag_main([str(scene), "--commands", str(recorded), "--namespace", namespace, "--rate", str(RATE),
-                     "--duration", str((count - 1) / RATE), "--start-time", f"{epoch / 1e9:.9f}",
-                     "--output", str(replay)]) == 0
+    assert len(own) in (count - 1, count) and own == [
+        (epoch + j * period,) * 2 for j in range(len(own))
+    ]
+    assert {m.header.frame_id for _, m in commands} == {'body'}
+    replay = tmp_path / 'replay'
+    assert (
+        bag_main(
+            [
+                str(scene),
+                '--commands',
+                str(recorded),
+                '--namespace',
+                namespace,
+                '--rate',
+                str(RATE),
+                '--duration',
+                str((count - 1) / RATE),
+                '--start-time',
+                f'{epoch / 1e9:.9f}',
+                '--output',
+                str(replay),
+            ]
+        )
+        == 0
+    )
     replayed, _ = read_with_rosbags(replay)
-    w = replayed[f"{namespace}/angular_velocity"]
-    assert [stamp_ns(m.header) for _, m in w] == [epoch + round(j * 1e9 / RATE) for j in range(count)]
+    w = replayed[f'{namespace}/angular_velocity']
+    assert [stamp_ns(m.header) for _, m in w] == [
+        epoch + round(j * 1e9 / RATE) for j in range(count)
+    ]
     np.testing.assert_array_equal([[m.vector.x, m.vector.y, m.vector.z] for _, m in w], omega)
-    attitude = replayed[f"{namespace}/attitude"]
-    np.testing.assert_array_equal([[m.quaternion.x, m.quaternion.y, m.quaternion.z, m.quaternion.w]
-                                   for _, m in attitude], q)
+    attitude = replayed[f'{namespace}/attitude']
+    np.testing.assert_array_equal(
+        [[m.quaternion.x, m.quaternion.y, m.quaternion.z, m.quaternion.w] for _, m in attitude], q
+    )
     # the replay logs every command that holds within its samples where the node logged it
-    replayed_commands = replayed[f"{namespace}/torque_command"]
-    assert ([(log, stamp_ns(m.header)) for log, m in replayed_commands]
-            == [(log, stamp_ns(m.header)) for log, m in commands])
-    assert ([[m.wrench.torque.x, m.wrench.torque.y, m.wrench.torque.z] for _, m in replayed_commands]
-            == [[m.wrench.torque.x, m.wrench.torque.y, m.wrench.torque.z] for _, m in commands])
+    replayed_commands = replayed[f'{namespace}/torque_command']
+    assert [(log, stamp_ns(m.header)) for log, m in replayed_commands] == [
+        (log, stamp_ns(m.header)) for log, m in commands
+    ]
+    assert [
+        [m.wrench.torque.x, m.wrench.torque.y, m.wrench.torque.z] for _, m in replayed_commands
+    ] == [[m.wrench.torque.x, m.wrench.torque.y, m.wrench.torque.z] for _, m in commands]
 
 
-@pytest.mark.parametrize("reliability", ["best_effort", "reliable"])
-def test_a_best_effort_and_a_reliable_controller_both_drive_the_lockstep_loop(tmp_path, reliability):
-    """The command input matches either publisher (a best-effort one is common at high rates and on
-    micro-ROS), even one that appears after the subscription, and the loop runs as predicted."""
+@pytest.mark.parametrize('reliability', ['best_effort', 'reliable'])
+def test_a_best_effort_and_a_reliable_controller_both_drive_the_lockstep_loop(
+    tmp_path, reliability
+):
+    """
+    The command input matches either publisher (a best-effort one is common at high rates and on
+    micro-ROS), even one that appears after the subscription, and the loop runs as predicted.
+    """
     from sim_harness import connected_harness
 
     scene = _scene(tmp_path)
     count = 40
-    with connected_harness(publish_rate=RATE, real_time_factor=0.0, lockstep=True, lockstep_timeout=20.0,
-                           scene=str(scene)) as harness:
-        damper = RateDamper(harness, reliability=reliability)  # waits until the node's input matches it
+    with connected_harness(
+        publish_rate=RATE,
+        real_time_factor=0.0,
+        lockstep=True,
+        lockstep_timeout=20.0,
+        scene=str(scene),
+    ) as harness:
+        damper = RateDamper(
+            harness, reliability=reliability
+        )  # waits until the node's input matches it
         assert damper.publisher.qos_profile.reliability.name.lower() == reliability
         _, omega, _ = _run(harness, scene, count)
-        assert harness.node.sample_loop.missed_steps == 0  # every sample waited for its answer and had it
+        assert (
+            harness.node.sample_loop.missed_steps == 0
+        )  # every sample waited for its answer and had it
     factor = 1.0 - GAIN / (RATE * SPHERE)
     # the closed loop's prediction, as in the replay test (rounding of 40 products: 1e-12)
-    np.testing.assert_allclose(omega, np.outer(factor ** np.arange(count), OMEGA0), rtol=1e-12, atol=0)
+    np.testing.assert_allclose(
+        omega, np.outer(factor ** np.arange(count), OMEGA0), rtol=1e-12, atol=0
+    )
 
 
 def test_a_triaxial_body_loses_energy_every_sample_within_the_closed_loop_bounds(tmp_path):
     from sim_harness import connected_harness
-
     from torquefree_ros.core.rigid_body import RigidBody
 
     scene = _scene(tmp_path, inertia=(1.0, 2.0, 3.0))
-    with connected_harness(publish_rate=RATE, real_time_factor=0.0, lockstep=True, lockstep_timeout=20.0,
-                           scene=str(scene)) as harness:
+    with connected_harness(
+        publish_rate=RATE,
+        real_time_factor=0.0,
+        lockstep=True,
+        lockstep_timeout=20.0,
+        scene=str(scene),
+    ) as harness:
         RateDamper(harness)
         _, omega, _ = _run(harness, scene, 80)
     energy = RigidBody.from_inertia([1.0, 2.0, 3.0]).kinetic_energy(omega)
@@ -176,37 +271,42 @@ def test_without_lockstep_the_hold_times_out_and_diagnostics_say_why(tmp_path):
     from sim_harness import connected_harness
 
     with connected_harness(publish_rate=50.0) as harness:
-        publisher = harness.client.create_publisher(WrenchStamped, "torque_command", 10)
+        publisher = harness.client.create_publisher(WrenchStamped, 'torque_command', 10)
         assert harness.set_parameters(scene=str(_scene(tmp_path)))[0].successful
         response = harness.reset()
         assert response.success, response.message
-        harness.spin_until(lambda: publisher.get_subscription_count() > 0, what="the node's command input")
+        harness.spin_until(
+            lambda: publisher.get_subscription_count() > 0, what="the node's command input"
+        )
         bad = WrenchStamped()
-        bad.header.frame_id = "body"
+        bad.header.frame_id = 'body'
         bad.wrench.torque.x = math.nan
         publisher.publish(bad)
         good = WrenchStamped()
-        good.header.frame_id = "body"
+        good.header.frame_id = 'body'
         good.header.stamp = harness.node.get_clock().now().to_msg()
         good.wrench.torque.z = 0.01
         good.wrench.force.x = 1.0  # ignored, and said so
         publisher.publish(good)
-        topic = "torque_command"
+        topic = 'torque_command'
 
         def status():
             for array in reversed(harness.diagnostics):
                 values = {v.key: v.value for v in array.status[0].values}
-                if values.get(f"{topic}.accepted") == "1":
+                if values.get(f'{topic}.accepted') == '1':
                     return array.status[0], values
             return None, {}
 
-        harness.spin_until(lambda: status()[0] is not None and "no command for 0.5 s" in status()[0].message,
-                           timeout=20.0, what="the timeout warning")
+        harness.spin_until(
+            lambda: status()[0] is not None and 'no command for 0.5 s' in status()[0].message,
+            timeout=20.0,
+            what='the timeout warning',
+        )
         level, values = status()
         assert level.level == level.WARN
-        assert values[f"{topic}.refused"] == "not finite 1"
-        assert values[f"{topic}.torque"] == "zero (no command in force)"
-        assert values[f"{topic}.force"].startswith("ignored")
+        assert values[f'{topic}.refused'] == 'not finite 1'
+        assert values[f'{topic}.torque'] == 'zero (no command in force)'
+        assert values[f'{topic}.force'].startswith('ignored')
         hold = harness.node.sample_loop.simulation.command_holds[0][1]
         assert [c.torque.tolist() for c in hold.commands] == [[0.0, 0.0, 0.01]]
 
@@ -215,16 +315,22 @@ def test_a_scene_without_the_effect_has_no_command_subscription(tmp_path):
     from sim_harness import connected_harness
 
     with connected_harness(publish_rate=50.0) as harness:
+
         def subscribed():
-            return {name for name, _ in harness.node.get_subscriber_names_and_types_by_node(
-                harness.node.get_name(), harness.node.get_namespace())}
-        assert not any(name.endswith("/torque_command") for name in subscribed())
+            return {
+                name
+                for name, _ in harness.node.get_subscriber_names_and_types_by_node(
+                    harness.node.get_name(), harness.node.get_namespace()
+                )
+            }
+
+        assert not any(name.endswith('/torque_command') for name in subscribed())
         assert harness.set_parameters(scene=str(_scene(tmp_path)))[0].successful
         assert harness.reset().success
-        assert f"{harness.node.get_namespace()}/torque_command" in subscribed()
-        assert harness.set_parameters(scene="default")[0].successful
+        assert f'{harness.node.get_namespace()}/torque_command' in subscribed()
+        assert harness.set_parameters(scene='default')[0].successful
         assert harness.reset().success
-        assert not any(name.endswith("/torque_command") for name in subscribed())
+        assert not any(name.endswith('/torque_command') for name in subscribed())
 
 
 def test_lockstep_without_answers_goes_on_at_each_timeout_and_counts_the_missed_steps(tmp_path):
@@ -233,12 +339,19 @@ def test_lockstep_without_answers_goes_on_at_each_timeout_and_counts_the_missed_
     from sim_harness import connected_harness
 
     timeout = 0.1
-    with connected_harness(publish_rate=RATE, real_time_factor=0.0, lockstep=True, lockstep_timeout=timeout,
-                           scene=str(_scene(tmp_path))) as harness:
+    with connected_harness(
+        publish_rate=RATE,
+        real_time_factor=0.0,
+        lockstep=True,
+        lockstep_timeout=timeout,
+        scene=str(_scene(tmp_path)),
+    ) as harness:
         loop = harness.node.sample_loop
-        harness.spin_until(lambda: loop.published >= 2, what="samples without a controller")
+        harness.spin_until(lambda: loop.published >= 2, what='samples without a controller')
         first, started = loop.published, time.monotonic()
-        harness.spin_until(lambda: loop.published >= first + 4, what="4 more samples without a controller")
+        harness.spin_until(
+            lambda: loop.published >= first + 4, what='4 more samples without a controller'
+        )
         elapsed, published = time.monotonic() - started, loop.published
         # every sample after the first waited the whole timeout for an answer that never came
         assert elapsed >= 3 * timeout
@@ -250,29 +363,45 @@ def test_lockstep_is_read_only():
 
     with connected_harness(publish_rate=50.0) as harness:
         (result,) = harness.set_parameters(lockstep=True)
-        assert not result.successful and "read-only" in result.reason
+        assert not result.successful and 'read-only' in result.reason
 
 
-@pytest.mark.parametrize("lockstep", [True, False], ids=["lockstep", "paced"])
+@pytest.mark.parametrize('lockstep', [True, False], ids=['lockstep', 'paced'])
 def test_a_second_ctrl_c_while_closing_still_closes_the_bag_and_exits_cleanly(tmp_path, lockstep):
     import os
+    from pathlib import Path
     import signal
     import subprocess
     import sys
     import time
-    from pathlib import Path
 
     from bag_checks import metadata
 
-    bag = tmp_path / "closing"
+    bag = tmp_path / 'closing'
     process = subprocess.Popen(
-        [sys.executable, "-m", "torquefree_ros.cli.sim", "--ros-args", "-p", "scene:=detumble",
-         "-p", f"lockstep:={str(lockstep).lower()}", "-p", "real_time_factor:=0.0", "-p", f"record_bag:={bag}"],
-        cwd=Path(__file__).resolve().parents[1], env=dict(os.environ, PYTHONUNBUFFERED="1"),
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        [
+            sys.executable,
+            '-m',
+            'torquefree_ros.cli.sim',
+            '--ros-args',
+            '-p',
+            'scene:=detumble',
+            '-p',
+            f'lockstep:={str(lockstep).lower()}',
+            '-p',
+            'real_time_factor:=0.0',
+            '-p',
+            f'record_bag:={bag}',
+        ],
+        cwd=Path(__file__).resolve().parents[1],
+        env=dict(os.environ, PYTHONUNBUFFERED='1'),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         for line in process.stderr:
-            if "start: " in line:
+            if 'start: ' in line:
                 break
         time.sleep(1.0)
         process.send_signal(signal.SIGINT)
@@ -282,5 +411,7 @@ def test_a_second_ctrl_c_while_closing_still_closes_the_bag_and_exits_cleanly(tm
     finally:
         process.kill()
     assert process.returncode == 0, stderr
-    assert "terminate called" not in stderr and "Traceback" not in stderr, stderr
-    assert metadata(bag)["message_count"] > 0  # closed: metadata.yaml written, the summary in place
+    assert 'terminate called' not in stderr and 'Traceback' not in stderr, stderr
+    assert (
+        metadata(bag)['message_count'] > 0
+    )  # closed: metadata.yaml written, the summary in place

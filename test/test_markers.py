@@ -1,7 +1,24 @@
-"""The ``markers`` output: the box's geometry is the uniform box of the body's principal moments on
-its principal axes; the arrows are w and H in the inertial frame, all three markers in every message
-(a viewer that seeks shows the latest message alone); the encoding decodes in rclpy and is rosbags' own byte for byte;
-bags (both independent readers) and the live node carry what the core computes."""
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The ``markers`` output: the box's geometry is the uniform box of the body's principal moments on
+its principal axes; the arrows are w and H in the inertial frame, all three markers in every
+message (a viewer that seeks shows the latest message alone); the encoding decodes in rclpy and is
+rosbags' own byte for byte; bags (both independent readers) and the live node carry what the core
+computes.
+"""
 
 from __future__ import annotations
 
@@ -9,22 +26,32 @@ import math
 
 import numpy as np
 import pytest
-
 from torquefree_ros.bag.markers import encode_markers
 from torquefree_ros.core import quaternion
 from torquefree_ros.core.effects.outputs import MARKER_ROW
-from torquefree_ros.core.scene import SceneError, scene_from_mapping
+from torquefree_ros.core.scene import scene_from_mapping, SceneError
 from torquefree_ros.core.simulation import Simulation
 
 RATE = 50.0
-GENERIC_TENSOR = [4.0, 3.0, 2.5, 0.3, -0.2, 0.4]  # Ixx, Iyy, Izz, Ixy, Ixz, Iyz: principal axes tilted
+GENERIC_TENSOR = [
+    4.0,
+    3.0,
+    2.5,
+    0.3,
+    -0.2,
+    0.4,
+]  # Ixx, Iyy, Izz, Ixy, Ixz, Iyz: principal axes tilted
 ORIENTATION = [0.1, -0.3, 0.2, math.sqrt(0.86)]
 
 
 def _simulation(body, angular_velocity, *effects, rate=RATE):
-    scene = scene_from_mapping({"body": body, "initial": {"angular_velocity": angular_velocity,
-                                                          "orientation": ORIENTATION},
-                                "effects": list(effects)})
+    scene = scene_from_mapping(
+        {
+            'body': body,
+            'initial': {'angular_velocity': angular_velocity, 'orientation': ORIENTATION},
+            'effects': list(effects),
+        }
+    )
     return Simulation(scene.propagator(), rate, outputs=scene.outputs)
 
 
@@ -36,9 +63,11 @@ def _box_inertia_N(row):
     return R @ box @ R.T
 
 
-@pytest.mark.parametrize("inertia", [GENERIC_TENSOR, [2.0, 3.0, 4.0], [5.0, 1.0, 5.0], [1.0, 1.0, 1.0]])
+@pytest.mark.parametrize(
+    'inertia', [GENERIC_TENSOR, [2.0, 3.0, 4.0], [5.0, 1.0, 5.0], [1.0, 1.0, 1.0]]
+)
 def test_the_box_has_the_bodys_principal_moments_on_its_principal_axes(inertia):
-    simulation = _simulation({"inertia": inertia}, [0.4, -1.0, 0.7], {"markers": {"size": 2.0}})
+    simulation = _simulation({'inertia': inertia}, [0.4, -1.0, 0.7], {'markers': {'size': 2.0}})
     block = simulation.samples(0, 200)
     (rows,) = block.outputs
     assert rows.shape == (200, MARKER_ROW)
@@ -51,16 +80,20 @@ def test_the_box_has_the_bodys_principal_moments_on_its_principal_axes(inertia):
         np.testing.assert_allclose(box / np.trace(box), J_N / np.trace(J_N), rtol=0, atol=1e-14)
 
 
-@pytest.mark.parametrize("inertia, thin", [([1.0, 2.0, 3.0], 2), ([1e-6, 1.0, 1.0], [1, 2])])
+@pytest.mark.parametrize('inertia, thin', [([1.0, 2.0, 3.0], 2), ([1e-6, 1.0, 1.0], [1, 2])])
 def test_a_plate_or_a_rod_is_drawn_one_percent_thick(inertia, thin):
-    (rows,) = _simulation({"inertia": inertia}, [0.0, 1.0, 0.0], {"markers": {}}).samples(0, 3).outputs
+    (rows,) = (
+        _simulation({'inertia': inertia}, [0.0, 1.0, 0.0], {'markers': {}}).samples(0, 3).outputs
+    )
     sides = rows[0, 4:7]
     assert sides.max() == 1.0
     np.testing.assert_array_equal(sides[thin], 0.01)
 
 
 def test_the_arrows_are_w_and_h_in_the_inertial_frame_with_the_default_scales():
-    simulation = _simulation({"inertia": GENERIC_TENSOR}, [0.4, -1.0, 0.7], {"markers": {"size": 2.0}})
+    simulation = _simulation(
+        {'inertia': GENERIC_TENSOR}, [0.4, -1.0, 0.7], {'markers': {'size': 2.0}}
+    )
     block = simulation.samples(0, 500)
     (rows,) = block.outputs
     body = simulation.body
@@ -69,25 +102,37 @@ def test_the_arrows_are_w_and_h_in_the_inertial_frame_with_the_default_scales():
     w0, h0 = np.linalg.norm(block.omega_B[0]), np.linalg.norm(h_N[0])
     np.testing.assert_allclose(rows[:, 7:10], w_N * (2.0 / w0), rtol=0, atol=1e-14)
     np.testing.assert_allclose(rows[:, 10:13], h_N * (2.5 / h0), rtol=0, atol=1e-14)
-    assert np.linalg.norm(rows[0, 7:10]) == pytest.approx(2.0, rel=1e-15)  # the initial w: `size` long
+    assert np.linalg.norm(rows[0, 7:10]) == pytest.approx(
+        2.0, rel=1e-15
+    )  # the initial w: `size` long
     # torque-free: the H arrow stands still while the w arrow wanders round it
-    np.testing.assert_allclose(rows[:, 10:13], np.broadcast_to(rows[0, 10:13], (500, 3)), rtol=0, atol=1e-13)
+    np.testing.assert_allclose(
+        rows[:, 10:13], np.broadcast_to(rows[0, 10:13], (500, 3)), rtol=0, atol=1e-13
+    )
     assert np.ptp(rows[:, 7:10], axis=0).max() > 0.5
 
 
 def test_explicit_scales_are_lengths_per_unit():
-    simulation = _simulation({"inertia": [2.0, 3.0, 4.0]}, [0.4, -1.0, 0.7],
-                             {"markers": {"angular_velocity_scale": 0.5, "momentum_scale": 0.1}})
+    simulation = _simulation(
+        {'inertia': [2.0, 3.0, 4.0]},
+        [0.4, -1.0, 0.7],
+        {'markers': {'angular_velocity_scale': 0.5, 'momentum_scale': 0.1}},
+    )
     block = simulation.samples(0, 10)
     (rows,) = block.outputs
-    np.testing.assert_allclose(np.linalg.norm(rows[:, 7:10], axis=1), 0.5 * np.linalg.norm(block.omega_B, axis=1),
-                               rtol=1e-15)
+    np.testing.assert_allclose(
+        np.linalg.norm(rows[:, 7:10], axis=1),
+        0.5 * np.linalg.norm(block.omega_B, axis=1),
+        rtol=1e-15,
+    )
     h = simulation.body.angular_momentum(block.omega_B)
-    np.testing.assert_allclose(np.linalg.norm(rows[:, 10:13], axis=1), 0.1 * np.linalg.norm(h, axis=1), rtol=1e-14)
+    np.testing.assert_allclose(
+        np.linalg.norm(rows[:, 10:13], axis=1), 0.1 * np.linalg.norm(h, axis=1), rtol=1e-14
+    )
 
 
 def test_rows_do_not_depend_on_how_blocks_are_cut():
-    simulation = _simulation({"inertia": [2.0, 3.0, 4.0]}, [0.4, -1.0, 0.7], {"markers": {}})
+    simulation = _simulation({'inertia': [2.0, 3.0, 4.0]}, [0.4, -1.0, 0.7], {'markers': {}})
     whole = simulation.samples(0, 120).outputs[0]
     cut = np.vstack([simulation.samples(first, 7).outputs[0] for first in range(0, 120, 7)])[:120]
     np.testing.assert_array_equal(cut, whole)
@@ -99,51 +144,82 @@ def test_rows_do_not_depend_on_how_blocks_are_cut():
 def test_one_message_at_a_time_is_the_blocks_bytes():
     # one message is packed field by field, a block through numpy: the same bytes
     stamps, rows = _rows(count=9)
-    whole = encode_markers(stamps, "world", rows)
-    assert [encode_markers(stamps[i:i + 1], "world", rows[i:i + 1])[0] for i in range(9)] == list(whole)
+    whole = encode_markers(stamps, 'world', rows)
+    assert [
+        encode_markers(stamps[i: i + 1], 'world', rows[i: i + 1])[0] for i in range(9)
+    ] == list(whole)
 
 
 def test_the_h_arrow_follows_a_torque_that_changes_h():
-    torqued = _simulation({"inertia": [2.0, 3.0, 4.0]}, [0.4, -1.0, 0.7],
-                          {"external_torque": {"torque": [0.0, 0.0, 0.5]}}, {"markers": {}})
+    torqued = _simulation(
+        {'inertia': [2.0, 3.0, 4.0]},
+        [0.4, -1.0, 0.7],
+        {'external_torque': {'torque': [0.0, 0.0, 0.5]}},
+        {'markers': {}},
+    )
     block = torqued.samples(0, 60)
     rows = block.outputs[0]
     h_N = torqued.body.angular_momentum_inertial(block.omega_B, block.q_NB)
-    np.testing.assert_allclose(rows[:, 10:13], h_N * (1.25 / np.linalg.norm(h_N[0])), rtol=0, atol=1e-13)
+    np.testing.assert_allclose(
+        rows[:, 10:13], h_N * (1.25 / np.linalg.norm(h_N[0])), rtol=0, atol=1e-13
+    )
     assert np.linalg.norm(rows[-1, 10:13] - rows[0, 10:13]) > 1e-3
 
 
-@pytest.mark.parametrize("parameters, reason", [
-    ({"size": 0}, r"effects\[0\]\.markers\.size: must be > 0 m, got 0"),
-    # retired (issue 31): refused with what replaced it, whatever its value
-    ({"momentum_interval": 1.0}, r"effects\[0\]\.markers\.momentum_interval: no longer used: every MarkerArray now "
-                                 r"carries the H arrow.*remove this key"),
-    ({"angular_velocity_scale": "big"}, r"effects\[0\]\.markers\.angular_velocity_scale: expected a finite number"),
-    ({"colour": 1}, r"effects\[0\]\.markers\.colour: unknown key"),
-])
+@pytest.mark.parametrize(
+    'parameters, reason',
+    [
+        ({'size': 0}, r'effects\[0\]\.markers\.size: must be > 0 m, got 0'),
+        # retired (issue 31): refused with what replaced it, whatever its value
+        (
+            {'momentum_interval': 1.0},
+            r'effects\[0\]\.markers\.momentum_interval: no longer used: every MarkerArray now '
+            r'carries the H arrow.*remove this key',
+        ),
+        (
+            {'angular_velocity_scale': 'big'},
+            r'effects\[0\]\.markers\.angular_velocity_scale: expected a finite number',
+        ),
+        ({'colour': 1}, r'effects\[0\]\.markers\.colour: unknown key'),
+    ],
+)
 def test_marker_parameters_are_checked_with_the_field_path(parameters, reason):
     with pytest.raises(SceneError, match=reason):
-        _simulation({"inertia": [2.0, 3.0, 4.0]}, [0.0, 1.0, 0.0], {"markers": parameters})
+        _simulation({'inertia': [2.0, 3.0, 4.0]}, [0.0, 1.0, 0.0], {'markers': parameters})
 
 
 def _decoded_fields(marker):
-    return (marker.header.frame_id, marker.ns, marker.id, marker.type, marker.action,
-            [marker.pose.position.x, marker.pose.position.y, marker.pose.position.z],
-            [marker.pose.orientation.x, marker.pose.orientation.y, marker.pose.orientation.z, marker.pose.orientation.w],
-            [marker.scale.x, marker.scale.y, marker.scale.z], [[p.x, p.y, p.z] for p in marker.points],
-            marker.lifetime.sec, marker.lifetime.nanosec, marker.frame_locked)
+    return (
+        marker.header.frame_id,
+        marker.ns,
+        marker.id,
+        marker.type,
+        marker.action,
+        [marker.pose.position.x, marker.pose.position.y, marker.pose.position.z],
+        [
+            marker.pose.orientation.x,
+            marker.pose.orientation.y,
+            marker.pose.orientation.z,
+            marker.pose.orientation.w,
+        ],
+        [marker.scale.x, marker.scale.y, marker.scale.z],
+        [[p.x, p.y, p.z] for p in marker.points],
+        marker.lifetime.sec,
+        marker.lifetime.nanosec,
+        marker.frame_locked,
+    )
 
 
 def _rows(count=4):
-    simulation = _simulation({"inertia": GENERIC_TENSOR}, [0.4, -1.0, 0.7], {"markers": {}})
+    simulation = _simulation({'inertia': GENERIC_TENSOR}, [0.4, -1.0, 0.7], {'markers': {}})
     block = simulation.samples(0, count)
     return block.stamps_ns + 1_700_000_000_123_456_789, block.outputs[0]
 
 
-@pytest.mark.parametrize("frame_id", ["world", "w", "a_much_longer_inertial_frame_name"])
+@pytest.mark.parametrize('frame_id', ['world', 'w', 'a_much_longer_inertial_frame_name'])
 def test_the_encoding_decodes_in_rclpy_and_is_byte_for_byte_rosbags_own(frame_id):
     from rclpy.serialization import deserialize_message
-    from rosbags.typesys import Stores, get_typestore
+    from rosbags.typesys import get_typestore, Stores
     from visualization_msgs.msg import Marker, MarkerArray
 
     store = get_typestore(Stores.ROS2_JAZZY)
@@ -152,78 +228,151 @@ def test_the_encoding_decodes_in_rclpy_and_is_byte_for_byte_rosbags_own(frame_id
     assert len(messages) == len(rows)
     for stamp, row, message in zip(stamps, rows, messages):
         markers = deserialize_message(message, MarkerArray).markers
-        assert [m.ns for m in markers] == ["body", "angular_velocity", "angular_momentum"]
+        assert [m.ns for m in markers] == ['body', 'angular_velocity', 'angular_momentum']
         assert {m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in markers} == {stamp}
         box, arrows = markers[0], markers[1:]
         longest = row[4:7].max()
-        assert _decoded_fields(box) == (frame_id, "body", 0, Marker.CUBE, Marker.ADD, [0.0] * 3, row[0:4].tolist(),
-                                        row[4:7].tolist(), [], 0, 0, False)
-        for arrow, tip, (shaft, head) in zip(arrows, (row[7:10], row[10:13]), ((0.03, 0.07), (0.02, 0.05))):
-            assert _decoded_fields(arrow) == (frame_id, arrow.ns, 0, Marker.ARROW, Marker.ADD, [0.0] * 3,
-                                              [0.0, 0.0, 0.0, 1.0], [shaft * longest, head * longest, 0.0],
-                                              [[0.0] * 3, tip.tolist()], 0, 0, False)
-            assert arrow.color.a == 1.0 and not arrow.text and not arrow.mesh_resource and not arrow.colors
+        assert _decoded_fields(box) == (
+            frame_id,
+            'body',
+            0,
+            Marker.CUBE,
+            Marker.ADD,
+            [0.0] * 3,
+            row[0:4].tolist(),
+            row[4:7].tolist(),
+            [],
+            0,
+            0,
+            False,
+        )
+        for arrow, tip, (shaft, head) in zip(
+            arrows, (row[7:10], row[10:13]), ((0.03, 0.07), (0.02, 0.05))
+        ):
+            assert _decoded_fields(arrow) == (
+                frame_id,
+                arrow.ns,
+                0,
+                Marker.ARROW,
+                Marker.ADD,
+                [0.0] * 3,
+                [0.0, 0.0, 0.0, 1.0],
+                [shaft * longest, head * longest, 0.0],
+                [[0.0] * 3, tip.tolist()],
+                0,
+                0,
+                False,
+            )
+            assert (
+                arrow.color.a == 1.0
+                and not arrow.text
+                and not arrow.mesh_resource
+                and not arrow.colors
+            )
         assert 0.0 < box.color.a < 1.0  # see-through: the arrows inside stay visible
-        decoded = store.deserialize_cdr(message, "visualization_msgs/msg/MarkerArray")
-        assert store.serialize_cdr(decoded, "visualization_msgs/msg/MarkerArray") == message
+        decoded = store.deserialize_cdr(message, 'visualization_msgs/msg/MarkerArray')
+        assert store.serialize_cdr(decoded, 'visualization_msgs/msg/MarkerArray') == message
 
 
 def test_a_bag_carries_markers_as_the_core_computes_them_in_both_independent_readers(tmp_path):
     from bag_checks import read_with_mcap, read_with_rosbags, stamp_ns
-
     from torquefree_ros import load_scene
     from torquefree_ros.cli.bag import main as bag_main
 
-    bag = tmp_path / "dzhanibekov"
-    assert bag_main(["dzhanibekov", "--duration", "2", "--rate", "50", "--output", str(bag),
-                     "--inertial-frame", "odom"]) == 0
-    scene = load_scene("dzhanibekov")
+    bag = tmp_path / 'dzhanibekov'
+    assert (
+        bag_main(
+            [
+                'dzhanibekov',
+                '--duration',
+                '2',
+                '--rate',
+                '50',
+                '--output',
+                str(bag),
+                '--inertial-frame',
+                'odom',
+            ]
+        )
+        == 0
+    )
+    scene = load_scene('dzhanibekov')
     block = Simulation(scene.propagator(), 50.0, outputs=scene.outputs).samples(0, 101)
-    (rows,) = [rows for output, rows in zip(scene.outputs, block.outputs) if output.name == "markers"]
+    (rows,) = [
+        rows for output, rows in zip(scene.outputs, block.outputs) if output.name == 'markers'
+    ]
     messages, connections = read_with_rosbags(bag)
-    assert connections["/markers"].msgtype == "visualization_msgs/msg/MarkerArray"
-    arrays = [m.markers for _, m in messages["/markers"]]
+    assert connections['/markers'].msgtype == 'visualization_msgs/msg/MarkerArray'
+    arrays = [m.markers for _, m in messages['/markers']]
     assert [stamp_ns(a[0].header) for a in arrays] == block.stamps_ns.tolist()
-    assert {tuple(m.ns for m in a) for a in arrays} == {("body", "angular_velocity", "angular_momentum")}
-    assert {m.header.frame_id for a in arrays for m in a} == {"odom"}
-    np.testing.assert_array_equal([[a[0].pose.orientation.x, a[0].pose.orientation.y, a[0].pose.orientation.z,
-                                    a[0].pose.orientation.w] for a in arrays], rows[:, 0:4])
-    np.testing.assert_array_equal([[a[1].points[1].x, a[1].points[1].y, a[1].points[1].z] for a in arrays],
-                                  rows[:, 7:10])
-    decoded = read_with_mcap(bag)["/markers"]  # mcap-ros2 decodes from the bag's own schema text
-    assert [m.ns for m in decoded[50][2].markers] == ["body", "angular_velocity", "angular_momentum"]
+    assert {tuple(m.ns for m in a) for a in arrays} == {
+        ('body', 'angular_velocity', 'angular_momentum')
+    }
+    assert {m.header.frame_id for a in arrays for m in a} == {'odom'}
+    np.testing.assert_array_equal(
+        [
+            [
+                a[0].pose.orientation.x,
+                a[0].pose.orientation.y,
+                a[0].pose.orientation.z,
+                a[0].pose.orientation.w,
+            ]
+            for a in arrays
+        ],
+        rows[:, 0:4],
+    )
+    np.testing.assert_array_equal(
+        [[a[1].points[1].x, a[1].points[1].y, a[1].points[1].z] for a in arrays], rows[:, 7:10]
+    )
+    decoded = read_with_mcap(bag)['/markers']  # mcap-ros2 decodes from the bag's own schema text
+    assert [m.ns for m in decoded[50][2].markers] == [
+        'body',
+        'angular_velocity',
+        'angular_momentum',
+    ]
     assert decoded[50][2].markers[2].points[1].z == rows[50, 12]
 
 
-@pytest.mark.parametrize("seed", [3, 31])
+@pytest.mark.parametrize('seed', [3, 31])
 def test_one_marker_array_at_a_random_sample_of_a_bag_is_the_whole_picture(tmp_path, seed):
-    """What a viewer does after a seek: show the latest MarkerArray alone. Read just that one message
-    (the mcap reader, by log time) and find every marker, each where the core puts it."""
+    """
+    What a viewer does after a seek: show the latest MarkerArray alone. Read just that one
+    message (the mcap reader, by log time) and find every marker, each where the core puts it.
+    """
     from mcap.reader import make_reader
     from mcap_ros2.decoder import DecoderFactory
-
     from torquefree_ros import load_scene
     from torquefree_ros.cli.bag import main as bag_main
 
-    bag = tmp_path / "seek"
-    assert bag_main(["dzhanibekov", "--duration", "3", "--rate", "20", "--output", str(bag)]) == 0
+    bag = tmp_path / 'seek'
+    assert bag_main(['dzhanibekov', '--duration', '3', '--rate', '20', '--output', str(bag)]) == 0
     k = int(np.random.default_rng(seed).integers(1, 61))
-    scene = load_scene("dzhanibekov")
+    scene = load_scene('dzhanibekov')
     block = Simulation(scene.propagator(), 20.0, outputs=scene.outputs).samples(k, 1)
-    (row,) = [rows[0] for output, rows in zip(scene.outputs, block.outputs) if output.name == "markers"]
+    (row,) = [
+        rows[0] for output, rows in zip(scene.outputs, block.outputs) if output.name == 'markers'
+    ]
     stamp = int(block.stamps_ns[0])
-    (path,) = bag.glob("*.mcap")
-    with path.open("rb") as stream:
+    (path,) = bag.glob('*.mcap')
+    with path.open('rb') as stream:
         reader = make_reader(stream, decoder_factories=[DecoderFactory()])
-        (found,) = list(reader.iter_decoded_messages(topics=["/markers"], starting_at=stamp, ending_at=stamp))
+        (found,) = list(
+            reader.iter_decoded_messages(topics=['/markers'], starting_at=stamp, ending_at=stamp)
+        )
     markers = {m.ns: m for m in found.decoded_message.markers}
-    assert sorted(markers) == ["angular_momentum", "angular_velocity", "body"]
-    assert all(m.header.stamp.sec * 10**9 + m.header.stamp.nanosec == stamp for m in markers.values())
-    body = markers["body"]
-    assert [body.pose.orientation.x, body.pose.orientation.y, body.pose.orientation.z,
-            body.pose.orientation.w] == row[0:4].tolist()
+    assert sorted(markers) == ['angular_momentum', 'angular_velocity', 'body']
+    assert all(
+        m.header.stamp.sec * 10**9 + m.header.stamp.nanosec == stamp for m in markers.values()
+    )
+    body = markers['body']
+    assert [
+        body.pose.orientation.x,
+        body.pose.orientation.y,
+        body.pose.orientation.z,
+        body.pose.orientation.w,
+    ] == row[0:4].tolist()
     assert [body.scale.x, body.scale.y, body.scale.z] == row[4:7].tolist()
-    for namespace, tip in (("angular_velocity", row[7:10]), ("angular_momentum", row[10:13])):
+    for namespace, tip in (('angular_velocity', row[7:10]), ('angular_momentum', row[10:13])):
         end = markers[namespace].points[1]
         assert [end.x, end.y, end.z] == tip.tolist(), namespace
 
@@ -231,30 +380,58 @@ def test_one_marker_array_at_a_random_sample_of_a_bag_is_the_whole_picture(tmp_p
 def test_the_node_publishes_markers_as_the_core_computes_them():
     from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
     from sim_harness import connected_harness, reset_epoch_ns, stamp_ns
+    from torquefree_ros import load_scene
     from visualization_msgs.msg import MarkerArray
 
-    from torquefree_ros import load_scene
-
-    qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10000, reliability=ReliabilityPolicy.RELIABLE)
+    qos = QoSProfile(
+        history=HistoryPolicy.KEEP_LAST, depth=10000, reliability=ReliabilityPolicy.RELIABLE
+    )
     with connected_harness(publish_rate=100.0) as harness:
         arrays = []
-        harness.client.create_subscription(MarkerArray, "markers", arrays.append, qos)
-        assert harness.set_parameters(scene="dzhanibekov")[0].successful
+        harness.client.create_subscription(MarkerArray, 'markers', arrays.append, qos)
+        assert harness.set_parameters(scene='dzhanibekov')[0].successful
         response = harness.reset()
         assert response.success, response.message
         epoch = reset_epoch_ns(response)
-        harness.spin_until(lambda: sum(stamp_ns(a.markers[0].header.stamp) >= epoch for a in arrays) >= 150,
-                           what="150 marker arrays")
+        harness.spin_until(
+            lambda: sum(stamp_ns(a.markers[0].header.stamp) >= epoch for a in arrays) >= 150,
+            what='150 marker arrays',
+        )
     arrays = [a for a in arrays if stamp_ns(a.markers[0].header.stamp) >= epoch]
     k = (np.array([stamp_ns(a.markers[0].header.stamp) for a in arrays]) - epoch) * 100 // 10**9
-    scene = load_scene("dzhanibekov")
-    block = Simulation(scene.propagator(), 100.0, epoch, outputs=scene.outputs).samples(0, int(k.max()) + 1)
-    (rows,) = [rows for output, rows in zip(scene.outputs, block.outputs) if output.name == "markers"]
-    assert {tuple(m.ns for m in a.markers) for a in arrays} == {("body", "angular_velocity", "angular_momentum")}
-    np.testing.assert_array_equal([[a.markers[2].points[1].x, a.markers[2].points[1].y, a.markers[2].points[1].z]
-                                   for a in arrays], rows[k, 10:13])
-    np.testing.assert_array_equal([[a.markers[0].pose.orientation.x, a.markers[0].pose.orientation.y,
-                                    a.markers[0].pose.orientation.z, a.markers[0].pose.orientation.w]
-                                   for a in arrays], rows[k, 0:4])
-    np.testing.assert_array_equal([[a.markers[1].points[1].x, a.markers[1].points[1].y, a.markers[1].points[1].z]
-                                   for a in arrays], rows[k, 7:10])
+    scene = load_scene('dzhanibekov')
+    block = Simulation(scene.propagator(), 100.0, epoch, outputs=scene.outputs).samples(
+        0, int(k.max()) + 1
+    )
+    (rows,) = [
+        rows for output, rows in zip(scene.outputs, block.outputs) if output.name == 'markers'
+    ]
+    assert {tuple(m.ns for m in a.markers) for a in arrays} == {
+        ('body', 'angular_velocity', 'angular_momentum')
+    }
+    np.testing.assert_array_equal(
+        [
+            [a.markers[2].points[1].x, a.markers[2].points[1].y, a.markers[2].points[1].z]
+            for a in arrays
+        ],
+        rows[k, 10:13],
+    )
+    np.testing.assert_array_equal(
+        [
+            [
+                a.markers[0].pose.orientation.x,
+                a.markers[0].pose.orientation.y,
+                a.markers[0].pose.orientation.z,
+                a.markers[0].pose.orientation.w,
+            ]
+            for a in arrays
+        ],
+        rows[k, 0:4],
+    )
+    np.testing.assert_array_equal(
+        [
+            [a.markers[1].points[1].x, a.markers[1].points[1].y, a.markers[1].points[1].z]
+            for a in arrays
+        ],
+        rows[k, 7:10],
+    )

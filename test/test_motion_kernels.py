@@ -1,16 +1,31 @@
-"""The compiled equations of motion and integrators (core/integrators) held to the reference path
-(Dynamics.derivative in Python, scipy's DOP853, numpy's RK4 stages) and to closed forms. The effects'
-physics is checked against independent references in test_effects.py, on both paths."""
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The compiled equations of motion and integrators (core/integrators) held to the reference path
+(Dynamics.derivative in Python, scipy's DOP853, numpy's RK4 stages) and to closed forms. The
+effects' physics is checked against independent references in test_effects.py, on both paths.
+"""
 
 import math
 
-import numpy as np
-import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from scipy.special import ellipj, ellipk
+import numpy as np
+import pytest
 from scipy.spatial.transform import Rotation
-
+from scipy.special import ellipj, ellipk
 from torquefree_ros import load_scene
 from torquefree_ros.core.effects import EFFECTS, MotionEffect, parse_effect
 from torquefree_ros.core.integrators import compiled, motion_kernels
@@ -19,34 +34,49 @@ from torquefree_ros.core.propagators.dynamics import Dynamics
 from torquefree_ros.core.rigid_body import RigidBody
 from torquefree_ros.core.scene import scene_from_mapping
 
-pytestmark = pytest.mark.skipif(not compiled.AVAILABLE, reason="numba is not installed")
+pytestmark = pytest.mark.skipif(not compiled.AVAILABLE, reason='numba is not installed')
 
 EPS = np.finfo(float).eps
 #: one configuration of every motion effect, with a parameter of each kind it has
 EFFECT_ENTRIES = {
-    "external_torque (body)": {"external_torque": {"torque": [1e-3, -2e-3, 3e-3]}},
-    "external_torque (inertial)": {"external_torque": {"torque": [0.02, -0.01, 0.03], "frame": "inertial"}},
-    "external_torque (schedule)": {"external_torque": {"schedule": [{"start": 0.5, "torque": [0.0, 0.1, 0.0]},
-                                                                    {"start": 1.5, "torque": [0.2, 0.0, -0.1]}],
-                                                       "frame": "inertial"}},
-    "gravity_gradient": {"gravity_gradient": {"mean_motion": 0.3, "argument_of_latitude": 0.4}},
-    "damper": {"damper": {"inertia": 0.1, "damping": 0.05, "initial_rate": [0.1, 0.2, 0.3]}},
-    "rotor": {"rotor": {"momentum": 1.5, "axis": [0.3, -1.0, 0.2]}},
-    "torque_command": {"torque_command": {"frame": "inertial"}},
+    'external_torque (body)': {'external_torque': {'torque': [1e-3, -2e-3, 3e-3]}},
+    'external_torque (inertial)': {
+        'external_torque': {'torque': [0.02, -0.01, 0.03], 'frame': 'inertial'}
+    },
+    'external_torque (schedule)': {
+        'external_torque': {
+            'schedule': [
+                {'start': 0.5, 'torque': [0.0, 0.1, 0.0]},
+                {'start': 1.5, 'torque': [0.2, 0.0, -0.1]},
+            ],
+            'frame': 'inertial',
+        }
+    },
+    'gravity_gradient': {'gravity_gradient': {'mean_motion': 0.3, 'argument_of_latitude': 0.4}},
+    'damper': {'damper': {'inertia': 0.1, 'damping': 0.05, 'initial_rate': [0.1, 0.2, 0.3]}},
+    'rotor': {'rotor': {'momentum': 1.5, 'axis': [0.3, -1.0, 0.2]}},
+    'torque_command': {'torque_command': {'frame': 'inertial'}},
 }
 
 
 def _dynamics(entries, inertia=(4.0, 3.0, 2.0, 0.1, -0.2, 0.05)):
     body = RigidBody.from_inertia(list(inertia))
-    effects = [parse_effect(entry, f"effects[{i}]").bound(body.tensor) for i, entry in enumerate(entries)]
+    effects = [
+        parse_effect(entry, f'effects[{i}]').bound(body.tensor) for i, entry in enumerate(entries)
+    ]
     for effect in effects:
-        if getattr(effect, "hold", None) is not None:  # a command in force from the start, so the torque is not zero
-            effect.hold.receive(0, [0.01, -0.02, 0.005], frame_id="")
+        if (
+            getattr(effect, 'hold', None) is not None
+        ):  # a command in force from the start, so the torque is not zero
+            effect.hold.receive(0, [0.01, -0.02, 0.005], frame_id='')
     return Dynamics(body, effects)
 
 
 def test_every_motion_effect_has_a_compiled_form():
-    """A kernel code the kernels read, with as many parameters as its section reads, or a held torque."""
+    """
+    A kernel code the kernels read, with as many parameters as its section reads, or a held
+    torque.
+    """
     motion = [cls for cls in EFFECTS.values() if issubclass(cls, MotionEffect)]
     assert {cls.name for cls in motion} == {next(iter(e)) for e in EFFECT_ENTRIES.values()}
     for label, entry in EFFECT_ENTRIES.items():
@@ -55,7 +85,10 @@ def test_every_motion_effect_has_a_compiled_form():
             torque, inertial = effect.held_torque(0.0)
             assert np.shape(torque) == (3,) and isinstance(inertial, bool), label
         else:
-            assert len(effect.kernel_parameters()) == motion_kernels.PARAMETER_COUNTS[effect.kernel_code], label
+            assert (
+                len(effect.kernel_parameters())
+                == motion_kernels.PARAMETER_COUNTS[effect.kernel_code]
+            ), label
 
 
 def _random_states(rng, count, state_size):
@@ -65,10 +98,13 @@ def _random_states(rng, count, state_size):
     return np.hstack([omega, q, x])
 
 
-@pytest.mark.parametrize("label", [*EFFECT_ENTRIES, "all at once"])
+@pytest.mark.parametrize('label', [*EFFECT_ENTRIES, 'all at once'])
 def test_the_compiled_right_hand_side_equals_the_python_one_on_random_states(label):
-    """Same formulas, other order of a few sums: within 16 eps of the largest term, per component."""
-    entries = list(EFFECT_ENTRIES.values()) if label == "all at once" else [EFFECT_ENTRIES[label]]
+    """
+    Same formulas, other order of a few sums: within 16 eps of the largest term, per
+    component.
+    """
+    entries = list(EFFECT_ENTRIES.values()) if label == 'all at once' else [EFFECT_ENTRIES[label]]
     dynamics = _dynamics(entries)
     rng = np.random.default_rng(sum(map(ord, label)))
     states = _random_states(rng, 200, dynamics.state_size)
@@ -76,15 +112,27 @@ def test_the_compiled_right_hand_side_equals_the_python_one_on_random_states(lab
     expected = np.array([dynamics.derivative(t, y, t) for t, y in zip(times, states)])
     got = compiled.derivatives(dynamics, times, states)
     # the terms' size: |I| |w|^2 and every torque (|I^-1| ~ 1 here), the quaternion rate |w|
-    size = 10.0 * (1.0 + np.abs(states[:, :3]).max(axis=1, keepdims=True) ** 2 + np.abs(states).max(axis=1, keepdims=True))
+    size = 10.0 * (
+        1.0
+        + np.abs(states[:, :3]).max(axis=1, keepdims=True) ** 2
+        + np.abs(states).max(axis=1, keepdims=True)
+    )
     assert np.all(np.abs(got - expected) <= 16 * EPS * size), np.abs(got - expected).max()
 
 
 @settings(max_examples=60, deadline=None)
-@given(moments=st.tuples(*[st.floats(0.1, 100.0)] * 3), rate=st.floats(1e-3, 20.0),
-       n=st.floats(1e-4, 2.0), J=st.floats(1e-3, 1.0), c=st.floats(1e-3, 1.0), h=st.floats(-10.0, 10.0).filter(lambda v: v == 0.0 or abs(v) > 1e-6),
-       seed=st.integers(0, 2**32 - 1))
-def test_the_compiled_right_hand_side_holds_for_any_body_and_parameters(moments, rate, n, J, c, h, seed):
+@given(
+    moments=st.tuples(*[st.floats(0.1, 100.0)] * 3),
+    rate=st.floats(1e-3, 20.0),
+    n=st.floats(1e-4, 2.0),
+    J=st.floats(1e-3, 1.0),
+    c=st.floats(1e-3, 1.0),
+    h=st.floats(-10.0, 10.0).filter(lambda v: v == 0.0 or abs(v) > 1e-6),
+    seed=st.integers(0, 2**32 - 1),
+)
+def test_the_compiled_right_hand_side_holds_for_any_body_and_parameters(
+    moments, rate, n, J, c, h, seed
+):
     """Hypothesis over bodies (any three moments and a tilt of the axes) and effect parameters."""
     a, b, cc = sorted(moments)
     if a + b < cc:  # not a rigid body
@@ -94,9 +142,12 @@ def test_the_compiled_right_hand_side_holds_for_any_body_and_parameters(moments,
     tensor = axes @ np.diag(moments) @ axes.T
     tensor = 0.5 * (tensor + tensor.T)
     body = RigidBody.from_inertia(tensor.tolist())
-    entries = [{"gravity_gradient": {"mean_motion": n}}, {"damper": {"inertia": J, "damping": c}},
-               {"rotor": {"momentum": h, "axis": rng.normal(size=3).tolist()}}]
-    effects = [parse_effect(e, f"effects[{i}]").bound(body.tensor) for i, e in enumerate(entries)]
+    entries = [
+        {'gravity_gradient': {'mean_motion': n}},
+        {'damper': {'inertia': J, 'damping': c}},
+        {'rotor': {'momentum': h, 'axis': rng.normal(size=3).tolist()}},
+    ]
+    effects = [parse_effect(e, f'effects[{i}]').bound(body.tensor) for i, e in enumerate(entries)]
     dynamics = Dynamics(body, effects)
     states = _random_states(rng, 8, dynamics.state_size)
     states[:, :3] *= rate / np.linalg.norm(states[:, :3], axis=1, keepdims=True)
@@ -104,22 +155,34 @@ def test_the_compiled_right_hand_side_holds_for_any_body_and_parameters(moments,
     expected = np.array([dynamics.derivative(t, y, t) for t, y in zip(times, states)])
     got = compiled.derivatives(dynamics, times, states)
     # terms up to |I| |w|^2 (+ 3 n^2 |I|, c |nu - w|, |h| |w|), divided by the smallest moment
-    scale = max(moments) * (rate ** 2 + 3 * n * n + 1.0) + c * (rate + 10.0) + abs(h) * rate + 10.0
+    scale = max(moments) * (rate**2 + 3 * n * n + 1.0) + c * (rate + 10.0) + abs(h) * rate + 10.0
     size = scale / min(moments) + c / J * (rate + 10.0) + rate * 10.0
     assert np.all(np.abs(got - expected) <= 64 * EPS * size)
 
 
 def test_the_stage_sums_leave_out_only_the_tableau_s_zeros():
-    """The compiled stage sums skip the coefficients that are zero in scipy's tableau, each stage's sum
-    unrolled in the order of j: on random stages they equal the whole sum in that order bit for bit."""
+    """
+    The compiled stage sums skip the coefficients that are zero in scipy's tableau, each stage's
+    sum unrolled in the order of j: on random stages they equal the whole sum in that order bit for
+    bit.
+    """
     motion_kernels.compile_kernels()
     rng = np.random.default_rng(27)
     n = 10
-    K = rng.normal(size=(motion_kernels.STAGES_EXTENDED, n)) * 10.0 ** rng.uniform(-3, 3, size=(1, n))
+    K = rng.normal(size=(motion_kernels.STAGES_EXTENDED, n)) * 10.0 ** rng.uniform(
+        -3, 3, size=(1, n)
+    )
     y, h = rng.normal(size=n), 0.37
     work = np.zeros((3, n))
-    for s in [*range(1, motion_kernels.STAGES), *range(motion_kernels.STAGES + 1, motion_kernels.STAGES_EXTENDED)]:
-        stage_state = motion_kernels._stage_state if s < motion_kernels.STAGES else motion_kernels._extra_stage_state
+    for s in [
+        *range(1, motion_kernels.STAGES),
+        *range(motion_kernels.STAGES + 1, motion_kernels.STAGES_EXTENDED),
+    ]:
+        stage_state = (
+            motion_kernels._stage_state
+            if s < motion_kernels.STAGES
+            else motion_kernels._extra_stage_state
+        )
         stage_state(K, compiled._A, s, y, h, work)
         expected = np.empty(n)
         for i in range(n):
@@ -127,74 +190,100 @@ def test_the_stage_sums_leave_out_only_the_tableau_s_zeros():
             for j in range(s):
                 total += K[j, i] * compiled._A[s, j]
             expected[i] = y[i] + total * h
-        np.testing.assert_array_equal(work[motion_kernels.STAGE], expected, err_msg=f"stage {s}")
+        np.testing.assert_array_equal(work[motion_kernels.STAGE], expected, err_msg=f'stage {s}')
 
 
 def test_the_kernels_are_compiled_without_numba_s_runtime():
-    """No kernel allocates. With numba's runtime, each array handed to an inlined helper or sliced was an
-    atomic increment and decrement, two calls that spill the registers: 2.5 times the time of a step."""
+    """
+    No kernel allocates. With numba's runtime, each array handed to an inlined helper or sliced
+    was an atomic increment and decrement, two calls that spill the registers: 2.5 times the time
+    of a step.
+    """
     motion_kernels.compile_kernels()
-    kernels = [name for name, value in vars(motion_kernels).items() if hasattr(value, "targetoptions")]
-    assert {"_rhs", "derivative", "dop853_outputs", "dop853_outputs_batch", "fixed_step"} <= set(kernels)
+    kernels = [
+        name for name, value in vars(motion_kernels).items() if hasattr(value, 'targetoptions')
+    ]
+    assert {'_rhs', 'derivative', 'dop853_outputs', 'dop853_outputs_batch', 'fixed_step'} <= set(
+        kernels
+    )
     for name in kernels:
-        assert getattr(motion_kernels, name).targetoptions.get("_nrt") is False, name
+        assert getattr(motion_kernels, name).targetoptions.get('_nrt') is False, name
 
 
-SCENES_WITH_EFFECTS = ["explorer1", "gyrostat", "gravity_gradient"]
+SCENES_WITH_EFFECTS = ['explorer1', 'gyrostat', 'gravity_gradient']
 
 
-@pytest.mark.parametrize("name", SCENES_WITH_EFFECTS)
+@pytest.mark.parametrize('name', SCENES_WITH_EFFECTS)
 def test_compiled_dop853_follows_scipy_dop853_at_the_same_tolerances(name, monkeypatch):
-    """Both paths at the scene's accuracy take the same steps (but for rounding in a few sums), so
-    their errors against a tight reference agree to 1 % and they differ by far less than either's error:
-    rtol and atol mean what they mean in scipy."""
+    """
+    Both paths at the scene's accuracy take the same steps (but for rounding in a few sums), so
+    their errors against a tight reference agree to 1 % and they differ by far less than either's
+    error: rtol and atol mean what they mean in scipy.
+    """
     scene = load_scene(name)
-    duration = {"explorer1": 200.0, "gyrostat": 60.0, "gravity_gradient": 3000.0}[name]
+    duration = {'explorer1': 200.0, 'gyrostat': 60.0, 'gravity_gradient': 3000.0}[name]
     times = np.linspace(0.0, duration, 401)
     runs = {}
-    for path, enabled in (("compiled", True), ("reference", False)):
-        monkeypatch.setattr(compiled, "ENABLED", enabled)
+    for path, enabled in (('compiled', True), ('reference', False)):
+        monkeypatch.setattr(compiled, 'ENABLED', enabled)
         propagator = scene.propagator()
         assert propagator.compiled is enabled
         runs[path] = propagator.states(times)
-    monkeypatch.setattr(compiled, "ENABLED", True)
-    tight = scene.propagator("dop853", rtol=1e-13, atol=1e-15).states(times)
+    monkeypatch.setattr(compiled, 'ENABLED', True)
+    tight = scene.propagator('dop853', rtol=1e-13, atol=1e-15).states(times)
     floor = 1e-13 * (1.0 + np.abs(tight[0]).max() * duration)  # the tight run's own error
     for part in (0, 1):  # rates, attitude
         errors = {path: np.abs(run[part] - tight[part]).max() for path, run in runs.items()}
-        assert abs(errors["compiled"] - errors["reference"]) <= 0.01 * errors["reference"] + floor, errors
-        assert np.abs(runs["compiled"][part] - runs["reference"][part]).max() <= 0.01 * errors["reference"] + floor
+        assert (
+            abs(errors['compiled'] - errors['reference']) <= 0.01 * errors['reference'] + floor
+        ), errors
+        assert (
+            np.abs(runs['compiled'][part] - runs['reference'][part]).max()
+            <= 0.01 * errors['reference'] + floor
+        )
 
 
-@pytest.mark.parametrize("method", ["rk4", "lie_rk4"])
-# (torque_command: its commands come through a Simulation's hold; test_torque_command.py runs both paths)
-@pytest.mark.parametrize("label", [label for label in EFFECT_ENTRIES if label != "torque_command"])
+@pytest.mark.parametrize('method', ['rk4', 'lie_rk4'])
+# (torque_command: its commands come through a Simulation's hold; test_torque_command.py runs both
+# paths)
+@pytest.mark.parametrize('label', [label for label in EFFECT_ENTRIES if label != 'torque_command'])
 def test_compiled_fixed_step_methods_repeat_the_reference_steps(method, label, monkeypatch):
     """The same stages in the same order: equal to rounding after 300 steps with breakpoints."""
     entry = EFFECT_ENTRIES[label]
-    s = scene_from_mapping({"body": {"inertia": [4.0, 3.0, 2.0, 0.1, -0.2, 0.05]},
-                            "initial": {"angular_velocity": [0.3, -0.7, 1.1],
-                                        "orientation": Rotation.from_rotvec([0.3, 0.2, -0.1]).as_quat().tolist()},
-                            "effects": [entry]})
+    s = scene_from_mapping(
+        {
+            'body': {'inertia': [4.0, 3.0, 2.0, 0.1, -0.2, 0.05]},
+            'initial': {
+                'angular_velocity': [0.3, -0.7, 1.1],
+                'orientation': Rotation.from_rotvec([0.3, 0.2, -0.1]).as_quat().tolist(),
+            },
+            'effects': [entry],
+        }
+    )
     times = np.linspace(0.0, 3.0, 31) + 0.0037  # off the grid: partial steps too
     results = []
     for enabled in (True, False):
-        monkeypatch.setattr(compiled, "ENABLED", enabled)
+        monkeypatch.setattr(compiled, 'ENABLED', enabled)
         results.append(s.propagator(method, step=0.01).states(times))
     for got, expected in zip(results[0], results[1]):
-        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-13 * (1 + np.abs(expected).max(initial=0.0)))
+        np.testing.assert_allclose(
+            got, expected, rtol=0, atol=1e-13 * (1 + np.abs(expected).max(initial=0.0))
+        )
 
 
-@pytest.mark.parametrize("method", ["dop853", "rk4", "lie_rk4"])
+@pytest.mark.parametrize('method', ['dop853', 'rk4', 'lie_rk4'])
 def test_samples_do_not_depend_on_how_the_times_are_asked(method):
-    """All at once, in blocks, one by one, or going back (a restart): the same samples bit for bit."""
-    s = load_scene("explorer1")
-    options = {"step": 0.01} if method != "dop853" else {}
+    """
+    All at once, in blocks, one by one, or going back (a restart): the same samples bit for
+    bit.
+    """
+    s = load_scene('explorer1')
+    options = {'step': 0.01} if method != 'dop853' else {}
     times = np.linspace(0.0, 20.0, 201)
     whole = s.propagator(method, **options).states(times)
     p = s.propagator(method, **options)
     assert p.compiled
-    blocks = [p.states(times[i:i + 17]) for i in range(0, times.size, 17)]
+    blocks = [p.states(times[i: i + 17]) for i in range(0, times.size, 17)]
     for got, expected in zip(blocks and [np.concatenate(parts) for parts in zip(*blocks)], whole):
         np.testing.assert_array_equal(got, expected)
     again = p.states(times[50:60])  # before the last step: from the start again
@@ -205,30 +294,45 @@ def test_samples_do_not_depend_on_how_the_times_are_asked(method):
 def test_a_sphere_under_a_constant_body_torque_spins_up_in_closed_form():
     """About a principal axis: w(t) = w0 + tau t / I, the angle w0 t + tau t^2 / (2 I)."""
     I, w0, tau = 2.5, 0.4, 0.03
-    s = scene_from_mapping({"body": {"inertia": [I, I, I]}, "initial": {"angular_velocity": [0.0, 0.0, w0]},
-                            "effects": [{"external_torque": {"torque": [0.0, 0.0, tau]}}], "accuracy": 1e-12})
+    s = scene_from_mapping(
+        {
+            'body': {'inertia': [I, I, I]},
+            'initial': {'angular_velocity': [0.0, 0.0, w0]},
+            'effects': [{'external_torque': {'torque': [0.0, 0.0, tau]}}],
+            'accuracy': 1e-12,
+        }
+    )
     p = s.propagator()
     assert p.compiled
     times = np.linspace(0.0, 50.0, 101)
     omega, q = p(times)
     np.testing.assert_allclose(omega[:, 2], w0 + tau * times / I, rtol=0, atol=1e-12)
-    angle = w0 * times + tau * times ** 2 / (2 * I)
+    angle = w0 * times + tau * times**2 / (2 * I)
     expected = np.column_stack([np.zeros((times.size, 2)), np.sin(angle / 2), np.cos(angle / 2)])
     # the angle reaches ~45 rad; rtol 1e-12 per step over ~1000 steps
     np.testing.assert_allclose(q, expected, rtol=0, atol=1e-9)
 
 
 def test_gravity_gradient_pitch_follows_the_pendulum_in_closed_form():
-    """A planar pitch motion: the angle a between body x and the local vertical obeys
+    """
+    A planar pitch motion: the angle a between body x and the local vertical obeys
     C a'' = -3 n^2 (B - A) sin a cos a, a pendulum in 2a: sin a = sin a0 sn(K - w t | sin^2 a0),
-    w = n sqrt(3 (B - A) / C), at finite amplitude (not the small-angle frequency)."""
+    w = n sqrt(3 (B - A) / C), at finite amplitude (not the small-angle frequency).
+    """
     n, (A, B, C) = 0.05, (1.0, 3.0, 3.5)
     a0 = 0.6
     # orbit in the x-y plane; the body turned by -a0 about z, spinning with the orbit (a' = 0)
-    s = scene_from_mapping({"body": {"inertia": [A, B, C]},
-                            "initial": {"angular_velocity": [0.0, 0.0, n],
-                                        "orientation": [0.0, 0.0, math.sin(-a0 / 2), math.cos(-a0 / 2)]},
-                            "effects": [{"gravity_gradient": {"mean_motion": n}}], "accuracy": 1e-12})
+    s = scene_from_mapping(
+        {
+            'body': {'inertia': [A, B, C]},
+            'initial': {
+                'angular_velocity': [0.0, 0.0, n],
+                'orientation': [0.0, 0.0, math.sin(-a0 / 2), math.cos(-a0 / 2)],
+            },
+            'effects': [{'gravity_gradient': {'mean_motion': n}}],
+            'accuracy': 1e-12,
+        }
+    )
     p = s.propagator()
     assert p.compiled
     times = np.linspace(0.0, 600.0, 601)
@@ -245,20 +349,29 @@ def test_gravity_gradient_pitch_follows_the_pendulum_in_closed_form():
 
 
 def test_the_step_budget_and_stiffness_are_refused_as_on_the_reference_path(monkeypatch):
-    s = load_scene("explorer1")
+    s = load_scene('explorer1')
     messages = []
     for enabled in (True, False):
-        monkeypatch.setattr(compiled, "ENABLED", enabled)
+        monkeypatch.setattr(compiled, 'ENABLED', enabled)
         p = s.propagator()
         p.max_steps_per_sample = 3
         with pytest.raises(StepBudgetExceeded) as error:
             p(np.array([0.0, 100.0]))
-        messages.append(str(error.value).split("(the step")[0])
+        messages.append(str(error.value).split('(the step')[0])
     assert messages[0] == messages[1]
-    stiff = scene_from_mapping({"body": {"inertia": [1.0, 10.0, 10.5]}, "initial": {"angular_velocity": [2.0, 0.05, 0.0]},
-                                "effects": [{"damper": {"inertia": 0.1, "damping": 1e9}}]})
+    stiff = scene_from_mapping(
+        {
+            'body': {'inertia': [1.0, 10.0, 10.5]},
+            'initial': {'angular_velocity': [2.0, 0.05, 0.0]},
+            'effects': [{'damper': {'inertia': 0.1, 'damping': 1e9}}],
+        }
+    )
     for enabled in (True, False):
-        monkeypatch.setattr(compiled, "ENABLED", enabled)
-        # numpy's default error handling (scipy's steps overflow on the way, as they would for a user)
-        with np.errstate(all="ignore"), pytest.raises(RuntimeError, match="too stiff for an explicit integrator"):
+        monkeypatch.setattr(compiled, 'ENABLED', enabled)
+        # numpy's default error handling (scipy's steps overflow on the way, as they would for a
+        # user)
+        with (
+            np.errstate(all='ignore'),
+            pytest.raises(RuntimeError, match='too stiff for an explicit integrator'),
+        ):
             stiff.propagator()(np.array([0.0, 10.0]))

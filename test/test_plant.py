@@ -1,37 +1,65 @@
-"""The plant (torquefree_ros.Plant): stepped in process, it follows the node's command rules bit for bit
-(the same hold, the same integrator), a batch body is bit for bit the body alone, a rate-damping loop
-meets its sampled-data closed form, and a refused torque changes nothing."""
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The plant (torquefree_ros.Plant): stepped in process, it follows the node's command rules bit
+for bit (the same hold, the same integrator), a batch body is bit for bit the body alone, a
+rate-damping loop meets its sampled-data closed form, and a refused torque changes nothing.
+"""
 
 import numpy as np
 import pytest
-
-from torquefree_ros import Plant, load_scene
+from torquefree_ros import load_scene, Plant
 from torquefree_ros.core.scene import scene_from_mapping
 from torquefree_ros.core.simulation import Simulation
 
 RATE = 10.0
 
 
-def _plant_scene(inertia=(0.4, 4.6, 4.95), omega=(6.0, 0.05, 0.0), frame="body", damper=True, **command):
-    effects = [{"torque_command": {"frame": frame, "timeout": 0.35, "max_torque": 0.5, **command}}]
+def _plant_scene(
+    inertia=(0.4, 4.6, 4.95), omega=(6.0, 0.05, 0.0), frame='body', damper=True, **command
+):
+    effects = [{'torque_command': {'frame': frame, 'timeout': 0.35, 'max_torque': 0.5, **command}}]
     if damper:
-        effects.insert(0, {"damper": {"inertia": 0.05, "damping": 0.01}})
-    return scene_from_mapping({"body": {"inertia": list(inertia)}, "initial": {"angular_velocity": list(omega)},
-                               "effects": effects, "accuracy": 1e-10})
+        effects.insert(0, {'damper': {'inertia': 0.05, 'damping': 0.01}})
+    return scene_from_mapping(
+        {
+            'body': {'inertia': list(inertia)},
+            'initial': {'angular_velocity': list(omega)},
+            'effects': effects,
+            'accuracy': 1e-10,
+        }
+    )
 
 
 def _commands(count, seed=0):
     rng = np.random.default_rng(seed)
     torques = 0.1 * rng.standard_normal((count, 3))
-    torques[5:9] = np.nan  # no new command for a while: the last one holds until its timeout, then zero
+    torques[5:9] = (
+        np.nan
+    )  # no new command for a while: the last one holds until its timeout, then zero
     return torques
 
 
 def _assert_steps_as_the_node(scene, count):
-    """The node's path without DDS: each command offered to the run's hold at its sample, the interval
-    sealed, the sample computed by the Simulation; the plant gives the same samples, bit for bit."""
+    """
+    The node's path without DDS: each command offered to the run's hold at its sample, the
+    interval sealed, the sample computed by the Simulation; the plant gives the same samples, bit
+    for bit.
+    """
     simulation = Simulation(scene.propagator(), RATE)
-    (_, hold), = simulation.command_holds
+    ((_, hold),) = simulation.command_holds
     plant = Plant(scene, RATE)
     for k, torque in enumerate(_commands(count)):
         given = None if np.isnan(torque[0]) else torque
@@ -46,15 +74,15 @@ def _assert_steps_as_the_node(scene, count):
         np.testing.assert_array_equal(state.internal, block.internal[0])
 
 
-@pytest.mark.parametrize("frame", ["body", "inertial"])
+@pytest.mark.parametrize('frame', ['body', 'inertial'])
 def test_stepping_follows_the_node_rules_bit_for_bit(frame):
     _assert_steps_as_the_node(_plant_scene(frame=frame), 20)
 
 
 def test_running_without_commands_is_the_scene_propagator_bit_for_bit():
-    plant = Plant("explorer1", 1.0)
+    plant = Plant('explorer1', 1.0)
     run = plant.run(60.0)
-    omega, q, x = load_scene("explorer1").propagator().states(np.arange(1, 61) / 1.0)
+    omega, q, x = load_scene('explorer1').propagator().states(np.arange(1, 61) / 1.0)
     np.testing.assert_array_equal(run.omega_B, omega)
     np.testing.assert_array_equal(run.q_NB, q)
     np.testing.assert_array_equal(run.internal, x)
@@ -63,8 +91,13 @@ def test_running_without_commands_is_the_scene_propagator_bit_for_bit():
 
 def test_a_batch_body_is_bit_for_bit_the_body_alone():
     rng = np.random.default_rng(7)
-    scenes = [_plant_scene(inertia=(2.0, 4.6, 4.95) * (1 + 0.02 * rng.standard_normal(3)),
-                           omega=(6.0, 0.05, 0.0) + 0.1 * rng.standard_normal(3)) for _ in range(12)]
+    scenes = [
+        _plant_scene(
+            inertia=(2.0, 4.6, 4.95) * (1 + 0.02 * rng.standard_normal(3)),
+            omega=(6.0, 0.05, 0.0) + 0.1 * rng.standard_normal(3),
+        )
+        for _ in range(12)
+    ]
     batch = Plant(scenes, RATE)
     alone = [Plant(scene, RATE) for scene in scenes]
     torques = 0.05 * rng.standard_normal((15, 12, 3))
@@ -79,12 +112,20 @@ def test_a_batch_body_is_bit_for_bit_the_body_alone():
 
 
 def test_a_rate_damping_loop_on_a_sphere_meets_its_sampled_data_closed_form():
-    """tau_k = -K w_k held over each period h: w' = tau / J is constant on the interval, so
+    """
+    tau_k = -K w_k held over each period h: w' = tau / J is constant on the interval, so
     w_k+1 = (1 - K h / J) w_k exactly (DOP853 integrates a linear w to rounding), the continuous
-    w0 exp(-K t / J) in the limit h -> 0."""
+    w0 exp(-K t / J) in the limit h -> 0.
+    """
     J, K = 2.0, 0.5
-    scene = scene_from_mapping({"body": {"inertia": [J, J, J]}, "initial": {"angular_velocity": [0.4, -0.3, 0.5]},
-                                "effects": [{"torque_command": {"max_torque": 10.0}}], "accuracy": 1e-12})
+    scene = scene_from_mapping(
+        {
+            'body': {'inertia': [J, J, J]},
+            'initial': {'angular_velocity': [0.4, -0.3, 0.5]},
+            'effects': [{'torque_command': {'max_torque': 10.0}}],
+            'accuracy': 1e-12,
+        }
+    )
     plant = Plant(scene, RATE)
     omega = [plant.state.omega_B]
     for _ in range(100):
@@ -97,12 +138,15 @@ def test_a_rate_damping_loop_on_a_sphere_meets_its_sampled_data_closed_form():
     assert np.abs(np.array(omega) - continuous).max() < 0.5 * (K / (RATE * J)) ** 2 * 100 * 0.5
 
 
-@pytest.mark.parametrize("torque, reason", [
-    ([np.nan, 0.0, 0.0], "torque: not finite"),
-    ([0.0, 0.0], r"torque: expected shape \(3,\)"),
-    ([0.6, 0.0, 0.0], "torque: a component exceeds max_torque 0.5 N m"),
-    ("abc", "torque: expected numbers of shape"),
-])
+@pytest.mark.parametrize(
+    'torque, reason',
+    [
+        ([np.nan, 0.0, 0.0], 'torque: not finite'),
+        ([0.0, 0.0], r'torque: expected shape \(3,\)'),
+        ([0.6, 0.0, 0.0], 'torque: a component exceeds max_torque 0.5 N m'),
+        ('abc', 'torque: expected numbers of shape'),
+    ],
+)
 def test_a_refused_torque_raises_and_changes_nothing(torque, reason):
     plant = Plant(_plant_scene(), RATE)
     plant.step([0.1, 0.0, 0.0])
@@ -119,16 +163,19 @@ def test_a_refused_torque_raises_and_changes_nothing(torque, reason):
 
 
 def test_a_scene_without_torque_command_takes_no_torque():
-    plant = Plant("explorer1", 1.0)
+    plant = Plant('explorer1', 1.0)
     assert not plant.takes_torque
-    with pytest.raises(ValueError, match="the scene takes no torque"):
+    with pytest.raises(ValueError, match='the scene takes no torque'):
         plant.step([0.0, 0.0, 0.01])
     assert plant.k == 0
 
 
 def test_a_batch_of_different_kinds_is_refused_with_the_reason():
-    with pytest.raises(ValueError, match=r"scene\[1\]: its motion effects \(torque_command\) differ from scene\[0\]'s "
-                                         r"\(damper, torque_command\)"):
+    with pytest.raises(
+        ValueError,
+        match=r"scene\[1\]: its motion effects \(torque_command\) differ from scene\[0\]'s "
+        r'\(damper, torque_command\)',
+    ):
         Plant([_plant_scene(), _plant_scene(damper=False)], RATE)
 
 
@@ -141,23 +188,38 @@ def test_reset_starts_again_from_sample_0():
     np.testing.assert_array_equal(first, again)
 
 
-def _schedule_scene(frame="inertial", shift=0.0, commanded=False, starts=(0.35, 1.0, 1.7)):
-    """A damper body under a torque schedule (its switches between samples and on one, shift moves them),
-    with a torque_command too when ``commanded``."""
-    schedule = [{"start": 0.0, "torque": [0.01, 0.0, -0.02]}]
-    schedule += [{"start": start + shift, "torque": [0.02 * (-1) ** i, 0.01 * i, 0.005]} for i, start in enumerate(starts)]
-    effects = [{"damper": {"inertia": 0.05, "damping": 0.01}},
-               {"external_torque": {"schedule": schedule, "frame": frame}}]
+def _schedule_scene(frame='inertial', shift=0.0, commanded=False, starts=(0.35, 1.0, 1.7)):
+    """
+    A damper body under a torque schedule (its switches between samples and on one, shift moves
+    them), with a torque_command too when ``commanded``.
+    """
+    schedule = [{'start': 0.0, 'torque': [0.01, 0.0, -0.02]}]
+    schedule += [
+        {'start': start + shift, 'torque': [0.02 * (-1) ** i, 0.01 * i, 0.005]}
+        for i, start in enumerate(starts)
+    ]
+    effects = [
+        {'damper': {'inertia': 0.05, 'damping': 0.01}},
+        {'external_torque': {'schedule': schedule, 'frame': frame}},
+    ]
     if commanded:
-        effects.append({"torque_command": {"frame": "body", "timeout": 0.35, "max_torque": 0.5}})
-    return scene_from_mapping({"body": {"inertia": [0.4, 4.6, 4.95]}, "initial": {"angular_velocity": [6.0, 0.05, 0.0]},
-                               "effects": effects, "accuracy": 1e-10})
+        effects.append({'torque_command': {'frame': 'body', 'timeout': 0.35, 'max_torque': 0.5}})
+    return scene_from_mapping(
+        {
+            'body': {'inertia': [0.4, 4.6, 4.95]},
+            'initial': {'angular_velocity': [6.0, 0.05, 0.0]},
+            'effects': effects,
+            'accuracy': 1e-10,
+        }
+    )
 
 
-@pytest.mark.parametrize("frame", ["inertial", "body"])
+@pytest.mark.parametrize('frame', ['inertial', 'body'])
 def test_a_torque_schedule_runs_bit_for_bit_as_the_scene_propagator(frame):
     scene = _schedule_scene(frame)
-    run = Plant(scene, RATE).run(2.5)  # the switches at 0.35 and 1.7 fall between samples, 1.0 on one
+    run = Plant(scene, RATE).run(
+        2.5
+    )  # the switches at 0.35 and 1.7 fall between samples, 1.0 on one
     omega, q, x = scene.propagator().states(np.arange(1, 26) / RATE)
     np.testing.assert_array_equal(run.omega_B, omega)
     np.testing.assert_array_equal(run.q_NB, q)
@@ -172,7 +234,9 @@ def test_a_schedule_and_commands_step_as_the_node_rules_bit_for_bit():
 
 
 def test_a_batch_of_bodies_with_their_own_schedules_is_each_body_alone():
-    scenes = [_schedule_scene(shift=0.013 * i, starts=(0.35, 1.0, 1.7)[: 1 + i % 3]) for i in range(6)]
+    scenes = [
+        _schedule_scene(shift=0.013 * i, starts=(0.35, 1.0, 1.7)[: 1 + i % 3]) for i in range(6)
+    ]
     batch = Plant(scenes, RATE).run(2.5)
     for b, scene in enumerate(scenes):
         alone = Plant(scene, RATE).run(2.5)

@@ -1,10 +1,23 @@
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Inertia input and validation, invariants, the seed's Duffing analog, regimes and stability."""
 
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
-
-from torquefree_ros import RigidBody, propagate
+from torquefree_ros import propagate, RigidBody
 
 
 def rotated_tensor(moments, rotation):
@@ -18,11 +31,11 @@ def test_principal_moments_keep_the_body_frame_exactly():
     assert np.array_equal(body.moments, [3.0, 1.0, 2.0])
 
 
-@pytest.mark.parametrize("form", ["six", "matrix"])
+@pytest.mark.parametrize('form', ['six', 'matrix'])
 def test_full_tensor_is_diagonalised_by_a_proper_rotation(form):
     rotation = Rotation.from_rotvec([0.3, -1.1, 0.7])
     T = rotated_tensor([1.0, 2.0, 2.5], rotation)
-    inertia = T if form == "matrix" else [T[0, 0], T[1, 1], T[2, 2], T[0, 1], T[0, 2], T[1, 2]]
+    inertia = T if form == 'matrix' else [T[0, 0], T[1, 1], T[2, 2], T[0, 1], T[0, 2], T[1, 2]]
     body = RigidBody.from_inertia(inertia)
     E = body.principal_axes
     assert np.linalg.det(E) == pytest.approx(1.0, abs=1e-14)
@@ -37,34 +50,38 @@ def test_six_element_order_is_xx_yy_zz_xy_xz_yz():
 
 
 def test_flat_plate_on_the_triangle_bound_is_accepted():
-    """A flat plate's moments satisfy I3 = I1 + I2 exactly: the limit of a rigid body, not beyond it."""
+    """
+    A flat plate's moments satisfy I3 = I1 + I2 exactly: the limit of a rigid body, not beyond
+    it.
+    """
     moments = [1.5, 2.5, 4.0]
     assert moments[2] == moments[0] + moments[1]  # on the bound, exactly in float64
     body = RigidBody.from_inertia(moments)
     np.testing.assert_array_equal(body.moments, moments)
     np.testing.assert_array_equal(body.principal_axes, np.eye(3))
-    # the bound itself, not a loose one: 1e-6 beyond it (far above its rounding allowance) is refused
-    with pytest.raises(ValueError, match=r"^inertia: .*triangle inequality"):
+    # the bound itself, not a loose one: 1e-6 beyond it (far above its rounding allowance) is
+    # refused
+    with pytest.raises(ValueError, match=r'^inertia: .*triangle inequality'):
         RigidBody.from_inertia([1.5, 2.5, 4.0 * (1.0 + 1e-6)])
 
 
 @pytest.mark.parametrize(
-    "inertia, reason",
+    'inertia, reason',
     [
-        ([1.0, float("nan"), 2.0], "finite"),
-        ([1.0, float("inf"), 2.0], "finite"),
-        ([1.0, -2.0, 2.0], "positive"),
-        ([0.0, 1.0, 1.0], "positive"),
-        ([1.0, 2.0, 3.1], "triangle inequality"),
-        ([1.0, 2.0], "3 or 6 numbers"),
-        ([1.0, 2.0, 3.0, 4.0], "3 or 6 numbers"),
-        ([[1.0, 0.5, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.5]], "symmetric"),
-        ([1.0, 1.0, 1.0, 2.0, 0.0, 0.0], "positive"),  # indefinite tensor
-        ("heavy", "list of numbers"),
+        ([1.0, float('nan'), 2.0], 'finite'),
+        ([1.0, float('inf'), 2.0], 'finite'),
+        ([1.0, -2.0, 2.0], 'positive'),
+        ([0.0, 1.0, 1.0], 'positive'),
+        ([1.0, 2.0, 3.1], 'triangle inequality'),
+        ([1.0, 2.0], '3 or 6 numbers'),
+        ([1.0, 2.0, 3.0, 4.0], '3 or 6 numbers'),
+        ([[1.0, 0.5, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.5]], 'symmetric'),
+        ([1.0, 1.0, 1.0, 2.0, 0.0, 0.0], 'positive'),  # indefinite tensor
+        ('heavy', 'list of numbers'),
     ],
 )
 def test_bad_inertia_is_refused_naming_the_argument_and_reason(inertia, reason):
-    with pytest.raises(ValueError, match=rf"^inertia: .*{reason}"):
+    with pytest.raises(ValueError, match=rf'^inertia: .*{reason}'):
         RigidBody.from_inertia(inertia)
 
 
@@ -87,12 +104,18 @@ def test_momentum_energy_gaps_do_not_cancel_next_to_the_separatrix():
 
 
 def _five_point_second_derivative(f, t, h):
-    return (-f(t + 2 * h) + 16 * f(t + h) - 30 * f(t) + 16 * f(t - h) - f(t - 2 * h)) / (12 * h * h)
+    return (-f(t + 2 * h) + 16 * f(t + h) - 30 * f(t) + 16 * f(t - h) - f(t - 2 * h)) / (
+        12 * h * h
+    )
 
 
 @pytest.mark.parametrize(
-    "inertia, omega",
-    [([1.0, 2.0, 3.0], [0.3, 0.2, 1.0]), ([1.0, 2.0, 3.0], [1.0, 0.3, 0.2]), ([3.0, 1.0, 2.5], [0.4, 0.9, -0.3])],
+    'inertia, omega',
+    [
+        ([1.0, 2.0, 3.0], [0.3, 0.2, 1.0]),
+        ([1.0, 2.0, 3.0], [1.0, 0.3, 0.2]),
+        ([3.0, 1.0, 2.5], [0.4, 0.9, -0.3]),
+    ],
 )
 def test_duffing_analog_holds_along_trajectories(inertia, omega):
     """Seed 000: w_i'' + A_i w_i + B_i w_i^3 = 0 and w_i'^2 + A_i w_i^2 + B_i/2 w_i^4 = K_i."""
@@ -111,10 +134,16 @@ def test_duffing_analog_holds_along_trajectories(inertia, omega):
     np.testing.assert_allclose(w_ddot + A * w + B * w**3, 0.0, atol=2e-9)
     # w' from Euler's equations: I_i w_i' = (I_j - I_k) w_j w_k
     w_dot = np.stack(
-        [(I[1] - I[2]) * w[:, 1] * w[:, 2] / I[0], (I[2] - I[0]) * w[:, 2] * w[:, 0] / I[1], (I[0] - I[1]) * w[:, 0] * w[:, 1] / I[2]],
+        [
+            (I[1] - I[2]) * w[:, 1] * w[:, 2] / I[0],
+            (I[2] - I[0]) * w[:, 2] * w[:, 0] / I[1],
+            (I[0] - I[1]) * w[:, 0] * w[:, 1] / I[2],
+        ],
         axis=1,
     )
-    np.testing.assert_allclose(w_dot**2 + A * w**2 + B / 2 * w**4, np.broadcast_to(K, w.shape), rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(
+        w_dot**2 + A * w**2 + B / 2 * w**4, np.broadcast_to(K, w.shape), rtol=1e-12, atol=1e-14
+    )
 
 
 def test_duffing_constant_signs_follow_the_seed():
@@ -125,29 +154,31 @@ def test_duffing_constant_signs_follow_the_seed():
 
 
 @pytest.mark.parametrize(
-    "inertia, omega, kind",
+    'inertia, omega, kind',
     [
-        ([1.0, 2.0, 3.0], [0.0, 0.0, 0.0], "at_rest"),
-        ([2.0, 2.0, 2.0], [0.1, 0.2, 0.3], "sphere"),
-        ([1.0, 2.0, 3.0], [0.0, 1.0, 0.0], "pure_spin"),
-        ([1.0, 1.0, 2.0], [0.2, 0.1, 1.0], "axisymmetric_oblate"),
-        ([2.0, 1.0, 2.0], [0.2, 1.0, 0.1], "axisymmetric_prolate"),
-        ([1.0, 2.0, 3.0], [0.1, 0.2, 1.0], "major_axis_polhode"),
-        ([1.0, 2.0, 3.0], [1.0, 0.2, 0.1], "minor_axis_polhode"),
-        ([3.0, 4.0, 6.0], [2.0, 0.5, 1.0], "separatrix"),
+        ([1.0, 2.0, 3.0], [0.0, 0.0, 0.0], 'at_rest'),
+        ([2.0, 2.0, 2.0], [0.1, 0.2, 0.3], 'sphere'),
+        ([1.0, 2.0, 3.0], [0.0, 1.0, 0.0], 'pure_spin'),
+        ([1.0, 1.0, 2.0], [0.2, 0.1, 1.0], 'axisymmetric_oblate'),
+        ([2.0, 1.0, 2.0], [0.2, 1.0, 0.1], 'axisymmetric_prolate'),
+        ([1.0, 2.0, 3.0], [0.1, 0.2, 1.0], 'major_axis_polhode'),
+        ([1.0, 2.0, 3.0], [1.0, 0.2, 0.1], 'minor_axis_polhode'),
+        ([3.0, 4.0, 6.0], [2.0, 0.5, 1.0], 'separatrix'),
     ],
 )
 def test_regime_classification(inertia, omega, kind):
     assert RigidBody.from_inertia(inertia).classify(omega).kind == kind
 
 
-@pytest.mark.parametrize("axis, stability", [(0, "marginally stable"), (1, "unstable"), (2, "marginally stable")])
+@pytest.mark.parametrize(
+    'axis, stability', [(0, 'marginally stable'), (1, 'unstable'), (2, 'marginally stable')]
+)
 def test_pure_spin_stability_follows_seed_002(axis, stability):
     omega = np.zeros(3)
     omega[axis] = 1.5
     regime = RigidBody.from_inertia([1.0, 2.0, 3.0]).classify(omega)
-    assert regime.kind == "pure_spin" and regime.stability == stability
-    assert regime.axis == ["minor", "intermediate", "major"][axis]
+    assert regime.kind == 'pure_spin' and regime.stability == stability
+    assert regime.axis == ['minor', 'intermediate', 'major'][axis]
 
 
 def test_axisymmetric_closed_form_and_precession_rate_of_seed_000():
@@ -159,7 +190,14 @@ def test_axisymmetric_closed_form_and_precession_rate_of_seed_000():
     assert regime.polhode_period == pytest.approx(2 * np.pi / abs(wp), rel=1e-14)
     t = np.linspace(0.0, 50.0, 101)
     w, _ = propagate([IT, IT, I3], [w10, w20, w3], [0, 0, 0, 1], t)
-    expected = np.stack([w10 * np.cos(wp * t) - w20 * np.sin(wp * t), w20 * np.cos(wp * t) + w10 * np.sin(wp * t), np.full_like(t, w3)], 1)
+    expected = np.stack(
+        [
+            w10 * np.cos(wp * t) - w20 * np.sin(wp * t),
+            w20 * np.cos(wp * t) + w10 * np.sin(wp * t),
+            np.full_like(t, w3),
+        ],
+        1,
+    )
     # phase wp*t up to ~30 rad: rounding of the phase ~ 30 eps
     np.testing.assert_allclose(w, expected, rtol=0, atol=1e-14)
 
@@ -173,7 +211,7 @@ def test_polhode_period_is_the_period_of_the_rates():
     assert not np.allclose(w[1], w[0], atol=1e-3)
 
 
-@pytest.mark.parametrize("axis", [0, 2])
+@pytest.mark.parametrize('axis', [0, 2])
 def test_major_and_minor_axis_spins_stay_in_a_bounded_cone(axis):
     omega = np.full(3, 1e-3)
     omega[axis] = 1.0

@@ -1,73 +1,142 @@
-"""Scene files: the built-in default, and errors that name the file, the field path and the reason."""
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Scene files: the built-in default, and errors that name the file, the field path and the
+reason.
+"""
 
 from pathlib import Path
 
-import pytest
-
 import numpy as np
-
-from torquefree_ros.core.scene import SceneError, default_scene, load_scene, scene_from_mapping
+import pytest
+from torquefree_ros.core.scene import default_scene, load_scene, scene_from_mapping, SceneError
 
 REPO = Path(__file__).resolve().parents[1]
 
 
 def test_the_default_scene_file_is_the_built_in_default():
-    scene = load_scene(REPO / "torquefree_ros" / "scenes" / "default.yaml")
+    scene = load_scene(REPO / 'torquefree_ros' / 'scenes' / 'default.yaml')
     built_in = default_scene()
-    assert (scene.inertia, scene.angular_velocity, scene.orientation, scene.effects, scene.description) == (
-        built_in.inertia, built_in.angular_velocity, built_in.orientation, built_in.effects, built_in.description)
+    assert (
+        scene.inertia,
+        scene.angular_velocity,
+        scene.orientation,
+        scene.effects,
+        scene.description,
+    ) == (
+        built_in.inertia,
+        built_in.angular_velocity,
+        built_in.orientation,
+        built_in.effects,
+        built_in.description,
+    )
     assert built_in.torque_free
 
 
 def test_a_minimal_scene_from_the_contract_loads(tmp_path):
-    path = tmp_path / "s.yaml"
-    path.write_text("body:\n  inertia: [3, 2, 1]\ninitial:\n  angular_velocity: [0.001, 1.0, 0.001]\n"
-                    "  orientation: [0.0, 0.0, 0.0, 1.0]\neffects: []\n")
+    path = tmp_path / 's.yaml'
+    path.write_text(
+        'body:\n  inertia: [3, 2, 1]\ninitial:\n  angular_velocity: [0.001, 1.0, 0.001]\n'
+        '  orientation: [0.0, 0.0, 0.0, 1.0]\neffects: []\n'
+    )
     scene = load_scene(path)
     assert scene.inertia == (3.0, 2.0, 1.0) and scene.angular_velocity == (0.001, 1.0, 0.001)
 
 
 @pytest.mark.parametrize(
-    "text, where, reason",
+    'text, where, reason',
     [
-        ("body: {inertia: [3, 2, 1]}\n", "initial", "missing"),
-        ("body: {inertia: [3, 2, 1]}\ninital: {angular_velocity: [0, 0, 1]}\n", "inital", "did you mean 'initial'"),
-        ("body: {inertia: [1, 1, 5]}\ninitial: {angular_velocity: [0, 0, 1]}\n", "body.inertia", "triangle inequality"),
-        ("body: {inertia: [3, 2]}\ninitial: {angular_velocity: [0, 0, 1]}\n", "body.inertia", "3 or 6"),
-        ("body: {inertia: [3, 2, 1]}\ninitial: {angular_velocity: [0, .nan, 1]}\n", "initial.angular_velocity", "finite"),
-        ("body: {inertia: [3, 2, 1]}\ninitial: {angular_velocity: [0, 0, 1], orientation: [0, 0, 0, 0]}\n",
-         "initial.orientation", "zero quaternion"),
-        ("body: {inertia: [3, 2, 1]}\ninitial: {angular_velocity: 'fast'}\n", "initial.angular_velocity", "list of 3 numbers"),
-        ("body: {inertia: [3, 2, 1], mass: 2}\ninitial: {angular_velocity: [0, 0, 1]}\n", "body.mass", "unknown key"),
-        ("body: {inertia: [3, 2, 1]}\ninitial: {angular_velocity: [0, 0, 1]}\neffects: [{warp_drive: {}}]\n",
-         "effects[0]", "unknown effect 'warp_drive'"),
-        ("body: {inertia: [3, 2, 1]}\ninitial: {angular_velocity: [0, 0, 1]}\neffects: {damper: {}}\n",
-         "effects", "expected a list"),
-        ("[1, 2, 3]\n", "(top level)", "expected a mapping"),
+        ('body: {inertia: [3, 2, 1]}\n', 'initial', 'missing'),
+        (
+            'body: {inertia: [3, 2, 1]}\ninital: {angular_velocity: [0, 0, 1]}\n',
+            'inital',
+            "did you mean 'initial'",
+        ),
+        (
+            'body: {inertia: [1, 1, 5]}\ninitial: {angular_velocity: [0, 0, 1]}\n',
+            'body.inertia',
+            'triangle inequality',
+        ),
+        (
+            'body: {inertia: [3, 2]}\ninitial: {angular_velocity: [0, 0, 1]}\n',
+            'body.inertia',
+            '3 or 6',
+        ),
+        (
+            'body: {inertia: [3, 2, 1]}\ninitial: {angular_velocity: [0, .nan, 1]}\n',
+            'initial.angular_velocity',
+            'finite',
+        ),
+        (
+            'body: {inertia: [3, 2, 1]}\ninitial: {angular_velocity: [0, 0, 1], orientation: [0, 0, 0, 0]}\n',
+            'initial.orientation',
+            'zero quaternion',
+        ),
+        (
+            "body: {inertia: [3, 2, 1]}\ninitial: {angular_velocity: 'fast'}\n",
+            'initial.angular_velocity',
+            'list of 3 numbers',
+        ),
+        (
+            'body: {inertia: [3, 2, 1], mass: 2}\ninitial: {angular_velocity: [0, 0, 1]}\n',
+            'body.mass',
+            'unknown key',
+        ),
+        (
+            'body: {inertia: [3, 2, 1]}\ninitial: {angular_velocity: [0, 0, 1]}\neffects: [{warp_drive: {}}]\n',
+            'effects[0]',
+            "unknown effect 'warp_drive'",
+        ),
+        (
+            'body: {inertia: [3, 2, 1]}\ninitial: {angular_velocity: [0, 0, 1]}\neffects: {damper: {}}\n',
+            'effects',
+            'expected a list',
+        ),
+        ('[1, 2, 3]\n', '(top level)', 'expected a mapping'),
     ],
 )
 def test_bad_scenes_name_the_file_the_field_and_the_reason(tmp_path, text, where, reason):
-    path = tmp_path / "bad.yaml"
+    path = tmp_path / 'bad.yaml'
     path.write_text(text)
     with pytest.raises(SceneError) as error:
         load_scene(path)
     message = str(error.value)
-    assert message.startswith(f"{path}: {where}"), message
+    assert message.startswith(f'{path}: {where}'), message
     assert reason in message, message
 
 
-@pytest.mark.parametrize("text, line, column, problem", [
-    ("body: {inertia: [3, 2, 1]}\ninitial:\n  angular_velocity: [0, 0, 1\n", 4, 1, "expected ',' or ']'"),
-    ("body: {inertia: [3, 2, 1]}\n\tinitial: {}\n", 2, 1, "found character '\\t'"),
-])
+@pytest.mark.parametrize(
+    'text, line, column, problem',
+    [
+        (
+            'body: {inertia: [3, 2, 1]}\ninitial:\n  angular_velocity: [0, 0, 1\n',
+            4,
+            1,
+            "expected ',' or ']'",
+        ),
+        ('body: {inertia: [3, 2, 1]}\n\tinitial: {}\n', 2, 1, "found character '\\t'"),
+    ],
+)
 def test_yaml_syntax_errors_name_the_file_line_and_column(tmp_path, text, line, column, problem):
-    path = tmp_path / "typed.yaml"
+    path = tmp_path / 'typed.yaml'
     path.write_text(text)
     with pytest.raises(SceneError) as error:
         load_scene(path)
     message = str(error.value)
-    assert message.startswith(f"{path}:{line}:{column}: not valid YAML: "), message
-    assert problem in message and "<unicode string>" not in message, message
+    assert message.startswith(f'{path}:{line}:{column}: not valid YAML: '), message
+    assert problem in message and '<unicode string>' not in message, message
 
 
 HAND_TYPED = [0.2, 0.1, -0.3, 0.927]  # |q| = 0.99966, |q|^2 - 1 = -6.7e-4: four typed digits
@@ -76,8 +145,10 @@ HAND_TYPED = [0.2, 0.1, -0.3, 0.927]  # |q| = 0.99966, |q|^2 - 1 = -6.7e-4: four
 def test_a_hand_typed_orientation_is_normalised_in_scenes_and_the_api(tmp_path):
     from torquefree_ros import propagate
 
-    path = tmp_path / "typed.yaml"
-    path.write_text(f"body: {{inertia: [3, 2, 1]}}\ninitial: {{angular_velocity: [0, 0, 1], orientation: {HAND_TYPED}}}\n")
+    path = tmp_path / 'typed.yaml'
+    path.write_text(
+        f'body: {{inertia: [3, 2, 1]}}\ninitial: {{angular_velocity: [0, 0, 1], orientation: {HAND_TYPED}}}\n'
+    )
     expected = np.array(HAND_TYPED) / np.linalg.norm(HAND_TYPED)
     np.testing.assert_allclose(load_scene(path).orientation, expected, rtol=0, atol=2e-16)
     _, q = propagate([3, 2, 1], [0, 0, 1], HAND_TYPED, [0.0])
@@ -85,8 +156,11 @@ def test_a_hand_typed_orientation_is_normalised_in_scenes_and_the_api(tmp_path):
 
 
 def test_an_orientation_unit_to_rounding_is_used_bit_for_bit():
-    """The decision for "the initial state exactly": an input whose norm is 1 to float64 rounding
-    (here |q| may compute as 1 - 1 ulp) is not divided by its norm, so sample 0 equals the input."""
+    """
+    The decision for "the initial state exactly": an input whose norm is 1 to float64 rounding
+    (here |q| may compute as 1 - 1 ulp) is not divided by its norm, so sample 0 equals the
+    input.
+    """
     from torquefree_ros import propagate
     from torquefree_ros.core.validation import unit_quaternion
 
@@ -97,107 +171,218 @@ def test_an_orientation_unit_to_rounding_is_used_bit_for_bit():
         assert q_out[0].tolist() == q
 
 
-@pytest.mark.parametrize("orientation, message", [
-    ([0.0, 0.0, 0.0, 1.006], r"got norm 1.006 \(allowed: \|norm\^2 - 1\| <= 0.01, as tf2\); if \[0, 0, 0, 1\]"),
-    ([1.0, 1.0, 0.0, 0.0], r"got norm 1.41421 .* if \[0.707107, 0.707107, 0, 0\] is the rotation you mean"),
-])
-def test_an_orientation_beyond_tf2s_tolerance_is_refused_with_the_normalised_value(tmp_path, orientation, message):
-    path = tmp_path / "far.yaml"
-    path.write_text(f"body: {{inertia: [3, 2, 1]}}\ninitial: {{angular_velocity: [0, 0, 1], orientation: {orientation}}}\n")
-    with pytest.raises(SceneError, match=f"^{path}: initial.orientation: expected a unit quaternion.*" + message):
+@pytest.mark.parametrize(
+    'orientation, message',
+    [
+        (
+            [0.0, 0.0, 0.0, 1.006],
+            r'got norm 1.006 \(allowed: \|norm\^2 - 1\| <= 0.01, as tf2\); if \[0, 0, 0, 1\]',
+        ),
+        (
+            [1.0, 1.0, 0.0, 0.0],
+            r'got norm 1.41421 .* if \[0.707107, 0.707107, 0, 0\] is the rotation you mean',
+        ),
+    ],
+)
+def test_an_orientation_beyond_tf2s_tolerance_is_refused_with_the_normalised_value(
+    tmp_path, orientation, message
+):
+    path = tmp_path / 'far.yaml'
+    path.write_text(
+        f'body: {{inertia: [3, 2, 1]}}\ninitial: {{angular_velocity: [0, 0, 1], orientation: {orientation}}}\n'
+    )
+    with pytest.raises(
+        SceneError, match=f'^{path}: initial.orientation: expected a unit quaternion.*' + message
+    ):
         load_scene(path)
 
 
 def test_a_missing_scene_file_names_the_path():
     with pytest.raises(SceneError, match=r"^scene: cannot read '/no/such/scene.yaml'"):
-        load_scene("/no/such/scene.yaml")
+        load_scene('/no/such/scene.yaml')
 
 
-# -- bodies from parts ----------------------------------------------------------------------------------
+# -- bodies from parts
+# ----------------------------------------------------------------------------------
 def parts_scene(parts):
-    return scene_from_mapping({"body": {"parts": parts}, "initial": {"angular_velocity": [0.1, 0.2, 0.3]}})
+    return scene_from_mapping(
+        {'body': {'parts': parts}, 'initial': {'angular_velocity': [0.1, 0.2, 0.3]}}
+    )
 
 
 def test_two_boxes_combine_by_the_parallel_axis_theorem():
-    """Hand computation: centre of mass (0, 0, 0.1); own inertias m (b^2 + c^2) / 12 ...; offsets
-    dA = (0.5, 0, -0.1), dB = (-1, 0, 0.2) add m (|d|^2 1 - d d^T)."""
-    scene = parts_scene([{"box": {"mass": 2.0, "size": [1.0, 0.5, 0.2], "position": [0.5, 0.0, 0.0]}},
-                         {"box": {"mass": 1.0, "size": [0.4, 0.4, 0.4], "position": [-1.0, 0.0, 0.3]}}])
+    """
+    Hand computation: centre of mass (0, 0, 0.1); own inertias m (b^2 + c^2) / 12 ...; offsets
+    dA = (0.5, 0, -0.1), dB = (-1, 0, 0.2) add m (|d|^2 1 - d d^T).
+    """
+    scene = parts_scene(
+        [
+            {'box': {'mass': 2.0, 'size': [1.0, 0.5, 0.2], 'position': [0.5, 0.0, 0.0]}},
+            {'box': {'mass': 1.0, 'size': [0.4, 0.4, 0.4], 'position': [-1.0, 0.0, 0.3]}},
+        ]
+    )
     assert scene.mass == 3.0
     np.testing.assert_allclose(scene.center_of_mass, [0.0, 0.0, 0.1], atol=1e-15)
-    np.testing.assert_allclose(scene.inertia, [0.135, 1.76, 1.735, 0.0, 0.3, 0.0], rtol=1e-13, atol=1e-15)
+    np.testing.assert_allclose(
+        scene.inertia, [0.135, 1.76, 1.735, 0.0, 0.3, 0.0], rtol=1e-13, atol=1e-15
+    )
 
 
 def test_part_orientation_rotates_its_inertia_and_shapes_have_their_textbook_moments():
-    turned = parts_scene([{"box": {"mass": 3.0, "size": [1.0, 2.0, 3.0],
-                                   "orientation": [0.0, 0.0, np.sqrt(0.5), np.sqrt(0.5)]}}])  # 90 deg about z
-    plain = parts_scene([{"box": {"mass": 3.0, "size": [2.0, 1.0, 3.0]}}])
+    turned = parts_scene(
+        [
+            {
+                'box': {
+                    'mass': 3.0,
+                    'size': [1.0, 2.0, 3.0],
+                    'orientation': [0.0, 0.0, np.sqrt(0.5), np.sqrt(0.5)],
+                }
+            }
+        ]
+    )  # 90 deg about z
+    plain = parts_scene([{'box': {'mass': 3.0, 'size': [2.0, 1.0, 3.0]}}])
     np.testing.assert_allclose(turned.inertia, plain.inertia, atol=1e-14)
-    cylinder = parts_scene([{"cylinder": {"mass": 2.0, "radius": 0.5, "length": 3.0}}])
-    np.testing.assert_allclose(cylinder.inertia[:3], [2 * (3 * 0.25 + 9) / 12] * 2 + [0.25], rtol=1e-15)
-    sphere = parts_scene([{"sphere": {"mass": 5.0, "radius": 2.0}}, {"sphere": {"mass": 3.0, "radius": 1.0,
-                                                                                 "hollow": True}}])
+    cylinder = parts_scene([{'cylinder': {'mass': 2.0, 'radius': 0.5, 'length': 3.0}}])
+    np.testing.assert_allclose(
+        cylinder.inertia[:3], [2 * (3 * 0.25 + 9) / 12] * 2 + [0.25], rtol=1e-15
+    )
+    sphere = parts_scene(
+        [
+            {'sphere': {'mass': 5.0, 'radius': 2.0}},
+            {'sphere': {'mass': 3.0, 'radius': 1.0, 'hollow': True}},
+        ]
+    )
     np.testing.assert_allclose(sphere.inertia[:3], [0.4 * 5 * 4 + 2 / 3 * 3] * 3, rtol=1e-15)
-    masses = parts_scene([{"point_mass": {"mass": 1.0, "position": p}}
-                          for p in ([1, 0, 0], [-1, 0, 0], [0, 2, 0], [0, -2, 0], [0, 0, 1], [0, 0, -1])])
+    masses = parts_scene(
+        [
+            {'point_mass': {'mass': 1.0, 'position': p}}
+            for p in ([1, 0, 0], [-1, 0, 0], [0, 2, 0], [0, -2, 0], [0, 0, 1], [0, 0, -1])
+        ]
+    )
     np.testing.assert_allclose(masses.inertia, [10.0, 4.0, 10.0, 0.0, 0.0, 0.0], atol=1e-15)
 
 
 @pytest.mark.parametrize(
-    "body, where, reason",
+    'body, where, reason',
     [
-        ({"parts": []}, "body.parts", "at least 1"),
-        ({"parts": [{"box": {"mass": 1.0}}]}, "body.parts[0].box.size", "missing"),
-        ({"parts": [{"box": {"mass": -1.0, "size": [1, 1, 1]}}]}, "body.parts[0].box.mass", "must be > 0"),
-        ({"parts": [{"cube": {"mass": 1.0}}]}, "body.parts[0]", "unknown part 'cube'"),
-        ({"parts": [{"sphere": {"mass": 1.0, "radius": 1.0, "hollw": True}}]}, "body.parts[0].sphere.hollw",
-         "did you mean 'hollow'"),
-        ({"parts": [{"point_mass": {"mass": 1.0, "position": [1, 0, 0]}},
-                    {"point_mass": {"mass": 1.0, "position": [-1, 0, 0]}}]}, "body.parts", "positive"),
-        ({"inertia": [3, 2, 1], "parts": [{"sphere": {"mass": 1, "radius": 1}}]}, "body", "not both"),
+        ({'parts': []}, 'body.parts', 'at least 1'),
+        ({'parts': [{'box': {'mass': 1.0}}]}, 'body.parts[0].box.size', 'missing'),
+        (
+            {'parts': [{'box': {'mass': -1.0, 'size': [1, 1, 1]}}]},
+            'body.parts[0].box.mass',
+            'must be > 0',
+        ),
+        ({'parts': [{'cube': {'mass': 1.0}}]}, 'body.parts[0]', "unknown part 'cube'"),
+        (
+            {'parts': [{'sphere': {'mass': 1.0, 'radius': 1.0, 'hollw': True}}]},
+            'body.parts[0].sphere.hollw',
+            "did you mean 'hollow'",
+        ),
+        (
+            {
+                'parts': [
+                    {'point_mass': {'mass': 1.0, 'position': [1, 0, 0]}},
+                    {'point_mass': {'mass': 1.0, 'position': [-1, 0, 0]}},
+                ]
+            },
+            'body.parts',
+            'positive',
+        ),
+        (
+            {'inertia': [3, 2, 1], 'parts': [{'sphere': {'mass': 1, 'radius': 1}}]},
+            'body',
+            'not both',
+        ),
     ],
 )
 def test_bad_bodies_name_the_field(body, where, reason):
     with pytest.raises(SceneError) as error:
-        scene_from_mapping({"body": body, "initial": {"angular_velocity": [0, 0, 1]}}, source="s.yaml")
-    assert str(error.value).startswith(f"s.yaml: {where}: "), str(error.value)
+        scene_from_mapping(
+            {'body': body, 'initial': {'angular_velocity': [0, 0, 1]}}, source='s.yaml'
+        )
+    assert str(error.value).startswith(f's.yaml: {where}: '), str(error.value)
     assert reason in str(error.value)
 
 
 @pytest.mark.parametrize(
-    "effects, where, reason",
+    'effects, where, reason',
     [
-        ([{"damper": {"inertia": 0.1, "damping": 0.1}}, {"external_torque": {"torque": [0, 1]}}],
-         "effects[1].external_torque.torque", "expected 3 numbers"),
-        ([{"external_torque": {"torqe": [0, 0, 1]}}], "effects[0].external_torque.torqe", "did you mean 'torque'"),
-        ([{"external_torque": {"torque": [0, 0, 1], "frame": "world"}}], "effects[0].external_torque.frame",
-         "expected one of body, inertial"),
-        ([{"dampr": {}}], "effects[0]", "did you mean 'damper'"),
-        ([{"damper": {"inertia": 0.1}}], "effects[0].damper.damping", "missing"),
-        ([{"gravity_gradient": {"mean_motion": 0.001, "radius": 7e6}}], "effects[0].gravity_gradient", "not both"),
-        ([{"gravity_gradient": {}}], "effects[0].gravity_gradient.radius", "missing"),
-        ([{"rotor": {"momentum": 1.0, "axis": [0, 0, 0]}}], "effects[0].rotor.axis", "zero vector"),
-        ([{"imu": {"seed": -1}}], "effects[0].imu.seed", "must lie in"),
-        ([{"imu": {"gyro_noise_density": "high"}}], "effects[0].imu.gyro_noise_density", "finite number"),
-        ([{"imu": {}}, {"imu": {}}], "effects[1].imu.topic", "already the topic of effects[0]"),
-        ([{"euler_angles": {"topic": "attitude"}}], "effects[0].euler_angles.topic", "simulator's own"),
-        ([{"euler_angles": {"topic": "rpy angles"}}], "effects[0].euler_angles.topic", "ROS topic name"),
-        ([{"damper": {"inertia": 0.1, "damping": 0.1}, "rotor": {}}], "effects[0]", "one-key mapping"),
+        (
+            [
+                {'damper': {'inertia': 0.1, 'damping': 0.1}},
+                {'external_torque': {'torque': [0, 1]}},
+            ],
+            'effects[1].external_torque.torque',
+            'expected 3 numbers',
+        ),
+        (
+            [{'external_torque': {'torqe': [0, 0, 1]}}],
+            'effects[0].external_torque.torqe',
+            "did you mean 'torque'",
+        ),
+        (
+            [{'external_torque': {'torque': [0, 0, 1], 'frame': 'world'}}],
+            'effects[0].external_torque.frame',
+            'expected one of body, inertial',
+        ),
+        ([{'dampr': {}}], 'effects[0]', "did you mean 'damper'"),
+        ([{'damper': {'inertia': 0.1}}], 'effects[0].damper.damping', 'missing'),
+        (
+            [{'gravity_gradient': {'mean_motion': 0.001, 'radius': 7e6}}],
+            'effects[0].gravity_gradient',
+            'not both',
+        ),
+        ([{'gravity_gradient': {}}], 'effects[0].gravity_gradient.radius', 'missing'),
+        (
+            [{'rotor': {'momentum': 1.0, 'axis': [0, 0, 0]}}],
+            'effects[0].rotor.axis',
+            'zero vector',
+        ),
+        ([{'imu': {'seed': -1}}], 'effects[0].imu.seed', 'must lie in'),
+        (
+            [{'imu': {'gyro_noise_density': 'high'}}],
+            'effects[0].imu.gyro_noise_density',
+            'finite number',
+        ),
+        ([{'imu': {}}, {'imu': {}}], 'effects[1].imu.topic', 'already the topic of effects[0]'),
+        (
+            [{'euler_angles': {'topic': 'attitude'}}],
+            'effects[0].euler_angles.topic',
+            "simulator's own",
+        ),
+        (
+            [{'euler_angles': {'topic': 'rpy angles'}}],
+            'effects[0].euler_angles.topic',
+            'ROS topic name',
+        ),
+        (
+            [{'damper': {'inertia': 0.1, 'damping': 0.1}, 'rotor': {}}],
+            'effects[0]',
+            'one-key mapping',
+        ),
     ],
 )
 def test_bad_effects_name_the_path_and_the_reason(effects, where, reason):
     with pytest.raises(SceneError) as error:
-        scene_from_mapping({"body": {"inertia": [3, 2, 1]}, "initial": {"angular_velocity": [0, 0, 1]},
-                            "effects": effects}, source="s.yaml")
-    assert str(error.value).startswith(f"s.yaml: {where}: "), str(error.value)
+        scene_from_mapping(
+            {
+                'body': {'inertia': [3, 2, 1]},
+                'initial': {'angular_velocity': [0, 0, 1]},
+                'effects': effects,
+            },
+            source='s.yaml',
+        )
+    assert str(error.value).startswith(f's.yaml: {where}: '), str(error.value)
     assert reason in str(error.value)
 
 
 def test_yaml_1_2_numbers_are_numbers(tmp_path):
     """PyYAML reads 3.986e14 and 1e-3 as strings (YAML 1.1); scene files read them as numbers."""
-    path = tmp_path / "s.yaml"
-    path.write_text("body: {inertia: [3, 2, 1]}\ninitial: {angular_velocity: [1e-3, 0, 2]}\n"
-                    "effects: [{gravity_gradient: {radius: 7e6, gravitational_parameter: 3.986e14}}]\naccuracy: 1e-9\n")
+    path = tmp_path / 's.yaml'
+    path.write_text(
+        'body: {inertia: [3, 2, 1]}\ninitial: {angular_velocity: [1e-3, 0, 2]}\n'
+        'effects: [{gravity_gradient: {radius: 7e6, gravitational_parameter: 3.986e14}}]\naccuracy: 1e-9\n'
+    )
     scene = load_scene(path)
     assert scene.angular_velocity == (0.001, 0.0, 2.0) and scene.accuracy == 1e-9
     assert scene.effects[0].mean_motion == pytest.approx(np.sqrt(3.986e14 / 7e6**3), rel=1e-15)

@@ -1,57 +1,89 @@
-"""The scene library (torquefree_ros/scenes): every scene loads, says what it is in one line, and shows what
-its description promises, checked independently of the code that made the promise."""
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The scene library (torquefree_ros/scenes): every scene loads, says what it is in one line, and
+shows what its description promises, checked independently of the code that made the promise.
+"""
 
 from pathlib import Path
 
 import numpy as np
 import pytest
-
-from torquefree_ros.core import quaternion
 from torquefree_ros import load_scene
-from torquefree_ros.core.simulation import Simulation
+from torquefree_ros.core import quaternion
 from torquefree_ros.core.library import library_scenes
+from torquefree_ros.core.simulation import Simulation
 
-LIBRARY = Path(__file__).resolve().parents[1] / "torquefree_ros" / "scenes"
-NAMES = ["axisymmetric_coning", "default", "detumble", "dzhanibekov", "energy_sweep", "estimator", "explorer1",
-         "gravity_gradient", "gyrostat", "imu"]
-TIGHT = {"rtol": 1e-12, "atol": 1e-14}
+LIBRARY = Path(__file__).resolve().parents[1] / 'torquefree_ros' / 'scenes'
+NAMES = [
+    'axisymmetric_coning',
+    'default',
+    'detumble',
+    'dzhanibekov',
+    'energy_sweep',
+    'estimator',
+    'explorer1',
+    'gravity_gradient',
+    'gyrostat',
+    'imu',
+]
+TIGHT = {'rtol': 1e-12, 'atol': 1e-14}
 
 
 def library(name):
-    return load_scene(LIBRARY / f"{name}.yaml")
+    return load_scene(LIBRARY / f'{name}.yaml')
 
 
 def test_the_library_has_every_scene_each_with_a_one_line_description():
-    assert sorted(p.stem for p in LIBRARY.glob("*.yaml")) == NAMES
+    assert sorted(p.stem for p in LIBRARY.glob('*.yaml')) == NAMES
     assert sorted(library_scenes()) == NAMES
     for name in NAMES:
         description = library(name).description
-        assert description and "\n" not in description and len(description) < 200, name
+        assert description and '\n' not in description and len(description) < 200, name
 
 
 def test_load_scene_takes_library_names_from_any_directory(tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)  # not the repository root: names do not depend on the working directory
-    assert load_scene("dzhanibekov") == library("dzhanibekov")
-    assert load_scene("explorer1").source == str(LIBRARY / "explorer1.yaml")
-    assert load_scene("default").source == "<built-in default>"
-    with pytest.raises(ValueError, match=r"'dzanibekov' is neither a file nor a library scene \(library: .*dzhanibekov"):
-        load_scene("dzanibekov")
+    monkeypatch.chdir(
+        tmp_path
+    )  # not the repository root: names do not depend on the working directory
+    assert load_scene('dzhanibekov') == library('dzhanibekov')
+    assert load_scene('explorer1').source == str(LIBRARY / 'explorer1.yaml')
+    assert load_scene('default').source == '<built-in default>'
+    with pytest.raises(
+        ValueError,
+        match=r"'dzanibekov' is neither a file nor a library scene \(library: .*dzhanibekov",
+    ):
+        load_scene('dzanibekov')
 
 
 def test_a_file_in_the_working_directory_wins_over_a_library_name(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    (tmp_path / "explorer1").write_text("body: {inertia: [1, 2, 3]}\ninitial: {angular_velocity: [0, 0, 1]}\n")
-    assert load_scene("explorer1").inertia == (1.0, 2.0, 3.0)
-    assert load_scene("./explorer1").inertia == (1.0, 2.0, 3.0)
+    (tmp_path / 'explorer1').write_text(
+        'body: {inertia: [1, 2, 3]}\ninitial: {angular_velocity: [0, 0, 1]}\n'
+    )
+    assert load_scene('explorer1').inertia == (1.0, 2.0, 3.0)
+    assert load_scene('./explorer1').inertia == (1.0, 2.0, 3.0)
 
 
 def test_dzhanibekov_flips_at_the_reported_period():
-    scene = library("dzhanibekov")
+    scene = library('dzhanibekov')
     simulation = Simulation(scene.propagator(), 100.0)
-    assert simulation.regime.kind in ("major_axis_polhode", "minor_axis_polhode")
+    assert simulation.regime.kind in ('major_axis_polhode', 'minor_axis_polhode')
     flip = simulation.regime.flip_period
     times = np.linspace(0.0, 4.5 * flip, 20001)
-    omega, _ = scene.propagator("dop853", **TIGHT)(times)  # an independent integrator
+    omega, _ = scene.propagator('dop853', **TIGHT)(times)  # an independent integrator
     crossings = times[np.where(np.diff(np.sign(omega[:, 1])) != 0)[0]]
     assert len(crossings) == 4  # the intermediate-axis rate reverses once per flip period
     np.testing.assert_allclose(np.diff(crossings), flip, rtol=2e-4)  # grid spacing 2e-4 of a flip
@@ -59,16 +91,20 @@ def test_dzhanibekov_flips_at_the_reported_period():
 
 
 def test_axisymmetric_coning_reports_the_cones_it_sweeps():
-    scene = library("axisymmetric_coning")
+    scene = library('axisymmetric_coning')
     regime = Simulation(scene.propagator(), 100.0).regime
-    assert "body cone angle" in regime.summary() and "space cone angle" in regime.summary()
+    assert 'body cone angle' in regime.summary() and 'space cone angle' in regime.summary()
     times = np.linspace(0.0, 10.0, 1001)
-    p = scene.propagator("dop853", **TIGHT)
+    p = scene.propagator('dop853', **TIGHT)
     omega, q = p(times)
     H_N = p.body.angular_momentum_inertial(omega, q)
     omega_N = quaternion.rotate(q, omega)
-    alpha = np.arctan2(np.linalg.norm(omega[:, 1:], axis=1), np.abs(omega[:, 0]))  # w to the symmetry axis x
-    beta = np.arctan2(np.linalg.norm(np.cross(omega_N, H_N), axis=1), np.sum(omega_N * H_N, axis=1))
+    alpha = np.arctan2(
+        np.linalg.norm(omega[:, 1:], axis=1), np.abs(omega[:, 0])
+    )  # w to the symmetry axis x
+    beta = np.arctan2(
+        np.linalg.norm(np.cross(omega_N, H_N), axis=1), np.sum(omega_N * H_N, axis=1)
+    )
     np.testing.assert_allclose(alpha, regime.body_cone_angle, rtol=1e-9)
     np.testing.assert_allclose(beta, regime.space_cone_angle, rtol=1e-9)
     # the symmetry axis circles H_N at |H| / I_T: unwrap its azimuth about H_N
@@ -83,9 +119,9 @@ def test_axisymmetric_coning_reports_the_cones_it_sweeps():
 
 
 def test_explorer1_ends_in_a_flat_spin_about_its_major_axis():
-    scene = library("explorer1")
+    scene = library('explorer1')
     p = scene.propagator()
-    assert [effect.name for effect in p.effects] == ["damper"]
+    assert [effect.name for effect in p.effects] == ['damper']
     times = np.linspace(0.0, 900.0, 901)
     omega, q, x = p.states(times)
     energy = p.energy(omega, x)
@@ -93,11 +129,13 @@ def test_explorer1_ends_in_a_flat_spin_about_its_major_axis():
     momentum = np.linalg.norm(p.momentum_B(omega, x), axis=1)
     np.testing.assert_allclose(momentum, momentum[0], rtol=1e-7)  # scene accuracy 1e-9 over 900 s
     major = int(np.argmax(p.body.moments))
-    assert omega[0, major] == 0.0 and abs(omega[-1, major]) / np.linalg.norm(omega[-1]) > np.cos(np.radians(2.0))
+    assert omega[0, major] == 0.0 and abs(omega[-1, major]) / np.linalg.norm(omega[-1]) > np.cos(
+        np.radians(2.0)
+    )
 
 
 def test_gravity_gradient_librates_about_the_local_vertical():
-    scene = library("gravity_gradient")
+    scene = library('gravity_gradient')
     (effect,) = scene.effects
     n = effect.mean_motion
     times = np.linspace(0.0, 2 * np.pi / n, 401)  # one orbit
@@ -111,24 +149,28 @@ def test_gravity_gradient_librates_about_the_local_vertical():
 
 
 def test_gyrostat_keeps_its_intermediate_axis_spin():
-    scene = library("gyrostat")
+    scene = library('gyrostat')
     p = scene.propagator()
     times = np.linspace(0.0, 120.0, 1201)
     omega, q, x = p.states(times)
     H_N = quaternion.rotate(q, p.momentum_B(omega, x))
-    np.testing.assert_allclose(H_N, np.broadcast_to(H_N[0], H_N.shape), atol=1e-8 * np.linalg.norm(H_N[0]))
+    np.testing.assert_allclose(
+        H_N, np.broadcast_to(H_N[0], H_N.shape), atol=1e-8 * np.linalg.norm(H_N[0])
+    )
     assert omega[:, 1].min() > 0.99
 
 
 def test_imu_scene_is_torque_free_with_two_outputs():
-    scene = library("imu")
-    assert scene.torque_free and scene.propagator().name == "analytic"
+    scene = library('imu')
+    assert scene.torque_free and scene.propagator().name == 'analytic'
     assert [(o.name, o.topic, o.message_type) for o in scene.outputs] == [
-        ("imu", "imu", "sensor_msgs/msg/Imu"), ("euler_angles", "euler_angles", "geometry_msgs/msg/Vector3Stamped")]
+        ('imu', 'imu', 'sensor_msgs/msg/Imu'),
+        ('euler_angles', 'euler_angles', 'geometry_msgs/msg/Vector3Stamped'),
+    ]
 
 
 def test_energy_sweep_spans_minimum_to_maximum_energy_at_constant_momentum():
-    scene = library("energy_sweep")
+    scene = library('energy_sweep')
     members = scene.members()
     assert len(members) == 9
     I = np.array(scene.inertia)

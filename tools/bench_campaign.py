@@ -1,32 +1,47 @@
 #!/usr/bin/env python3
-"""Benchmark of Monte Carlo campaigns (``torquefree_ros.campaigns``; a script, not a test): what the
-campaign machinery adds to the compute and how it scales, beside Basilisk's figures.
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
 
-- 10 000 torque-free runs (the library's ``dzhanibekov_rates``: the Dzhanibekov body, rates and spin
-  dispersed, six metrics), 100 s at 10 Hz, metrics only, written to a directory as the command line
-  does: the campaign on 1 and on 2 local workers (clusters started and warmed beforehand), beside the
-  bare compute (the same drawn bodies through ``propagate_batch`` plus the same metrics in one
-  process, in the engine's blocks of runs; no draws, no engine, no table);
+"""
+Benchmark of Monte Carlo campaigns (``torquefree_ros.campaigns``; a script, not a test): what
+the campaign machinery adds to the compute and how it scales, beside Basilisk's figures.
+
+- 10 000 torque-free runs (the library's ``dzhanibekov_rates``: the Dzhanibekov body, rates and
+  spin dispersed, six metrics), 100 s at 10 Hz, metrics only, written to a directory as the command
+  line does: the campaign on 1 and on 2 local workers (clusters started and warmed beforehand),
+  beside the bare compute (the same drawn bodies through ``propagate_batch`` plus the same metrics
+  in one process, in the engine's blocks of runs; no draws, no engine, no table);
 - 1 000 dispersed explorer1 runs (``explorer1_damper``: inertia, rates, attitude and the damper's
   damping dispersed), 900 s at 1 Hz, on 2 local workers, end to end as ``torquefree_campaign run``
   does it (the cluster started and closed inside the time);
 - what the engine costs: a local cluster's start-up, a worker's first chunk (imports and kernels),
   the per-chunk overhead (in this process and on a worker), the memory (RSS) of a worker.
 
-Wall time (``perf_counter``), and beside it the CPU time of this process and the workers (which shows
-the work done when other processes share the cores); ``--rounds`` rounds give median (min–max), the
-ratios taken within each round.
+Wall time (``perf_counter``), and beside it the CPU time of this process and the workers (which
+shows the work done when other processes share the cores); ``--rounds`` rounds give median
+(min–max), the ratios taken within each round.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+from pathlib import Path
 import statistics
 import sys
 import tempfile
 import time
-from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -36,43 +51,50 @@ from bench_report import Report, spread  # noqa: E402
 RUNS = 10_000
 DURATION, RATE = 100.0, 10.0
 OVERHEAD_TASKS = 400  # one-run, one-sample chunks: the engine's cost per chunk
-BASILISK = ("Basilisk 2.12's Monte Carlo `Controller` (2 threads) runs 40 torque-free runs of 100 s at "
-            "**1.5–1.7 runs/s** (it sleeps 1 s per run and builds a process pool per pair of runs); a plain process "
-            "pool of the same Basilisk simulations reaches **14.9 runs/s** (issue 32, measured by another session on "
-            "this machine)")
+BASILISK = (
+    "Basilisk 2.12's Monte Carlo `Controller` (2 threads) runs 40 torque-free runs of 100 s at "
+    '**1.5–1.7 runs/s** (it sleeps 1 s per run and builds a process pool per pair of runs); a plain process '
+    'pool of the same Basilisk simulations reaches **14.9 runs/s** (issue 32, measured by another session on '
+    'this machine)'
+)
 
 
 def use_the_workers_allocator() -> bool:
-    """Set this process's glibc allocator as a local cluster's workers' (``engine.MALLOC_ENVIRONMENT``):
-    the bare compute and the in-process figures are then measured on the workers' footing."""
+    """
+    Set this process's glibc allocator as a local cluster's workers'
+    (``engine.MALLOC_ENVIRONMENT``): the bare compute and the in-process figures are then measured
+    on the workers' footing.
+    """
     import ctypes
 
     from torquefree_ros.campaigns.engine import MALLOC_ENVIRONMENT
 
     try:
-        libc = ctypes.CDLL("libc.so.6")
+        libc = ctypes.CDLL('libc.so.6')
     except OSError:
         return False
     M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3  # malloc.h
-    return bool(libc.mallopt(M_MMAP_THRESHOLD, int(MALLOC_ENVIRONMENT["MALLOC_MMAP_THRESHOLD_"]))
-                and libc.mallopt(M_TRIM_THRESHOLD, int(MALLOC_ENVIRONMENT["MALLOC_TRIM_THRESHOLD_"])))
+    return bool(
+        libc.mallopt(M_MMAP_THRESHOLD, int(MALLOC_ENVIRONMENT['MALLOC_MMAP_THRESHOLD_']))
+        and libc.mallopt(M_TRIM_THRESHOLD, int(MALLOC_ENVIRONMENT['MALLOC_TRIM_THRESHOLD_']))
+    )
 
 
 def torque_free_campaign(runs: int = RUNS):
+    from torquefree_ros.campaigns import load_campaign
     import yaml
 
-    from torquefree_ros.campaigns import load_campaign
-
-    data = yaml.safe_load(load_campaign("dzhanibekov_rates").text)
+    data = yaml.safe_load(load_campaign('dzhanibekov_rates').text)
     data.update(runs=runs, duration=DURATION, rate=RATE)
     return data
 
 
 def bare_compute(campaign, draws) -> float:
-    """The runs' physics and metrics alone: propagate_batch and the metrics, a block of runs at a time
-    (the engine's blocks: the size that keeps the arrays' pages, engine.BLOCK_SAMPLES)."""
+    """
+    The runs' physics and metrics alone: propagate_batch and the metrics, a block of runs at a
+    time (the engine's blocks: the size that keeps the arrays' pages, engine.BLOCK_SAMPLES).
+    """
     import numpy as np
-
     from torquefree_ros import propagate_batch
     from torquefree_ros.campaigns import engine
 
@@ -81,10 +103,16 @@ def bare_compute(campaign, draws) -> float:
     started = time.perf_counter()
     nominal = engine._nominal(campaign, times) if campaign.needs_nominal else None
     for low in range(0, len(draws), size):
-        chunk = draws[low:low + size]
-        omega, q = propagate_batch(np.array([d.inertia for d in chunk]), np.array([d.omega for d in chunk]),
-                                   np.array([d.q for d in chunk]), times)
-        samples = engine._samples(times, chunk, omega, q, np.empty(omega.shape[:2] + (0,)), nominal=nominal)
+        chunk = draws[low: low + size]
+        omega, q = propagate_batch(
+            np.array([d.inertia for d in chunk]),
+            np.array([d.omega for d in chunk]),
+            np.array([d.q for d in chunk]),
+            times,
+        )
+        samples = engine._samples(
+            times, chunk, omega, q, np.empty(omega.shape[:2] + (0,)), nominal=nominal
+        )
         for use in campaign.metrics:
             use.evaluate(samples)
     return time.perf_counter() - started
@@ -98,6 +126,7 @@ def timed(function) -> float:
 
 def worker_cpu(client) -> float:
     """CPU seconds (user + system) the client's workers have used so far, all threads."""
+
     def used():
         import psutil
 
@@ -108,8 +137,10 @@ def worker_cpu(client) -> float:
 
 
 def wall_and_cpu(function, client=None) -> tuple[float, float, float]:
-    """Wall seconds, and CPU seconds of this process and of the workers of ``client``: on a shared
-    machine the CPU shows the work even when other processes take the cores."""
+    """
+    Wall seconds, and CPU seconds of this process and of the workers of ``client``: on a shared
+    machine the CPU shows the work even when other processes take the cores.
+    """
     cpu0, workers0 = time.process_time(), worker_cpu(client)
     wall = timed(function)
     return wall, time.process_time() - cpu0, worker_cpu(client) - workers0
@@ -118,7 +149,6 @@ def wall_and_cpu(function, client=None) -> tuple[float, float, float]:
 def start_cluster(workers: int):
     """A local cluster and its client, warmed: every worker has run a chunk (imports, kernels)."""
     from distributed import Client
-
     from torquefree_ros.campaigns import run_campaign
     from torquefree_ros.campaigns.engine import local_cluster
 
@@ -127,18 +157,23 @@ def start_cluster(workers: int):
     client = Client(cluster)
     client.wait_for_workers(workers)
     up = time.perf_counter() - started
-    first = timed(lambda: run_campaign(torque_free_campaign(workers), scheduler=client, chunk_size=1))
+    first = timed(
+        lambda: run_campaign(torque_free_campaign(workers), scheduler=client, chunk_size=1)
+    )
     return cluster, client, up, first
 
 
 def worker_memory(client) -> list[tuple[float, float]]:
     """(RSS, peak RSS) of each worker, MiB."""
+
     def measure():
         import resource
 
         import psutil
 
-        return psutil.Process().memory_info().rss / 2**20, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**10
+        return psutil.Process().memory_info().rss / 2**20, resource.getrusage(
+            resource.RUSAGE_SELF
+        ).ru_maxrss / 2**10
 
     return list(client.run(measure).values())
 
@@ -150,22 +185,35 @@ def measure_round(clusters: dict, directory: Path) -> dict:
     draws = [engine.draw_run(campaign, run) for run in range(campaign.runs)]
     bare_compute(campaign, draws[:10])  # this process's kernels loaded before the timing
     result = {}
-    result["bare"], result["bare_cpu"], _ = wall_and_cpu(lambda: bare_compute(campaign, draws))
+    result['bare'], result['bare_cpu'], _ = wall_and_cpu(lambda: bare_compute(campaign, draws))
     for workers, (_, client) in clusters.items():
         wall, driver, on_workers = wall_and_cpu(
-            lambda: run_campaign(campaign, scheduler=client, output=directory / f"w{workers}", overwrite=True), client)
-        result[f"workers_{workers}"], result[f"workers_{workers}_driver"] = wall, driver
-        result[f"workers_{workers}_cpu"] = driver + on_workers
-    result["ratio_1"] = result["workers_1"] / result["bare"]
-    result["ratio_1_cpu"] = result["workers_1_cpu"] / result["bare_cpu"]
-    result["speedup_2"] = result["workers_1"] / result["workers_2"]
-    # where the time goes, in this process: the draws, the engine without Dask, the part files and the table
-    result["draws"] = timed(lambda: [engine.draw_run(campaign, run) for run in range(campaign.runs)])
-    result["in_process"] = timed(lambda: run_campaign(campaign, scheduler="in-process"))
-    result["in_process_output"] = timed(lambda: run_campaign(campaign, scheduler="in-process",
-                                                             output=directory / "inproc", overwrite=True))
-    result["explorer"] = timed(lambda: run_campaign("explorer1_damper", workers=2, output=directory / "explorer",
-                                                    overwrite=True))
+            lambda: run_campaign(
+                campaign, scheduler=client, output=directory / f'w{workers}', overwrite=True
+            ),
+            client,
+        )
+        result[f'workers_{workers}'], result[f'workers_{workers}_driver'] = wall, driver
+        result[f'workers_{workers}_cpu'] = driver + on_workers
+    result['ratio_1'] = result['workers_1'] / result['bare']
+    result['ratio_1_cpu'] = result['workers_1_cpu'] / result['bare_cpu']
+    result['speedup_2'] = result['workers_1'] / result['workers_2']
+    # where the time goes, in this process: the draws, the engine without Dask, the part files and
+    # the table
+    result['draws'] = timed(
+        lambda: [engine.draw_run(campaign, run) for run in range(campaign.runs)]
+    )
+    result['in_process'] = timed(lambda: run_campaign(campaign, scheduler='in-process'))
+    result['in_process_output'] = timed(
+        lambda: run_campaign(
+            campaign, scheduler='in-process', output=directory / 'inproc', overwrite=True
+        )
+    )
+    result['explorer'] = timed(
+        lambda: run_campaign(
+            'explorer1_damper', workers=2, output=directory / 'explorer', overwrite=True
+        )
+    )
     return result
 
 
@@ -174,21 +222,37 @@ def engine_costs(clusters: dict, directory: Path) -> dict:
     from torquefree_ros.campaigns import run_campaign
 
     tiny = torque_free_campaign(OVERHEAD_TASKS)
-    tiny.update(duration=0.0, metrics=["final_rates"])
-    in_process = min(timed(lambda: run_campaign(tiny, scheduler="in-process", chunk_size=1)) for _ in range(2))
-    with_parts = min(timed(lambda: run_campaign(tiny, scheduler="in-process", chunk_size=1,
-                                                output=directory / "tiny", overwrite=True)) for _ in range(2))
+    tiny.update(duration=0.0, metrics=['final_rates'])
+    in_process = min(
+        timed(lambda: run_campaign(tiny, scheduler='in-process', chunk_size=1)) for _ in range(2)
+    )
+    with_parts = min(
+        timed(
+            lambda: run_campaign(
+                tiny,
+                scheduler='in-process',
+                chunk_size=1,
+                output=directory / 'tiny',
+                overwrite=True,
+            )
+        )
+        for _ in range(2)
+    )
     client = clusters[1][1]
-    on_worker = min(timed(lambda: run_campaign(tiny, scheduler=client, chunk_size=1)) for _ in range(2))
-    return {"chunk_in_process_ms": 1e3 * in_process / OVERHEAD_TASKS,
-            "part_file_ms": 1e3 * (with_parts - in_process) / OVERHEAD_TASKS,
-            "chunk_dask_ms": 1e3 * (on_worker - in_process) / OVERHEAD_TASKS}
+    on_worker = min(
+        timed(lambda: run_campaign(tiny, scheduler=client, chunk_size=1)) for _ in range(2)
+    )
+    return {
+        'chunk_in_process_ms': 1e3 * in_process / OVERHEAD_TASKS,
+        'part_file_ms': 1e3 * (with_parts - in_process) / OVERHEAD_TASKS,
+        'chunk_dask_ms': 1e3 * (on_worker - in_process) / OVERHEAD_TASKS,
+    }
 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--output", help="write the report here (Markdown)")
-    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument('--output', help='write the report here (Markdown)')
+    parser.add_argument('--rounds', type=int, default=3)
     args = parser.parse_args(argv)
 
     import dask
@@ -196,28 +260,41 @@ def main(argv=None) -> int:
     import numba
     import numpy
     import pyarrow
-
     from torquefree_ros.campaigns import load_campaign
 
     allocator = use_the_workers_allocator()
-    report = Report("Monte Carlo campaigns: the machinery's cost and its scaling", "make bench-campaign")
-    report.add(f"- versions: numpy {numpy.__version__}, numba {numba.__version__}, dask {dask.__version__}, "
-               f"distributed {distributed.__version__}, pyarrow {pyarrow.__version__}")
-    report.add("")
+    report = Report(
+        "Monte Carlo campaigns: the machinery's cost and its scaling", 'make bench-campaign'
+    )
+    report.add(
+        f'- versions: numpy {numpy.__version__}, numba {numba.__version__}, dask {dask.__version__}, '
+        f'distributed {distributed.__version__}, pyarrow {pyarrow.__version__}'
+    )
+    report.add('')
     campaign = load_campaign(torque_free_campaign())
-    report.add("- this process's allocator: " + ("glibc's thresholds set as the workers' (`engine.MALLOC_ENVIRONMENT`)"
-                                               if allocator else "glibc's defaults (mallopt unavailable)"))
-    report.add(f"- load average when it started: {' '.join(f'{x:.2f}' for x in os.getloadavg())} (the cores are shared)")
-    report.add("")
-    report.add(f"{args.rounds} round{'s' if args.rounds != 1 else ''}; each figure is the median (min–max) over the "
-               f"rounds (wall time unless it says CPU), the ratios taken within each round. Torque-free: `dzhanibekov_rates` with "
-               f"{RUNS:,} runs of {DURATION:g} s at {RATE:g} Hz ({campaign.samples:,} samples a run; metrics "
-               f"{', '.join(use.metric.name for use in campaign.metrics)}), written to a directory (part files, "
-               "then `runs.parquet`) on a local cluster started and warmed before the timing.")
-    report.add("")
+    report.add(
+        "- this process's allocator: "
+        + (
+            "glibc's thresholds set as the workers' (`engine.MALLOC_ENVIRONMENT`)"
+            if allocator
+            else "glibc's defaults (mallopt unavailable)"
+        )
+    )
+    report.add(
+        f'- load average when it started: {" ".join(f"{x:.2f}" for x in os.getloadavg())} (the cores are shared)'
+    )
+    report.add('')
+    report.add(
+        f'{args.rounds} round{"s" if args.rounds != 1 else ""}; each figure is the median (min–max) over the '
+        f'rounds (wall time unless it says CPU), the ratios taken within each round. Torque-free: `dzhanibekov_rates` with '
+        f'{RUNS:,} runs of {DURATION:g} s at {RATE:g} Hz ({campaign.samples:,} samples a run; metrics '
+        f'{", ".join(use.metric.name for use in campaign.metrics)}), written to a directory (part files, '
+        'then `runs.parquet`) on a local cluster started and warmed before the timing.'
+    )
+    report.add('')
 
     clusters, start_up = {}, {}
-    with tempfile.TemporaryDirectory(prefix="bench_campaign_") as temporary:
+    with tempfile.TemporaryDirectory(prefix='bench_campaign_') as temporary:
         directory = Path(temporary)
         try:
             for workers in (1, 2):
@@ -238,69 +315,107 @@ def main(argv=None) -> int:
     def median(key):
         return statistics.median(r[key] for r in rounds)
 
-    ratio, speedup, explorer = median("ratio_1"), median("speedup_2"), median("explorer")
-    report.add("| measure | value | target (issue 32) | met |")
-    report.add("|---|---|---|---|")
-    report.add(f"| bare compute: `propagate_batch` + metrics, {RUNS:,} runs, one process | {column('bare')} s "
-               f"({spread([RUNS / r['bare'] for r in rounds])} runs/s; CPU {column('bare_cpu')} s) | | |")
-    report.add(f"| campaign, 1 local worker | {column('workers_1')} s ({spread([RUNS / r['workers_1'] for r in rounds])} "
-               f"runs/s), {column('ratio_1')} of the bare compute (CPU, workers and this process: "
-               f"{column('workers_1_cpu')} s, {column('ratio_1_cpu')} of the bare compute's) | ≤ 1.3x | "
-               f"{'yes' if ratio <= 1.3 else '**no**'} |")
-    report.add(f"| campaign, 2 local workers | {column('workers_2')} s ({spread([RUNS / r['workers_2'] for r in rounds])} "
-               f"runs/s), {column('speedup_2')} the runs/s of 1 worker (CPU {column('workers_2_cpu')} s) | ≥ 1.8x | "
-               f"{'yes' if speedup >= 1.8 else '**no**'} |")
-    report.add(f"| 1,000 dispersed explorer1 runs, 900 s at 1 Hz, 2 local workers, end to end (cluster start and "
-               f"close included) | {column('explorer')} s | ≤ 30 s | {'yes' if explorer <= 30 else '**no**'} |")
-    report.add("")
-    report.add(f"For reference, the field: {BASILISK}. Here the 2-worker campaign runs "
-               f"{RUNS / median('workers_2'):,.0f} runs/s of 1 001 samples each.")
-    report.add("")
-    report.add("Where the time of the torque-free campaign goes (this process unless it says workers; on 2 workers "
-               "this process's CPU (the client's results, the part files, the table) shares the 2 cores with them):")
-    report.add("")
-    report.add("| stage | time |")
-    report.add("|---|---|")
-    report.add(f"| the bare compute | {column('bare')} s |")
-    report.add(f"| drawing the {RUNS:,} runs' inputs (a generator per run, the body checked) | {column('draws')} s |")
-    report.add(f"| the campaign in this process (draws, chunks, metrics, table) | {column('in_process')} s |")
-    report.add(f"| the same, written to a directory (part files, `runs.parquet`) | {column('in_process_output')} s |")
-    report.add(f"| the same on 1 warm local worker | {column('workers_1')} s (CPU: this process "
-               f"{column('workers_1_driver')} s, all {column('workers_1_cpu')} s) |")
-    report.add(f"| the same on 2 warm local workers | {column('workers_2')} s (CPU: this process "
-               f"{column('workers_2_driver')} s, all {column('workers_2_cpu')} s) |")
+    ratio, speedup, explorer = median('ratio_1'), median('speedup_2'), median('explorer')
+    report.add('| measure | value | target (issue 32) | met |')
+    report.add('|---|---|---|---|')
+    report.add(
+        f'| bare compute: `propagate_batch` + metrics, {RUNS:,} runs, one process | {column("bare")} s '
+        f'({spread([RUNS / r["bare"] for r in rounds])} runs/s; CPU {column("bare_cpu")} s) | | |'
+    )
+    report.add(
+        f'| campaign, 1 local worker | {column("workers_1")} s ({spread([RUNS / r["workers_1"] for r in rounds])} '
+        f'runs/s), {column("ratio_1")} of the bare compute (CPU, workers and this process: '
+        f"{column('workers_1_cpu')} s, {column('ratio_1_cpu')} of the bare compute's) | ≤ 1.3x | "
+        f'{"yes" if ratio <= 1.3 else "**no**"} |'
+    )
+    report.add(
+        f'| campaign, 2 local workers | {column("workers_2")} s ({spread([RUNS / r["workers_2"] for r in rounds])} '
+        f'runs/s), {column("speedup_2")} the runs/s of 1 worker (CPU {column("workers_2_cpu")} s) | ≥ 1.8x | '
+        f'{"yes" if speedup >= 1.8 else "**no**"} |'
+    )
+    report.add(
+        f'| 1,000 dispersed explorer1 runs, 900 s at 1 Hz, 2 local workers, end to end (cluster start and '
+        f'close included) | {column("explorer")} s | ≤ 30 s | {"yes" if explorer <= 30 else "**no**"} |'
+    )
+    report.add('')
+    report.add(
+        f'For reference, the field: {BASILISK}. Here the 2-worker campaign runs '
+        f'{RUNS / median("workers_2"):,.0f} runs/s of 1 001 samples each.'
+    )
+    report.add('')
+    report.add(
+        'Where the time of the torque-free campaign goes (this process unless it says workers; on 2 workers '
+        "this process's CPU (the client's results, the part files, the table) shares the 2 cores with them):"
+    )
+    report.add('')
+    report.add('| stage | time |')
+    report.add('|---|---|')
+    report.add(f'| the bare compute | {column("bare")} s |')
+    report.add(
+        f"| drawing the {RUNS:,} runs' inputs (a generator per run, the body checked) | {column('draws')} s |"
+    )
+    report.add(
+        f'| the campaign in this process (draws, chunks, metrics, table) | {column("in_process")} s |'
+    )
+    report.add(
+        f'| the same, written to a directory (part files, `runs.parquet`) | {column("in_process_output")} s |'
+    )
+    report.add(
+        f'| the same on 1 warm local worker | {column("workers_1")} s (CPU: this process '
+        f'{column("workers_1_driver")} s, all {column("workers_1_cpu")} s) |'
+    )
+    report.add(
+        f'| the same on 2 warm local workers | {column("workers_2")} s (CPU: this process '
+        f'{column("workers_2_driver")} s, all {column("workers_2_cpu")} s) |'
+    )
     cores = os.cpu_count() or 1
     if cores <= 2:
-        # from CPU times alone, which other processes on the machine do not change: 1 worker at best takes
-        # its own CPU (this process runs beside it on the other core); 2 workers at best all the CPU over
-        # the cores, this process's included
-        bound = statistics.median((r["workers_1_cpu"] - r["workers_1_driver"]) / (r["workers_2_cpu"] / cores)
-                                  for r in rounds)
-        report.add("")
-        report.add(f"With {cores} cores this process (the client: results, part files, table) shares them with the 2 "
-                   f"workers. From the CPU times alone, which other processes do not change, the best 2-worker "
-                   f"speed-up this machine allows is {bound:.3g}x: 1 worker at best takes its own CPU (this process "
-                   f"beside it on the other core), 2 workers at best all the CPU, this process's included, over "
-                   f"{cores} cores.")
-    report.add("")
-    report.add("What the engine costs:")
-    report.add("")
-    report.add("| cost | value |")
-    report.add("|---|---|")
+        # from CPU times alone, which other processes on the machine do not change: 1 worker at
+        # best takes its own CPU (this process runs beside it on the other core); 2 workers at best
+        # all the CPU over the cores, this process's included
+        bound = statistics.median(
+            (r['workers_1_cpu'] - r['workers_1_driver']) / (r['workers_2_cpu'] / cores)
+            for r in rounds
+        )
+        report.add('')
+        report.add(
+            f'With {cores} cores this process (the client: results, part files, table) shares them with the 2 '
+            f'workers. From the CPU times alone, which other processes do not change, the best 2-worker '
+            f'speed-up this machine allows is {bound:.3g}x: 1 worker at best takes its own CPU (this process '
+            f"beside it on the other core), 2 workers at best all the CPU, this process's included, over "
+            f'{cores} cores.'
+        )
+    report.add('')
+    report.add('What the engine costs:')
+    report.add('')
+    report.add('| cost | value |')
+    report.add('|---|---|')
     for workers, (up, first) in start_up.items():
-        report.add(f"| a local cluster of {workers} worker{'s' if workers > 1 else ''}: start-up (workers connected) | "
-                   f"{up:.2f} s |")
-        report.add(f"| its first campaign ({workers} one-run chunks: imports and kernels loaded in each worker) | "
-                   f"{first:.2f} s |")
-    report.add(f"| a chunk in this process (one run of one sample, {OVERHEAD_TASKS} chunks) | "
-               f"{costs['chunk_in_process_ms']:.2f} ms |")
+        report.add(
+            f'| a local cluster of {workers} worker{"s" if workers > 1 else ""}: start-up (workers connected) | '
+            f'{up:.2f} s |'
+        )
+        report.add(
+            f'| its first campaign ({workers} one-run chunks: imports and kernels loaded in each worker) | '
+            f'{first:.2f} s |'
+        )
+    report.add(
+        f'| a chunk in this process (one run of one sample, {OVERHEAD_TASKS} chunks) | '
+        f'{costs["chunk_in_process_ms"]:.2f} ms |'
+    )
     report.add(f"| writing a chunk's part file | {costs['part_file_ms']:.2f} ms |")
-    report.add(f"| a chunk on a warm local worker, beyond its cost in this process | {costs['chunk_dask_ms']:.2f} ms |")
+    report.add(
+        f'| a chunk on a warm local worker, beyond its cost in this process | {costs["chunk_dask_ms"]:.2f} ms |'
+    )
     for index, (rss, peak) in enumerate(memory):
-        report.add(f"| worker {index} of 2 after the campaigns: RSS (peak) | {rss:.0f} MiB ({peak:.0f} MiB) |")
+        report.add(
+            f'| worker {index} of 2 after the campaigns: RSS (peak) | {rss:.0f} MiB ({peak:.0f} MiB) |'
+        )
     report.save(args.output)
     return 0
 
 
-if __name__ == "__main__":  # the local cluster's workers are spawned processes that import this module
+if (
+    __name__ == '__main__'
+):  # the local cluster's workers are spawned processes that import this module
     sys.exit(main())

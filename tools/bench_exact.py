@@ -1,22 +1,39 @@
 #!/usr/bin/env python3
-"""Benchmark of the exact propagator's cost (a script, not a test): prints what it measured and the machine.
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Benchmark of the exact propagator's cost (a script, not a test): prints what it measured and the
+machine.
 
 On every hard case of ``torquefree_ros/bench/hard_cases.json``, side by side in the same process:
 
 - per sample in a block of 10 000, against one ``scipy.special.ellipj`` call per element (the same
   count), at the case's parameter and at ``m = 1/2``: the ratio says what the exact solution costs
-  beyond the cheapest elliptic function evaluation there is (scipy takes shortcuts next to ``m = 0``
-  and ``m = 1``, where its call costs a tenth: the second ratio is the one to compare across cases);
+  beyond the cheapest elliptic function evaluation there is (scipy takes shortcuts next to ``m =
+  0`` and ``m = 1``, where its call costs a tenth: the second ratio is the one to compare across
+  cases);
 - per sample in a block of 256 (the node's block) over that of a block of 10 000, and a call of one
   sample: the fixed cost of one call;
 - building the propagator (``make_propagator``: checks, frame, constants).
 
-Then ``propagate_batch`` for 1 000 dispersed bodies x 100 samples, per body-sample, against one body's
-stream of 100 000 samples and against the loop of ``propagate`` calls a user would write.
+Then ``propagate_batch`` for 1 000 dispersed bodies x 100 samples, per body-sample, against one
+body's stream of 100 000 samples and against the loop of ``propagate`` calls a user would write.
 
 Everything twice when numba is installed: the exact attitude compiled (the ``fast`` extra, what
-propagators use then) and with numpy (``attitude_kernels.ENABLED`` switched in the same process); and
-the kernels' first call in a new process, compiling them and loading them from numba's cache.
+propagators use then) and with numpy (``attitude_kernels.ENABLED`` switched in the same process);
+and the kernels' first call in a new process, compiling them and loading them from numba's cache.
 
 Each timing is the fastest of several calls (the least disturbed by a shared machine); a round
 measures everything once, and ``--rounds`` rounds give median (min–max).
@@ -26,47 +43,57 @@ from __future__ import annotations
 
 import argparse
 import os
+from pathlib import Path
 import statistics
 import sys
 import tempfile
 import time
-from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_report import Report, fastest, spread  # noqa: E402
+from bench_report import fastest, Report, spread  # noqa: E402
 
 BLOCK, SMALL_BLOCK = 10_000, 256
 BODIES, BODY_SAMPLES = 1_000, 100
 
 
-
 def _use(path: str) -> None:
     from torquefree_ros.core import attitude_kernels
 
-    attitude_kernels.ENABLED = path == "compiled"
+    attitude_kernels.ENABLED = path == 'compiled'
 
 
 def _first_call_s(cache_dir: str) -> float:
-    """Seconds of a new process's first propagation (m > 1/2, then m <= 1/2) beyond the same process's
-    second: the kernels compiled, or loaded from ``cache_dir``."""
+    """
+    Seconds of a new process's first propagation (m > 1/2, then m <= 1/2) beyond the same
+    process's second: the kernels compiled, or loaded from ``cache_dir``.
+    """
     import subprocess
 
-    code = ("import time; from torquefree_ros import propagate\n"
-            "def both(): propagate([2, 3, 4], [0.7, 0.5, 0.6], [0, 0, 0, 1], [1.0]); "
-            "propagate([1, 2, 3], [0.3, 0.2, 1], [0, 0, 0, 1], [1.0])\n"
-            "a = time.perf_counter(); both(); b = time.perf_counter(); both(); c = time.perf_counter()\n"
-            "print((b - a) - (c - b))")
-    env = {**os.environ, "NUMBA_CACHE_DIR": cache_dir, "TORQUEFREE_ROS_KERNELS": "numba"}
-    return float(subprocess.run([sys.executable, "-c", code], env=env, check=True, capture_output=True,
-                                text=True, cwd=Path(__file__).resolve().parents[1]).stdout)
+    code = (
+        'import time; from torquefree_ros import propagate\n'
+        'def both(): propagate([2, 3, 4], [0.7, 0.5, 0.6], [0, 0, 0, 1], [1.0]); '
+        'propagate([1, 2, 3], [0.3, 0.2, 1], [0, 0, 0, 1], [1.0])\n'
+        'a = time.perf_counter(); both(); b = time.perf_counter(); both(); c = time.perf_counter()\n'
+        'print((b - a) - (c - b))'
+    )
+    env = {**os.environ, 'NUMBA_CACHE_DIR': cache_dir, 'TORQUEFREE_ROS_KERNELS': 'numba'}
+    return float(
+        subprocess.run(
+            [sys.executable, '-c', code],
+            env=env,
+            check=True,
+            capture_output=True,
+            text=True,
+            cwd=Path(__file__).resolve().parents[1],
+        ).stdout
+    )
 
 
 def _case_round(case, calls: int) -> dict:
     import numpy as np
     from scipy.special import ellipj
-
     from torquefree_ros.core.propagators import make_propagator
 
     propagator = make_propagator(case.inertia, case.angular_velocity, case.orientation)
@@ -77,19 +104,23 @@ def _case_round(case, calls: int) -> dict:
     u = times * (polhode.rate if polhode is not None else 1.0)
     per_sample = fastest(lambda: propagator(times), calls) / BLOCK
     return {
-        "sample_ns": per_sample * 1e9,
-        "ellipj_ratio": per_sample / (fastest(lambda: ellipj(u, m), calls) / BLOCK),
-        "generic_ellipj_ratio": per_sample / (fastest(lambda: ellipj(u, 0.5), calls) / BLOCK),
-        "small_block_ratio": fastest(lambda: propagator(small), 10 * calls) / SMALL_BLOCK / per_sample,
-        "one_sample_us": fastest(lambda: propagator(small[:1]), 20 * calls) * 1e6,
-        "build_us": fastest(lambda: make_propagator(case.inertia, case.angular_velocity, case.orientation),
-                             20 * calls) * 1e6,
+        'sample_ns': per_sample * 1e9,
+        'ellipj_ratio': per_sample / (fastest(lambda: ellipj(u, m), calls) / BLOCK),
+        'generic_ellipj_ratio': per_sample / (fastest(lambda: ellipj(u, 0.5), calls) / BLOCK),
+        'small_block_ratio': fastest(lambda: propagator(small), 10 * calls)
+        / SMALL_BLOCK
+        / per_sample,
+        'one_sample_us': fastest(lambda: propagator(small[:1]), 20 * calls) * 1e6,
+        'build_us': fastest(
+            lambda: make_propagator(case.inertia, case.angular_velocity, case.orientation),
+            20 * calls,
+        )
+        * 1e6,
     }
 
 
 def _batch_round(calls: int) -> dict:
     import numpy as np
-
     from torquefree_ros import propagate, propagate_batch
 
     rng = np.random.default_rng(0)
@@ -100,27 +131,39 @@ def _batch_round(calls: int) -> dict:
     stream = np.linspace(0.0, 30.0 * BODIES, BODIES * BODY_SAMPLES)
     batch = fastest(lambda: propagate_batch(inertia, omega0, orientation, times), calls)
     one = fastest(lambda: propagate(inertia[0], omega0[0], orientation[0], stream), calls)
-    loop = fastest(lambda: [propagate(inertia[i], omega0[i], orientation[i], times) for i in range(BODIES)], calls)
+    loop = fastest(
+        lambda: [propagate(inertia[i], omega0[i], orientation[i], times) for i in range(BODIES)],
+        calls,
+    )
     samples = BODIES * BODY_SAMPLES
-    return {"batch_ns": batch / samples * 1e9, "stream_ns": one / samples * 1e9, "loop_ns": loop / samples * 1e9,
-            "batch_ratio": batch / one, "loop_ratio": loop / one}
+    return {
+        'batch_ns': batch / samples * 1e9,
+        'stream_ns': one / samples * 1e9,
+        'loop_ns': loop / samples * 1e9,
+        'batch_ratio': batch / one,
+        'loop_ratio': loop / one,
+    }
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--rounds", type=int, default=3, help="rounds of every measurement (default 3)")
-    parser.add_argument("--calls", type=int, default=5, help="calls per timing, the fastest kept (default 5)")
-    parser.add_argument("--output", help="also write the report to this Markdown file")
+    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    parser.add_argument(
+        '--rounds', type=int, default=3, help='rounds of every measurement (default 3)'
+    )
+    parser.add_argument(
+        '--calls', type=int, default=5, help='calls per timing, the fastest kept (default 5)'
+    )
+    parser.add_argument('--output', help='also write the report to this Markdown file')
     args = parser.parse_args()
 
-    from torquefree_ros.bench.cases import REFERENCE_FILE, load_cases
     import json
 
+    from torquefree_ros.bench.cases import load_cases, REFERENCE_FILE
     from torquefree_ros.core import attitude_kernels
 
-    names = [case["name"] for case in json.loads(REFERENCE_FILE.read_text())["cases"]]
+    names = [case['name'] for case in json.loads(REFERENCE_FILE.read_text())['cases']]
     cases = load_cases(names)
-    paths = ("compiled", "numpy") if attitude_kernels.ENABLED else ("numpy",)
+    paths = ('compiled', 'numpy') if attitude_kernels.ENABLED else ('numpy',)
     started = time.monotonic()
     rounds = {(path, case.name): [] for path in paths for case in cases}
     batch = {path: [] for path in paths}
@@ -135,66 +178,98 @@ def main() -> int:
                 rounds[path, case.name].append(_case_round(case, args.calls))
             batch[path].append(_batch_round(max(2, args.calls // 2)))
     first_calls = []
-    if "compiled" in paths:
+    if 'compiled' in paths:
         for _ in range(args.rounds):  # an empty cache: compiled, then loaded from it
             with tempfile.TemporaryDirectory() as cache:
                 first_calls.append((_first_call_s(cache), _first_call_s(cache)))
 
-    report = Report("The exact propagator's cost", "make bench-exact")
-    report.add(f"{args.rounds} rounds in {time.monotonic() - started:.0f} s; each figure is median (min–max) "
-               "over the rounds of the fastest of several calls.")
-    if "compiled" in paths:
+    report = Report("The exact propagator's cost", 'make bench-exact')
+    report.add(
+        f'{args.rounds} rounds in {time.monotonic() - started:.0f} s; each figure is median (min–max) '
+        'over the rounds of the fastest of several calls.'
+    )
+    if 'compiled' in paths:
         import numba
 
-        report.add(f"The exact attitude compiled (numba {numba.__version__}, the `fast` extra: what "
-                   "propagators use when it is installed) and with numpy, side by side in every round.")
+        report.add(
+            f'The exact attitude compiled (numba {numba.__version__}, the `fast` extra: what '
+            'propagators use when it is installed) and with numpy, side by side in every round.'
+        )
     else:
-        report.add("numba is not installed: the numpy path only.")
+        report.add('numba is not installed: the numpy path only.')
     for path in paths:
-        _case_table(report, path, {name: values for (p, name), values in rounds.items() if p == path})
-    report.add("")
-    report.add(f"`propagate_batch`, {BODIES:,} dispersed bodies (inertia 2, 3, 4 kg m², ω0 0.7, 0.5, 0.6 rad/s, 1 % spread) x {BODY_SAMPLES} samples, "
-               f"beside one body's stream of {BODIES * BODY_SAMPLES:,} samples and the loop of `propagate` calls:")
-    report.add("")
-    report.add("| path | | ns per body-sample | / one stream |")
-    report.add("|---|---|---|---|")
+        _case_table(
+            report, path, {name: values for (p, name), values in rounds.items() if p == path}
+        )
+    report.add('')
+    report.add(
+        f'`propagate_batch`, {BODIES:,} dispersed bodies (inertia 2, 3, 4 kg m², ω0 0.7, 0.5, 0.6 rad/s, 1 % spread) x {BODY_SAMPLES} samples, '
+        f"beside one body's stream of {BODIES * BODY_SAMPLES:,} samples and the loop of `propagate` calls:"
+    )
+    report.add('')
+    report.add('| path | | ns per body-sample | / one stream |')
+    report.add('|---|---|---|---|')
     for path in paths:
         b = batch[path]
-        report.add(f"| {path} | propagate_batch | {spread([r['batch_ns'] for r in b])} | {spread([r['batch_ratio'] for r in b])} |")
-        report.add(f"| {path} | loop of propagate | {spread([r['loop_ns'] for r in b])} | {spread([r['loop_ratio'] for r in b])} |")
-        report.add(f"| {path} | one stream | {spread([r['stream_ns'] for r in b])} | 1 |")
+        report.add(
+            f'| {path} | propagate_batch | {spread([r["batch_ns"] for r in b])} | {spread([r["batch_ratio"] for r in b])} |'
+        )
+        report.add(
+            f'| {path} | loop of propagate | {spread([r["loop_ns"] for r in b])} | {spread([r["loop_ratio"] for r in b])} |'
+        )
+        report.add(f'| {path} | one stream | {spread([r["stream_ns"] for r in b])} | 1 |')
     if first_calls:
         compiled = [first for first, _ in first_calls]
         cached = [again for _, again in first_calls]
-        report.add("")
-        report.add("The kernels' first call in a new process (both kinds; beyond the second call's time): compiling "
-                   f"them {spread(compiled)} s; loading them from numba's cache {spread(cached)} s.")
+        report.add('')
+        report.add(
+            "The kernels' first call in a new process (both kinds; beyond the second call's time): compiling "
+            f"them {spread(compiled)} s; loading them from numba's cache {spread(cached)} s."
+        )
     report.save(args.output)
     return 0
 
 
 def _case_table(report, path: str, rounds: dict) -> None:
-    report.add("")
-    report.add(f"**{path}**: per sample in a block of {BLOCK:,} and beside one `scipy.special.ellipj` call per "
-               "element (same count; at the case's parameter, where scipy takes shortcuts next to m = 0 and m = 1, "
-               f"and at m = 1/2); a block of {SMALL_BLOCK} per sample over a block of {BLOCK:,}; a call of one sample "
-               "(a call's fixed cost); building the propagator:")
-    report.add("")
-    report.add(f"| case | ns per sample | / ellipj (case's m) | / ellipj (m = 1/2) | block {SMALL_BLOCK} / block {BLOCK:,} "
-               "| one sample (µs) | build (µs) |")
-    report.add("|---|---|---|---|---|---|---|")
-    keys = ("sample_ns", "ellipj_ratio", "generic_ellipj_ratio", "small_block_ratio", "one_sample_us", "build_us")
+    report.add('')
+    report.add(
+        f'**{path}**: per sample in a block of {BLOCK:,} and beside one `scipy.special.ellipj` call per '
+        "element (same count; at the case's parameter, where scipy takes shortcuts next to m = 0 and m = 1, "
+        f'and at m = 1/2); a block of {SMALL_BLOCK} per sample over a block of {BLOCK:,}; a call of one sample '
+        "(a call's fixed cost); building the propagator:"
+    )
+    report.add('')
+    report.add(
+        f"| case | ns per sample | / ellipj (case's m) | / ellipj (m = 1/2) | block {SMALL_BLOCK} / block {BLOCK:,} "
+        '| one sample (µs) | build (µs) |'
+    )
+    report.add('|---|---|---|---|---|---|---|')
+    keys = (
+        'sample_ns',
+        'ellipj_ratio',
+        'generic_ellipj_ratio',
+        'small_block_ratio',
+        'one_sample_us',
+        'build_us',
+    )
     for name, values in rounds.items():
-        report.add(f"| {name} | " + " | ".join(spread([v[key] for v in values]) for key in keys) + " |")
-    report.add("")
+        report.add(
+            f'| {name} | ' + ' | '.join(spread([v[key] for v in values]) for key in keys) + ' |'
+        )
+    report.add('')
     every = [v for values in rounds.values() for v in values]
-    for key, label in (("generic_ellipj_ratio", "per sample / ellipj at m = 1/2"),
-                       ("small_block_ratio", f"block {SMALL_BLOCK} / block {BLOCK:,}"),
-                       ("one_sample_us", "a call of one sample (µs)"), ("build_us", "build (µs)")):
+    for key, label in (
+        ('generic_ellipj_ratio', 'per sample / ellipj at m = 1/2'),
+        ('small_block_ratio', f'block {SMALL_BLOCK} / block {BLOCK:,}'),
+        ('one_sample_us', 'a call of one sample (µs)'),
+        ('build_us', 'build (µs)'),
+    ):
         medians = [statistics.median(v[key] for v in values) for values in rounds.values()]
-        report.add(f"- {label}: {min(medians):.3g} … {max(medians):.3g} over the cases (medians); "
-                   f"all rounds {min(v[key] for v in every):.3g} … {max(v[key] for v in every):.3g}")
+        report.add(
+            f'- {label}: {min(medians):.3g} … {max(medians):.3g} over the cases (medians); '
+            f'all rounds {min(v[key] for v in every):.3g} … {max(v[key] for v in every):.3g}'
+        )
 
 
-if __name__ == "__main__":
+if __name__ == '__main__':
     sys.exit(main())

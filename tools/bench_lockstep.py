@@ -1,6 +1,21 @@
 #!/usr/bin/env python3
-"""Benchmark of the closed loop in lock-step (a script, not a test): prints what it measured and the
-machine it ran on.
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Benchmark of the closed loop in lock-step (a script, not a test): prints what it measured and
+the machine it ran on.
 
 - round trips per second: the node (this process, lock-step, as fast as the controller answers, the
   ``detumble`` library scene) and a rate-damping controller in another process that answers every
@@ -16,16 +31,16 @@ from __future__ import annotations
 
 import argparse
 import os
+from pathlib import Path
 import statistics
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_node import NodeUnderTest, _isolate_dds  # noqa: E402
+from bench_node import _isolate_dds, NodeUnderTest  # noqa: E402
 from bench_report import Report, spread  # noqa: E402
 
 CONTROLLER = r"""
@@ -53,23 +68,29 @@ except BaseException:
 
 
 def round_trips(seconds: float) -> dict:
-    controller = subprocess.Popen([sys.executable, "-c", CONTROLLER], stdout=subprocess.PIPE, text=True)
+    controller = subprocess.Popen(
+        [sys.executable, '-c', CONTROLLER], stdout=subprocess.PIPE, text=True
+    )
     try:
-        assert controller.stdout.readline().strip() == "ready"
-        node = NodeUnderTest(scene="detumble", lockstep=True, real_time_factor=0.0, lockstep_timeout=0.2)
+        assert controller.stdout.readline().strip() == 'ready'
+        node = NodeUnderTest(
+            scene='detumble', lockstep=True, real_time_factor=0.0, lockstep_timeout=0.2
+        )
     except BaseException:
         controller.kill()
         raise
     try:
         samples = node.node._outputs.angular_velocity
-        commands = node.node._commands._subscriptions["torque_command"]
+        commands = node.node._commands._subscriptions['torque_command']
         deadline = time.monotonic() + 20.0
         while not (samples.get_subscription_count() and commands.get_publisher_count()):
             if time.monotonic() > deadline:
-                raise RuntimeError("the controller was not discovered")
+                raise RuntimeError('the controller was not discovered')
             time.sleep(0.01)
         loop = node.node.sample_loop
-        time.sleep(1.5)  # past the start-up run's unanswered first samples (each waits lockstep_timeout)
+        time.sleep(
+            1.5
+        )  # past the start-up run's unanswered first samples (each waits lockstep_timeout)
         published0, missed0 = loop.published, loop.missed_steps
         cpu0, wall0 = time.process_time(), time.monotonic()
         time.sleep(seconds)
@@ -79,30 +100,35 @@ def round_trips(seconds: float) -> dict:
         node.close()
         controller.send_signal(2)
         controller.communicate(timeout=20)
-    return {"rate": published / wall, "missed": missed, "cpu": cpu / wall}
+    return {'rate': published / wall, 'missed': missed, 'cpu': cpu / wall}
 
 
 def ping_pong(seconds: float, threaded: bool) -> float:
-    """Round trips per second of rclpy alone: this process publishes a raw angular_velocity sample and
-    waits for the same controller's answer before the next. ``threaded``: as the node does it, the
-    sample goes out from a thread of its own that waits for the executor's thread to hand it the
-    answer; otherwise the answer's callback publishes the next sample (one thread, the floor)."""
+    """
+    Round trips per second of rclpy alone: this process publishes a raw angular_velocity sample
+    and waits for the same controller's answer before the next. ``threaded``: as the node does it,
+    the sample goes out from a thread of its own that waits for the executor's thread to hand it
+    the answer; otherwise the answer's callback publishes the next sample (one thread, the
+    floor).
+    """
     import threading
 
-    import rclpy
     from geometry_msgs.msg import Vector3Stamped, WrenchStamped
+    import rclpy
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.qos import QoSProfile, ReliabilityPolicy
     from rclpy.serialization import serialize_message
 
-    controller = subprocess.Popen([sys.executable, "-c", CONTROLLER], stdout=subprocess.PIPE, text=True)
+    controller = subprocess.Popen(
+        [sys.executable, '-c', CONTROLLER], stdout=subprocess.PIPE, text=True
+    )
     context = rclpy.Context()
     try:
-        assert controller.stdout.readline().strip() == "ready"
+        assert controller.stdout.readline().strip() == 'ready'
         rclpy.init(context=context)
-        node = rclpy.create_node("bench_ping", context=context)
+        node = rclpy.create_node('bench_ping', context=context)
         qos = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
-        publisher = node.create_publisher(Vector3Stamped, "angular_velocity", qos)
+        publisher = node.create_publisher(Vector3Stamped, 'angular_velocity', qos)
         sample = serialize_message(Vector3Stamped())
         answered = threading.Event()
         counts = [0]
@@ -114,13 +140,13 @@ def ping_pong(seconds: float, threaded: bool) -> float:
             else:
                 publisher.publish(sample)
 
-        node.create_subscription(WrenchStamped, "torque_command", on_answer, qos, raw=True)
+        node.create_subscription(WrenchStamped, 'torque_command', on_answer, qos, raw=True)
         executor = SingleThreadedExecutor(context=context)
         executor.add_node(node)
         deadline = time.monotonic() + 20.0
-        while not (publisher.get_subscription_count() and node.count_publishers("torque_command")):
+        while not (publisher.get_subscription_count() and node.count_publishers('torque_command')):
             if time.monotonic() > deadline:
-                raise RuntimeError("the controller was not discovered")
+                raise RuntimeError('the controller was not discovered')
             time.sleep(0.01)
         stop = threading.Event()
 
@@ -161,36 +187,35 @@ def _spin_until(executor, stop) -> None:
 
 def step_costs(steps: int = 2000) -> dict:
     """Seconds per lock-step step of the node's own work, and of rclpy's publish and take."""
+    from geometry_msgs.msg import Vector3Stamped
     import numpy as np
     import rclpy
-    from geometry_msgs.msg import Vector3Stamped
     from rclpy.qos import QoSProfile, ReliabilityPolicy
-
     from torquefree_ros import load_scene
     from torquefree_ros.bag.samples import encode_block
     from torquefree_ros.core.simulation import Simulation
 
-    scene = load_scene("detumble")
+    scene = load_scene('detumble')
     simulation = Simulation(scene.propagator(), 100.0, outputs=scene.outputs)
     ((_, hold),) = simulation.command_holds
-    hold.frame_id = "body"
+    hold.frame_id = 'body'
     block = simulation.samples(0, 1)
     started = time.perf_counter()
     for n in range(1, steps + 1):
         w = block.omega_B[0]
-        hold.receive(hold.stamp_ns(n - 1), -0.01 * w, frame_id="body")
+        hold.receive(hold.stamp_ns(n - 1), -0.01 * w, frame_id='body')
         hold.seal(n - 1)
         block = simulation.samples(n, 1)
-        encode_block(block, "body", "world", simulation.outputs, clock=True)
+        encode_block(block, 'body', 'world', simulation.outputs, clock=True)
     node_cost = (time.perf_counter() - started) / steps
 
     context = rclpy.Context()
     rclpy.init(context=context)
-    node = rclpy.create_node("bench_rclpy", context=context)
+    node = rclpy.create_node('bench_rclpy', context=context)
     qos = QoSProfile(depth=steps, reliability=ReliabilityPolicy.RELIABLE)
-    publisher = node.create_publisher(Vector3Stamped, "bench_take", qos)
-    subscription = node.create_subscription(Vector3Stamped, "bench_take", lambda m: None, qos)
-    message = encode_block(block, "body", "world")[0].messages[0]
+    publisher = node.create_publisher(Vector3Stamped, 'bench_take', qos)
+    subscription = node.create_subscription(Vector3Stamped, 'bench_take', lambda m: None, qos)
+    message = encode_block(block, 'body', 'world')[0].messages[0]
     deadline = time.monotonic() + 20.0
     while publisher.get_subscription_count() == 0 and time.monotonic() < deadline:
         time.sleep(0.01)
@@ -221,54 +246,76 @@ def step_costs(steps: int = 2000) -> dict:
     node.destroy_node()
     context.try_shutdown()
     assert np.isfinite(node_cost) and taken > steps // 2, taken
-    return {"node": node_cost, "publish": publish_cost, "take": take_cost, "dispatch": dispatch_cost}
+    return {
+        'node': node_cost,
+        'publish': publish_cost,
+        'take': take_cost,
+        'dispatch': dispatch_cost,
+    }
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--seconds", type=float, default=5.0, help="duration of each round-trip run (default: 5)")
-    parser.add_argument("--repeats", type=int, default=3, help="runs of each measurement (default: 3)")
-    parser.add_argument("--output", help="also write the report here (make bench-lockstep: docs/bench/lockstep.md)")
+    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    parser.add_argument(
+        '--seconds', type=float, default=5.0, help='duration of each round-trip run (default: 5)'
+    )
+    parser.add_argument(
+        '--repeats', type=int, default=3, help='runs of each measurement (default: 3)'
+    )
+    parser.add_argument(
+        '--output', help='also write the report here (make bench-lockstep: docs/bench/lockstep.md)'
+    )
     args = parser.parse_args(argv)
     _isolate_dds()
 
-    report = Report("Closed loop in lock-step", "make bench-lockstep")
-    report.add(f"{args.repeats} runs, median (min–max); ROS domain {os.environ['ROS_DOMAIN_ID']}")
-    report.add("")
+    report = Report('Closed loop in lock-step', 'make bench-lockstep')
+    report.add(f'{args.repeats} runs, median (min–max); ROS domain {os.environ["ROS_DOMAIN_ID"]}')
+    report.add('')
     runs, floors, handoffs = [], [], []
     for _ in range(args.repeats):  # interleaved, so that a noisy moment hits all three alike
         floors.append(ping_pong(args.seconds, threaded=False))
         runs.append(round_trips(args.seconds))
         handoffs.append(ping_pong(args.seconds, threaded=True))
-    ratios = [r["rate"] / f for r, f in zip(runs, floors)]
-    report.add(f"Round trips per second (library scene `detumble` at 100 Hz, DOP853 at 1e-10 across each hold, the "
-               f"controller in another process, {args.seconds:g} s each): {spread([r['rate'] for r in runs])}; "
-               f"missed steps {spread([r['missed'] for r in runs])}; the node's process CPU "
-               f"{spread([100 * r['cpu'] for r in runs])} % of a core.")
-    report.add("")
-    report.add(f"rclpy's floor, side by side (the same controller; this process publishes a raw sample and waits for "
-               f"the answer before the next): answered from the answer's callback, one thread, "
-               f"{spread(floors)} round trips per second; from a thread of its own handed each answer by the "
-               f"executor's thread, as the node's sample loop is, {spread(handoffs)}.")
+    ratios = [r['rate'] / f for r, f in zip(runs, floors)]
+    report.add(
+        f'Round trips per second (library scene `detumble` at 100 Hz, DOP853 at 1e-10 across each hold, the '
+        f'controller in another process, {args.seconds:g} s each): {spread([r["rate"] for r in runs])}; '
+        f"missed steps {spread([r['missed'] for r in runs])}; the node's process CPU "
+        f'{spread([100 * r["cpu"] for r in runs])} % of a core.'
+    )
+    report.add('')
+    report.add(
+        f"rclpy's floor, side by side (the same controller; this process publishes a raw sample and waits for "
+        f"the answer before the next): answered from the answer's callback, one thread, "
+        f'{spread(floors)} round trips per second; from a thread of its own handed each answer by the '
+        f"executor's thread, as the node's sample loop is, {spread(handoffs)}."
+    )
     report.add(f"The node's lock-step / the floor, run by run: {spread(ratios)}.")
-    report.add("")
+    report.add('')
     costs = [step_costs() for _ in range(args.repeats)]
-    report.add("Per step, µs, in one process: the node's own work (command into the hold, seal, one sample "
-               f"computed, CDR encoded) {spread([1e6 * c['node'] for c in costs])}; rclpy publishing one raw "
-               f"sample {spread([1e6 * c['publish'] for c in costs])}; rclpy taking one message "
-               f"{spread([1e6 * c['take'] for c in costs])}; the executor taking one message and calling its "
-               f"callback {spread([1e6 * c['dispatch'] for c in costs])}.")
-    node_us = statistics.median(1e6 * c["node"] for c in costs)
-    round_trip, floor = 1e6 / statistics.median(r["rate"] for r in runs), 1e6 / statistics.median(floors)
-    report.add("")
-    report.add(f"Where a round trip goes (medians): {round_trip:.0f} µs, of which rclpy's floor (both processes' "
-               f"executors, DDS both ways, the controller) {floor:.0f} µs and the node's own work {node_us:.0f} µs; "
-               f"the remaining {round_trip - floor - node_us:.0f} µs is the node's rclpy side beyond the floor's "
-               "(the command taken as a Python message, three more messages published per sample: /clock, "
-               "attitude, markers) and the machine's noise.")
+    report.add(
+        "Per step, µs, in one process: the node's own work (command into the hold, seal, one sample "
+        f'computed, CDR encoded) {spread([1e6 * c["node"] for c in costs])}; rclpy publishing one raw '
+        f'sample {spread([1e6 * c["publish"] for c in costs])}; rclpy taking one message '
+        f'{spread([1e6 * c["take"] for c in costs])}; the executor taking one message and calling its '
+        f'callback {spread([1e6 * c["dispatch"] for c in costs])}.'
+    )
+    node_us = statistics.median(1e6 * c['node'] for c in costs)
+    round_trip, floor = (
+        1e6 / statistics.median(r['rate'] for r in runs),
+        1e6 / statistics.median(floors),
+    )
+    report.add('')
+    report.add(
+        f"Where a round trip goes (medians): {round_trip:.0f} µs, of which rclpy's floor (both processes' "
+        f"executors, DDS both ways, the controller) {floor:.0f} µs and the node's own work {node_us:.0f} µs; "
+        f"the remaining {round_trip - floor - node_us:.0f} µs is the node's rclpy side beyond the floor's "
+        '(the command taken as a Python message, three more messages published per sample: /clock, '
+        "attitude, markers) and the machine's noise."
+    )
     report.save(args.output)
     return 0
 
 
-if __name__ == "__main__":
+if __name__ == '__main__':
     sys.exit(main())

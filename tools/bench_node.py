@@ -1,11 +1,26 @@
 #!/usr/bin/env python3
-"""Benchmark of the simulator node's ROS layer (a script, not a test): prints what it measured and
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Benchmark of the simulator node's ROS layer (a script, not a test): prints what it measured and
 the machine it ran on.
 
 - real time: the share of late samples (published more than one period after they were due) at each
-  publish_rate, with a subscriber in another process receiving both topics, beside the machine's own
-  floor: a bare loop that only waits for each deadline the way the node does, at the same rate, run
-  right after, with its late share by the same rule;
+  publish_rate, with a subscriber in another process receiving both topics, beside the machine's
+  own floor: a bare loop that only waits for each deadline the way the node does, at the same rate,
+  run right after, with its late share by the same rule;
 - CPU use of the node process at 100 Hz;
 - samples/s as fast as possible (real_time_factor 0, /clock included);
 - cost per sample, side by side in one run: the core's block evaluation, the CDR encoding, the
@@ -19,11 +34,11 @@ from __future__ import annotations
 
 import argparse
 import os
+from pathlib import Path
 import subprocess
 import sys
 import threading
 import time
-from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -50,8 +65,8 @@ print(counts[0], counts[1], flush=True)
 
 
 def _isolate_dds() -> None:
-    os.environ.setdefault("ROS_DOMAIN_ID", str(150 + os.getpid() % 80))
-    os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    os.environ.setdefault('ROS_DOMAIN_ID', str(150 + os.getpid() % 80))
+    os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 
 
 class NodeUnderTest:
@@ -59,7 +74,6 @@ class NodeUnderTest:
         import rclpy
         from rclpy.executors import SingleThreadedExecutor
         from rclpy.parameter import Parameter
-
         from torquefree_ros.ros.node import TorqueFreeSim
 
         self.context = rclpy.Context()
@@ -82,7 +96,7 @@ class NodeUnderTest:
         deadline = time.monotonic() + timeout
         while publisher.get_subscription_count() == 0:
             if time.monotonic() > deadline:
-                raise RuntimeError("the subscriber was not discovered")
+                raise RuntimeError('the subscriber was not discovered')
             time.sleep(0.01)
 
     def close(self):
@@ -93,8 +107,10 @@ class NodeUnderTest:
 
 
 def start_subscriber():
-    process = subprocess.Popen([sys.executable, "-c", SUBSCRIBER], stdout=subprocess.PIPE, text=True)
-    assert process.stdout.readline().strip() == "ready"
+    process = subprocess.Popen(
+        [sys.executable, '-c', SUBSCRIBER], stdout=subprocess.PIPE, text=True
+    )
+    assert process.stdout.readline().strip() == 'ready'
     return process
 
 
@@ -121,13 +137,15 @@ def measure_run(seconds: float, **parameters) -> dict:
     finally:
         node.close()
         stop_subscriber(subscriber)
-    return {"published": published, "late": late, "cpu": cpu / wall, "wall": wall}
+    return {'published': published, 'late': late, 'cpu': cpu / wall, 'wall': wall}
 
 
 def sleep_floor(rate: float, seconds: float) -> float:
-    """The share of ticks of a bare loop that wake more than one period after their deadline, waiting
-    as the node's sample loop waits (``threading.Event.wait`` until the deadline) and doing nothing
-    else: what the machine's scheduler alone costs at this rate."""
+    """
+    The share of ticks of a bare loop that wake more than one period after their deadline,
+    waiting as the node's sample loop waits (``threading.Event.wait`` until the deadline) and doing
+    nothing else: what the machine's scheduler alone costs at this rate.
+    """
     period, wake = 1.0 / rate, threading.Event()
     ticks = max(1, int(seconds * rate))
     start, late = time.monotonic(), 0
@@ -141,23 +159,25 @@ def sleep_floor(rate: float, seconds: float) -> float:
 
 
 def message_object_cost(samples: int = 20000) -> float:
-    """Seconds per sample of the path the node avoids: filling message objects and rclpy publish(msg)."""
-    import rclpy
+    """
+    Seconds per sample of the path the node avoids: filling message objects and rclpy
+    publish(msg).
+    """
     from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
+    import rclpy
     from rosgraph_msgs.msg import Clock
-
     from torquefree_ros.core.scene import default_scene
     from torquefree_ros.core.simulation import Simulation
 
     block = Simulation(default_scene().propagator(), 100.0).samples(0, samples)
     context = rclpy.Context()
     rclpy.init(context=context)
-    node = rclpy.create_node("bench_publish", context=context)
-    omega_pub = node.create_publisher(Vector3Stamped, "angular_velocity", 10)
-    q_pub = node.create_publisher(QuaternionStamped, "attitude", 10)
-    clock_pub = node.create_publisher(Clock, "/clock", 10)
+    node = rclpy.create_node('bench_publish', context=context)
+    omega_pub = node.create_publisher(Vector3Stamped, 'angular_velocity', 10)
+    q_pub = node.create_publisher(QuaternionStamped, 'attitude', 10)
+    clock_pub = node.create_publisher(Clock, '/clock', 10)
     omega_msg, q_msg, clock_msg = Vector3Stamped(), QuaternionStamped(), Clock()
-    omega_msg.header.frame_id, q_msg.header.frame_id = "body", "world"
+    omega_msg.header.frame_id, q_msg.header.frame_id = 'body', 'world'
     t = time.perf_counter()
     for stamp, w, q in zip(block.stamps_ns.tolist(), block.omega_B.tolist(), block.q_NB.tolist()):
         sec, nanosec = divmod(stamp, 1_000_000_000)
@@ -177,54 +197,74 @@ def message_object_cost(samples: int = 20000) -> float:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--seconds", type=float, default=5.0, help="duration of each run (default: 5)")
-    parser.add_argument("--rates", type=float, nargs="+", default=[100, 500, 1000, 2000, 4000])
-    parser.add_argument("--repeats", type=int, default=3, help="runs of each measurement (default: 3)")
-    parser.add_argument("--output", help="also write the report here (make bench-node: docs/bench/node.md)")
+    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    parser.add_argument(
+        '--seconds', type=float, default=5.0, help='duration of each run (default: 5)'
+    )
+    parser.add_argument('--rates', type=float, nargs='+', default=[100, 500, 1000, 2000, 4000])
+    parser.add_argument(
+        '--repeats', type=int, default=3, help='runs of each measurement (default: 3)'
+    )
+    parser.add_argument(
+        '--output', help='also write the report here (make bench-node: docs/bench/node.md)'
+    )
     args = parser.parse_args(argv)
     _isolate_dds()
     import rclpy  # noqa: F401
 
-    report = Report("Simulator node cost", "make bench-node")
-    report.add(f"{args.repeats} runs of {args.seconds:g} s each, median (min–max); ROS domain {os.environ['ROS_DOMAIN_ID']}")
-    report.add("")
-    report.add("Real time (real_time_factor 1), both topics, a subscriber in another process. A sample is late when it")
-    report.add("goes out more than one period after its stamp; the sleep floor is a bare loop that only waits for")
-    report.add("each deadline the same way, run right after at the same rate: lateness the node cannot go below.")
-    report.add("")
-    report.add("| publish_rate (Hz) | late samples, % | sleep floor, late ticks % | node CPU, % of a core |")
-    report.add("|---|---|---|---|")
+    report = Report('Simulator node cost', 'make bench-node')
+    report.add(
+        f'{args.repeats} runs of {args.seconds:g} s each, median (min–max); ROS domain {os.environ["ROS_DOMAIN_ID"]}'
+    )
+    report.add('')
+    report.add(
+        'Real time (real_time_factor 1), both topics, a subscriber in another process. A sample is late when it'
+    )
+    report.add(
+        'goes out more than one period after its stamp; the sleep floor is a bare loop that only waits for'
+    )
+    report.add(
+        'each deadline the same way, run right after at the same rate: lateness the node cannot go below.'
+    )
+    report.add('')
+    report.add(
+        '| publish_rate (Hz) | late samples, % | sleep floor, late ticks % | node CPU, % of a core |'
+    )
+    report.add('|---|---|---|---|')
     for rate in args.rates:
         late, floor, cpu = [], [], []
         for _ in range(args.repeats):
             r = measure_run(args.seconds, publish_rate=float(rate), qos_depth=1000)
-            late.append(100 * r["late"] / max(r["published"], 1))
-            cpu.append(100 * r["cpu"])
+            late.append(100 * r['late'] / max(r['published'], 1))
+            cpu.append(100 * r['cpu'])
             floor.append(100 * sleep_floor(rate, args.seconds))
-        report.add(f"| {rate:g} | {spread(late)} | {spread(floor)} | {spread(cpu)} |")
+        report.add(f'| {rate:g} | {spread(late)} | {spread(floor)} | {spread(cpu)} |')
 
     throughput = []
     for _ in range(args.repeats):
         r = measure_run(args.seconds, publish_rate=100.0, real_time_factor=0.0, qos_depth=1000)
-        throughput.append(r["published"] / r["wall"])
-    report.add("")
-    report.add(f"As fast as possible (real_time_factor 0, /clock published, a subscriber in another process): "
-               f"{spread(throughput)} samples/s.")
+        throughput.append(r['published'] / r['wall'])
+    report.add('')
+    report.add(
+        f'As fast as possible (real_time_factor 0, /clock published, a subscriber in another process): '
+        f'{spread(throughput)} samples/s.'
+    )
 
     from torquefree_ros.bench.pipeline import sample_costs
 
-    stages = ("propagate (exact)", "CDR encoding", "node publishes (3 raw, no subscriber)")
+    stages = ('propagate (exact)', 'CDR encoding', 'node publishes (3 raw, no subscriber)')
     costs = [sample_costs() for _ in range(args.repeats)]
     objects = [1e6 * message_object_cost() for _ in range(args.repeats)]
-    report.add("")
-    report.add("Cost per sample (µs of CPU), blocks of 256, no subscriber, one process: " + ", ".join(
-        f"{stage} {spread([c[stage] for c in costs])}" for stage in stages)
-        + f"; total {spread([sum(c[stage] for stage in stages) for c in costs])}. For comparison, filling message "
-        f"objects and rclpy publish(msg): {spread(objects)}.")
+    report.add('')
+    report.add(
+        'Cost per sample (µs of CPU), blocks of 256, no subscriber, one process: '
+        + ', '.join(f'{stage} {spread([c[stage] for c in costs])}' for stage in stages)
+        + f'; total {spread([sum(c[stage] for stage in stages) for c in costs])}. For comparison, filling message '
+        f'objects and rclpy publish(msg): {spread(objects)}.'
+    )
     report.save(args.output)
     return 0
 
 
-if __name__ == "__main__":
+if __name__ == '__main__':
     sys.exit(main())

@@ -1,37 +1,58 @@
-"""What every benchmark script prints and keeps: the lines it measured, under a header with the
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+What every benchmark script prints and keeps: the lines it measured, under a header with the
 command that made them, the date and the machine, written to ``--output`` (committed under
-``docs/bench/``) so that every figure the README quotes has its source."""
+``docs/bench/``) so that every figure the README quotes has its source.
+"""
 
 from __future__ import annotations
 
 import datetime
 import os
+from pathlib import Path
 import platform
 import shlex
 import statistics
 import sys
 import time
-from pathlib import Path
 
 
 def machine() -> str:
-    model = ""
+    model = ''
     try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
+        for line in Path('/proc/cpuinfo').read_text().splitlines():
+            if line.startswith('model name'):
+                model = line.split(':', 1)[1].strip()
                 break
     except OSError:
         pass
     import numpy
 
-    return (f"{model or platform.machine()}, {os.cpu_count()} cores, {platform.platform()}; "
-            f"Python {platform.python_version()}, numpy {numpy.__version__}")
+    return (
+        f'{model or platform.machine()}, {os.cpu_count()} cores, {platform.platform()}; '
+        f'Python {platform.python_version()}, numpy {numpy.__version__}'
+    )
 
 
 def fastest(function, calls: int, clock=time.perf_counter) -> float:
-    """The least disturbed of ``calls`` runs of ``function()`` on a shared machine, in seconds of ``clock``."""
-    best = float("inf")
+    """
+    The least disturbed of ``calls`` runs of ``function()`` on a shared machine, in seconds of
+    ``clock``.
+    """
+    best = float('inf')
     for _ in range(calls):
         started = clock()
         function()
@@ -42,30 +63,32 @@ def fastest(function, calls: int, clock=time.perf_counter) -> float:
 def spread(values) -> str:
     """``median (min–max)`` of repeated measurements, three significant digits."""
     values = sorted(values)
-    return f"{_number(statistics.median(values))} ({_number(values[0])}–{_number(values[-1])})"
+    return f'{_number(statistics.median(values))} ({_number(values[0])}–{_number(values[-1])})'
 
 
 def _number(value: float) -> str:
     if abs(value) >= 1000:
-        return f"{float(f'{value:.3g}'):,.0f}"
-    return f"{value:.3g}"
+        return f'{float(f"{value:.3g}"):,.0f}'
+    return f'{value:.3g}'
 
 
 class Report:
     def __init__(self, title: str, command: str):
         self.lines: list[str] = []
-        argv = " ".join(shlex.quote(a) for a in sys.argv[1:])
-        self.add(f"# {title}")
-        self.add("")
-        self.add(f"- command: `{command}` (`{Path(sys.argv[0]).as_posix()}{' ' + argv if argv else ''}`)")
-        self.add(f"- date: {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC")
-        self.add(f"- machine: {machine()}")
-        self.add("")
+        argv = ' '.join(shlex.quote(a) for a in sys.argv[1:])
+        self.add(f'# {title}')
+        self.add('')
+        self.add(
+            f'- command: `{command}` (`{Path(sys.argv[0]).as_posix()}{" " + argv if argv else ""}`)'
+        )
+        self.add(f'- date: {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC')
+        self.add(f'- machine: {machine()}')
+        self.add('')
 
-    def add(self, line: str = "") -> None:
+    def add(self, line: str = '') -> None:
         print(line, flush=True)
         self.lines.append(line)
 
     def save(self, path: str | None) -> None:
         if path:
-            Path(path).write_text("\n".join(self.lines) + "\n")
+            Path(path).write_text('\n'.join(self.lines) + '\n')

@@ -1,6 +1,21 @@
 #!/usr/bin/env python3
-"""Regenerate torquefree_ros/bench/hard_cases.json: high-precision reference solutions of the torque-free rigid
-body for the hard cases, and the float64 floor of each sample.
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Regenerate torquefree_ros/bench/hard_cases.json: high-precision reference solutions of the
+torque-free rigid body for the hard cases, and the float64 floor of each sample.
 
 Independence: the reference integrates Euler's equations in the principal frame and
 ``q' = 1/2 q ⊗ (w, 0)`` with a Taylor-series method in mpmath (45 significant digits, order 40,
@@ -21,10 +36,10 @@ from __future__ import annotations
 import argparse
 import json
 import multiprocessing
+from pathlib import Path
 import platform
 import sys
 import time
-from pathlib import Path
 
 import mpmath as mp
 import numpy as np
@@ -33,7 +48,7 @@ DIGITS = 45
 ORDER = 40
 STEP_FRACTION = 0.2  # of the radius of convergence: truncation ~ 0.2**40 ~ 1e-28
 ROUNDING_UNIT = 2.0**-53
-OUTPUT = Path(__file__).resolve().parent.parent / "torquefree_ros" / "bench" / "hard_cases.json"
+OUTPUT = Path(__file__).resolve().parent.parent / 'torquefree_ros' / 'bench' / 'hard_cases.json'
 
 
 def _q(axis, angle):
@@ -54,25 +69,55 @@ def _near_separatrix(inertia, distance):
 
 # name: inertia, angular velocity, orientation, horizon (s), samples
 CASES = {
-    "near_separatrix_above_1e-6": ([1.0, 2.0, 2.5], _near_separatrix([1.0, 2.0, 2.5], 1e-6), _q([1, 2, 3], 0.4), 80.0, 41),
-    "near_separatrix_below_1e-6": ([1.0, 2.0, 2.5], _near_separatrix([1.0, 2.0, 2.5], -1e-6), _q([1, 2, 3], 0.4), 80.0, 41),
-    "near_separatrix_above_1e-10": ([1.0, 2.0, 2.5], _near_separatrix([1.0, 2.0, 2.5], 1e-10), _q([0, 1, 0], 1.0), 120.0, 61),
-    "near_separatrix_below_1e-10": ([1.0, 2.0, 2.5], _near_separatrix([1.0, 2.0, 2.5], -1e-10), _q([0, 1, 0], 1.0), 120.0, 61),
-    "separatrix_exact": ([3.0, 4.0, 6.0], [2.0, 0.5, 1.0], [0.0, 0.0, 0.0, 1.0], 30.0, 31),
-    "dzhanibekov_1e-4": ([1.0, 2.0, 3.0], [1e-4, 1.0, 1e-4], [0.0, 0.0, 0.0, 1.0], 40.0, 41),
-    "dzhanibekov_1e-8": ([1.0, 2.0, 3.0], [1e-8, 1.0, 1e-8], [0.0, 0.0, 0.0, 1.0], 60.0, 61),
-    "near_axisymmetric_1e-9": ([1.0, 1.0 + 1e-9, 1.7], [0.4, -0.3, 1.1], _q([1, -1, 0], 0.3), 30.0, 31),
-    "oblate_unsorted": ([1.0, 2.0, 1.0], [0.5, 1.2, -0.3], _q([0, 0, 1], 2.0), 30.0, 31),
-    "prolate_unsorted": ([2.0, 1.0, 2.0], [0.2, 2.0, 0.4], _q([1, 1, 1], -1.0), 30.0, 31),
-    "flat_plate": ([1.5, 2.5, 4.0], [0.7, 0.5, 0.6], _q([2, -1, 1], 0.8), 30.0, 31),
-    "thin_rod_1e6": ([1.0, 1.0e6, 1.0000005e6], [3.0, 1e-3, 2e-3], _q([0, 0, 1], 0.5), 20.0, 41),
-    "fast_spin_1e3": ([1.0, 2.0, 3.0], [600.0, 300.0, 700.0], _q([1, 0, 0], 0.2), 0.05, 26),
-    "slow_spin_1e-9": ([1.0, 2.0, 3.0], [6e-10, 3e-10, 7e-10], _q([1, 0, 0], 0.2), 3e10, 31),
-    "zero_rate": ([1.0, 2.0, 3.0], [0.0, 0.0, 0.0], _q([1, 2, 2], 1.2), 10.0, 11),
-    "sphere": ([2.0, 2.0, 2.0], [0.3, -0.4, 1.2], _q([3, 1, 0], 0.7), 20.0, 21),
-    "large_angle_q0": ([1.0, 2.0, 3.0], [0.4, 0.8, -0.5], _q([1, -2, 0.5], 3.1), 30.0, 31),
-    "unsorted_triaxial": ([3.0, 1.0, 2.0], [0.8, 0.3, 0.5], _q([0, 1, 1], 1.5), 30.0, 31),
-    "long_horizon_1e5": ([1.0, 2.0, 2.5], [0.01, 0.006, 0.004], _q([1, 1, 0], 0.6), 1e5, 51),
+    'near_separatrix_above_1e-6': (
+        [1.0, 2.0, 2.5],
+        _near_separatrix([1.0, 2.0, 2.5], 1e-6),
+        _q([1, 2, 3], 0.4),
+        80.0,
+        41,
+    ),
+    'near_separatrix_below_1e-6': (
+        [1.0, 2.0, 2.5],
+        _near_separatrix([1.0, 2.0, 2.5], -1e-6),
+        _q([1, 2, 3], 0.4),
+        80.0,
+        41,
+    ),
+    'near_separatrix_above_1e-10': (
+        [1.0, 2.0, 2.5],
+        _near_separatrix([1.0, 2.0, 2.5], 1e-10),
+        _q([0, 1, 0], 1.0),
+        120.0,
+        61,
+    ),
+    'near_separatrix_below_1e-10': (
+        [1.0, 2.0, 2.5],
+        _near_separatrix([1.0, 2.0, 2.5], -1e-10),
+        _q([0, 1, 0], 1.0),
+        120.0,
+        61,
+    ),
+    'separatrix_exact': ([3.0, 4.0, 6.0], [2.0, 0.5, 1.0], [0.0, 0.0, 0.0, 1.0], 30.0, 31),
+    'dzhanibekov_1e-4': ([1.0, 2.0, 3.0], [1e-4, 1.0, 1e-4], [0.0, 0.0, 0.0, 1.0], 40.0, 41),
+    'dzhanibekov_1e-8': ([1.0, 2.0, 3.0], [1e-8, 1.0, 1e-8], [0.0, 0.0, 0.0, 1.0], 60.0, 61),
+    'near_axisymmetric_1e-9': (
+        [1.0, 1.0 + 1e-9, 1.7],
+        [0.4, -0.3, 1.1],
+        _q([1, -1, 0], 0.3),
+        30.0,
+        31,
+    ),
+    'oblate_unsorted': ([1.0, 2.0, 1.0], [0.5, 1.2, -0.3], _q([0, 0, 1], 2.0), 30.0, 31),
+    'prolate_unsorted': ([2.0, 1.0, 2.0], [0.2, 2.0, 0.4], _q([1, 1, 1], -1.0), 30.0, 31),
+    'flat_plate': ([1.5, 2.5, 4.0], [0.7, 0.5, 0.6], _q([2, -1, 1], 0.8), 30.0, 31),
+    'thin_rod_1e6': ([1.0, 1.0e6, 1.0000005e6], [3.0, 1e-3, 2e-3], _q([0, 0, 1], 0.5), 20.0, 41),
+    'fast_spin_1e3': ([1.0, 2.0, 3.0], [600.0, 300.0, 700.0], _q([1, 0, 0], 0.2), 0.05, 26),
+    'slow_spin_1e-9': ([1.0, 2.0, 3.0], [6e-10, 3e-10, 7e-10], _q([1, 0, 0], 0.2), 3e10, 31),
+    'zero_rate': ([1.0, 2.0, 3.0], [0.0, 0.0, 0.0], _q([1, 2, 2], 1.2), 10.0, 11),
+    'sphere': ([2.0, 2.0, 2.0], [0.3, -0.4, 1.2], _q([3, 1, 0], 0.7), 20.0, 21),
+    'large_angle_q0': ([1.0, 2.0, 3.0], [0.4, 0.8, -0.5], _q([1, -2, 0.5], 3.1), 30.0, 31),
+    'unsorted_triaxial': ([3.0, 1.0, 2.0], [0.8, 0.3, 0.5], _q([0, 1, 1], 1.5), 30.0, 31),
+    'long_horizon_1e5': ([1.0, 2.0, 2.5], [0.01, 0.006, 0.004], _q([1, 1, 0], 0.6), 1e5, 51),
 }
 
 
@@ -99,10 +144,18 @@ class TaylorRigidBody:
             w2[k + 1] = g2 * product(w3, w1, k) * scale
             w3[k + 1] = g3 * product(w1, w2, k) * scale
             # q ⊗ (w, 0), Hamilton, scalar last
-            qx[k + 1] = half * scale * (product(qw, w1, k) + product(qy, w3, k) - product(qz, w2, k))
-            qy[k + 1] = half * scale * (product(qw, w2, k) - product(qx, w3, k) + product(qz, w1, k))
-            qz[k + 1] = half * scale * (product(qw, w3, k) + product(qx, w2, k) - product(qy, w1, k))
-            qw[k + 1] = -half * scale * (product(qx, w1, k) + product(qy, w2, k) + product(qz, w3, k))
+            qx[k + 1] = (
+                half * scale * (product(qw, w1, k) + product(qy, w3, k) - product(qz, w2, k))
+            )
+            qy[k + 1] = (
+                half * scale * (product(qw, w2, k) - product(qx, w3, k) + product(qz, w1, k))
+            )
+            qz[k + 1] = (
+                half * scale * (product(qw, w3, k) + product(qx, w2, k) - product(qy, w1, k))
+            )
+            qw[k + 1] = (
+                -half * scale * (product(qx, w1, k) + product(qy, w2, k) + product(qz, w3, k))
+            )
         return c
 
     @staticmethod
@@ -142,7 +195,9 @@ def _check_invariants(inertia, states, name):
     for s in states:
         for a, b in zip(invariants(s), first):
             if abs(a - b) > mp.mpf(10) ** -25 * max(abs(b), mp.mpf(10) ** -300):
-                raise RuntimeError(f"{name}: invariant drift {mp.nstr(abs(a - b) / b, 3)} in the reference")
+                raise RuntimeError(
+                    f'{name}: invariant drift {mp.nstr(abs(a - b) / b, 3)} in the reference'
+                )
 
 
 def reference_case(name):
@@ -173,8 +228,11 @@ def reference_case(name):
             # rotation angle of conj(qa) ⊗ qb from its vector and scalar parts: exact for tiny
             # angles and independent of |q| (1 - (qa.qb)^2 is swamped by |q0|^2 - 1 ~ 1e-16)
             (ax, ay, az, aw), (bx, by, bz, bw) = a[3:], b[3:]
-            vector = [aw * bx - ax * bw - ay * bz + az * by, aw * by + ax * bz - ay * bw - az * bx,
-                      aw * bz - ax * by + ay * bx - az * bw]
+            vector = [
+                aw * bx - ax * bw - ay * bz + az * by,
+                aw * by + ax * bz - ay * bw - az * bx,
+                aw * bz - ax * by + ay * bx - az * bw,
+            ]
             scalar = aw * bw + ax * bx + ay * by + az * bz
             angle = 2 * mp.atan2(mp.sqrt(mp.fsum(v * v for v in vector)), abs(scalar))
             changes.append((dw, angle))
@@ -184,62 +242,69 @@ def reference_case(name):
     for k, state in enumerate(nominal):
         w = state[:3]
         speed = mp.sqrt(mp.fsum(x * x for x in w))
-        accel = mp.sqrt(mp.fsum(x * x for x in (gains[0] * w[1] * w[2], gains[1] * w[2] * w[0], gains[2] * w[0] * w[1])))
+        accel = mp.sqrt(
+            mp.fsum(
+                x * x
+                for x in (gains[0] * w[1] * w[2], gains[1] * w[2] * w[0], gains[2] * w[0] * w[1])
+            )
+        )
         t = t_mp[k]
         rate = mp.sqrt(mp.fsum(r[k][0] ** 2 for r in responses) + (accel * t * ROUNDING_UNIT) ** 2)
         attitude = mp.sqrt(
-            mp.fsum(r[k][1] ** 2 for r in responses) + (speed * t * ROUNDING_UNIT) ** 2 + ROUNDING_UNIT**2
+            mp.fsum(r[k][1] ** 2 for r in responses)
+            + (speed * t * ROUNDING_UNIT) ** 2
+            + ROUNDING_UNIT**2
         )
         rate_floor.append(float(rate / speed) if speed > 0 else 0.0)
         attitude_floor.append(float(attitude))
     return {
-        "name": name,
-        "inertia": inertia,
-        "angular_velocity": omega,
-        "orientation": q0,
-        "times": times,
-        "omega": [[float(x) for x in s[:3]] for s in nominal],
-        "q": [[float(x) for x in s[3:]] for s in nominal],
-        "rate_floor": rate_floor,
-        "attitude_floor": attitude_floor,
-        "seconds": round(time.time() - started, 1),
+        'name': name,
+        'inertia': inertia,
+        'angular_velocity': omega,
+        'orientation': q0,
+        'times': times,
+        'omega': [[float(x) for x in s[:3]] for s in nominal],
+        'q': [[float(x) for x in s[3:]] for s in nominal],
+        'rate_floor': rate_floor,
+        'attitude_floor': attitude_floor,
+        'seconds': round(time.time() - started, 1),
     }
 
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--jobs", type=int, default=2)
-    parser.add_argument("--only", nargs="*", help="case names to recompute (others are kept)")
+    parser.add_argument('--jobs', type=int, default=2)
+    parser.add_argument('--only', nargs='*', help='case names to recompute (others are kept)')
     args = parser.parse_args(argv)
     names = args.only or list(CASES)
     unknown = [n for n in names if n not in CASES]
     if unknown:
-        parser.error(f"unknown case {unknown[0]!r}; known: {', '.join(CASES)}")
+        parser.error(f'unknown case {unknown[0]!r}; known: {", ".join(CASES)}')
     existing = {}
     if args.only and OUTPUT.exists():
-        existing = {c["name"]: c for c in json.loads(OUTPUT.read_text())["cases"]}
+        existing = {c['name']: c for c in json.loads(OUTPUT.read_text())['cases']}
     # longest first so the two workers finish together
     order = sorted(names, key=lambda n: -CASES[n][3] * np.linalg.norm(CASES[n][1]) * CASES[n][4])
     with multiprocessing.Pool(args.jobs) as pool:
         for case in pool.imap_unordered(reference_case, order):
-            existing[case["name"]] = case
-            print(f"{case['name']:32s} {case['seconds']:8.1f} s", flush=True)
+            existing[case['name']] = case
+            print(f'{case["name"]:32s} {case["seconds"]:8.1f} s', flush=True)
     document = {
-        "provenance": {
-            "generator": "tools/make_reference.py",
-            "method": f"mpmath Taylor series, {DIGITS} digits, order {ORDER}, step {STEP_FRACTION} x radius",
-            "floor": "quadrature sum of responses to 2**-53 relative perturbations of each moment and rate, "
-            "plus sample-time and q0 rounding",
-            "mpmath": mp.__version__,
-            "python": sys.version.split()[0],
-            "machine": platform.platform(),
+        'provenance': {
+            'generator': 'tools/make_reference.py',
+            'method': f'mpmath Taylor series, {DIGITS} digits, order {ORDER}, step {STEP_FRACTION} x radius',
+            'floor': 'quadrature sum of responses to 2**-53 relative perturbations of each moment and rate, '
+            'plus sample-time and q0 rounding',
+            'mpmath': mp.__version__,
+            'python': sys.version.split()[0],
+            'machine': platform.platform(),
         },
-        "cases": [existing[n] for n in CASES if n in existing],
+        'cases': [existing[n] for n in CASES if n in existing],
     }
     OUTPUT.parent.mkdir(parents=True, exist_ok=True)
-    OUTPUT.write_text(json.dumps(document, indent=1) + "\n")
-    print(f"wrote {OUTPUT}")
+    OUTPUT.write_text(json.dumps(document, indent=1) + '\n')
+    print(f'wrote {OUTPUT}')
 
 
-if __name__ == "__main__":
+if __name__ == '__main__':
     main()

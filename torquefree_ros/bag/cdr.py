@@ -1,23 +1,39 @@
-"""Vectorised CDR encoding of the simulator's stamped messages, a block of samples at a time.
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
 
-The layout is what ``rclpy.serialization.serialize_message`` (Fast-CDR, XCDR1 little-endian) writes:
-a 4-byte encapsulation header, then ``std_msgs/Header`` (``int32 sec``, ``uint32 nanosec``,
-``string frame_id`` as ``uint32`` length including the NUL, the bytes, the NUL), padding to an 8-byte
-boundary counted from the end of the encapsulation header, then the ``float64`` fields. Our padding
-is zero (Fast-CDR leaves it uninitialised). Tests decode both encodings and compare the values.
+"""
+Vectorised CDR encoding of the simulator's stamped messages, a block of samples at a time.
+
+The layout is what ``rclpy.serialization.serialize_message`` (Fast-CDR, XCDR1 little-endian)
+writes: a 4-byte encapsulation header, then ``std_msgs/Header`` (``int32 sec``, ``uint32 nanosec``,
+``string frame_id`` as ``uint32`` length including the NUL, the bytes, the NUL), padding to an
+8-byte boundary counted from the end of the encapsulation header, then the ``float64`` fields. Our
+padding is zero (Fast-CDR leaves it uninitialised). Tests decode both encodings and compare the
+values.
 
 numpy only: no ROS import, so the offline bag tools can use it too.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 import operator
 import struct
-from collections.abc import Sequence
 
 import numpy as np
 
-CDR_LE = b"\x00\x01\x00\x00"
+CDR_LE = b'\x00\x01\x00\x00'
 _INT32_MAX = 2**31 - 1
 
 
@@ -25,16 +41,18 @@ def _stamp_fields(stamps_ns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     stamps_ns = np.asarray(stamps_ns, dtype=np.int64)
     sec, nanosec = np.divmod(stamps_ns, np.int64(1_000_000_000))
     if stamps_ns.size and (sec.min() < -_INT32_MAX - 1 or sec.max() > _INT32_MAX):
-        raise ValueError("stamps: builtin_interfaces/Time seconds must fit in int32")
+        raise ValueError('stamps: builtin_interfaces/Time seconds must fit in int32')
     return sec, nanosec
 
 
 class MessageBlock(Sequence):
-    """Messages of one size in one buffer, as the vectorised encoders make them: ``block[i]`` is
+    """
+    Messages of one size in one buffer, as the vectorised encoders make them: ``block[i]`` is
     message ``i``'s bytes (made when asked: the node publishes one at a time), while the bag writer
-    takes the whole buffer at once (``bag.bulk``)."""
+    takes the whole buffer at once (``bag.bulk``).
+    """
 
-    __slots__ = ("buffer", "size")
+    __slots__ = ('buffer', 'size')
 
     def __init__(self, buffer: bytes, size: int):
         self.buffer, self.size = buffer, size
@@ -50,8 +68,8 @@ class MessageBlock(Sequence):
         if index < 0:
             index += count
         if not 0 <= index < count:
-            raise IndexError("message index out of range")
-        return self.buffer[index * self.size:(index + 1) * self.size]
+            raise IndexError('message index out of range')
+        return self.buffer[index * self.size: (index + 1) * self.size]
 
     def count(self, value) -> int:
         return 0 if value is None else super().count(value)  # never None: no scan for it
@@ -62,45 +80,57 @@ def _split(records: np.ndarray) -> MessageBlock:
 
 
 def encode_stamped_doubles(stamps_ns, frame_id: str, values) -> MessageBlock:
-    """One message per row: a Header with ``frame_id`` and ``stamps_ns[i]``, then the row's float64s.
+    """
+    One message per row: a Header with ``frame_id`` and ``stamps_ns[i]``, then the row's
+    float64s.
 
     Rows of 3 give ``geometry_msgs/Vector3Stamped``, rows of 4 ``geometry_msgs/QuaternionStamped``
     (``x, y, z, w``).
     """
     values = np.asarray(values, dtype=np.float64)
-    frame = _frame_bytes(frame_id, "frame_id")
+    frame = _frame_bytes(frame_id, 'frame_id')
     sec, nanosec = _stamp_fields(stamps_ns)
     text_end = 12 + len(frame) + 1  # offsets from the end of the encapsulation header
     data_offset = -(-text_end // 8) * 8
     count, width = values.shape
     if count == 1:  # a closed loop's one sample at a time: packed directly, the same bytes
         padding = bytes(4 + data_offset - (16 + len(frame) + 1))
-        message = (CDR_LE + struct.pack("<iII", int(sec[0]), int(nanosec[0]), len(frame) + 1) + frame + b"\x00"
-                   + padding + struct.pack(f"<{width}d", *values[0].tolist()))
+        message = (
+            CDR_LE
+            + struct.pack('<iII', int(sec[0]), int(nanosec[0]), len(frame) + 1)
+            + frame
+            + b'\x00'
+            + padding
+            + struct.pack(f'<{width}d', *values[0].tolist())
+        )
         return MessageBlock(message, len(message))
     record = np.dtype(
         {
-            "names": ["encapsulation", "sec", "nanosec", "length", "frame_id", "data"],
-            "formats": ["V4", "<i4", "<u4", "<u4", f"V{len(frame) + 1}", ("<f8", (width,))],
-            "offsets": [0, 4, 8, 12, 16, 4 + data_offset],
-            "itemsize": 4 + data_offset + 8 * width,
+            'names': ['encapsulation', 'sec', 'nanosec', 'length', 'frame_id', 'data'],
+            'formats': ['V4', '<i4', '<u4', '<u4', f'V{len(frame) + 1}', ('<f8', (width,))],
+            'offsets': [0, 4, 8, 12, 16, 4 + data_offset],
+            'itemsize': 4 + data_offset + 8 * width,
         }
     )
     records = np.zeros(count, dtype=record)
-    records["encapsulation"] = np.void(CDR_LE)
-    records["sec"] = sec
-    records["nanosec"] = nanosec
-    records["length"] = len(frame) + 1
-    records["frame_id"] = np.void(frame + b"\x00")
-    records["data"] = values
+    records['encapsulation'] = np.void(CDR_LE)
+    records['sec'] = sec
+    records['nanosec'] = nanosec
+    records['length'] = len(frame) + 1
+    records['frame_id'] = np.void(frame + b'\x00')
+    records['data'] = values
     return _split(records)
 
 
 def encode_transforms(stamps_ns, frame_id: str, child_frame_id: str, values) -> MessageBlock:
-    """``tf2_msgs/TFMessage`` holding one ``geometry_msgs/TransformStamped`` per row: a sequence
-    length (1), the Header with ``frame_id`` and ``stamps_ns[i]``, ``child_frame_id``, then the row's
-    7 float64s (translation ``x, y, z``, rotation ``x, y, z, w``)."""
-    return _encode_header_child_doubles(stamps_ns, frame_id, child_frame_id, values, sequence_count=1)
+    """
+    ``tf2_msgs/TFMessage`` holding one ``geometry_msgs/TransformStamped`` per row: a sequence
+    length (1), the Header with ``frame_id`` and ``stamps_ns[i]``, ``child_frame_id``, then the
+    row's 7 float64s (translation ``x, y, z``, rotation ``x, y, z, w``).
+    """
+    return _encode_header_child_doubles(
+        stamps_ns, frame_id, child_frame_id, values, sequence_count=1
+    )
 
 
 #: nav_msgs/Odometry's float64s after child_frame_id: pose.pose (7), pose.covariance (36),
@@ -110,55 +140,100 @@ _POSE_AT, _TWIST_AT = 0, 43
 
 
 def encode_odometry(stamps_ns, frame_id: str, child_frame_id: str, values) -> MessageBlock:
-    """``nav_msgs/Odometry`` per row of 13 float64s: ``pose.pose`` (position ``x, y, z``, orientation
-    ``x, y, z, w``), then ``twist.twist`` (linear, angular); both covariances zero (exact values)."""
+    """
+    ``nav_msgs/Odometry`` per row of 13 float64s: ``pose.pose`` (position ``x, y, z``,
+    orientation ``x, y, z, w``), then ``twist.twist`` (linear, angular); both covariances zero
+    (exact values).
+    """
     values = np.asarray(values, dtype=np.float64)
     if values.ndim != 2 or values.shape[1] != 13:
-        raise ValueError(f"odometry rows: expected 13 float64s per row (pose 7, twist 6), got shape {values.shape}")
+        raise ValueError(
+            f'odometry rows: expected 13 float64s per row (pose 7, twist 6), got shape {values.shape}'
+        )
     doubles = np.zeros((values.shape[0], ODOMETRY_DOUBLES))
-    doubles[:, _POSE_AT:_POSE_AT + 7] = values[:, 0:7]
-    doubles[:, _TWIST_AT:_TWIST_AT + 6] = values[:, 7:13]
+    doubles[:, _POSE_AT: _POSE_AT + 7] = values[:, 0:7]
+    doubles[:, _TWIST_AT: _TWIST_AT + 6] = values[:, 7:13]
     return _encode_header_child_doubles(stamps_ns, frame_id, child_frame_id, doubles)
 
 
-def _encode_header_child_doubles(stamps_ns, frame_id: str, child_frame_id: str, values,
-                                 sequence_count: int | None = None) -> MessageBlock:
-    """[a sequence length], a Header with ``frame_id`` and the stamp, a ``child_frame_id`` string,
-    then the row's float64s: TransformStamped in a TFMessage, Odometry."""
+def _encode_header_child_doubles(
+    stamps_ns, frame_id: str, child_frame_id: str, values, sequence_count: int | None = None
+) -> MessageBlock:
+    """
+    [a sequence length], a Header with ``frame_id`` and the stamp, a ``child_frame_id`` string,
+    then the row's float64s: TransformStamped in a TFMessage, Odometry.
+    """
     values = np.asarray(values, dtype=np.float64)
-    frame, child = _frame_bytes(frame_id, "frame_id"), _frame_bytes(child_frame_id, "child_frame_id")
+    frame, child = (
+        _frame_bytes(frame_id, 'frame_id'),
+        _frame_bytes(child_frame_id, 'child_frame_id'),
+    )
     sec, nanosec = _stamp_fields(stamps_ns)
     width = values.shape[1]
-    # offsets from the end of the encapsulation header: [count], sec, nanosec, length, frame_id, then
-    # child_frame_id's length on a 4-byte boundary, its bytes, the doubles on an 8-byte boundary
+    # offsets from the end of the encapsulation header: [count], sec, nanosec, length, frame_id,
+    # then child_frame_id's length on a 4-byte boundary, its bytes, the doubles on an 8-byte
+    # boundary
     header_at = 0 if sequence_count is None else 4
     child_length_at = -(-(header_at + 12 + len(frame) + 1) // 4) * 4
     data_at = -(-(child_length_at + 4 + len(child) + 1) // 8) * 8
-    names = ["encapsulation", "sec", "nanosec", "length", "frame_id", "child_length", "child", "data"]
-    formats = ["V4", "<i4", "<u4", "<u4", f"V{len(frame) + 1}", "<u4", f"V{len(child) + 1}", ("<f8", (width,))]
-    offsets = [0, 4 + header_at, 8 + header_at, 12 + header_at, 16 + header_at, 4 + child_length_at,
-               8 + child_length_at, 4 + data_at]
+    names = [
+        'encapsulation',
+        'sec',
+        'nanosec',
+        'length',
+        'frame_id',
+        'child_length',
+        'child',
+        'data',
+    ]
+    formats = [
+        'V4',
+        '<i4',
+        '<u4',
+        '<u4',
+        f'V{len(frame) + 1}',
+        '<u4',
+        f'V{len(child) + 1}',
+        ('<f8', (width,)),
+    ]
+    offsets = [
+        0,
+        4 + header_at,
+        8 + header_at,
+        12 + header_at,
+        16 + header_at,
+        4 + child_length_at,
+        8 + child_length_at,
+        4 + data_at,
+    ]
     if sequence_count is not None:
-        names, formats, offsets = names + ["count"], formats + ["<u4"], offsets + [4]
-    record = np.dtype({"names": names, "formats": formats, "offsets": offsets, "itemsize": 4 + data_at + 8 * width})
+        names, formats, offsets = names + ['count'], formats + ['<u4'], offsets + [4]
+    record = np.dtype(
+        {
+            'names': names,
+            'formats': formats,
+            'offsets': offsets,
+            'itemsize': 4 + data_at + 8 * width,
+        }
+    )
     records = np.zeros(values.shape[0], dtype=record)
-    records["encapsulation"] = np.void(CDR_LE)
+    records['encapsulation'] = np.void(CDR_LE)
     if sequence_count is not None:
-        records["count"] = sequence_count
-    records["sec"] = sec
-    records["nanosec"] = nanosec
-    records["length"] = len(frame) + 1
-    records["frame_id"] = np.void(frame + b"\x00")
-    records["child_length"] = len(child) + 1
-    records["child"] = np.void(child + b"\x00")
-    records["data"] = values
+        records['count'] = sequence_count
+    records['sec'] = sec
+    records['nanosec'] = nanosec
+    records['length'] = len(frame) + 1
+    records['frame_id'] = np.void(frame + b'\x00')
+    records['child_length'] = len(child) + 1
+    records['child'] = np.void(child + b'\x00')
+    records['data'] = values
     return _split(records)
 
 
 def _frame_bytes(frame_id: str, name: str) -> bytes:
-    frame = frame_id.encode("utf-8")
-    if b"\x00" in frame:
-        raise ValueError(f"{name}: must not contain NUL characters")
+    frame = frame_id.encode('utf-8')
+    if b'\x00' in frame:
+        raise ValueError(f'{name}: must not contain NUL characters')
     return frame
 
 
@@ -166,20 +241,28 @@ def encode_times(stamps_ns) -> MessageBlock:
     """``builtin_interfaces/Time`` alone: the layout of ``rosgraph_msgs/Clock``."""
     sec, nanosec = _stamp_fields(stamps_ns)
     if sec.shape[0] == 1:  # one sample at a time (a closed loop): packed directly, the same bytes
-        return MessageBlock(CDR_LE + struct.pack("<iI", int(sec[0]), int(nanosec[0])), 12)
-    record = np.dtype({"names": ["encapsulation", "sec", "nanosec"], "formats": ["V4", "<i4", "<u4"],
-                       "offsets": [0, 4, 8], "itemsize": 12})
+        return MessageBlock(CDR_LE + struct.pack('<iI', int(sec[0]), int(nanosec[0])), 12)
+    record = np.dtype(
+        {
+            'names': ['encapsulation', 'sec', 'nanosec'],
+            'formats': ['V4', '<i4', '<u4'],
+            'offsets': [0, 4, 8],
+            'itemsize': 12,
+        }
+    )
     records = np.zeros(sec.shape[0], dtype=record)
-    records["encapsulation"] = np.void(CDR_LE)
-    records["sec"] = sec
-    records["nanosec"] = nanosec
+    records['encapsulation'] = np.void(CDR_LE)
+    records['sec'] = sec
+    records['nanosec'] = nanosec
     return _split(records)
 
 
 class CdrTemplate:
-    """A message of a fixed layout written once, numbers as placeholders; a block of messages is
+    """
+    A message of a fixed layout written once, numbers as placeholders; a block of messages is
     that many copies with the numbers put in at the offsets recorded while writing. Messages of one
-    template share their strings and sequence lengths, hence their padding and offsets."""
+    template share their strings and sequence lengths, hence their padding and offsets.
+    """
 
     def __init__(self):
         self._buffer = bytearray(CDR_LE)
@@ -190,7 +273,9 @@ class CdrTemplate:
     def _put(self, dtype: str, values, name: str | None = None) -> None:
         dtype = np.dtype(dtype)
         values = np.atleast_1d(np.asarray(values, dtype=dtype))
-        self._buffer += bytes(-(len(self._buffer) - 4) % dtype.itemsize)  # aligned from the header's end
+        self._buffer += bytes(
+            -(len(self._buffer) - 4) % dtype.itemsize
+        )  # aligned from the header's end
         if name is not None:
             if name in self._fields:
                 raise ValueError(f"template field '{name}' written twice")
@@ -198,34 +283,37 @@ class CdrTemplate:
         self._buffer += values.tobytes()
 
     def int32(self, value: int = 0, name: str | None = None) -> None:
-        self._put("<i4", value, name)
+        self._put('<i4', value, name)
 
     def uint32(self, value: int = 0, name: str | None = None) -> None:
-        self._put("<u4", value, name)
+        self._put('<u4', value, name)
 
     def float32(self, values, name: str | None = None) -> None:
-        self._put("<f4", values, name)
+        self._put('<f4', values, name)
 
     def float64(self, values, name: str | None = None) -> None:
-        self._put("<f8", values, name)
+        self._put('<f8', values, name)
 
     def boolean(self, value: bool) -> None:
-        self._put("u1", int(value))
+        self._put('u1', int(value))
 
-    def string(self, text: str, field: str = "string") -> None:
+    def string(self, text: str, field: str = 'string') -> None:
         data = _frame_bytes(text, field)
         self.uint32(len(data) + 1)
-        self._buffer += data + b"\x00"
+        self._buffer += data + b'\x00'
 
     def stamp(self, name: str) -> None:
         """A ``builtin_interfaces/Time`` that :meth:`fill` sets to each message's stamp."""
-        self.int32(0, f"{name}.sec")
-        self.uint32(0, f"{name}.nanosec")
-        self._stamps.append((f"{name}.sec", f"{name}.nanosec"))
+        self.int32(0, f'{name}.sec')
+        self.uint32(0, f'{name}.nanosec')
+        self._stamps.append((f'{name}.sec', f'{name}.nanosec'))
 
     def fill(self, stamps_ns, columns: dict) -> MessageBlock:
-        """One message per stamp: every stamp field set to it, ``columns[name][i]`` into field
-        ``name`` of message ``i`` (or one value for all); fields not given keep the template's values."""
+        """
+        One message per stamp: every stamp field set to it, ``columns[name][i]`` into field
+        ``name`` of message ``i`` (or one value for all); fields not given keep the template's
+        values.
+        """
         sec, nanosec = _stamp_fields(stamps_ns)
         count = sec.shape[0]
         if count == 1 and self._packs is not None:
@@ -238,43 +326,60 @@ class CdrTemplate:
             values[sec_name], values[nanosec_name] = sec, nanosec
         for name, column in values.items():
             offset, dtype, width = self._fields[name]
-            # the field in every message, as a (count, width) array of its type (unaligned: numpy copes)
-            field = messages[:, offset:offset + dtype.itemsize * width].view(dtype)
+            # the field in every message, as a (count, width) array of its type (unaligned: numpy
+            # copes)
+            field = messages[:, offset: offset + dtype.itemsize * width].view(dtype)
             field[...] = np.asarray(column).reshape(-1, width) if np.ndim(column) else column
         return MessageBlock(messages.tobytes(), messages.shape[1])
 
     @property
     def _packs(self) -> dict | None:
-        """name -> (offset, struct format) of every field, for one message at a time (a closed loop's
-        samples); None when a field is float32 (struct refuses what numpy rounds to infinity)."""
+        """
+        name -> (offset, struct format) of every field, for one message at a time (a closed
+        loop's samples); None when a field is float32 (struct refuses what numpy rounds to
+        infinity).
+        """
         if self._pack_cache is None or self._pack_cache[0] != len(self._buffer):
-            codes = {"<f8": "d", "<i4": "i", "<u4": "I"}
-            packs = {name: (offset, "<" + codes[dtype.str] * width) for name, (offset, dtype, width) in self._fields.items()
-                     if dtype.str in codes}
-            self._pack_cache = (len(self._buffer), packs if len(packs) == len(self._fields) else None)
+            codes = {'<f8': 'd', '<i4': 'i', '<u4': 'I'}
+            packs = {
+                name: (offset, '<' + codes[dtype.str] * width)
+                for name, (offset, dtype, width) in self._fields.items()
+                if dtype.str in codes
+            }
+            self._pack_cache = (
+                len(self._buffer),
+                packs if len(packs) == len(self._fields) else None,
+            )
         return self._pack_cache[1]
 
     def _fill_one(self, sec: int, nanosec: int, columns: dict) -> MessageBlock:
         packs = self._packs
         message = bytearray(self._buffer)
         for sec_name, nanosec_name in self._stamps:
-            struct.pack_into("<i", message, packs[sec_name][0], sec)
-            struct.pack_into("<I", message, packs[nanosec_name][0], nanosec)
+            struct.pack_into('<i', message, packs[sec_name][0], sec)
+            struct.pack_into('<I', message, packs[nanosec_name][0], nanosec)
         for name, column in columns.items():
             offset, form = packs[name]
-            values = np.asarray(column, dtype=np.float64 if form[1] == "d" else np.int64).ravel().tolist()
+            values = (
+                np.asarray(column, dtype=np.float64 if form[1] == 'd' else np.int64)
+                .ravel()
+                .tolist()
+            )
             struct.pack_into(form, message, offset, *values)
         return MessageBlock(bytes(message), len(message))
 
 
 def decode_stamped_doubles(message: bytes, width: int) -> tuple[int, str, np.ndarray]:
-    """``(stamp_ns, frame_id, values)`` of a message laid out as :func:`encode_stamped_doubles` writes
-    it (a Header, then ``width`` float64s): the inverse, for tools that read bags without rclpy."""
+    """
+    ``(stamp_ns, frame_id, values)`` of a message laid out as :func:`encode_stamped_doubles`
+    writes it (a Header, then ``width`` float64s): the inverse, for tools that read bags without
+    rclpy.
+    """
     if message[:4] != CDR_LE:
-        raise ValueError("not a little-endian CDR message (encapsulation header)")
-    sec, nanosec, length = np.frombuffer(message, dtype="<i4,<u4,<u4", count=1, offset=4)[0]
+        raise ValueError('not a little-endian CDR message (encapsulation header)')
+    sec, nanosec, length = np.frombuffer(message, dtype='<i4,<u4,<u4', count=1, offset=4)[0]
     text_end = 12 + int(length)
     start = 4 + -(-text_end // 8) * 8
-    values = np.frombuffer(message, dtype="<f8", count=width, offset=start)
-    frame = message[16:16 + int(length) - 1].decode("utf-8")
+    values = np.frombuffer(message, dtype='<f8', count=width, offset=start)
+    frame = message[16: 16 + int(length) - 1].decode('utf-8')
     return int(sec) * 1_000_000_000 + int(nanosec), frame, values.copy()

@@ -1,12 +1,29 @@
-"""A scene simulated offline, as fast as possible, into a bag (``torquefree_bag``).
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
 
-No DDS: the samples come from the same ``Simulation`` and CDR encoder as the node's, so the bag holds
-what the node would publish for that scene and rate (sample ``k = 0 … floor(S·HZ)`` at stamp
-``epoch + k / HZ``). An energy sweep writes every member, member ``j`` under ``NAMESPACE/member_j``.
+"""
+A scene simulated offline, as fast as possible, into a bag (``torquefree_bag``).
+
+No DDS: the samples come from the same ``Simulation`` and CDR encoder as the node's, so the bag
+holds what the node would publish for that scene and rate (sample ``k = 0 … floor(S·HZ)`` at stamp
+``epoch + k / HZ``). An energy sweep writes every member, member ``j`` under
+``NAMESPACE/member_j``.
 
 A scene that takes torque commands can be re-simulated under the commands a bag recorded (the node
-records them, each logged at the sample it held from): each is offered to the run's hold as if it had
-arrived at its log time, under the node's rules, so the samples equal the recorded ones bit for bit.
+records them, each logged at the sample it held from): each is offered to the run's hold as if it
+had arrived at its log time, under the node's rules, so the samples equal the recorded ones bit for
+bit.
 """
 
 from __future__ import annotations
@@ -16,15 +33,22 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
+from .cdr import decode_stamped_doubles
+from .reader import BagReader
+from .samples import (
+    encode_block,
+    encode_command,
+    INERTIA_KEY,
+    resolve_topic,
+    sample_qos,
+    SampleRecorder,
+)
+from .writer import BagError, BagWriter
 from ..core.simulation import MAX_STAMP_S, Simulation
 from ..core.timing import sample_count
 from ..core.validation import finite_vector
-from .cdr import decode_stamped_doubles
-from .reader import BagReader
-from .samples import INERTIA_KEY, SampleRecorder, encode_block, encode_command, resolve_topic, sample_qos
-from .writer import BagError, BagWriter
 
-WRENCH_STAMPED = "geometry_msgs/msg/WrenchStamped"
+WRENCH_STAMPED = 'geometry_msgs/msg/WrenchStamped'
 
 
 class RecordedCommand(NamedTuple):
@@ -40,64 +64,105 @@ def read_commands(bag, topic: str) -> list[RecordedCommand]:
     reader = bag if isinstance(bag, BagReader) else BagReader(bag)
     types = {t.name: t.type for t in reader.topics}
     if topic not in types:
-        raise BagError(f"bag '{reader.path}': no topic '{topic}' (topics: {', '.join(sorted(types)) or 'none'})")
+        raise BagError(
+            f"bag '{reader.path}': no topic '{topic}' (topics: {', '.join(sorted(types)) or 'none'})"
+        )
     if types[topic] != WRENCH_STAMPED:
-        raise BagError(f"bag '{reader.path}': topic '{topic}' is {types[topic]}, not {WRENCH_STAMPED}")
+        raise BagError(
+            f"bag '{reader.path}': topic '{topic}' is {types[topic]}, not {WRENCH_STAMPED}"
+        )
     commands = []
     for message in reader.messages([topic]):
         try:
             stamp, frame, values = decode_stamped_doubles(message.data, 6)
         except (ValueError, UnicodeDecodeError) as error:
-            raise BagError(f"bag '{reader.path}': a message on '{topic}' at {message.log_time_ns} ns is not a "
-                           f"WrenchStamped ({error})") from None
+            raise BagError(
+                f"bag '{reader.path}': a message on '{topic}' at {message.log_time_ns} ns is not a "
+                f'WrenchStamped ({error})'
+            ) from None
         commands.append(RecordedCommand(message.log_time_ns, stamp, frame, values[:3], values[3:]))
     return commands
 
-BLOCK = 4096  # samples computed, encoded and written per step at most: memory stays flat at any duration
+
+# samples computed, encoded and written per step at most: memory stays flat at any duration
+BLOCK = 4096
 FIRST_BLOCK = 1  # the first block's samples; blocks double while one takes under BLOCK_SECONDS
-BLOCK_SECONDS = 0.1  # so a stop (SIGINT, SIGTERM) is seen within about this, however slow a sample is
+BLOCK_SECONDS = (
+    0.1  # so a stop (SIGINT, SIGTERM) is seen within about this, however slow a sample is
+)
 MAX_SAMPLES = 10**10  # per stream: ~1 TB of bag; more is a typo (1e9 s at 1 MHz), refused up front
 
 
 def member_namespace(namespace: str, index: int) -> str:
-    return resolve_topic(f"member_{index}", namespace)
+    return resolve_topic(f'member_{index}', namespace)
 
 
-def write_scene_bag(scene, output, duration: float, rate: float, *, epoch_ns: int = 0, propagator: str = "auto",
-                    body_frame: str = "body", inertial_frame: str = "world", namespace: str = "/",
-                    overwrite: bool = False, compression: str = "none", qos_depth: int = 10,
-                    progress: Callable[[int, int], None] | None = None, stop: Callable[[], bool] | None = None,
-                    commands_bag=None, position=None):
-    """Writes samples ``0 … floor(duration·rate)`` of ``scene`` (of each member of a sweep); returns
-    the bag's metadata. Everything is checked, and the output created, before the first sample is
-    computed. ``progress(samples_done, samples_total)`` is called after each block; when ``stop()``
-    turns true the bag is closed there, complete, with the samples written so far. ``commands_bag``:
-    the commands it recorded on each ``torque_command`` effect's topic (in ``namespace``) drive the
-    scene; those logged before ``epoch_ns`` belong to an earlier run and are left out. The commands
-    that hold go into the bag too. ``position``: where the outputs place the body's centre (x, y, z, m,
-    in the inertial frame; see ``encode_block``)."""
+def write_scene_bag(
+    scene,
+    output,
+    duration: float,
+    rate: float,
+    *,
+    epoch_ns: int = 0,
+    propagator: str = 'auto',
+    body_frame: str = 'body',
+    inertial_frame: str = 'world',
+    namespace: str = '/',
+    overwrite: bool = False,
+    compression: str = 'none',
+    qos_depth: int = 10,
+    progress: Callable[[int, int], None] | None = None,
+    stop: Callable[[], bool] | None = None,
+    commands_bag=None,
+    position=None,
+):
+    """
+    Writes samples ``0 … floor(duration·rate)`` of ``scene`` (of each member of a sweep);
+    returns the bag's metadata. Everything is checked, and the output created, before the first
+    sample is computed. ``progress(samples_done, samples_total)`` is called after each block; when
+    ``stop()`` turns true the bag is closed there, complete, with the samples written so far.
+    ``commands_bag``: the commands it recorded on each ``torque_command`` effect's topic (in
+    ``namespace``) drive the scene; those logged before ``epoch_ns`` belong to an earlier run and
+    are left out. The commands that hold go into the bag too. ``position``: where the outputs place
+    the body's centre (x, y, z, m, in the inertial frame; see ``encode_block``).
+    """
     if position is not None:
-        position = finite_vector(position, "position", (3,))
+        position = finite_vector(position, 'position', (3,))
     count = sample_count(duration, rate)
     if count > MAX_SAMPLES:
-        raise ValueError(f"duration: {duration:g} s at {rate:g} Hz is {count:.3g} samples; at most {MAX_SAMPLES:.0e} "
-                         "(about a terabyte) are written")
+        raise ValueError(
+            f'duration: {duration:g} s at {rate:g} Hz is {count:.3g} samples; at most {MAX_SAMPLES:.0e} '
+            '(about a terabyte) are written'
+        )
     if epoch_ns / 1e9 + (count - 1) / rate >= MAX_STAMP_S:
-        raise ValueError(f"duration: the last stamp would be {epoch_ns / 1e9 + (count - 1) / rate:.6g} s, past what "
-                         f"builtin_interfaces/Time holds (2^31 s)")
+        raise ValueError(
+            f'duration: the last stamp would be {epoch_ns / 1e9 + (count - 1) / rate:.6g} s, past what '
+            f'builtin_interfaces/Time holds (2^31 s)'
+        )
     members = scene.members()
-    namespaces = ([member_namespace(namespace, j) for j in range(len(members))] if scene.sweep_members
-                  else [namespace])
-    simulations = [Simulation(member.propagator(propagator), rate, epoch_ns, outputs=scene.outputs)
-                   for member in members]
+    namespaces = (
+        [member_namespace(namespace, j) for j in range(len(members))]
+        if scene.sweep_members
+        else [namespace]
+    )
+    simulations = [
+        Simulation(member.propagator(propagator), rate, epoch_ns, outputs=scene.outputs)
+        for member in members
+    ]
     if commands_bag is not None:
         for simulation, ns in zip(simulations, namespaces):
             _drive(simulation, commands_bag, ns, body_frame, inertial_frame)
-    custom = {"torquefree_ros.scene": scene.source,
-              "torquefree_ros.summary": " | ".join(s.summary() for s in simulations),
-              INERTIA_KEY: " ".join(repr(float(x)) for x in scene.inertia)}
-    with BagWriter(output, overwrite=overwrite, compression=compression, custom_data=custom) as writer:
-        recorders = [SampleRecorder.in_namespace(writer, ns, sample_qos(qos_depth)) for ns in namespaces]
+    custom = {
+        'torquefree_ros.scene': scene.source,
+        'torquefree_ros.summary': ' | '.join(s.summary() for s in simulations),
+        INERTIA_KEY: ' '.join(repr(float(x)) for x in scene.inertia),
+    }
+    with BagWriter(
+        output, overwrite=overwrite, compression=compression, custom_data=custom
+    ) as writer:
+        recorders = [
+            SampleRecorder.in_namespace(writer, ns, sample_qos(qos_depth)) for ns in namespaces
+        ]
         total = count * len(simulations)
         first, block_size = 0, FIRST_BLOCK
         while first < count:
@@ -107,14 +172,21 @@ def write_scene_bag(scene, output, duration: float, rate: float, *, epoch_ns: in
             started = time.monotonic()
             for simulation, recorder in zip(simulations, recorders):
                 block = simulation.samples(first, size)
-                recorder.write_block(block.stamps_ns,
-                                     encode_block(block, body_frame, inertial_frame, simulation.outputs,
-                                                  position=position))
+                recorder.write_block(
+                    block.stamps_ns,
+                    encode_block(
+                        block, body_frame, inertial_frame, simulation.outputs, position=position
+                    ),
+                )
                 for effect, hold in simulation.command_holds:
                     for command in hold.commands:
                         if first <= command.start < first + size:
-                            recorder.write_message(effect.topic, effect.message_type, hold.stamp_ns(command.start),
-                                                   encode_command(command))
+                            recorder.write_message(
+                                effect.topic,
+                                effect.message_type,
+                                hold.stamp_ns(command.start),
+                                encode_command(command),
+                            )
             if progress is not None:
                 progress((first + size) * len(simulations), total)
             first += size
@@ -126,13 +198,22 @@ def write_scene_bag(scene, output, duration: float, rate: float, *, epoch_ns: in
     return writer.metadata
 
 
-def _drive(simulation: Simulation, bag, namespace: str, body_frame: str, inertial_frame: str) -> None:
+def _drive(
+    simulation: Simulation, bag, namespace: str, body_frame: str, inertial_frame: str
+) -> None:
     holds = simulation.command_holds
     if not holds:
-        raise ValueError("commands: the scene takes no commands (it names no torque_command effect)")
+        raise ValueError(
+            'commands: the scene takes no commands (it names no torque_command effect)'
+        )
     for effect, hold in holds:
         hold.frame_id = effect.frame_id(body_frame, inertial_frame)
         for command in read_commands(bag, resolve_topic(effect.topic, namespace)):
             if command.log_time_ns >= simulation.epoch_ns:
-                hold.receive(command.stamp_ns, command.torque, command.force, command.frame_id,
-                             arrival_ns=command.log_time_ns)
+                hold.receive(
+                    command.stamp_ns,
+                    command.torque,
+                    command.force,
+                    command.frame_id,
+                    arrival_ns=command.log_time_ns,
+                )

@@ -1,10 +1,25 @@
-"""The simulator's samples as messages: which topics a sample goes out on, their CDR bytes, and
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The simulator's samples as messages: which topics a sample goes out on, their CDR bytes, and
 writing them to a bag. One source for the node (which publishes and records them) and the offline
 ``torquefree_bag``: the same topics, types, QoS, stamps and bytes.
 
 A sample is ``/clock`` (on a clock of our own), ``angular_velocity``, ``attitude``, then the
-scene's outputs (``imu``, ``pose``, ``odometry``, ``markers``, ...) in the order the scene names them;
-only those exist.
+scene's outputs (``imu``, ``pose``, ``odometry``, ``markers``, ...) in the order the scene names
+them; only those exist.
 """
 
 from __future__ import annotations
@@ -18,115 +33,162 @@ from .markers import body_offset, encode_markers
 from .qos import BagQos
 from .writer import BagWriter
 
-ANGULAR_VELOCITY = ("angular_velocity", "geometry_msgs/msg/Vector3Stamped")
-ATTITUDE = ("attitude", "geometry_msgs/msg/QuaternionStamped")
-CLOCK = ("/clock", "rosgraph_msgs/msg/Clock")
+ANGULAR_VELOCITY = ('angular_velocity', 'geometry_msgs/msg/Vector3Stamped')
+ATTITUDE = ('attitude', 'geometry_msgs/msg/QuaternionStamped')
+CLOCK = ('/clock', 'rosgraph_msgs/msg/Clock')
 #: output layouts whose rows start with the body's position (x, y, z)
-PLACED = ("transform", "pose", "odometry")
+PLACED = ('transform', 'pose', 'odometry')
 #: custom_data key of the body's inertia (3 or 6 numbers, space-separated) in offline bags
-INERTIA_KEY = "torquefree_ros.inertia"
+INERTIA_KEY = 'torquefree_ros.inertia'
 
 
 class SampleColumn(NamedTuple):
     topic: str  # as the node names it: relative, or absolute for /clock
     type_name: str
-    messages: list  # CDR bytes, one per sample of the block (None: this sample does not go out on it)
+    messages: (
+        list  # CDR bytes, one per sample of the block (None: this sample does not go out on it)
+    )
 
 
 def sample_qos(depth: int = 10) -> BagQos:
     """What the node's publishers offer: reliable, keep-last ``depth``, volatile, no deadline."""
-    return BagQos(history="keep_last", depth=depth, reliability="reliable", durability="volatile")
+    return BagQos(history='keep_last', depth=depth, reliability='reliable', durability='volatile')
 
 
-def resolve_topic(name: str, namespace: str = "/") -> str:
-    if name.startswith("/"):
+def resolve_topic(name: str, namespace: str = '/') -> str:
+    if name.startswith('/'):
         return name
-    return namespace.rstrip("/") + "/" + name
+    return namespace.rstrip('/') + '/' + name
 
 
-def encode_block(block, body_frame: str, inertial_frame: str, outputs=(), clock: bool = False,
-                 position=None) -> tuple:
-    """The messages of a :class:`~torquefree_ros.core.simulation.SampleBlock`, one column per topic,
-    in publishing order. ``outputs``: the simulation's output effects (their rows are in the block).
-    ``position`` (x, y, z, m, in the inertial frame; None: the origin): where the outputs that place the
-    body (``tf``, ``pose``, ``odometry``, ``markers``) put its centre, so that several bodies sharing one
-    inertial frame show side by side; the simulator moves attitude only, so it is constant."""
+def encode_block(
+    block, body_frame: str, inertial_frame: str, outputs=(), clock: bool = False, position=None
+) -> tuple:
+    """
+    The messages of a :class:`~torquefree_ros.core.simulation.SampleBlock`, one column per
+    topic, in publishing order. ``outputs``: the simulation's output effects (their rows are in the
+    block). ``position`` (x, y, z, m, in the inertial frame; None: the origin): where the outputs
+    that place the body (``tf``, ``pose``, ``odometry``, ``markers``) put its centre, so that
+    several bodies sharing one inertial frame show side by side; the simulator moves attitude only,
+    so it is constant.
+    """
     place = body_offset(position)
     stamps = block.stamps_ns
     columns = [SampleColumn(CLOCK[0], CLOCK[1], encode_times(stamps))] if clock else []
-    columns.append(SampleColumn(*ANGULAR_VELOCITY, encode_stamped_doubles(stamps, body_frame, block.omega_B)))
-    columns.append(SampleColumn(*ATTITUDE, encode_stamped_doubles(stamps, inertial_frame, block.q_NB)))
-    for output, rows, positions in zip(outputs, block.outputs, block.output_positions or (None,) * len(outputs)):
+    columns.append(
+        SampleColumn(*ANGULAR_VELOCITY, encode_stamped_doubles(stamps, body_frame, block.omega_B))
+    )
+    columns.append(
+        SampleColumn(*ATTITUDE, encode_stamped_doubles(stamps, inertial_frame, block.q_NB))
+    )
+    for output, rows, positions in zip(
+        outputs, block.outputs, block.output_positions or (None,) * len(outputs)
+    ):
         if positions is None:
             messages = _encode_output(output, stamps, rows, body_frame, inertial_frame, place)
         else:  # an output at a rate of its own: None where it does not go out
             messages = [None] * len(stamps)
-            encoded = _encode_output(output, stamps[positions], rows, body_frame, inertial_frame, place)
+            encoded = _encode_output(
+                output, stamps[positions], rows, body_frame, inertial_frame, place
+            )
             for index, message in zip(positions.tolist(), encoded):
                 messages[index] = message
         columns.append(SampleColumn(output.topic, output.message_type, messages))
     return tuple(columns)
 
 
-def _encode_output(output, stamps, rows, body_frame: str, inertial_frame: str, place) -> list[bytes]:
-    frame = body_frame if output.frame == "body" else inertial_frame
+def _encode_output(
+    output, stamps, rows, body_frame: str, inertial_frame: str, place
+) -> list[bytes]:
+    frame = body_frame if output.frame == 'body' else inertial_frame
     if place is not None and output.layout in PLACED:
         rows = rows.copy()
-        rows[:, 0:3] = place  # these rows start with the body's position (zero: the core moves no body)
-    if output.layout == "transform":  # parent: the output's frame; child: the body
+        rows[:, 0:3] = (
+            place  # these rows start with the body's position (zero: the core moves no body)
+        )
+    if output.layout == 'transform':  # parent: the output's frame; child: the body
         return encode_transforms(stamps, frame, body_frame, rows)
-    if output.layout == "odometry":  # header.frame_id: the output's frame; child_frame_id: the body
+    if (
+        output.layout == 'odometry'
+    ):  # header.frame_id: the output's frame; child_frame_id: the body
         return encode_odometry(stamps, frame, body_frame, rows)
-    if output.layout == "markers":
+    if output.layout == 'markers':
         return encode_markers(stamps, frame, rows, place)
     return encode_stamped_doubles(stamps, frame, rows)
 
 
 def encode_command(command) -> bytes:
-    """A received torque command as ``geometry_msgs/WrenchStamped`` (its own stamp, frame, force and
-    torque), for the bag."""
+    """
+    A received torque command as ``geometry_msgs/WrenchStamped`` (its own stamp, frame, force
+    and torque), for the bag.
+    """
     values = np.concatenate([command.force, command.torque])[np.newaxis]
     return encode_stamped_doubles([command.stamp_ns], command.frame_id, values)[0]
 
 
 class SampleRecorder:
-    """Writes sample columns on ``writer``; a topic's channel is added the first time it is written.
+    """
+    Writes sample columns on ``writer``; a topic's channel is added the first time it is
+    written.
 
     ``resolve`` maps a column's topic to the name it goes out on (the node passes its publishers'
-    resolved, possibly remapped names; offline, relative names go into ``namespace``)."""
+    resolved, possibly remapped names; offline, relative names go into ``namespace``).
+    """
 
-    def __init__(self, writer: BagWriter, resolve: Callable[[str], str], qos: BagQos | None = None):
+    def __init__(
+        self, writer: BagWriter, resolve: Callable[[str], str], qos: BagQos | None = None
+    ):
         self.writer = writer
         self._resolve = resolve
         self._qos = (qos or sample_qos(),)
         self._channels: dict[str, int] = {}
 
     @classmethod
-    def in_namespace(cls, writer: BagWriter, namespace: str = "/", qos: BagQos | None = None) -> "SampleRecorder":
+    def in_namespace(
+        cls, writer: BagWriter, namespace: str = '/', qos: BagQos | None = None
+    ) -> 'SampleRecorder':
         return cls(writer, lambda topic: resolve_topic(topic, namespace), qos)
 
     def _channel(self, column: SampleColumn) -> int:
         channel = self._channels.get(column.topic)
         if channel is None:
-            channel = self.writer.add_topic(self._resolve(column.topic), column.type_name, self._qos)
+            channel = self.writer.add_topic(
+                self._resolve(column.topic), column.type_name, self._qos
+            )
             self._channels[column.topic] = channel
         return channel
 
     def write_block(self, stamps_ns, columns) -> None:
-        """Sample ``i``: every column's message ``i``, in column order, logged at the sample's stamp."""
-        self.writer.write_rows([self._channel(column) for column in columns], stamps_ns,
-                               [column.messages for column in columns])
+        """
+        Sample ``i``: every column's message ``i``, in column order, logged at the sample's
+        stamp.
+        """
+        self.writer.write_rows(
+            [self._channel(column) for column in columns],
+            stamps_ns,
+            [column.messages for column in columns],
+        )
 
     def declare(self, topic: str, type_name: str) -> None:
-        """A topic that is not a sample column (a command input): in the bag from the start of the
-        run that has it, with or without messages."""
+        """
+        A topic that is not a sample column (a command input): in the bag from the start of the
+        run that has it, with or without messages.
+        """
         self._channel(SampleColumn(topic, type_name, []))
 
     def write_message(self, topic: str, type_name: str, log_stamp_ns: int, data: bytes) -> None:
         """One message of a topic that is not a sample column (a received command)."""
-        self.writer.write_rows([self._channel(SampleColumn(topic, type_name, []))], (log_stamp_ns,), [(data,)])
+        self.writer.write_rows(
+            [self._channel(SampleColumn(topic, type_name, []))], (log_stamp_ns,), [(data,)]
+        )
 
     def write_sample(self, stamp_ns: int, columns, index: int) -> None:
-        """Sample ``index`` of the block ``columns`` belong to (the node records as it publishes)."""
-        self.writer.write_rows([self._channel(column) for column in columns], (stamp_ns,),
-                               [(column.messages[index],) for column in columns])
+        """
+        Sample ``index`` of the block ``columns`` belong to (the node records as it
+        publishes).
+        """
+        self.writer.write_rows(
+            [self._channel(column) for column in columns],
+            (stamp_ns,),
+            [(column.messages[index],) for column in columns],
+        )

@@ -1,39 +1,55 @@
-"""Writes rosbag2 (Jazzy) bags with MCAP storage, as ``rosbag2_storage_mcap`` does.
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
 
-A bag is a directory ``NAME/`` with ``NAME_0.mcap`` and ``metadata.yaml``. The MCAP file has profile
-``ros2``; one ``ros2msg`` schema per type with the full definition (``definitions``); one ``cdr``
-channel per topic with the metadata ``offered_qos_profiles`` (YAML) and ``topic_type_hash``; chunks,
-uncompressed unless asked (``zstd``), with message indexes, statistics and summary; and, at close, the
-``rosbag2`` metadata record carrying the same mapping as ``metadata.yaml``.
+"""
+Writes rosbag2 (Jazzy) bags with MCAP storage, as ``rosbag2_storage_mcap`` does.
+
+A bag is a directory ``NAME/`` with ``NAME_0.mcap`` and ``metadata.yaml``. The MCAP file has
+profile ``ros2``; one ``ros2msg`` schema per type with the full definition (``definitions``); one
+``cdr`` channel per topic with the metadata ``offered_qos_profiles`` (YAML) and
+``topic_type_hash``; chunks, uncompressed unless asked (``zstd``), with message indexes, statistics
+and summary; and, at close, the ``rosbag2`` metadata record carrying the same mapping as
+``metadata.yaml``.
 
 Crash safety: a chunk is written out (and the file flushed) when it reaches ``chunk_bytes`` or when
 it has been open ``chunk_seconds`` of wall time, so a killed recorder loses at most that much.
-:func:`~torquefree_ros.bag.reader.reindex` makes such a file complete again (``torquefree_bag --reindex``).
+:func:`~torquefree_ros.bag.reader.reindex` makes such a file complete again (``torquefree_bag
+--reindex``).
 """
 
 from __future__ import annotations
 
 import os
+from pathlib import Path
 import shutil
 import time
-from pathlib import Path
-
-import numpy as np
 
 from mcap.writer import CompressionType, Writer
+import numpy as np
 
-from .. import __version__
 from . import bulk
-from .definitions import DefinitionError, MessageDefinition, message_definition
-from .metadata import METADATA_FILE, BagMetadata, TopicRecord, dump, metadata_file_text
+from .definitions import DefinitionError, message_definition, MessageDefinition
+from .metadata import BagMetadata, dump, METADATA_FILE, metadata_file_text, TopicRecord
 from .qos import BagQos
+from .. import __version__
 
 CHUNK_BYTES = 1024 * 1024
 # a batch of at least this many messages goes in through ``bulk`` (numpy); fewer, one by one
 BULK_MESSAGES = 64
 CHUNK_SECONDS = 1.0
-COMPRESSIONS = {"none": CompressionType.NONE, "zstd": CompressionType.ZSTD}
-LIBRARY = f"torquefree_ros {__version__} (python mcap writer, rosbag2_storage_mcap layout)"
+COMPRESSIONS = {'none': CompressionType.NONE, 'zstd': CompressionType.ZSTD}
+LIBRARY = f'torquefree_ros {__version__} (python mcap writer, rosbag2_storage_mcap layout)'
 
 
 class BagError(RuntimeError):
@@ -42,33 +58,42 @@ class BagError(RuntimeError):
 
 def mcap_file_name(bag_dir: Path) -> str:
     """rosbag2's name for the first (only) storage file of a bag directory."""
-    return f"{bag_dir.name}_0.mcap"
+    return f'{bag_dir.name}_0.mcap'
 
 
 def prepare_bag_directory(path, overwrite: bool = False) -> Path:
-    """Checks that a bag can be created at ``path`` and creates its (empty) directory.
+    """
+    Checks that a bag can be created at ``path`` and creates its (empty) directory.
 
-    An existing path is refused unless ``overwrite``; even then only a bag directory (``metadata.yaml``
-    and ``.mcap`` files) is replaced, never another directory or a file.
+    An existing path is refused unless ``overwrite``; even then only a bag directory
+    (``metadata.yaml`` and ``.mcap`` files) is replaced, never another directory or a file.
     """
     path = Path(path)
-    if not path.name or path.name in (".", ".."):
+    if not path.name or path.name in ('.', '..'):
         raise BagError(f"bag '{path}': give a directory name for the bag")
     try:
         exists = path.exists() or path.is_symlink()
     except OSError as error:  # a name too long for the file system
-        raise BagError(f"bag '{str(path)[:120]}…': cannot be created: {error.strerror or error}") from None
+        raise BagError(
+            f"bag '{str(path)[:120]}…': cannot be created: {error.strerror or error}"
+        ) from None
     if exists:
         if not overwrite:
-            raise BagError(f"bag '{path}': already exists; choose another name or overwrite it explicitly")
+            raise BagError(
+                f"bag '{path}': already exists; choose another name or overwrite it explicitly"
+            )
         if not _is_bag_directory(path):
-            raise BagError(f"bag '{path}': exists and is not a bag directory (only metadata.yaml and .mcap "
-                           f"files), so it is not overwritten")
+            raise BagError(
+                f"bag '{path}': exists and is not a bag directory (only metadata.yaml and .mcap "
+                f'files), so it is not overwritten'
+            )
         shutil.rmtree(path)
     try:
         path.mkdir(parents=True)
     except OSError as error:
-        raise BagError(f"bag '{path}': cannot create the directory: {error.strerror or error}") from None
+        raise BagError(
+            f"bag '{path}': cannot create the directory: {error.strerror or error}"
+        ) from None
     if not os.access(path, os.W_OK | os.X_OK):
         path.rmdir()
         raise BagError(f"bag '{path}': the directory is not writable")
@@ -80,22 +105,34 @@ def _is_bag_directory(path: Path) -> bool:
         return False
     entries = list(path.iterdir())
     return bool(entries) and all(
-        entry.is_file() and (entry.name == METADATA_FILE or entry.suffix == ".mcap") for entry in entries)
+        entry.is_file() and (entry.name == METADATA_FILE or entry.suffix == '.mcap')
+        for entry in entries
+    )
 
 
 class BagWriter:
-    """A rosbag2 MCAP bag being written; a context manager that closes the bag however the block ends.
+    """
+    A rosbag2 MCAP bag being written; a context manager that closes the bag however the block
+    ends.
 
     Not thread-safe: write and close from one thread at a time.
     """
 
-    def __init__(self, path, *, overwrite: bool = False, compression: str = "none",
-                 chunk_bytes: int = CHUNK_BYTES, chunk_seconds: float = CHUNK_SECONDS,
-                 custom_data: dict[str, str] | None = None, file_name: str | None = None):
+    def __init__(
+        self,
+        path,
+        *,
+        overwrite: bool = False,
+        compression: str = 'none',
+        chunk_bytes: int = CHUNK_BYTES,
+        chunk_seconds: float = CHUNK_SECONDS,
+        custom_data: dict[str, str] | None = None,
+        file_name: str | None = None,
+    ):
         if compression not in COMPRESSIONS:
             raise BagError(f"compression: '{compression}' is not one of {', '.join(COMPRESSIONS)}")
         if not (chunk_bytes > 0 and chunk_seconds > 0):
-            raise BagError("chunk_bytes and chunk_seconds: must be > 0")
+            raise BagError('chunk_bytes and chunk_seconds: must be > 0')
         self.path = prepare_bag_directory(path, overwrite)
         self.file_path = self.path / (file_name or mcap_file_name(self.path))
         self._metadata = BagMetadata(self.file_path.name, custom_data=dict(custom_data or {}))
@@ -107,24 +144,39 @@ class BagWriter:
         self._failure: str | None = None
         self._closed = False
         try:
-            self._stream = open(self.file_path, "xb")
-            # the data section CRC (rosbag2's `enableDataCRC`) also covers the message indexes between
-            # the chunks, which no chunk CRC does: reindex can then tell that nothing was changed
-            self._mcap = Writer(self._stream, chunk_size=chunk_bytes, compression=COMPRESSIONS[compression],
-                                enable_data_crcs=True)
-            self._mcap.start(profile="ros2", library=LIBRARY)
+            self._stream = open(self.file_path, 'xb')
+            # the data section CRC (rosbag2's `enableDataCRC`) also covers the message indexes
+            # between the chunks, which no chunk CRC does: reindex can then tell that nothing was
+            # changed
+            self._mcap = Writer(
+                self._stream,
+                chunk_size=chunk_bytes,
+                compression=COMPRESSIONS[compression],
+                enable_data_crcs=True,
+            )
+            self._mcap.start(profile='ros2', library=LIBRARY)
             self._bulk = bulk.supported(self._mcap)
         except OSError as error:
             raise self._io_error(error) from None
 
-    # -- topics ------------------------------------------------------------------------------------
-    def add_topic(self, name: str, type_name: str, offered_qos: tuple[BagQos, ...] | list = (),
-                  definition: MessageDefinition | None = None) -> int:
-        """Registers ``name`` (an absolute topic name) with its type and the publishers' QoS profiles;
-        returns the channel id to write with. Adding a topic again returns its channel.
-        ``definition`` defaults to the installed one (copying a bag passes the bag's own)."""
-        if not name.startswith("/"):
-            raise BagError(f"topic '{name}': bag topics are fully qualified names starting with '/'")
+    # -- topics
+    # ------------------------------------------------------------------------------------
+    def add_topic(
+        self,
+        name: str,
+        type_name: str,
+        offered_qos: tuple[BagQos, ...] | list = (),
+        definition: MessageDefinition | None = None,
+    ) -> int:
+        """
+        Registers ``name`` (an absolute topic name) with its type and the publishers' QoS
+        profiles; returns the channel id to write with. Adding a topic again returns its channel.
+        ``definition`` defaults to the installed one (copying a bag passes the bag's own).
+        """
+        if not name.startswith('/'):
+            raise BagError(
+                f"topic '{name}': bag topics are fully qualified names starting with '/'"
+            )
         if name in self._topics:
             return self._topics[name]
         try:
@@ -135,12 +187,17 @@ class BagWriter:
         try:
             schema_id = self._schemas.get(definition.type_name)
             if schema_id is None:
-                schema_id = self._mcap.register_schema(definition.type_name, definition.encoding,
-                                                       definition.text.encode("utf-8"))
+                schema_id = self._mcap.register_schema(
+                    definition.type_name, definition.encoding, definition.text.encode('utf-8')
+                )
                 self._schemas[definition.type_name] = schema_id
-            qos_text = dump([qos.to_yaml() for qos in offered_qos]).rstrip("\n")
-            channel_id = self._mcap.register_channel(name, "cdr", schema_id, {
-                "offered_qos_profiles": qos_text, "topic_type_hash": definition.type_hash})
+            qos_text = dump([qos.to_yaml() for qos in offered_qos]).rstrip('\n')
+            channel_id = self._mcap.register_channel(
+                name,
+                'cdr',
+                schema_id,
+                {'offered_qos_profiles': qos_text, 'topic_type_hash': definition.type_hash},
+            )
         except OSError as error:
             raise self._io_error(error) from None
         self._topics[name] = channel_id
@@ -149,24 +206,38 @@ class BagWriter:
         self._metadata.topics.append(record)
         return channel_id
 
-    # -- messages ----------------------------------------------------------------------------------
-    def write(self, channel_id: int, log_time_ns: int, data: bytes, publish_time_ns: int | None = None) -> None:
+    # -- messages
+    # ----------------------------------------------------------------------------------
+    def write(
+        self, channel_id: int, log_time_ns: int, data: bytes, publish_time_ns: int | None = None
+    ) -> None:
         """One serialized (CDR) message; ``publish_time`` defaults to ``log_time``."""
-        self.write_rows((channel_id,), (log_time_ns,), ((data,),),
-                        None if publish_time_ns is None else (publish_time_ns,))
+        self.write_rows(
+            (channel_id,),
+            (log_time_ns,),
+            ((data,),),
+            None if publish_time_ns is None else (publish_time_ns,),
+        )
 
     def write_rows(self, channel_ids, log_times_ns, columns, publish_times_ns=None) -> None:
-        """Row ``i`` writes ``columns[j][i]`` on ``channel_ids[j]`` for every ``j`` (none where it is
-        None), all with ``log_times_ns[i]``: the messages of one sample stay together and in time order."""
+        """
+        Row ``i`` writes ``columns[j][i]`` on ``channel_ids[j]`` for every ``j`` (none where it
+        is None), all with ``log_times_ns[i]``: the messages of one sample stay together and in
+        time order.
+        """
         self._check_open()
         rows = len(log_times_ns)
         if not rows:
             return
         for channel_id, payloads in zip(channel_ids, columns):
             if channel_id not in self._records:
-                raise BagError(f"bag '{self.path}': write on unknown channel {channel_id} (add_topic first)")
+                raise BagError(
+                    f"bag '{self.path}': write on unknown channel {channel_id} (add_topic first)"
+                )
             if len(payloads) != rows:
-                raise BagError(f"bag '{self.path}': channel {channel_id}: {len(payloads)} messages for {rows} times")
+                raise BagError(
+                    f"bag '{self.path}': channel {channel_id}: {len(payloads)} messages for {rows} times"
+                )
         try:
             if self._bulk and rows * len(columns) >= BULK_MESSAGES:
                 times = np.asarray(log_times_ns, dtype=np.int64)
@@ -174,7 +245,9 @@ class BagWriter:
                 first, last = int(times.min()), int(times.max())
             else:  # a few messages (the node's recorder, a sample at a time): one by one
                 times = [int(t) for t in log_times_ns]
-                published = times if publish_times_ns is None else [int(t) for t in publish_times_ns]
+                published = (
+                    times if publish_times_ns is None else [int(t) for t in publish_times_ns]
+                )
                 add = self._mcap.add_message
                 for i, log_time in enumerate(times):
                     for channel_id, payloads in zip(channel_ids, columns):
@@ -186,8 +259,12 @@ class BagWriter:
         for channel_id, payloads in zip(channel_ids, columns):
             self._records[channel_id].message_count += rows - payloads.count(None)
         metadata = self._metadata
-        metadata.first_time_ns = first if metadata.first_time_ns is None else min(first, metadata.first_time_ns)
-        metadata.last_time_ns = last if metadata.last_time_ns is None else max(last, metadata.last_time_ns)
+        metadata.first_time_ns = (
+            first if metadata.first_time_ns is None else min(first, metadata.first_time_ns)
+        )
+        metadata.last_time_ns = (
+            last if metadata.last_time_ns is None else max(last, metadata.last_time_ns)
+        )
         now = time.monotonic()
         if self._chunk_opened is None:
             self._chunk_opened = now
@@ -204,9 +281,14 @@ class BagWriter:
         self._chunk_opened = None
 
     def flush_if_due(self) -> None:
-        """Writes out the open chunk if it has been open ``chunk_seconds`` (call it from a timer when
-        messages are sparse)."""
-        if self._chunk_opened is not None and time.monotonic() - self._chunk_opened >= self._chunk_seconds:
+        """
+        Writes out the open chunk if it has been open ``chunk_seconds`` (call it from a timer
+        when messages are sparse).
+        """
+        if (
+            self._chunk_opened is not None
+            and time.monotonic() - self._chunk_opened >= self._chunk_seconds
+        ):
             self.flush()
 
     @property
@@ -217,17 +299,23 @@ class BagWriter:
     def metadata(self) -> BagMetadata:
         return self._metadata
 
-    # -- closing -----------------------------------------------------------------------------------
+    # -- closing
+    # -----------------------------------------------------------------------------------
     def close(self) -> None:
-        """Finishes the MCAP file (rosbag2 record, summary, footer) and writes ``metadata.yaml``.
-        After a write error, makes what is in the file a complete bag again (when the disk allows)."""
+        """
+        Finishes the MCAP file (rosbag2 record, summary, footer) and writes ``metadata.yaml``.
+        After a write error, makes what is in the file a complete bag again (when the disk
+        allows).
+        """
         if self._closed:
             return
         self._closed = True
         if self._failure is None:
             try:
                 self._mcap.flush()
-                self._mcap.add_metadata("rosbag2", {"serialized_metadata": dump(self._metadata.to_yaml()).rstrip("\n")})
+                self._mcap.add_metadata(
+                    'rosbag2', {'serialized_metadata': dump(self._metadata.to_yaml()).rstrip('\n')}
+                )
                 self._mcap.finish()
                 self._stream.close()
             except OSError as error:
@@ -236,8 +324,10 @@ class BagWriter:
                 try:
                     write_atomically(self.path / METADATA_FILE, metadata_file_text(self._metadata))
                 except OSError as error:  # the .mcap is whole; only the small YAML file is missing
-                    raise BagError(f"bag '{self.path}': '{self.file_path.name}' is complete, but {METADATA_FILE} "
-                                   f"could not be written ({error.strerror or error}); {_REPAIR.format(self.path)}") from None
+                    raise BagError(
+                        f"bag '{self.path}': '{self.file_path.name}' is complete, but {METADATA_FILE} "
+                        f'could not be written ({error.strerror or error}); {_REPAIR.format(self.path)}'
+                    ) from None
                 return
         try:
             self._stream.close()
@@ -247,13 +337,20 @@ class BagWriter:
 
         try:
             reindex(self.path)
-        except (BagError, OSError) as error:  # e.g. no room for the rebuilt copy on the same full disk
-            detail = error.strerror if isinstance(error, OSError) and error.strerror else str(error)
-            raise BagError(f"{self._failure}; the bag could not be completed now ({detail}): "
-                           f"{_REPAIR.format(self.path)}") from None
+        except (
+            BagError,
+            OSError,
+        ) as error:  # e.g. no room for the rebuilt copy on the same full disk
+            detail = (
+                error.strerror if isinstance(error, OSError) and error.strerror else str(error)
+            )
+            raise BagError(
+                f'{self._failure}; the bag could not be completed now ({detail}): '
+                f'{_REPAIR.format(self.path)}'
+            ) from None
         raise BagError(self._failure)
 
-    def __enter__(self) -> "BagWriter":
+    def __enter__(self) -> 'BagWriter':
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:
@@ -265,7 +362,8 @@ class BagWriter:
         except BagError:
             pass  # the original error is the one to report
 
-    # -- helpers -----------------------------------------------------------------------------------
+    # -- helpers
+    # -----------------------------------------------------------------------------------
     def _check_open(self) -> None:
         if self._failure is not None:
             raise BagError(self._failure)
@@ -274,15 +372,17 @@ class BagWriter:
 
     def _io_error(self, error: OSError) -> BagError:
         reason = error.strerror or str(error)
-        self._failure = (f"bag '{self.path}': cannot write '{self.file_path.name}': {reason}; the chunks "
-                         f"written before stay readable, the last open chunk is lost")
+        self._failure = (
+            f"bag '{self.path}': cannot write '{self.file_path.name}': {reason}; the chunks "
+            f'written before stay readable, the last open chunk is lost'
+        )
         return BagError(self._failure)
 
 
-_REPAIR = "free some space, then run `torquefree_bag --reindex {}` to make it a complete bag"
+_REPAIR = 'free some space, then run `torquefree_bag --reindex {}` to make it a complete bag'
 
 
 def write_atomically(path: Path, text: str) -> None:
-    temporary = path.with_name(path.name + ".tmp")
-    temporary.write_text(text, encoding="utf-8")
+    temporary = path.with_name(path.name + '.tmp')
+    temporary.write_text(text, encoding='utf-8')
     os.replace(temporary, path)

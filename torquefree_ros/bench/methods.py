@@ -1,5 +1,21 @@
-"""Every method the report measures, behind one small interface: each registered propagator, scipy's
-``solve_ivp`` (RK45, DOP853, Radau, LSODA) and, when ``mujoco`` is importable, MuJoCo's RK4 free body.
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Every method the report measures, behind one small interface: each registered propagator,
+scipy's ``solve_ivp`` (RK45, DOP853, Radau, LSODA) and, when ``mujoco`` is importable, MuJoCo's RK4
+free body.
 
 A method has one setting it sweeps (a fixed step, a tolerance or nothing) and runs a case from its
 initial state to a sorted array of output times, returning ``(omega_B, q_NB)``.
@@ -13,17 +29,18 @@ from typing import Callable
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from ..core.propagators import ATOL_PER_RTOL, PROPAGATORS, make_propagator
+from .cases import Case
+from ..core.propagators import ATOL_PER_RTOL, make_propagator, PROPAGATORS
 from ..core.propagators.dynamics import Dynamics
 from ..core.propagators.numerical import FixedStepPropagator
 from ..core.rigid_body import RigidBody
-from .cases import Case
 
 #: relative tolerances of the adaptive methods (``atol = rtol * ATOL_PER_RTOL``, as ``auto`` uses)
 TOLERANCES = (1e-4, 1e-6, 1e-8, 1e-10, 1e-12, 1e-13)
 #: fixed steps, as steps per rotation (``step = 2 pi / |w0| / N``)
 STEPS_PER_ROTATION = (8, 16, 32, 64, 128, 256, 512, 1024, 2048)
-#: MuJoCo time steps: the 100 Hz output period (or the reference spacing, if finer) divided by these
+#: MuJoCo time steps: the 100 Hz output period (or the reference spacing, if finer) divided by
+#: these
 MUJOCO_SUBSTEPS = (1, 2, 4, 8, 16, 32, 64)
 SMOKE_TOLERANCES = (1e-5, 1e-9)
 SMOKE_STEPS_PER_ROTATION = (32, 256)
@@ -46,25 +63,42 @@ def _ours(name: str) -> Method:
     cls = PROPAGATORS[name]
 
     if issubclass(cls, FixedStepPropagator):
+
         def settings(case, smoke):
             counts = SMOKE_STEPS_PER_ROTATION if smoke else STEPS_PER_ROTATION
             return tuple(case.rotation_period / n for n in counts)
 
         def run(case, step, times):
-            return make_propagator(case.inertia, case.angular_velocity, case.orientation, name, step=step)(times)
+            return make_propagator(
+                case.inertia, case.angular_velocity, case.orientation, name, step=step
+            )(times)
 
-        return Method(name, "torquefree_ros", "step", settings, run, steps=lambda case, step, span: span / step)
-    if "rtol" in cls.options:
+        return Method(
+            name,
+            'torquefree_ros',
+            'step',
+            settings,
+            run,
+            steps=lambda case, step, span: span / step,
+        )
+    if 'rtol' in cls.options:
+
         def run(case, rtol, times):
-            return make_propagator(case.inertia, case.angular_velocity, case.orientation, name,
-                                   rtol=rtol, atol=rtol * ATOL_PER_RTOL)(times)
+            return make_propagator(
+                case.inertia,
+                case.angular_velocity,
+                case.orientation,
+                name,
+                rtol=rtol,
+                atol=rtol * ATOL_PER_RTOL,
+            )(times)
 
-        return Method(name, "torquefree_ros", "rtol", _tolerances, run)
+        return Method(name, 'torquefree_ros', 'rtol', _tolerances, run)
 
     def run(case, _, times):
         return make_propagator(case.inertia, case.angular_velocity, case.orientation, name)(times)
 
-    return Method(name, "torquefree_ros", "", lambda case, smoke: (None,), run)
+    return Method(name, 'torquefree_ros', '', lambda case, smoke: (None,), run)
 
 
 def _tolerances(case, smoke):
@@ -73,17 +107,27 @@ def _tolerances(case, smoke):
 
 def _scipy(solver: str) -> Method:
     def run(case, rtol, times):
-        # the same right-hand side as the numerical propagators, so the comparison is of the drivers
+        # the same right-hand side as the numerical propagators, so the comparison is of the
+        # drivers
         dynamics = Dynamics(RigidBody.from_inertia(case.inertia))
-        y0 = np.concatenate([case.angular_velocity, case.orientation / np.linalg.norm(case.orientation)])
-        solution = solve_ivp(lambda t, y: dynamics.derivative(t, y, 0.0), (0.0, float(times[-1])), y0,
-                             method=solver, t_eval=times, rtol=rtol, atol=rtol * ATOL_PER_RTOL)
+        y0 = np.concatenate(
+            [case.angular_velocity, case.orientation / np.linalg.norm(case.orientation)]
+        )
+        solution = solve_ivp(
+            lambda t, y: dynamics.derivative(t, y, 0.0),
+            (0.0, float(times[-1])),
+            y0,
+            method=solver,
+            t_eval=times,
+            rtol=rtol,
+            atol=rtol * ATOL_PER_RTOL,
+        )
         if not solution.success:
             raise RuntimeError(solution.message)
         q = solution.y[3:7].T
         return solution.y[:3].T, q / np.linalg.norm(q, axis=1, keepdims=True)
 
-    return Method(f"scipy {solver}", "scipy solve_ivp", "rtol", _tolerances, run)
+    return Method(f'scipy {solver}', 'scipy solve_ivp', 'rtol', _tolerances, run)
 
 
 _MJCF = """<mujoco>
@@ -109,16 +153,23 @@ def _mujoco_base_step(case: Case) -> float:
 
 
 def _mujoco_settings(case, smoke):
-    return tuple(_mujoco_base_step(case) / k for k in (SMOKE_MUJOCO_SUBSTEPS if smoke else MUJOCO_SUBSTEPS))
+    return tuple(
+        _mujoco_base_step(case) / k for k in (SMOKE_MUJOCO_SUBSTEPS if smoke else MUJOCO_SUBSTEPS)
+    )
 
 
 def _mujoco_run(case, dt, times):
-    """A free body in MuJoCo (no gravity, no contacts), integrated by its RK4 with compiled rollouts;
-    its free joint's angular velocity is in body coordinates and its quaternion is ``(w, x, y, z)``."""
+    """
+    A free body in MuJoCo (no gravity, no contacts), integrated by its RK4 with compiled
+    rollouts; its free joint's angular velocity is in body coordinates and its quaternion is ``(w,
+    x, y, z)``.
+    """
     import mujoco
     import mujoco.rollout
 
-    model = mujoco.MjModel.from_xml_string(_MJCF.format(dt=dt, inertia=" ".join(repr(float(i)) for i in case.inertia)))
+    model = mujoco.MjModel.from_xml_string(
+        _MJCF.format(dt=dt, inertia=' '.join(repr(float(i)) for i in case.inertia))
+    )
     data = mujoco.MjData(model)
     q0 = case.orientation / np.linalg.norm(case.orientation)
     data.qpos[3:7] = [q0[3], q0[0], q0[1], q0[2]]
@@ -128,7 +179,7 @@ def _mujoco_run(case, dt, times):
     mujoco.mj_getState(model, data, state, spec)
     steps = np.rint(np.asarray(times) / dt).astype(np.int64)
     if not np.allclose(steps * dt, times, rtol=1e-9, atol=1e-12):
-        raise ValueError(f"dt: the output times are not multiples of {dt:g} s")
+        raise ValueError(f'dt: the output times are not multiples of {dt:g} s')
     out = np.empty((steps.size, state.size))
     out[steps == 0] = state
     done = 0
@@ -139,7 +190,7 @@ def _mujoco_run(case, dt, times):
         out[inside] = states[0, steps[inside] - done - 1]
         state = states[0, -1]
         done += count
-    qpos, qvel = out[:, 1:1 + model.nq], out[:, 1 + model.nq:1 + model.nq + model.nv]
+    qpos, qvel = out[:, 1: 1 + model.nq], out[:, 1 + model.nq: 1 + model.nq + model.nv]
     q_wxyz = qpos[:, 3:7]
     q = np.concatenate([q_wxyz[:, 1:], q_wxyz[:, :1]], axis=1)
     return qvel[:, 3:6], q / np.linalg.norm(q, axis=1, keepdims=True)
@@ -147,9 +198,19 @@ def _mujoco_run(case, dt, times):
 
 def all_methods(include_mujoco: bool = True) -> list[Method]:
     """Every registered propagator, then the scipy baselines, then MuJoCo if importable."""
-    methods = [_ours(name) for name in sorted(PROPAGATORS, key=lambda n: (not PROPAGATORS[n].exact, n))]
-    methods += [_scipy(solver) for solver in ("RK45", "DOP853", "Radau", "LSODA")]
+    methods = [
+        _ours(name) for name in sorted(PROPAGATORS, key=lambda n: (not PROPAGATORS[n].exact, n))
+    ]
+    methods += [_scipy(solver) for solver in ('RK45', 'DOP853', 'Radau', 'LSODA')]
     if include_mujoco and mujoco_available():
-        methods.append(Method("mujoco RK4", "mujoco", "dt", _mujoco_settings, _mujoco_run,
-                              steps=lambda case, dt, span: span / dt))
+        methods.append(
+            Method(
+                'mujoco RK4',
+                'mujoco',
+                'dt',
+                _mujoco_settings,
+                _mujoco_run,
+                steps=lambda case, dt, span: span / dt,
+            )
+        )
     return methods

@@ -1,30 +1,48 @@
-"""Run every method over its settings on every case and record error and cost.
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Run every method over its settings on every case and record error and cost.
 
 Two runs per setting, each on a fresh method (construction included), CPU time by
 ``time.process_time``; a run shorter than 100 ms is repeated and the best time kept:
 
 * the **stream**: the 100 Hz output over a window of simulated time (the horizon clipped to
   [1 s, 100 s]), giving the cost per simulated second and per output sample;
-* the **horizon**: the case's reference samples only (a sparse output over its whole horizon), giving
-  the largest attitude error (rad) and relative rate error, and the cost of reaching the horizon."""
+* the **horizon**: the case's reference samples only (a sparse output over its whole horizon),
+  giving the largest attitude error (rad) and relative rate error, and the cost of reaching the
+  horizon.
+"""
 
 from __future__ import annotations
 
-import time
 from dataclasses import asdict, dataclass, fields
+import time
 
 import numpy as np
 
+from .cases import Case
+from .methods import Method, OUTPUT_PERIOD
 from ..core.accuracy import trajectory_errors
 from ..core.propagators import make_propagator
-from .cases import Case
-from .methods import OUTPUT_PERIOD, Method
 
 WINDOW_LIMITS = (1.0, 100.0)  # s
 #: a sweep stops tightening a method on a case once a run takes longer than this (CPU s)
 RUN_LIMIT = {False: 10.0, True: 2.0}  # by smoke
-#: fixed-step methods skip a setting that needs more steps than this: ours (Python), MuJoCo (compiled)
-STEP_LIMIT = {"torquefree_ros": 1e6, "mujoco": 5e6}
+#: fixed-step methods skip a setting that needs more steps than this: ours (Python), MuJoCo
+#: (compiled)
+STEP_LIMIT = {'torquefree_ros': 1e6, 'mujoco': 5e6}
 _REPEAT_BELOW = 0.1  # s
 _REPEAT_TOTAL = 0.5  # s
 
@@ -56,7 +74,7 @@ class Measurement:
 
     @property
     def ok(self) -> bool:
-        return self.status == "ok"
+        return self.status == 'ok'
 
 
 def cpu_seconds(run):
@@ -82,9 +100,16 @@ def measure(method: Method, case: Case, setting) -> tuple[Measurement, float]:
     """One measurement and the CPU seconds it took (all runs)."""
     window = cost_window(case)
     grid = np.arange(int(round(window / OUTPUT_PERIOD)) + 1) * OUTPUT_PERIOD
-    record = dict(case=case.name, method=method.label, family=method.family, setting_name=method.setting_name,
-                  setting=setting, attitude_floor_rad=float(case.attitude_floor.max()), window_s=window,
-                  horizon_s=case.horizon)
+    record = dict(
+        case=case.name,
+        method=method.label,
+        family=method.family,
+        setting_name=method.setting_name,
+        setting=setting,
+        attitude_floor_rad=float(case.attitude_floor.max()),
+        window_s=window,
+        horizon_s=case.horizon,
+    )
     spent = 0.0
     try:
         stream_cpu, _ = cpu_seconds(lambda: method.run(case, setting, grid))
@@ -93,19 +118,35 @@ def measure(method: Method, case: Case, setting) -> tuple[Measurement, float]:
         spent += horizon_cpu
         rate, attitude = trajectory_errors(omega, q, case.omega, case.q)
         errors = (float(attitude.max()), float(rate.max()))
-        status = "ok" if np.all(np.isfinite(errors)) else "failed: non-finite result"
+        status = 'ok' if np.all(np.isfinite(errors)) else 'failed: non-finite result'
     except Exception as error:  # noqa: BLE001 - a method that fails is a result, reported as such
-        return Measurement(**record, attitude_error_rad=np.nan, rate_error_rel=np.nan, cpu_us_per_sim_s=np.nan,
-                           cpu_us_per_sample=np.nan, cpu_ms_to_horizon=np.nan, samples=0,
-                           status=f"failed: {error}"), spent
-    return Measurement(**record, attitude_error_rad=errors[0], rate_error_rel=errors[1],
-                       cpu_us_per_sim_s=stream_cpu / window * 1e6, cpu_us_per_sample=stream_cpu / grid.size * 1e6,
-                       cpu_ms_to_horizon=horizon_cpu * 1e3, samples=int(grid.size), status=status), spent
+        return Measurement(
+            **record,
+            attitude_error_rad=np.nan,
+            rate_error_rel=np.nan,
+            cpu_us_per_sim_s=np.nan,
+            cpu_us_per_sample=np.nan,
+            cpu_ms_to_horizon=np.nan,
+            samples=0,
+            status=f'failed: {error}',
+        ), spent
+    return Measurement(
+        **record,
+        attitude_error_rad=errors[0],
+        rate_error_rel=errors[1],
+        cpu_us_per_sim_s=stream_cpu / window * 1e6,
+        cpu_us_per_sample=stream_cpu / grid.size * 1e6,
+        cpu_ms_to_horizon=horizon_cpu * 1e3,
+        samples=int(grid.size),
+        status=status,
+    ), spent
 
 
 def sweep(methods, cases, smoke: bool = False, progress=None) -> list[Measurement]:
-    """Every method x case x setting, settings from cheap to expensive; a method stops on a case at
-    the first setting over budget (recorded as skipped, like the tighter ones after it)."""
+    """
+    Every method x case x setting, settings from cheap to expensive; a method stops on a case at
+    the first setting over budget (recorded as skipped, like the tighter ones after it).
+    """
     _warm_up()
     results = []
     for case in cases:
@@ -116,7 +157,7 @@ def sweep(methods, cases, smoke: bool = False, progress=None) -> list[Measuremen
                 if over_budget is None and method.steps is not None:
                     steps = method.steps(case, setting, span)
                     if steps > STEP_LIMIT[method.family]:
-                        over_budget = f"skipped: {steps:.1e} steps over the limit {STEP_LIMIT[method.family]:.0e}"
+                        over_budget = f'skipped: {steps:.1e} steps over the limit {STEP_LIMIT[method.family]:.0e}'
                 if over_budget:
                     results.append(_skipped(method, case, setting, over_budget))
                     continue
@@ -125,19 +166,39 @@ def sweep(methods, cases, smoke: bool = False, progress=None) -> list[Measuremen
                 if progress:
                     progress(result)
                 if spent > RUN_LIMIT[smoke]:
-                    over_budget = f"skipped: the previous setting took {spent:.0f} s CPU"
+                    over_budget = f'skipped: the previous setting took {spent:.0f} s CPU'
     return results
 
 
 def _warm_up() -> None:
-    """Evaluate each kind of exact motion once before anything is timed: a process loads the compiled
-    kernels once (or compiles them, the first time after an install), which is not a propagator's cost."""
-    for inertia, rate in (([1.0, 2.0, 3.0], [0.3, 0.2, 1.0]), ([2.0, 3.0, 4.0], [0.7, 0.5, 0.6]),
-                          ([3.0, 4.0, 6.0], [2.0, 0.5, 1.0])):  # m <= 1/2, m > 1/2, the separatrix
+    """
+    Evaluate each kind of exact motion once before anything is timed: a process loads the
+    compiled kernels once (or compiles them, the first time after an install), which is not a
+    propagator's cost.
+    """
+    for inertia, rate in (
+        ([1.0, 2.0, 3.0], [0.3, 0.2, 1.0]),
+        ([2.0, 3.0, 4.0], [0.7, 0.5, 0.6]),
+        ([3.0, 4.0, 6.0], [2.0, 0.5, 1.0]),
+    ):  # m <= 1/2, m > 1/2, the separatrix
         make_propagator(inertia, rate, [0.0, 0.0, 0.0, 1.0])([0.0, 1.0])
 
 
 def _skipped(method, case, setting, reason) -> Measurement:
-    return Measurement(case.name, method.label, method.family, method.setting_name, setting, np.nan, np.nan,
-                       float(case.attitude_floor.max()), np.nan, np.nan, np.nan, 0, cost_window(case), case.horizon,
-                       reason)
+    return Measurement(
+        case.name,
+        method.label,
+        method.family,
+        method.setting_name,
+        setting,
+        np.nan,
+        np.nan,
+        float(case.attitude_floor.max()),
+        np.nan,
+        np.nan,
+        np.nan,
+        0,
+        cost_window(case),
+        case.horizon,
+        reason,
+    )

@@ -1,28 +1,46 @@
-"""Monte Carlo campaigns: one scene dispersed over thousands of runs, a row of metrics per run.
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Monte Carlo campaigns: one scene dispersed over thousands of runs, a row of metrics per run.
 
 The room, in the order a campaign flows through it:
 
 * :mod:`.spec` — the **campaign file** (YAML, checked like a scene: every error names the file and
   the field path): the base scene, the runs, the seed, the time grid, the dispersions, what to do
   with an impossible body, the metrics.
-* :mod:`.dispersions` — **dispersions** (Basilisk's vocabulary): per target of the scene (the body's
-  moments or tensor, the initial rate per axis, the attitude, any number parameter of an effect),
-  a mode (relative, absolute, replace) and a distribution (normal, uniform, truncated normal, a list
-  of values for a sweep). Run ``i`` draws from ``SeedSequence(seed).spawn(runs)[i]`` only.
+* :mod:`.dispersions` — **dispersions** (Basilisk's vocabulary): per target of the scene (the
+  body's moments or tensor, the initial rate per axis, the attitude, any number parameter of an
+  effect), a mode (relative, absolute, replace) and a distribution (normal, uniform, truncated
+  normal, a list of values for a sweep). Run ``i`` draws from ``SeedSequence(seed).spawn(runs)[i]``
+  only.
 * :mod:`.metrics` — **metrics**: what a run keeps (final rates, settle time, cone angle, flips,
   energy and momentum drift, attitude error from the nominal run), one registry and a decorator
   (:func:`metric`) for adding one as a Python function.
 * :mod:`.engine` — the **engine**: chunks of runs through the batch paths (``propagate_batch``, the
-  batched ``Plant``), in this process or on Dask workers (a local cluster by default, or an existing
-  cluster by address); a run that fails is a row with its reason, never the end of the campaign.
+  batched ``Plant``), in this process or on Dask workers (a local cluster by default, or an
+  existing cluster by address); a run that fails is a row with its reason, never the end of the
+  campaign.
 * :mod:`.results` — **results**: one table (pyarrow, written as Parquet), a row per run with its
   drawn inputs, metrics and status, and the campaign file and versions in its metadata.
 
-* :mod:`.store` — the **output directory**: each finished chunk as a part file as it completes, then
-  the table; an interrupted campaign resumes from its parts; the decimated trajectories, when asked,
-  as Parquet parts a notebook opens lazily (``pyarrow.dataset``; ``dask.dataframe`` with pandas installed).
-* :mod:`.report` — the **report**: histograms of the metrics, the worst runs, percentile envelopes of
-  ``|w|`` over time when trajectories were kept, a Markdown summary.
+* :mod:`.store` — the **output directory**: each finished chunk as a part file as it completes,
+  then the table; an interrupted campaign resumes from its parts; the decimated trajectories, when
+  asked, as Parquet parts a notebook opens lazily (``pyarrow.dataset``; ``dask.dataframe`` with
+  pandas installed).
+* :mod:`.report` — the **report**: histograms of the metrics, the worst runs, percentile envelopes
+  of ``|w|`` over time when trajectories were kept, a Markdown summary.
 
 ``run_campaign(path_or_mapping)`` is the Python API; ``torquefree_campaign run`` and ``report`` the
 command line. The table is the same, bit for bit, in-process, on 1 or 2 workers, with another chunk
@@ -31,39 +49,53 @@ size, or resumed after an interruption.
 
 from __future__ import annotations
 
-from .metrics import METRICS, Metric, Samples, metric
+from .metrics import Metric, metric, METRICS, Samples
 from .spec import Campaign, CampaignError, library_campaigns, load_campaign
 
 
-def run_campaign(path_or_mapping, scheduler=None, workers: int | None = None, output=None, *,
-                 chunk_size: int | None = None, overwrite: bool = False, resume: bool = False, progress=None):
-    """Run a campaign (a file, a library campaign's name, a mapping or a :class:`Campaign`) and return
-    its table (``pyarrow.Table``, see :mod:`.results`).
+def run_campaign(
+    path_or_mapping,
+    scheduler=None,
+    workers: int | None = None,
+    output=None,
+    *,
+    chunk_size: int | None = None,
+    overwrite: bool = False,
+    resume: bool = False,
+    progress=None,
+):
+    """
+    Run a campaign (a file, a library campaign's name, a mapping or a :class:`Campaign`) and
+    return its table (``pyarrow.Table``, see :mod:`.results`).
 
     ``scheduler``: ``None`` (a local cluster, or this process for a campaign of one chunk),
-    ``"in-process"``, ``"local"``, a Dask scheduler's address or a ``distributed.Client``; ``workers``:
-    the local cluster's worker processes (default: one per core); ``chunk_size``: runs per task (the
-    table does not depend on it); ``progress(done_runs, total_runs)``: called once before the first
-    chunk (``done_runs`` = the runs a resumed campaign already holds) and after each chunk.
+    ``"in-process"``, ``"local"``, a Dask scheduler's address or a ``distributed.Client``;
+    ``workers``: the local cluster's worker processes (default: one per core); ``chunk_size``: runs
+    per task (the table does not depend on it); ``progress(done_runs, total_runs)``: called once
+    before the first chunk (``done_runs`` = the runs a resumed campaign already holds) and after
+    each chunk.
 
-    ``output``: a directory (see :mod:`.store`) that keeps each finished chunk as it completes and then
-    the table as ``runs.parquet``. It must not hold a campaign yet, unless ``overwrite`` (start over)
-    or ``resume``: continue the campaign it holds, computing only the runs no finished chunk holds
-    (the result is bit for bit the uninterrupted run's table); the campaign file, its scene and the
-    versions must be the same (:class:`.store.ResumeError` says what differs). Resuming a finished
-    campaign returns its table. A campaign file that asks for ``trajectories`` has its finished runs'
-    kept samples written to ``output/trajectories/`` (see :mod:`.store`); without ``output`` they are not
-    computed."""
-    from .engine import TRAJECTORIES, chunk_runs, chunks, execute
+    ``output``: a directory (see :mod:`.store`) that keeps each finished chunk as it completes and
+    then the table as ``runs.parquet``. It must not hold a campaign yet, unless ``overwrite``
+    (start over) or ``resume``: continue the campaign it holds, computing only the runs no finished
+    chunk holds (the result is bit for bit the uninterrupted run's table); the campaign file, its
+    scene and the versions must be the same (:class:`.store.ResumeError` says what differs).
+    Resuming a finished campaign returns its table. A campaign file that asks for ``trajectories``
+    has its finished runs' kept samples written to ``output/trajectories/`` (see :mod:`.store`);
+    without ``output`` they are not computed.
+    """
+    from .engine import chunk_runs, chunks, execute, TRAJECTORIES
     from .results import build_table
     from .store import CampaignDirectory
 
     campaign = load_campaign(path_or_mapping)
     size = chunk_runs(campaign, chunk_size)
-    computed = campaign  # what the chunks run: the same runs, without trajectories when there is nowhere to write them
+    # what the chunks run: the same runs, without trajectories when there is nowhere to write them
+    computed = campaign
     if output is None:
         if campaign.trajectory_every:
             from dataclasses import replace
+
             computed = replace(campaign, trajectory_every=None)
         store, ranges, parts = None, chunks(campaign, size), {}
     else:
@@ -81,7 +113,9 @@ def run_campaign(path_or_mapping, scheduler=None, workers: int | None = None, ou
         nonlocal done
         trajectories = columns.pop(TRAJECTORIES, None)
         if store:
-            if trajectories is not None:  # first: a results part on disk has its trajectory part beside it
+            if (
+                trajectories is not None
+            ):  # first: a results part on disk has its trajectory part beside it
                 store.write_trajectories(start, stop, trajectories)
             store.write_part(start, stop, columns)
         parts[start] = columns
@@ -101,5 +135,14 @@ def run_campaign(path_or_mapping, scheduler=None, workers: int | None = None, ou
     return table
 
 
-__all__ = ["METRICS", "Campaign", "CampaignError", "Metric", "Samples", "library_campaigns", "load_campaign",
-           "metric", "run_campaign"]
+__all__ = [
+    'METRICS',
+    'Campaign',
+    'CampaignError',
+    'Metric',
+    'Samples',
+    'library_campaigns',
+    'load_campaign',
+    'metric',
+    'run_campaign',
+]

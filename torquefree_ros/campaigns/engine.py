@@ -1,51 +1,71 @@
-"""The engine: runs in chunks, in this process or on Dask workers.
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The engine: runs in chunks, in this process or on Dask workers.
 
 A task is a chunk of consecutive runs (:func:`run_chunk`): every run of the chunk draws its inputs
 from its own generator, the physical ones go through one batch call (``propagate_batch`` for a
 torque-free scene, the batched ``Plant`` for a scene with motion effects), and the metrics are
-computed over the chunk's arrays. A run that cannot be made (an impossible body, an effect parameter
-its scene refuses, an integrator that gives up) is a row with its status and reason; when a batch
-call fails, its runs go one by one (a body of a batch is bit for bit the body alone), so the
-failure is pinned on its run and the table does not depend on chunking.
+computed over the chunk's arrays. A run that cannot be made (an impossible body, an effect
+parameter its scene refuses, an integrator that gives up) is a row with its status and reason; when
+a batch call fails, its runs go one by one (a body of a batch is bit for bit the body alone), so
+the failure is pinned on its run and the table does not depend on chunking.
 
 Engines (:func:`execute`): ``"in-process"`` runs the chunks one after the other here; ``"local"``
 starts a ``distributed.LocalCluster`` of worker processes on this machine (one per core by default,
 one thread each, loopback only) for the campaign and closes it after; an address
-(``tcp://host:port``) or a ``distributed.Client`` uses an existing cluster. ``None`` is ``"local"``,
-or ``"in-process"`` for a campaign of one chunk (a cluster would only add its start-up).
-A worker process loads the compiled kernels once (they are module state), not once per chunk.
-Inside a chunk the runs go a block at a time (:data:`BLOCK_SAMPLES`): the arrays stay small.
+(``tcp://host:port``) or a ``distributed.Client`` uses an existing cluster. ``None`` is
+``"local"``, or ``"in-process"`` for a campaign of one chunk (a cluster would only add its
+start-up). A worker process loads the compiled kernels once (they are module state), not once per
+chunk. Inside a chunk the runs go a block at a time (:data:`BLOCK_SAMPLES`): the arrays stay small.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 import os
 import time
 import uuid
-from dataclasses import dataclass
 
 import numpy as np
 
-from ..core import propagate_batch
-from ..core.rigid_body import RigidBody
-from ..core.scene import SceneError, scene_from_mapping
 from .dispersions import EffectTarget, OrientationTarget, run_generator
 from .metrics import Samples
+from ..core import propagate_batch
+from ..core.rigid_body import RigidBody
+from ..core.scene import scene_from_mapping, SceneError
 
 DEFAULT_CHUNK_RUNS = 256
 CHUNK_BYTES = 128 * 2**20  # samples held by one chunk at most (then fewer runs a chunk)
-# Inside a chunk, runs are propagated and measured a block of at most this many body-samples at a time
-# (the same numbers: every run is computed on its own): a block's arrays (2 MB a quaternion array) stay
-# in cache and far under the mmap threshold below, whatever the chunk's size and the runs' length.
+# Inside a chunk, runs are propagated and measured a block of at most this many body-samples at a
+# time (the same numbers: every run is computed on its own): a block's arrays (2 MB a quaternion
+# array) stay in cache and far under the mmap threshold below, whatever the chunk's size and the
+# runs' length.
 BLOCK_SAMPLES = 65_536
 # glibc's allocator for a local cluster's workers. Its default thresholds move with what was freed
 # last, and a block's arrays then keep going back to the kernel and faulting in afresh: measured,
 # 10 000 runs of 1 001 samples in one process took 0.5 to 1.6 s of system time beside 2.5 s of user
 # time, depending on the process's history; with these fixed thresholds, none.
-MALLOC_ENVIRONMENT = {"MALLOC_MMAP_THRESHOLD_": str(32 * 2**20), "MALLOC_TRIM_THRESHOLD_": str(128 * 2**20)}
-OK, INVALID_BODY, INVALID_SCENE, FAILED = "ok", "invalid_body", "invalid_scene", "failed"
-# a chunk's entry (not a column of the table) holding its runs' decimated samples, when the campaign keeps them
-TRAJECTORIES = "__trajectories__"
+MALLOC_ENVIRONMENT = {
+    'MALLOC_MMAP_THRESHOLD_': str(32 * 2**20),
+    'MALLOC_TRIM_THRESHOLD_': str(128 * 2**20),
+}
+OK, INVALID_BODY, INVALID_SCENE, FAILED = 'ok', 'invalid_body', 'invalid_scene', 'failed'
+# a chunk's entry (not a column of the table) holding its runs' decimated samples, when the
+# campaign keeps them
+TRAJECTORIES = '__trajectories__'
 
 
 def block_runs(campaign) -> int:
@@ -56,7 +76,7 @@ def block_runs(campaign) -> int:
 def chunk_runs(campaign, requested: int | None = None) -> int:
     if requested is not None:
         if isinstance(requested, bool) or not isinstance(requested, int) or requested < 1:
-            raise ValueError(f"chunk_size: expected a positive integer, got {requested!r}")
+            raise ValueError(f'chunk_size: expected a positive integer, got {requested!r}')
         return requested
     width = 7 + 8  # rates, attitude and a few effect states, float64
     return max(1, min(DEFAULT_CHUNK_RUNS, CHUNK_BYTES // (campaign.samples * width * 8)))
@@ -66,7 +86,8 @@ def chunks(campaign, size: int) -> list[tuple[int, int]]:
     return [(start, min(start + size, campaign.runs)) for start in range(0, campaign.runs, size)]
 
 
-# -- one run's inputs -----------------------------------------------------------------------------------
+# -- one run's inputs
+# -----------------------------------------------------------------------------------
 @dataclass
 class Draw:
     run: int
@@ -83,11 +104,15 @@ class Draw:
 def body_from_draw(campaign, values: np.ndarray) -> np.ndarray:
     """The scene's inertia numbers for drawn ``values`` of the body target."""
     target = campaign.body_target
-    if target.path == "body.inertia" or len(campaign.scene.inertia) == 3:
+    if target.path == 'body.inertia' or len(campaign.scene.inertia) == 3:
         return values
-    axes = RigidBody.from_inertia(campaign.scene.inertia).principal_axes  # a tensor scene keeps its axes
+    axes = RigidBody.from_inertia(
+        campaign.scene.inertia
+    ).principal_axes  # a tensor scene keeps its axes
     tensor = (axes * values) @ axes.T
-    return np.array([tensor[0, 0], tensor[1, 1], tensor[2, 2], tensor[0, 1], tensor[0, 2], tensor[1, 2]])
+    return np.array(
+        [tensor[0, 0], tensor[1, 1], tensor[2, 2], tensor[0, 1], tensor[0, 2], tensor[1, 2]]
+    )
 
 
 def draw_run(campaign, run: int) -> Draw:
@@ -96,8 +121,10 @@ def draw_run(campaign, run: int) -> Draw:
     draw = Draw(run, {})
     for target in campaign.targets:
         draw.values[target.path] = target.draw(rng, run)
-    draw.omega = draw.values.get("initial.angular_velocity", np.asarray(scene.angular_velocity, dtype=float))
-    draw.q = draw.values.get("initial.orientation", np.asarray(scene.orientation, dtype=float))
+    draw.omega = draw.values.get(
+        'initial.angular_velocity', np.asarray(scene.angular_velocity, dtype=float)
+    )
+    draw.q = draw.values.get('initial.orientation', np.asarray(scene.orientation, dtype=float))
     target = campaign.body_target
     if target is None:
         draw.inertia = np.asarray(scene.inertia, dtype=float)
@@ -108,38 +135,51 @@ def draw_run(campaign, run: int) -> Draw:
         draw.values[target.path] = values
         draw.inertia = body_from_draw(campaign, values)
         try:
-            draw.body = RigidBody.from_inertia(draw.inertia, "inertia")
+            draw.body = RigidBody.from_inertia(draw.inertia, 'inertia')
             return draw
         except ValueError as error:
-            if campaign.invalid_body == "fail" or draw.redraws >= campaign.max_redraws:
+            if campaign.invalid_body == 'fail' or draw.redraws >= campaign.max_redraws:
                 draw.status, draw.reason = INVALID_BODY, str(error)
-                if campaign.invalid_body == "redraw":
-                    draw.reason += f" (after {draw.redraws} redraws)"
+                if campaign.invalid_body == 'redraw':
+                    draw.reason += f' (after {draw.redraws} redraws)'
                 return draw
             draw.redraws += 1
 
 
 def _scene_of(campaign, draw: Draw):
-    """The run's scene (for a scene with effects): the scene file's mapping with the drawn values."""
-    document = {key: value for key, value in campaign.scene_document.items() if key not in ("sweep",)}
-    document["body"] = {"inertia": [float(x) for x in draw.inertia]}
-    document["initial"] = {"angular_velocity": [float(x) for x in draw.omega],
-                           "orientation": [float(x) for x in draw.q]}
-    effects = [dict(entry) for entry in campaign.scene_document.get("effects") or []]
+    """
+    The run's scene (for a scene with effects): the scene file's mapping with the drawn
+    values.
+    """
+    document = {
+        key: value for key, value in campaign.scene_document.items() if key not in ('sweep',)
+    }
+    document['body'] = {'inertia': [float(x) for x in draw.inertia]}
+    document['initial'] = {
+        'angular_velocity': [float(x) for x in draw.omega],
+        'orientation': [float(x) for x in draw.q],
+    }
+    effects = [dict(entry) for entry in campaign.scene_document.get('effects') or []]
     for target in campaign.targets:
         if isinstance(target, EffectTarget):
             parameters = dict(effects[target.index][target.effect] or {})
             parameters[target.parameter] = float(draw.values[target.path][0])
             effects[target.index] = {target.effect: parameters}
-    document["effects"] = effects
-    return scene_from_mapping(document, source=f"run {draw.run}")
+    document['effects'] = effects
+    return scene_from_mapping(document, source=f'run {draw.run}')
 
 
-# -- a chunk --------------------------------------------------------------------------------------------
+# -- a chunk
+# --------------------------------------------------------------------------------------------
 def run_chunk(campaign, start: int, stop: int) -> dict:
-    """Runs ``start .. stop - 1``: a dict of columns (numpy arrays; ``status`` and ``reason`` lists), and
-    under :data:`TRAJECTORIES` the finished runs' kept samples (a dict of columns) when the campaign keeps them."""
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore", under="ignore"):  # the same on every worker
+    """
+    Runs ``start .. stop - 1``: a dict of columns (numpy arrays; ``status`` and ``reason``
+    lists), and under :data:`TRAJECTORIES` the finished runs' kept samples (a dict of columns) when
+    the campaign keeps them.
+    """
+    with np.errstate(
+        divide='ignore', invalid='ignore', over='ignore', under='ignore'
+    ):  # the same on every worker
         return _run_chunk(campaign, start, stop)
 
 
@@ -153,29 +193,42 @@ def _run_chunk(campaign, start: int, stop: int) -> dict:
                 try:
                     scenes[draw.run] = _scene_of(campaign, draw)
                 except SceneError as error:
-                    draw.status, draw.reason = INVALID_SCENE, str(error).split(": ", 1)[-1]
+                    draw.status, draw.reason = INVALID_SCENE, str(error).split(': ', 1)[-1]
     ready = [draw for draw in draws if draw.status == OK]
     nominal = _nominal(campaign, times) if campaign.needs_nominal and ready else None
     ok, blocks, size = [], [], block_runs(campaign)
-    kept = [] if campaign.trajectory_every else None  # the decimated samples of the finished runs, by block
+    kept = (
+        [] if campaign.trajectory_every else None
+    )  # the decimated samples of the finished runs, by block
     for low in range(0, len(ready), size):  # a block at a time: see BLOCK_SAMPLES
-        block = ready[low:low + size]
+        block = ready[low: low + size]
         trajectories = _propagate(campaign, block, scenes, times)
         finished = [draw for draw in block if draw.status == OK]
         if finished:
             blocks.append(_metrics(campaign, finished, trajectories, times, nominal))
             ok += finished
             if kept is not None:  # after the metrics: a run a metric failed on has no trajectory
-                kept += [(draw.run, *(a[::campaign.trajectory_every] for a in trajectories[draw.run]))
-                         for draw in finished if draw.status == OK]
-    columns = {"run": np.arange(start, stop, dtype=np.int64),
-               "redraws": np.array([d.redraws for d in draws], dtype=np.int64)}
+                kept += [
+                    (draw.run, *(a[:: campaign.trajectory_every] for a in trajectories[draw.run]))
+                    for draw in finished
+                    if draw.status == OK
+                ]
+    columns = {
+        'run': np.arange(start, stop, dtype=np.int64),
+        'redraws': np.array([d.redraws for d in draws], dtype=np.int64),
+    }
     for target in campaign.targets + ((campaign.body_target,) if campaign.body_target else ()):
         values = np.array([d.values[target.path] for d in draws]).reshape(len(draws), -1)
         for k, column in enumerate(target.columns):
             columns[column] = values[:, k]
-    metric_values = {column: np.concatenate([block[column] for block in blocks])
-                     for column in campaign.metric_columns} if blocks else {}
+    metric_values = (
+        {
+            column: np.concatenate([block[column] for block in blocks])
+            for column in campaign.metric_columns
+        }
+        if blocks
+        else {}
+    )
     index = {draw.run - start: i for i, draw in enumerate(ok)}
     rows = np.array(sorted(index), dtype=np.int64)
     picked = np.array([index[r] for r in rows], dtype=np.int64)
@@ -185,29 +238,37 @@ def _run_chunk(campaign, start: int, stop: int) -> dict:
             if rows.size:
                 array[rows] = metric_values[column][picked]
             columns[column] = array
-    columns["status"] = [d.status for d in draws]
-    columns["reason"] = [d.reason for d in draws]
+    columns['status'] = [d.status for d in draws]
+    columns['reason'] = [d.reason for d in draws]
     if kept is not None:
         columns[TRAJECTORIES] = _trajectory_columns(campaign, kept)
     return columns
 
 
 def _trajectory_columns(campaign, kept: list) -> dict:
-    """The chunk's kept samples as columns (:attr:`Campaign.trajectory_columns`), by run then time."""
+    """
+    The chunk's kept samples as columns (:attr:`Campaign.trajectory_columns`), by run then
+    time.
+    """
     t = campaign.trajectory_times
     names = campaign.trajectory_columns
     if not kept:
-        return {name: np.empty(0, dtype=np.int64 if name == "run" else float) for name in names}
+        return {name: np.empty(0, dtype=np.int64 if name == 'run' else float) for name in names}
     run = np.repeat(np.array([k[0] for k in kept], dtype=np.int64), t.size)
-    values = np.concatenate([np.concatenate([omega, q, internal], axis=1) for _, omega, q, internal in kept])
-    columns = {"run": run, "t": np.tile(t, len(kept))}
+    values = np.concatenate(
+        [np.concatenate([omega, q, internal], axis=1) for _, omega, q, internal in kept]
+    )
+    columns = {'run': run, 't': np.tile(t, len(kept))}
     for k, name in enumerate(names[2:]):
         columns[name] = np.ascontiguousarray(values[:, k])
     return columns
 
 
 def _propagate(campaign, ok: list, scenes: dict, times: np.ndarray) -> dict:
-    """run -> (omega (M, 3), q (M, 4), internal (M, s)); a run that fails gets its status and reason."""
+    """
+    run -> (omega (M, 3), q (M, 4), internal (M, s)); a run that fails gets its status and
+    reason.
+    """
     if not ok:
         return {}
     try:
@@ -227,10 +288,15 @@ def _propagate(campaign, ok: list, scenes: dict, times: np.ndarray) -> dict:
 
 def _batch(campaign, draws: list, scenes: dict, times: np.ndarray):
     if campaign.scene.torque_free:
-        omega, q = propagate_batch(np.array([d.inertia for d in draws]), np.array([d.omega for d in draws]),
-                                   np.array([d.q for d in draws]), times)
+        omega, q = propagate_batch(
+            np.array([d.inertia for d in draws]),
+            np.array([d.omega for d in draws]),
+            np.array([d.q for d in draws]),
+            times,
+        )
         return omega, q, np.empty(omega.shape[:2] + (0,))
     from ..plant import Plant
+
     plant = Plant([scenes[d.run] for d in draws], campaign.rate)
     first = plant.state
     rest = plant.run(campaign.duration)
@@ -239,17 +305,30 @@ def _batch(campaign, draws: list, scenes: dict, times: np.ndarray):
 
 def _nominal(campaign, times) -> Samples:
     scene = campaign.scene
-    draw = Draw(-1, {}, np.asarray(scene.inertia, dtype=float), np.asarray(scene.angular_velocity, dtype=float),
-                np.asarray(scene.orientation, dtype=float), body=RigidBody.from_inertia(scene.inertia))
+    draw = Draw(
+        -1,
+        {},
+        np.asarray(scene.inertia, dtype=float),
+        np.asarray(scene.angular_velocity, dtype=float),
+        np.asarray(scene.orientation, dtype=float),
+        body=RigidBody.from_inertia(scene.inertia),
+    )
     scenes = {} if scene.torque_free else {-1: scene}
     omega, q, internal = _batch(campaign, [draw], scenes, times)
     return _samples(times, [draw], omega, q, internal)
 
 
 def _samples(times, draws, omega, q, internal, nominal=None) -> Samples:
-    return Samples(times, omega, q, internal, np.array([d.body.tensor for d in draws]),
-                   np.array([d.body.moments for d in draws]), np.array([d.body.principal_axes for d in draws]),
-                   nominal)
+    return Samples(
+        times,
+        omega,
+        q,
+        internal,
+        np.array([d.body.tensor for d in draws]),
+        np.array([d.body.moments for d in draws]),
+        np.array([d.body.principal_axes for d in draws]),
+        nominal,
+    )
 
 
 def _metrics(campaign, ok: list, trajectories: dict, times, nominal) -> dict:
@@ -268,27 +347,40 @@ def _metric_one_by_one(use, ok, stacked, times, nominal) -> dict:
     columns = {column: np.zeros(len(ok), dtype=use.metric.dtype) for column in use.metric.columns}
     for i, draw in enumerate(ok):
         try:
-            values = use.evaluate(_samples(times, [draw], *(a[i:i + 1] for a in stacked), nominal=nominal))
+            values = use.evaluate(
+                _samples(times, [draw], *(a[i: i + 1] for a in stacked), nominal=nominal)
+            )
         except Exception as error:  # noqa: BLE001
-            draw.status, draw.reason = FAILED, f"metric {use.metric.name}: {type(error).__name__}: {error}"
+            draw.status, draw.reason = (
+                FAILED,
+                f'metric {use.metric.name}: {type(error).__name__}: {error}',
+            )
             continue
         for column, array in values.items():
             columns[column][i] = array[0]
     return columns
 
 
-# -- engines --------------------------------------------------------------------------------------------
-def execute(campaign, ranges=None, scheduler=None, workers: int | None = None, on_chunk=None) -> list[dict]:
-    """Every chunk's columns, in the order of ``ranges`` (``(start, stop)`` pairs; default: the whole
-    campaign in chunks of :func:`chunk_runs`). ``on_chunk(start, stop, columns)`` is called in this
-    process as each chunk completes (in completion order), once per chunk, even when Dask runs a
-    chunk again because its worker was lost (a chunk's columns depend only on the campaign and its runs)."""
+# -- engines
+# --------------------------------------------------------------------------------------------
+def execute(
+    campaign, ranges=None, scheduler=None, workers: int | None = None, on_chunk=None
+) -> list[dict]:
+    """
+    Every chunk's columns, in the order of ``ranges`` (``(start, stop)`` pairs; default: the
+    whole campaign in chunks of :func:`chunk_runs`). ``on_chunk(start, stop, columns)`` is called
+    in this process as each chunk completes (in completion order), once per chunk, even when Dask
+    runs a chunk again because its worker was lost (a chunk's columns depend only on the campaign
+    and its runs).
+    """
     parts = chunks(campaign, chunk_runs(campaign)) if ranges is None else list(ranges)
     if scheduler is None:
-        scheduler = "in-process" if len(parts) <= 1 else "local"
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
-        raise ValueError(f"workers: expected a positive integer, got {workers!r}")
-    if scheduler == "in-process":
+        scheduler = 'in-process' if len(parts) <= 1 else 'local'
+    if workers is not None and (
+        isinstance(workers, bool) or not isinstance(workers, int) or workers < 1
+    ):
+        raise ValueError(f'workers: expected a positive integer, got {workers!r}')
+    if scheduler == 'in-process':
         results = []
         for start, stop in parts:
             results.append(run_chunk(campaign, start, stop))
@@ -299,52 +391,76 @@ def execute(campaign, ranges=None, scheduler=None, workers: int | None = None, o
 
 
 def local_cluster(workers: int):
-    """Worker processes on this machine, one thread each, everything on loopback: the scheduler's
+    """
+    Worker processes on this machine, one thread each, everything on loopback: the scheduler's
     HTTP server (health routes; no dashboard) on a free port of 127.0.0.1, not on 8787 of every
-    interface. A script that starts one must be guarded by ``if __name__ == "__main__":`` (workers are
-    spawned processes that import the script's main module)."""
+    interface. A script that starts one must be guarded by ``if __name__ == "__main__":`` (workers
+    are spawned processes that import the script's main module).
+    """
     import dask
     from distributed import LocalCluster
 
-    # Dask spawns workers with MALLOC_TRIM_THRESHOLD_=65536, which also freezes glibc's mmap threshold:
-    # every array of a chunk is then fresh pages from the kernel, and a chunk takes twice as long
-    # (measured: 0.155 s against 0.076 s for 256 runs of 1001 samples). Both thresholds are set instead
-    # (MALLOC_ENVIRONMENT). The thread limits stay.
-    environment = {key: value for key, value in dask.config.get("distributed.nanny.pre-spawn-environ").items()
-                   if key != "MALLOC_TRIM_THRESHOLD_"}
+    # Dask spawns workers with MALLOC_TRIM_THRESHOLD_=65536, which also freezes glibc's mmap
+    # threshold: every array of a chunk is then fresh pages from the kernel, and a chunk takes
+    # twice as long (measured: 0.155 s against 0.076 s for 256 runs of 1001 samples). Both
+    # thresholds are set instead (MALLOC_ENVIRONMENT). The thread limits stay.
+    environment = {
+        key: value
+        for key, value in dask.config.get('distributed.nanny.pre-spawn-environ').items()
+        if key != 'MALLOC_TRIM_THRESHOLD_'
+    }
     environment.update(MALLOC_ENVIRONMENT)
-    with dask.config.set({"distributed.nanny.pre-spawn-environ": environment}):
-        return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
-                            dashboard_address=None, scheduler_kwargs={"dashboard": False,
-                                                                      "dashboard_address": "127.0.0.1:0"})
+    with dask.config.set({'distributed.nanny.pre-spawn-environ': environment}):
+        return LocalCluster(
+            n_workers=workers,
+            threads_per_worker=1,
+            processes=True,
+            host='127.0.0.1',
+            dashboard_address=None,
+            scheduler_kwargs={'dashboard': False, 'dashboard_address': '127.0.0.1:0'},
+        )
 
 
 def _on_dask(campaign, parts, scheduler, workers, on_chunk) -> list[dict]:
-    from distributed import Client, as_completed
+    from distributed import as_completed, Client
 
     cluster = None
     if isinstance(scheduler, Client):
         client, own_client = scheduler, False
-    elif scheduler == "local":
+    elif scheduler == 'local':
         cluster = local_cluster(workers or os.cpu_count() or 1)
         client, own_client = Client(cluster), True
     elif isinstance(scheduler, str):
         if workers is not None:
-            raise ValueError("workers: only for the local cluster; an existing cluster has its own workers")
-        client, own_client = Client(scheduler, timeout="30s"), True
+            raise ValueError(
+                'workers: only for the local cluster; an existing cluster has its own workers'
+            )
+        client, own_client = Client(scheduler, timeout='30s'), True
     else:
-        raise ValueError(f"scheduler: expected None, 'in-process', 'local', an address or a distributed.Client, "
-                         f"got {scheduler!r}")
+        raise ValueError(
+            f"scheduler: expected None, 'in-process', 'local', an address or a distributed.Client, "
+            f'got {scheduler!r}'
+        )
     try:
         token = uuid.uuid4().hex[:12]
-        futures = {client.submit(run_chunk, campaign, start, stop, key=f"torquefree-campaign-{token}-{start}",
-                                 pure=False, retries=2): index
-                   for index, (start, stop) in enumerate(parts)}
+        futures = {
+            client.submit(
+                run_chunk,
+                campaign,
+                start,
+                stop,
+                key=f'torquefree-campaign-{token}-{start}',
+                pure=False,
+                retries=2,
+            ): index
+            for index, (start, stop) in enumerate(parts)
+        }
         results: list = [None] * len(parts)
-        # as_completed yields each future once; a chunk whose worker died is run again by the scheduler
-        # (its result, if already computed and lost with the worker, too) before its future completes.
-        # It watches on this client's loop: by default it takes the default client's, another one when the
-        # process holds several clients, and a future reset after a lost worker then waits on the wrong loop.
+        # as_completed yields each future once; a chunk whose worker died is run again by the
+        # scheduler (its result, if already computed and lost with the worker, too) before its
+        # future completes. It watches on this client's loop: by default it takes the default
+        # client's, another one when the process holds several clients, and a future reset after a
+        # lost worker then waits on the wrong loop.
         for future in as_completed(futures, loop=client.loop):
             index = futures[future]
             results[index] = future.result()

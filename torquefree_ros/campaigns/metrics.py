@@ -1,4 +1,19 @@
-"""Metrics: what a campaign keeps of each run, one or more numbers a run (Basilisk's retained
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Metrics: what a campaign keeps of each run, one or more numbers a run (Basilisk's retained
 variables, reduced to a row). One registry, :data:`METRICS`; a metric is a Python function.
 
 Adding a metric::
@@ -12,12 +27,12 @@ Adding a metric::
         "The largest |w| over the run, times scale."
         return scale * samples.rate_norm().max(axis=1)
 
-and name it in a campaign file (``metrics: [peak_rate, {peak_rate: {scale: 2}}]`` — each name once).
-The function gets a :class:`Samples` of ``n`` runs (``omega_B (n, M, 3)``, ``q_NB (n, M, 4)``,
-``internal (n, M, s)``, the bodies, the ``times (M,)`` of samples ``0 .. M-1`` including the initial
-state) and the checked parameters, and returns an ``(n,)`` array (one column, named after the
-metric) or a dict ``column -> (n,)`` array whose keys are the ``columns`` declared. It must treat
-each run on its own (a row may not depend on the other runs of its chunk: the table does not
+and name it in a campaign file (``metrics: [peak_rate, {peak_rate: {scale: 2}}]`` — each name
+once). The function gets a :class:`Samples` of ``n`` runs (``omega_B (n, M, 3)``, ``q_NB (n, M,
+4)``, ``internal (n, M, s)``, the bodies, the ``times (M,)`` of samples ``0 .. M-1`` including the
+initial state) and the checked parameters, and returns an ``(n,)`` array (one column, named after
+the metric) or a dict ``column -> (n,)`` array whose keys are the ``columns`` declared. It must
+treat each run on its own (a row may not depend on the other runs of its chunk: the table does not
 depend on chunking). In a table, a metric is null for a run that failed and NaN where it is
 undefined for a run that did not (``settle_time`` of a run that never settles). Metrics run on Dask
 workers: define them in an importable module (or in ``__main__``, which Dask ships by value) and
@@ -26,14 +41,14 @@ import it before the campaign is loaded.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
+import math
 from typing import Callable
 
 import numpy as np
 
 from ..core import quaternion
-from ..core.schema import FieldError, Param, child, choice, fields, number, one_key, shown, vector
+from ..core.schema import child, choice, FieldError, fields, number, one_key, Param, shown, vector
 
 
 @dataclass(frozen=True)
@@ -42,26 +57,44 @@ class Metric:
     function: Callable
     columns: tuple
     parameters: dict = field(default_factory=dict)
-    unit: str = ""
-    dtype: str = "float64"  # float64 | int64
+    unit: str = ''
+    dtype: str = 'float64'  # float64 | int64
     needs_nominal: bool = False  # the engine computes the undispersed run beside the chunk
-    summary: str = ""
+    summary: str = ''
 
 
 #: metric name -> Metric
 METRICS: dict[str, Metric] = {}
 
 
-def metric(name: str, *, columns=None, parameters=None, unit: str = "", dtype: str = "float64",
-           needs_nominal: bool = False):
-    """Register ``function(samples, **parameters)`` as the metric ``name`` (see the module docstring)."""
-    if dtype not in ("float64", "int64"):
-        raise ValueError(f"metric {name}: dtype must be float64 or int64, got {dtype!r}")
+def metric(
+    name: str,
+    *,
+    columns=None,
+    parameters=None,
+    unit: str = '',
+    dtype: str = 'float64',
+    needs_nominal: bool = False,
+):
+    """
+    Register ``function(samples, **parameters)`` as the metric ``name`` (see the module
+    docstring).
+    """
+    if dtype not in ('float64', 'int64'):
+        raise ValueError(f'metric {name}: dtype must be float64 or int64, got {dtype!r}')
 
     def register(function):
-        summary = (function.__doc__ or "").strip().split("\n\n")[0].replace("\n", " ")
-        METRICS[name] = Metric(name, function, tuple(columns or (name,)), dict(parameters or {}), unit, dtype,
-                               needs_nominal, summary)
+        summary = (function.__doc__ or '').strip().split('\n\n')[0].replace('\n', ' ')
+        METRICS[name] = Metric(
+            name,
+            function,
+            tuple(columns or (name,)),
+            dict(parameters or {}),
+            unit,
+            dtype,
+            needs_nominal,
+            summary,
+        )
         return function
 
     return register
@@ -74,36 +107,45 @@ class MetricUse:
     metric: Metric
     values: dict
 
-    def evaluate(self, samples: "Samples") -> dict:
+    def evaluate(self, samples: 'Samples') -> dict:
         result = self.metric.function(samples, **self.values)
         if not isinstance(result, dict):
             result = {self.metric.columns[0]: result}
         if set(result) != set(self.metric.columns):
-            raise ValueError(f"metric {self.metric.name} returned columns {sorted(result)}, declared "
-                             f"{list(self.metric.columns)}")
+            raise ValueError(
+                f'metric {self.metric.name} returned columns {sorted(result)}, declared '
+                f'{list(self.metric.columns)}'
+            )
         n = samples.count
         out = {}
         for column in self.metric.columns:
             array = np.asarray(result[column], dtype=self.metric.dtype)
             if array.shape != (n,):
-                raise ValueError(f"metric {self.metric.name}: column {column} has shape {array.shape}, expected ({n},)")
+                raise ValueError(
+                    f'metric {self.metric.name}: column {column} has shape {array.shape}, expected ({n},)'
+                )
             out[column] = array
         return out
 
 
-DEFAULT_METRICS = ("final_rates", "cone_angle", "flips", "energy_drift", "momentum_drift")
+DEFAULT_METRICS = ('final_rates', 'cone_angle', 'flips', 'energy_drift', 'momentum_drift')
 
 
 def parse_metrics(value, path: str) -> tuple:
     if not isinstance(value, list) or not value:
-        raise FieldError(path, f"expected a list of metric names (known: {', '.join(sorted(METRICS))}), got "
-                               f"{shown(value)}")
+        raise FieldError(
+            path,
+            f'expected a list of metric names (known: {", ".join(sorted(METRICS))}), got '
+            f'{shown(value)}',
+        )
     uses, seen, columns = [], {}, {}
     for index, entry in enumerate(value):
         where = child(path, index)
-        name, parameters = one_key({entry: None} if isinstance(entry, str) else entry, where, METRICS, "metric")
+        name, parameters = one_key(
+            {entry: None} if isinstance(entry, str) else entry, where, METRICS, 'metric'
+        )
         if name in seen:
-            raise FieldError(where, f"{name} is already metrics[{seen[name]}]")
+            raise FieldError(where, f'{name} is already metrics[{seen[name]}]')
         seen[name] = index
         found = METRICS[name]
         for column in found.columns:
@@ -114,11 +156,14 @@ def parse_metrics(value, path: str) -> tuple:
     return tuple(uses)
 
 
-# -- what a metric sees ---------------------------------------------------------------------------------
+# -- what a metric sees
+# ---------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Samples:
-    """``n`` runs on one time grid. Every derived quantity is written out component by component, so a
-    run's numbers are the same whichever runs share its chunk."""
+    """
+    ``n`` runs on one time grid. Every derived quantity is written out component by component,
+    so a run's numbers are the same whichever runs share its chunk.
+    """
 
     times: np.ndarray  # (M,) s, sample 0 is the initial state
     omega_B: np.ndarray  # (n, M, 3) rad/s, body frame
@@ -127,7 +172,7 @@ class Samples:
     tensor: np.ndarray  # (n, 3, 3) kg m^2, body frame
     moments: np.ndarray  # (n, 3) principal moments (in the order of principal_axes' columns)
     principal_axes: np.ndarray  # (n, 3, 3) columns = principal axes in B
-    nominal: "Samples | None" = None  # the undispersed run (n = 1), for metrics that ask for it
+    nominal: 'Samples | None' = None  # the undispersed run (n = 1), for metrics that ask for it
 
     @property
     def count(self) -> int:
@@ -136,8 +181,13 @@ class Samples:
     def momentum_B(self) -> np.ndarray:
         """``H_B = I w`` (n, M, 3), kg m^2/s: the rigid body's own momentum (not an effect's)."""
         I, w = self.tensor[:, None, :, :], self.omega_B
-        return np.stack([I[..., r, 0] * w[..., 0] + I[..., r, 1] * w[..., 1] + I[..., r, 2] * w[..., 2]
-                         for r in range(3)], axis=-1)
+        return np.stack(
+            [
+                I[..., r, 0] * w[..., 0] + I[..., r, 1] * w[..., 1] + I[..., r, 2] * w[..., 2]
+                for r in range(3)
+            ],
+            axis=-1,
+        )
 
     def momentum_N(self) -> np.ndarray:
         """``H_N = R(q_NB) H_B`` (n, M, 3)."""
@@ -161,9 +211,13 @@ def norm(a):
 
 
 def rotate(q, v):
-    """``R(q) v`` elementwise over the leading axes (quaternion.rotate_values on the components: no
-    3x3 matrix per sample)."""
-    return np.stack(quaternion.rotate_values(np.moveaxis(q, -1, 0), np.moveaxis(v, -1, 0)), axis=-1)
+    """
+    ``R(q) v`` elementwise over the leading axes (quaternion.rotate_values on the components: no
+    3x3 matrix per sample).
+    """
+    return np.stack(
+        quaternion.rotate_values(np.moveaxis(q, -1, 0), np.moveaxis(v, -1, 0)), axis=-1
+    )
 
 
 def _ratio(numerator, denominator):
@@ -173,19 +227,29 @@ def _ratio(numerator, denominator):
     return out
 
 
-# -- built-in metrics -----------------------------------------------------------------------------------
-@metric("final_rates", columns=("final_wx", "final_wy", "final_wz"), unit="rad/s")
+# -- built-in metrics
+# -----------------------------------------------------------------------------------
+@metric('final_rates', columns=('final_wx', 'final_wy', 'final_wz'), unit='rad/s')
 def final_rates(samples):
     """The body rates at the last sample, body frame."""
     last = samples.omega_B[:, -1, :]
-    return {"final_wx": last[:, 0], "final_wy": last[:, 1], "final_wz": last[:, 2]}
+    return {'final_wx': last[:, 0], 'final_wy': last[:, 1], 'final_wz': last[:, 2]}
 
 
-@metric("settle_time", unit="s", parameters={
-    "threshold": Param(number(positive=True, unit="rad/s"), help="the |w| a run must stay under, rad/s")})
+@metric(
+    'settle_time',
+    unit='s',
+    parameters={
+        'threshold': Param(
+            number(positive=True, unit='rad/s'), help='the |w| a run must stay under, rad/s'
+        )
+    },
+)
 def settle_time(samples, threshold):
-    """The time of the first sample from which ``|w| < threshold`` at every later sample (0 if always);
-    NaN if ``|w|`` is not under it at the last sample."""
+    """
+    The time of the first sample from which ``|w| < threshold`` at every later sample (0 if
+    always); NaN if ``|w|`` is not under it at the last sample.
+    """
     over = samples.rate_norm() >= threshold
     M = over.shape[1]
     last_over = np.where(over.any(axis=1), M - 1 - np.argmax(over[:, ::-1], axis=1), -1)
@@ -193,7 +257,7 @@ def settle_time(samples, threshold):
     return np.where(settled, samples.times[np.minimum(last_over + 1, M - 1)], np.nan)
 
 
-_AXES = ("major", "intermediate", "minor", "x", "y", "z")
+_AXES = ('major', 'intermediate', 'minor', 'x', 'y', 'z')
 
 
 def _axis(value, path):
@@ -202,81 +266,119 @@ def _axis(value, path):
     axis = vector(3)(value, path)
     length = float(np.sqrt(axis @ axis))
     if not length > 0:
-        raise FieldError(path, "the axis must not be zero")
+        raise FieldError(path, 'the axis must not be zero')
     return tuple(float(x) / length for x in axis)
 
 
 def body_axis(samples: Samples, axis) -> np.ndarray:
-    """``(n, 3)`` unit axes in B: a principal axis (signed so that ``H_B(0)`` is on its positive side),
-    a body axis ``x | y | z``, or a given direction."""
+    """
+    ``(n, 3)`` unit axes in B: a principal axis (signed so that ``H_B(0)`` is on its positive
+    side), a body axis ``x | y | z``, or a given direction.
+    """
     n = samples.count
     if not isinstance(axis, str):
         return np.tile(np.asarray(axis, dtype=float), (n, 1))
-    if axis in ("x", "y", "z"):
-        return np.tile(np.eye(3)[("x", "y", "z").index(axis)], (n, 1))
-    order = np.argsort(samples.moments, axis=1, kind="stable")  # ascending: minor, intermediate, major
-    column = order[:, {"minor": 0, "intermediate": 1, "major": 2}[axis]]
+    if axis in ('x', 'y', 'z'):
+        return np.tile(np.eye(3)[('x', 'y', 'z').index(axis)], (n, 1))
+    order = np.argsort(
+        samples.moments, axis=1, kind='stable'
+    )  # ascending: minor, intermediate, major
+    column = order[:, {'minor': 0, 'intermediate': 1, 'major': 2}[axis]]
     axes = samples.principal_axes[np.arange(n), :, column]
     sign = np.where(dot(axes, samples.momentum_B()[:, 0, :]) < 0.0, -1.0, 1.0)
     return axes * sign[:, None]
 
 
-@metric("cone_angle", unit="rad", parameters={
-    "axis": Param(_axis, "major", "major | intermediate | minor | x | y | z | [ax, ay, az] (body frame)")})
+@metric(
+    'cone_angle',
+    unit='rad',
+    parameters={
+        'axis': Param(
+            _axis, 'major', 'major | intermediate | minor | x | y | z | [ax, ay, az] (body frame)'
+        )
+    },
+)
 def cone_angle(samples, axis):
-    """The largest angle between ``H`` and a body axis over the run (nutation / cone angle), in
-    [0, pi]: ``atan2(|a x H_B|, a . H_B)``. A principal axis is signed so that the angle starts below
-    pi/2. NaN for a body at rest."""
+    """
+    The largest angle between ``H`` and a body axis over the run (nutation / cone angle), in
+    [0, pi]: ``atan2(|a x H_B|, a . H_B)``. A principal axis is signed so that the angle starts
+    below pi/2. NaN for a body at rest.
+    """
     a = body_axis(samples, axis)[:, None, :]
     H = samples.momentum_B()
-    cross = np.stack([a[..., 1] * H[..., 2] - a[..., 2] * H[..., 1], a[..., 2] * H[..., 0] - a[..., 0] * H[..., 2],
-                      a[..., 0] * H[..., 1] - a[..., 1] * H[..., 0]], axis=-1)
+    cross = np.stack(
+        [
+            a[..., 1] * H[..., 2] - a[..., 2] * H[..., 1],
+            a[..., 2] * H[..., 0] - a[..., 0] * H[..., 2],
+            a[..., 0] * H[..., 1] - a[..., 1] * H[..., 0],
+        ],
+        axis=-1,
+    )
     angle = np.arctan2(norm(cross), dot(a, H))
     return np.where(norm(H).max(axis=1) > 0.0, angle.max(axis=1), np.nan)
 
 
-@metric("flips", dtype="int64", parameters={
-    "margin": Param(number(minimum=0.0, maximum=89.0, unit="deg"), 30.0,
-                    "hysteresis: a flip must carry h_int from above sin(margin) to below -sin(margin), deg")})
+@metric(
+    'flips',
+    dtype='int64',
+    parameters={
+        'margin': Param(
+            number(minimum=0.0, maximum=89.0, unit='deg'),
+            30.0,
+            'hysteresis: a flip must carry h_int from above sin(margin) to below -sin(margin), deg',
+        )
+    },
+)
 def flips(samples, margin):
-    """How many times the intermediate principal axis turns over relative to ``H`` (Dzhanibekov flips):
-    ``h = H_B . e_int / |H|`` moving from above ``+sin(margin)`` to below ``-sin(margin)`` or back
-    (the band between is hysteresis, so a spin about a stable axis, whose ``h`` wobbles about 0,
-    counts none). ``e_int`` is the principal axis of the middle moment (for an axisymmetric body, the
-    second of the equal pair). 0 for a body at rest."""
+    """
+    How many times the intermediate principal axis turns over relative to ``H`` (Dzhanibekov
+    flips): ``h = H_B . e_int / |H|`` moving from above ``+sin(margin)`` to below ``-sin(margin)``
+    or back (the band between is hysteresis, so a spin about a stable axis, whose ``h`` wobbles
+    about 0, counts none). ``e_int`` is the principal axis of the middle moment (for an
+    axisymmetric body, the second of the equal pair). 0 for a body at rest.
+    """
     n = samples.count
-    order = np.argsort(samples.moments, axis=1, kind="stable")
+    order = np.argsort(samples.moments, axis=1, kind='stable')
     e_int = samples.principal_axes[np.arange(n), :, order[:, 1]][:, None, :]
     H = samples.momentum_B()
     h = _ratio(dot(H, e_int), norm(H))
     band = math.sin(math.radians(margin))
     state = np.where(h > band, 1, np.where(h < -band, -1, 0))
     M = state.shape[1]
-    last = np.maximum.accumulate(np.where(state != 0, np.arange(M), 0), axis=1)  # latest side taken so far
+    last = np.maximum.accumulate(
+        np.where(state != 0, np.arange(M), 0), axis=1
+    )  # latest side taken so far
     held = np.take_along_axis(state, last, axis=1)
     return np.count_nonzero(held[:, 1:] * held[:, :-1] < 0, axis=1)
 
 
-@metric("energy_drift")
+@metric('energy_drift')
 def energy_drift(samples):
-    """``max_k |T_k - T_0| / T_0``: the rigid body's kinetic energy, relative (a conservation check for
-    a torque-free scene; the energy an effect takes out otherwise). NaN for a body at rest."""
+    """
+    ``max_k |T_k - T_0| / T_0``: the rigid body's kinetic energy, relative (a conservation check
+    for a torque-free scene; the energy an effect takes out otherwise). NaN for a body at rest.
+    """
     T = samples.energy()
     return _ratio(np.abs(T - T[:, :1]).max(axis=1), T[:, 0])
 
 
-@metric("momentum_drift")
+@metric('momentum_drift')
 def momentum_drift(samples):
-    """``max_k |H_N(t_k) - H_N(0)| / |H_N(0)|``: the rigid body's inertial angular momentum, relative
-    (checks the rates and the attitude together; an effect's own momentum, a damper's or a rotor's, is
-    not included). NaN for a body at rest."""
+    """
+    ``max_k |H_N(t_k) - H_N(0)| / |H_N(0)|``: the rigid body's inertial angular momentum,
+    relative (checks the rates and the attitude together; an effect's own momentum, a damper's or a
+    rotor's, is not included). NaN for a body at rest.
+    """
     H = samples.momentum_N()
     return _ratio(norm(H - H[:, :1, :]).max(axis=1), norm(H[:, 0, :]))
 
 
-@metric("nominal_attitude_error", unit="rad", needs_nominal=True)
+@metric('nominal_attitude_error', unit='rad', needs_nominal=True)
 def nominal_attitude_error(samples):
-    """The largest attitude difference from the nominal (undispersed) run over the samples, rad:
-    the angle of ``q_nom* ⊗ q``."""
-    # (1, M, 4) against (n, M, 4): quaternion's element-wise product, so no run depends on its chunk
+    """
+    The largest attitude difference from the nominal (undispersed) run over the samples, rad:
+    the angle of ``q_nom* ⊗ q``.
+    """
+    # (1, M, 4) against (n, M, 4): quaternion's element-wise product, so no run depends on its
+    # chunk
     return quaternion.angle_between(samples.nominal.q_NB, samples.q_NB).max(axis=1)

@@ -1,57 +1,86 @@
-"""The campaign file: a base scene, its dispersions, the number of runs, the seed, the time grid and
-the metrics, checked like a scene (every error names the file and the field path)::
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The campaign file: a base scene, its dispersions, the number of runs, the seed, the time grid
+and the metrics, checked like a scene (every error names the file and the field path)::
 
     description: one line                    # optional
-    scene: dzhanibekov                       # a library scene's name, or a scene file (relative to this file)
-    runs: 1000
+    scene: dzhanibekov                       # a library scene's name, or a scene file (relative to
+    this file) runs: 1000
     seed: 2026                               # run i draws from SeedSequence(seed).spawn(runs)[i]
-    duration: 60                             # s; samples k = 0 .. floor(duration * rate), both ends kept
-    rate: 10                                 # Hz
+    duration: 60                             # s; samples k = 0 .. floor(duration * rate), both
+    ends kept rate: 10                                 # Hz
     invalid_body: redraw                     # redraw (default) | fail
     max_redraws: 100                         # redraw: how many more bodies a run may draw
     dispersions: {TARGET: DISPERSION, ...}   # see campaigns.dispersions
     metrics: [final_rates, {settle_time: {threshold: 0.01}}, ...]   # see campaigns.metrics
     trajectories: {every: 10}                # optional: keep every 10th sample of each run, or
-                                             # {rate: 1}: a rate (Hz) that divides `rate` (see below)
+                                             # {rate: 1}: a rate (Hz) that divides `rate` (see
+                                             below)
 
 **Trajectories** (optional; none by default). ``{every: N}`` keeps samples k = 0, N, 2N, ... up to
-``samples - 1`` (``N`` in ``[1, samples - 1]``: at least two samples a run); ``{rate: HZ}`` says the same as a rate: positive, at most
-``rate``, and ``rate / HZ`` a whole number (it is ``N``). With an output directory, each chunk writes
-its finished runs' kept samples (``run, t, w_x, w_y, w_z, q_x, q_y, q_z, q_w`` and the effects'
-states) to ``DIR/trajectories/`` (see campaigns.store); a failed run has none.
+``samples - 1`` (``N`` in ``[1, samples - 1]``: at least two samples a run); ``{rate: HZ}`` says
+the same as a rate: positive, at most ``rate``, and ``rate / HZ`` a whole number (it is ``N``).
+With an output directory, each chunk writes its finished runs' kept samples (``run, t, w_x, w_y,
+w_z, q_x, q_y, q_z, q_w`` and the effects' states) to ``DIR/trajectories/`` (see campaigns.store);
+a failed run has none.
 
-**Impossible bodies.** A drawn body is checked as a scene's is (``RigidBody.from_inertia``: positive
-moments, triangle inequality). ``redraw``: the run draws its body again, up to ``max_redraws`` times,
-then fails with the last reason; the ``redraws`` column counts them. ``fail``: the run fails at once
-(Basilisk's behaviour). Either way a failed run is a row with its status and reason, never the end of
-the campaign. A nominal body on the triangle limit (``[3, 2, 1]``, or the library's Dzhanibekov
-``[1, 2, 3]``) makes about half of the draws of a relative dispersion of its moments impossible: with
-``redraw`` the kept bodies are the dispersion *conditioned* on being physical (a one-sided
-distribution about the limit), with ``fail`` about half the runs fail; the campaign measures the
-share of physical bodies over its first runs when it is loaded (``body_acceptance``, kept in the
-table's metadata), and refuses a dispersion that gives none.
+**Impossible bodies.** A drawn body is checked as a scene's is (``RigidBody.from_inertia``:
+positive moments, triangle inequality). ``redraw``: the run draws its body again, up to
+``max_redraws`` times, then fails with the last reason; the ``redraws`` column counts them.
+``fail``: the run fails at once (Basilisk's behaviour). Either way a failed run is a row with its
+status and reason, never the end of the campaign. A nominal body on the triangle limit (``[3, 2,
+1]``, or the library's Dzhanibekov ``[1, 2, 3]``) makes about half of the draws of a relative
+dispersion of its moments impossible: with ``redraw`` the kept bodies are the dispersion
+*conditioned* on being physical (a one-sided distribution about the limit), with ``fail`` about
+half the runs fail; the campaign measures the share of physical bodies over its first runs when it
+is loaded (``body_acceptance``, kept in the table's metadata), and refuses a dispersion that gives
+none.
 """
 
 from __future__ import annotations
 
 import copy
-import math
 from dataclasses import dataclass
+import math
 from pathlib import Path
 
 import numpy as np
 import yaml
 
+from .dispersions import EffectTarget, OrientationTarget, parse_target, run_generator, VectorTarget
+from .metrics import DEFAULT_METRICS, parse_metrics
 from ..core import library
 from ..core.rigid_body import RigidBody
 from ..core.safe_files import clip
-from ..core.scene import DEFAULT_SCENE_DATA, Scene, SceneError, load_scene, read_document
-from ..core.schema import FieldError, Param, check_keys, child, choice, fields, integer, number, shown, text
+from ..core.scene import DEFAULT_SCENE_DATA, load_scene, read_document, Scene, SceneError
+from ..core.schema import (
+    check_keys,
+    child,
+    choice,
+    FieldError,
+    fields,
+    integer,
+    number,
+    Param,
+    shown,
+    text,
+)
 from ..core.timing import MAX_RATE
-from .dispersions import EffectTarget, OrientationTarget, VectorTarget, parse_target, run_generator
-from .metrics import DEFAULT_METRICS, parse_metrics
 
-LIBRARY_DIRECTORY = Path(__file__).resolve().parent / "library"
+LIBRARY_DIRECTORY = Path(__file__).resolve().parent / 'library'
 MAX_RUNS = 10_000_000
 MAX_SAMPLES = 10_000_000  # per run: a run's samples are held whole while its metrics are computed
 ACCEPTANCE_PROBE = 1000  # runs whose bodies are drawn when the campaign is loaded
@@ -77,8 +106,12 @@ class Campaign:
     targets: tuple  # non-body targets, in draw order
     body_target: VectorTarget | None
     metrics: tuple  # MetricUse
-    body_acceptance: float | None = None  # share of physical bodies over the first runs' first draws
-    trajectory_every: int | None = None  # trajectories: keep samples k = 0, N, 2N, ... (None: none kept)
+    body_acceptance: float | None = (
+        None  # share of physical bodies over the first runs' first draws
+    )
+    trajectory_every: int | None = (
+        None  # trajectories: keep samples k = 0, N, 2N, ... (None: none kept)
+    )
 
     @property
     def samples(self) -> int:
@@ -86,20 +119,26 @@ class Campaign:
 
     @property
     def trajectory_times(self) -> np.ndarray:
-        """The times of the kept samples (the campaign's own times ``k / rate``, k = 0, N, 2N, ...)."""
-        return (np.arange(self.samples) / self.rate)[::self.trajectory_every or 1]
+        """
+        The times of the kept samples (the campaign's own times ``k / rate``, k = 0, N, 2N,
+        ...).
+        """
+        return (np.arange(self.samples) / self.rate)[:: self.trajectory_every or 1]
 
     @property
     def trajectory_columns(self) -> tuple:
-        """A trajectory part's columns: ``run, t``, the rates, the attitude, then the effects' states
-        (``EFFECT[j]``, ``EFFECT#m[j]`` when two motion effects share a name; ``m`` counts motion effects)."""
+        """
+        A trajectory part's columns: ``run, t``, the rates, the attitude, then the effects'
+        states (``EFFECT[j]``, ``EFFECT#m[j]`` when two motion effects share a name; ``m`` counts
+        motion effects).
+        """
         effects = self.scene.effects
         names = [effect.name for effect in effects]
         internal = []
         for m, effect in enumerate(effects):
-            label = effect.name if names.count(effect.name) == 1 else f"{effect.name}#{m}"
-            internal += [f"{label}[{j}]" for j in range(effect.state_size)]
-        return ("run", "t", "w_x", "w_y", "w_z", "q_x", "q_y", "q_z", "q_w", *internal)
+            label = effect.name if names.count(effect.name) == 1 else f'{effect.name}#{m}'
+            internal += [f'{label}[{j}]' for j in range(effect.state_size)]
+        return ('run', 't', 'w_x', 'w_y', 'w_z', 'q_x', 'q_y', 'q_z', 'q_w', *internal)
 
     @property
     def input_columns(self) -> tuple:
@@ -116,26 +155,32 @@ class Campaign:
 
 
 def library_campaigns() -> dict[str, Path]:
-    return {path.stem: path for path in sorted(LIBRARY_DIRECTORY.glob("*.yaml"))}
+    return {path.stem: path for path in sorted(LIBRARY_DIRECTORY.glob('*.yaml'))}
 
 
 def load_campaign(path_or_name_or_mapping) -> Campaign:
-    """A campaign file, a library campaign's name, or a mapping (its scene path relative to the
-    working directory)."""
+    """
+    A campaign file, a library campaign's name, or a mapping (its scene path relative to the
+    working directory).
+    """
     if isinstance(path_or_name_or_mapping, Campaign):
         return path_or_name_or_mapping
     if isinstance(path_or_name_or_mapping, dict):
         data = path_or_name_or_mapping
-        return campaign_from_mapping(data, "<mapping>", yaml.safe_dump(data, sort_keys=False), Path.cwd())
+        return campaign_from_mapping(
+            data, '<mapping>', yaml.safe_dump(data, sort_keys=False), Path.cwd()
+        )
     name = str(path_or_name_or_mapping)
     path = Path(name)
     if not _exists(path) and library.is_scene_name(name):
         campaigns = library_campaigns()
         if name not in campaigns:
-            raise CampaignError(f"campaign: '{clip(name)}' is neither a file nor a library campaign (library: "
-                                f"{', '.join(sorted(campaigns)) or 'none installed'})")
+            raise CampaignError(
+                f"campaign: '{clip(name)}' is neither a file nor a library campaign (library: "
+                f'{", ".join(sorted(campaigns)) or "none installed"})'
+            )
         path = campaigns[name]
-    text_, document = read_document(path, CampaignError, "campaign")
+    text_, document = read_document(path, CampaignError, 'campaign')
     return campaign_from_mapping(document, str(path), text_, path.resolve().parent)
 
 
@@ -147,40 +192,67 @@ def _exists(path: Path) -> bool:
 
 
 _TOP = {
-    "description": Param(text(allow_empty=True), ""),
-    "scene": Param(text(), help="a library scene's name or a scene file"),
-    "runs": Param(integer(1, MAX_RUNS), help="how many runs"),
-    "seed": Param(integer(0, 2**63 - 1), help="the campaign's seed (run i: SeedSequence(seed).spawn(runs)[i])"),
-    "duration": Param(number(minimum=0.0, unit="s"), help="simulated time of each run, s"),
-    "rate": Param(number(positive=True, maximum=MAX_RATE, unit="Hz"), help="samples per simulated second, Hz"),
-    "invalid_body": Param(choice("redraw", "fail"), "redraw"),
-    "max_redraws": Param(integer(0, 10_000), 100),
-    "dispersions": Param(lambda value, path: value, {}),  # checked against the scene below
-    "metrics": Param(parse_metrics, None),
-    "trajectories": Param(lambda value, path: value, None),  # checked against the time grid below
+    'description': Param(text(allow_empty=True), ''),
+    'scene': Param(text(), help="a library scene's name or a scene file"),
+    'runs': Param(integer(1, MAX_RUNS), help='how many runs'),
+    'seed': Param(
+        integer(0, 2**63 - 1),
+        help="the campaign's seed (run i: SeedSequence(seed).spawn(runs)[i])",
+    ),
+    'duration': Param(number(minimum=0.0, unit='s'), help='simulated time of each run, s'),
+    'rate': Param(
+        number(positive=True, maximum=MAX_RATE, unit='Hz'), help='samples per simulated second, Hz'
+    ),
+    'invalid_body': Param(choice('redraw', 'fail'), 'redraw'),
+    'max_redraws': Param(integer(0, 10_000), 100),
+    'dispersions': Param(lambda value, path: value, {}),  # checked against the scene below
+    'metrics': Param(parse_metrics, None),
+    'trajectories': Param(lambda value, path: value, None),  # checked against the time grid below
 }
 
 
 def campaign_from_mapping(data, source: str, text_: str, base: Path) -> Campaign:
     try:
-        values = fields(data, "", _TOP)
-        scene, document = _scene(values["scene"], base)
-        if values["duration"] * values["rate"] + 1 > MAX_SAMPLES:
-            raise FieldError("duration", f"{values['duration']:g} s at {values['rate']:g} Hz is more than "
-                                         f"{MAX_SAMPLES:,} samples a run")
-        targets, body_target = _dispersions(values["dispersions"], scene, document)
-        metrics = values["metrics"] if values["metrics"] is not None else parse_metrics(list(DEFAULT_METRICS), "metrics")
-        campaign = Campaign(source, text_, values["description"], scene, document, values["runs"], values["seed"],
-                            values["duration"], values["rate"], values["invalid_body"], values["max_redraws"],
-                            targets, body_target, metrics,
-                            trajectory_every=_trajectories(values["trajectories"], values["rate"],
-                                                           int(math.floor(values["duration"] * values["rate"]
-                                                                          + 1e-9)) + 1))
+        values = fields(data, '', _TOP)
+        scene, document = _scene(values['scene'], base)
+        if values['duration'] * values['rate'] + 1 > MAX_SAMPLES:
+            raise FieldError(
+                'duration',
+                f'{values["duration"]:g} s at {values["rate"]:g} Hz is more than '
+                f'{MAX_SAMPLES:,} samples a run',
+            )
+        targets, body_target = _dispersions(values['dispersions'], scene, document)
+        metrics = (
+            values['metrics']
+            if values['metrics'] is not None
+            else parse_metrics(list(DEFAULT_METRICS), 'metrics')
+        )
+        campaign = Campaign(
+            source,
+            text_,
+            values['description'],
+            scene,
+            document,
+            values['runs'],
+            values['seed'],
+            values['duration'],
+            values['rate'],
+            values['invalid_body'],
+            values['max_redraws'],
+            targets,
+            body_target,
+            metrics,
+            trajectory_every=_trajectories(
+                values['trajectories'],
+                values['rate'],
+                int(math.floor(values['duration'] * values['rate'] + 1e-9)) + 1,
+            ),
+        )
         if body_target is not None:
             campaign = _with_acceptance(campaign)
         _check_plant(campaign)
     except FieldError as error:
-        raise CampaignError(f"{source}: {error}") from None
+        raise CampaignError(f'{source}: {error}') from None
     return campaign
 
 
@@ -190,14 +262,17 @@ def _scene(name: str, base: Path) -> tuple[Scene, dict]:
     try:
         scene = load_scene(target)
     except SceneError as error:
-        raise FieldError("scene", str(error)) from None
-    if scene.source == "<built-in default>":
+        raise FieldError('scene', str(error)) from None
+    if scene.source == '<built-in default>':
         document = copy.deepcopy(DEFAULT_SCENE_DATA)
     else:
         _, document = read_document(Path(scene.source))
     if scene.sweep_members:
-        raise FieldError("scene", f"{scene.source} is an energy sweep; a campaign disperses one scene (a sweep of "
-                                  "initial rates: a 'values' dispersion of initial.angular_velocity)")
+        raise FieldError(
+            'scene',
+            f'{scene.source} is an energy sweep; a campaign disperses one scene (a sweep of '
+            "initial rates: a 'values' dispersion of initial.angular_velocity)",
+        )
     return scene, document
 
 
@@ -206,38 +281,53 @@ def _trajectories(value, rate: float, samples: int) -> int | None:
     if value is None:
         return None
     top = max(1, samples - 1)
-    if not (isinstance(value, dict) and len(value) == 1 and next(iter(value)) in ("every", "rate")):
+    if not (
+        isinstance(value, dict) and len(value) == 1 and next(iter(value)) in ('every', 'rate')
+    ):
         if isinstance(value, dict) and len(value) == 1:
-            check_keys(value, ("every", "rate"), "trajectories")
-        raise FieldError("trajectories", "expected {every: N} (keep every Nth sample) or {rate: HZ} (a rate that "
-                                         f"divides the campaign's {rate:g} Hz), got {shown(value)}")
+            check_keys(value, ('every', 'rate'), 'trajectories')
+        raise FieldError(
+            'trajectories',
+            'expected {every: N} (keep every Nth sample) or {rate: HZ} (a rate that '
+            f"divides the campaign's {rate:g} Hz), got {shown(value)}",
+        )
     ((key, given),) = value.items()
-    path = child("trajectories", key)
-    if key == "every":
+    path = child('trajectories', key)
+    if key == 'every':
         every = integer(1, top)(given, path)
     else:
-        kept = number(positive=True, unit="Hz")(given, path)
+        kept = number(positive=True, unit='Hz')(given, path)
         if kept > rate:
-            raise FieldError(path, f"must be <= the campaign's rate, {rate:g} Hz, got {shown(given)}")
+            raise FieldError(
+                path, f"must be <= the campaign's rate, {rate:g} Hz, got {shown(given)}"
+            )
         every = round(rate / kept)
         if abs(rate / kept - every) > 1e-9 * every:
-            raise FieldError(path, f"{kept:g} Hz must divide the campaign's rate {rate:g} Hz a whole number of times "
-                                   f"(rate / {kept:g} = {rate / kept:.6g}); {rate / max(every, 1):g} Hz would")
+            raise FieldError(
+                path,
+                f"{kept:g} Hz must divide the campaign's rate {rate:g} Hz a whole number of times "
+                f'(rate / {kept:g} = {rate / kept:.6g}); {rate / max(every, 1):g} Hz would',
+            )
         if every > top:
-            raise FieldError(path, f"{kept:g} Hz keeps only the first sample of {samples} (duration * rate); at "
-                                   f"least {rate / top:g} Hz")
+            raise FieldError(
+                path,
+                f'{kept:g} Hz keeps only the first sample of {samples} (duration * rate); at '
+                f'least {rate / top:g} Hz',
+            )
     return every
 
 
 def _dispersions(value, scene: Scene, document: dict):
     if not isinstance(value, dict):
-        raise FieldError("dispersions", "expected a mapping TARGET: DISPERSION")
+        raise FieldError('dispersions', 'expected a mapping TARGET: DISPERSION')
     targets, body = [], None
-    if "body.moments" in value and "body.inertia" in value:
-        raise FieldError("dispersions.body.inertia", "disperse either body.moments or body.inertia, not both")
+    if 'body.moments' in value and 'body.inertia' in value:
+        raise FieldError(
+            'dispersions.body.inertia', 'disperse either body.moments or body.inertia, not both'
+        )
     for key, entry in value.items():
-        target = parse_target(key, entry, child("dispersions", key), scene, document)
-        if key in ("body.moments", "body.inertia"):
+        target = parse_target(key, entry, child('dispersions', key), scene, document)
+        if key in ('body.moments', 'body.inertia'):
             body = target
         else:
             targets.append(target)
@@ -245,8 +335,10 @@ def _dispersions(value, scene: Scene, document: dict):
 
 
 def _with_acceptance(campaign: Campaign) -> Campaign:
-    """Draw the first runs' first bodies: refuse a dispersion that gives no physical body, and keep
-    the share that are."""
+    """
+    Draw the first runs' first bodies: refuse a dispersion that gives no physical body, and keep
+    the share that are.
+    """
     from .engine import body_from_draw
 
     probe = min(campaign.runs, ACCEPTANCE_PROBE)
@@ -256,15 +348,20 @@ def _with_acceptance(campaign: Campaign) -> Campaign:
         for target in campaign.targets:  # the body draws after them: the same numbers as the run's
             target.draw(rng, run)
         try:
-            RigidBody.from_inertia(body_from_draw(campaign, campaign.body_target.draw(rng, run)), "inertia")
+            RigidBody.from_inertia(
+                body_from_draw(campaign, campaign.body_target.draw(rng, run)), 'inertia'
+            )
             valid += 1
         except ValueError as error:
-            first_reason = first_reason or str(error).split(": ", 1)[-1]
+            first_reason = first_reason or str(error).split(': ', 1)[-1]
     if valid == 0:
-        raise FieldError(f"dispersions.{campaign.body_target.path}",
-                         f"gives no physical body: the first draw of each of the first {probe} runs is impossible "
-                         f"(run 0: {first_reason})")
+        raise FieldError(
+            f'dispersions.{campaign.body_target.path}',
+            f'gives no physical body: the first draw of each of the first {probe} runs is impossible '
+            f'(run 0: {first_reason})',
+        )
     from dataclasses import replace
+
     return replace(campaign, body_acceptance=valid / probe)
 
 
@@ -273,7 +370,8 @@ def _check_plant(campaign: Campaign) -> None:
     if campaign.scene.torque_free:
         return
     from ..plant import Plant
+
     try:
         Plant([campaign.scene], campaign.rate)
     except ValueError as error:
-        raise FieldError("scene", str(error).split(": ", 1)[-1]) from None
+        raise FieldError('scene', str(error).split(': ', 1)[-1]) from None

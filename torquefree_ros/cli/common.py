@@ -1,5 +1,21 @@
-"""What every console script does the same way: Ctrl-C / SIGTERM and a closed pipe end the process
-quietly (no traceback), and long work reports progress on a terminal only."""
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+What every console script does the same way: Ctrl-C / SIGTERM and a closed pipe end the process
+quietly (no traceback), and long work reports progress on a terminal only.
+"""
 
 from __future__ import annotations
 
@@ -16,9 +32,11 @@ BROKEN_PIPE = 141  # 128 + SIGPIPE, what `yes | head` reports for `yes`
 
 
 def console_command(prog: str):
-    """Wraps a ``main(argv) -> int``: SIGTERM is treated like Ctrl-C, an interrupt exits with 130
+    """
+    Wraps a ``main(argv) -> int``: SIGTERM is treated like Ctrl-C, an interrupt exits with 130
     and one line on stderr, a reader that closed our stdout (``| head``) exits with 141 silently.
-    A ROS script's own handlers (``rclpy.init``) take over the signals once it has started."""
+    A ROS script's own handlers (``rclpy.init``) take over the signals once it has started.
+    """
 
     def wrap(main):
         @functools.wraps(main)
@@ -30,10 +48,11 @@ def console_command(prog: str):
                 sys.stdout.flush()
                 return status
             except KeyboardInterrupt:
-                print(f"{prog}: interrupted", file=sys.stderr)
+                print(f'{prog}: interrupted', file=sys.stderr)
                 return INTERRUPTED
             except BrokenPipeError:
-                # stdout's buffer cannot be flushed at exit either: point it at /dev/null (Python docs)
+                # stdout's buffer cannot be flushed at exit either: point it at /dev/null (Python
+                # docs)
                 devnull = os.open(os.devnull, os.O_WRONLY)
                 os.dup2(devnull, sys.stdout.fileno())
                 return BROKEN_PIPE
@@ -48,9 +67,12 @@ def _interrupt(signum, frame):
 
 
 class GracefulStop:
-    """While active, SIGINT and SIGTERM ask the work to stop at its next safe point (``stop()`` turns
-    true) instead of interrupting it anywhere: a file being written is closed whole. A second signal
-    interrupts at once. Outside the main thread it does nothing (signals are delivered there)."""
+    """
+    While active, SIGINT and SIGTERM ask the work to stop at its next safe point (``stop()``
+    turns true) instead of interrupting it anywhere: a file being written is closed whole. A second
+    signal interrupts at once. Outside the main thread it does nothing (signals are delivered
+    there).
+    """
 
     def __init__(self):
         self.signal: int | None = None
@@ -64,7 +86,7 @@ class GracefulStop:
             raise KeyboardInterrupt
         self.signal = signum
 
-    def __enter__(self) -> "GracefulStop":
+    def __enter__(self) -> 'GracefulStop':
         if threading.current_thread() is threading.main_thread():
             for signum in (signal.SIGINT, signal.SIGTERM):
                 self._previous[signum] = signal.signal(signum, self._handle)
@@ -76,14 +98,17 @@ class GracefulStop:
 
 
 class Progress:
-    """One status line on stderr (samples/s, simulated time, ETA), rewritten at most twice a second,
-    and only when stderr is a terminal: piped or logged output stays clean. ``rate_hz`` converts
-    samples to simulated time; ``streams`` samples are computed per simulated instant (sweeps)."""
+    """
+    One status line on stderr (samples/s, simulated time, ETA), rewritten at most twice a
+    second, and only when stderr is a terminal: piped or logged output stays clean. ``rate_hz``
+    converts samples to simulated time; ``streams`` samples are computed per simulated instant
+    (sweeps).
+    """
 
     def __init__(self, rate_hz: float, streams: int = 1, stream=None, period: float = 0.5):
         self.rate_hz, self.streams, self.period = rate_hz, streams, period
         self.stream = sys.stderr if stream is None else stream
-        self.enabled = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.enabled = bool(getattr(self.stream, 'isatty', lambda: False)())
         self._start = self._last = time.monotonic()
         self._shown = False
 
@@ -94,7 +119,7 @@ class Progress:
         if now - self._last < self.period and done < total:
             return
         self._last = now
-        self.stream.write("\r" + self.line(done, total, now - self._start) + "\033[K")
+        self.stream.write('\r' + self.line(done, total, now - self._start) + '\033[K')
         self.stream.flush()
         self._shown = True
 
@@ -103,18 +128,20 @@ class Progress:
         eta = (total - done) / speed if done and speed > 0 else math.inf
         percent = 100.0 * done / total if total else 100.0
         simulated = done / self.streams / self.rate_hz
-        return (f"{done:,}/{total:,} samples ({percent:.0f} %), simulated {simulated:,.6g} s, "
-                f"{speed:,.0f} samples/s, ETA {_duration(eta)}")
+        return (
+            f'{done:,}/{total:,} samples ({percent:.0f} %), simulated {simulated:,.6g} s, '
+            f'{speed:,.0f} samples/s, ETA {_duration(eta)}'
+        )
 
     def close(self) -> None:
         if self._shown:
-            self.stream.write("\r\033[K")
+            self.stream.write('\r\033[K')
             self.stream.flush()
 
 
 def _duration(seconds: float) -> str:
     if not math.isfinite(seconds):
-        return "--"
+        return '--'
     minutes, secs = divmod(int(round(seconds)), 60)
     hours, minutes = divmod(minutes, 60)
-    return f"{hours}:{minutes:02d}:{secs:02d}" if hours else f"{minutes}:{secs:02d}"
+    return f'{hours}:{minutes:02d}:{secs:02d}' if hours else f'{minutes}:{secs:02d}'

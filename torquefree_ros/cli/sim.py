@@ -1,3 +1,17 @@
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """``torquefree_sim``: the attitude simulator node (``ros2 run torquefree_ros torquefree_sim``)."""
 
 from __future__ import annotations
@@ -9,38 +23,49 @@ import textwrap
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
 
-from ..ros.node import TorqueFreeSim
-from ..ros.parameters import SPECS, ConfigurationError
-from ..ros.process import Spinner, init, process_main, shut_down
 from .common import console_command
+from ..ros.node import TorqueFreeSim
+from ..ros.parameters import ConfigurationError, SPECS
+from ..ros.process import init, process_main, shut_down, Spinner
 
 
 def _parameter_help() -> str:
-    lines = ["parameters (--ros-args -p NAME:=VALUE, or --params-file FILE):"]
+    lines = ['parameters (--ros-args -p NAME:=VALUE, or --params-file FILE):']
     for spec in SPECS:
-        default = "not set" if spec.default is None else repr(spec.default)
-        flags = ", read-only" if spec.read_only else ""
-        lines.append(f"  {spec.name} (default {default}{flags})")
-        lines += textwrap.wrap(spec.description, 96, initial_indent="      ", subsequent_indent="      ")
-        lines += textwrap.wrap(f"valid: {spec.constraints}", 96, initial_indent="      ", subsequent_indent="      ")
-    return "\n".join(lines)
+        default = 'not set' if spec.default is None else repr(spec.default)
+        flags = ', read-only' if spec.read_only else ''
+        lines.append(f'  {spec.name} (default {default}{flags})')
+        lines += textwrap.wrap(
+            spec.description, 96, initial_indent='      ', subsequent_indent='      '
+        )
+        lines += textwrap.wrap(
+            f'valid: {spec.constraints}', 96, initial_indent='      ', subsequent_indent='      '
+        )
+    return '\n'.join(lines)
 
 
 def _parser() -> argparse.ArgumentParser:
     return argparse.ArgumentParser(
-        prog="torquefree_sim", formatter_class=argparse.RawDescriptionHelpFormatter,
+        prog='torquefree_sim',
+        formatter_class=argparse.RawDescriptionHelpFormatter,
         description="The torque-free attitude simulator node (default name 'torquefree'). It publishes "
-        "angular_velocity (Vector3Stamped, body frame) and attitude (QuaternionStamped, q_NB), serves ~/reset "
-        "(std_srvs/Trigger) and ~/pause (std_srvs/SetBool) and reports on /diagnostics. Ctrl-C or SIGTERM stop it with exit status 0.",
-        epilog=_parameter_help() + "\n\nexample: torquefree_sim --ros-args -p scene:=dzhanibekov -p publish_rate:=200.0")
+        'angular_velocity (Vector3Stamped, body frame) and attitude (QuaternionStamped, q_NB), serves ~/reset '
+        '(std_srvs/Trigger) and ~/pause (std_srvs/SetBool) and reports on /diagnostics. Ctrl-C or SIGTERM stop it with exit status 0.',
+        epilog=_parameter_help()
+        + '\n\nexample: torquefree_sim --ros-args -p scene:=dzhanibekov -p publish_rate:=200.0',
+    )
 
 
-@console_command("torquefree_sim")
+@console_command('torquefree_sim')
 def main(argv=None) -> int:
-    """Exit status 0 on SIGINT/SIGTERM, 1 when the parameters do not describe a usable simulation,
-    2 on a bad command line."""
+    """
+    Exit status 0 on SIGINT/SIGTERM, 1 when the parameters do not describe a usable simulation,
+    2 on a bad command line.
+    """
     argv = sys.argv if argv is None else argv
-    _parser().parse_args(rclpy.utilities.remove_ros_args(argv)[1:])  # --help exits here, before any DDS
+    _parser().parse_args(
+        rclpy.utilities.remove_ros_args(argv)[1:]
+    )  # --help exits here, before any DDS
     init(argv)
     node = executor = spinner = None
     try:
@@ -53,7 +78,7 @@ def main(argv=None) -> int:
         if spinner.error is not None:
             raise spinner.error
     except ConfigurationError as error:
-        rclpy.logging.get_logger("torquefree").fatal(f"cannot start: {error}")
+        rclpy.logging.get_logger('torquefree').fatal(f'cannot start: {error}')
         return 1
     except KeyboardInterrupt:
         pass
@@ -65,5 +90,5 @@ def main(argv=None) -> int:
 # the console script (setup.py) and `python -m`: the process ends right after a clean shutdown
 run = process_main(main)
 
-if __name__ == "__main__":
+if __name__ == '__main__':
     run()

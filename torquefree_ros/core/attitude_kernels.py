@@ -1,23 +1,40 @@
-"""The exact solution compiled by numba, when it is installed (the ``fast`` extra): a body's constants
-from its initial state, and the attitude's per-sample evaluation, as scalar code that repeats what the
-Python/numpy path computes (:mod:`.polhode_constants` and :class:`.elliptic.JacobiElliptic`'s constants
-in Python floats, :class:`.polhode.PolhodeAttitude` with numpy arrays) operation for operation, in the
-same order. That path stays the reference; the tests hold the two together (test_attitude_kernels.py).
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The exact solution compiled by numba, when it is installed (the ``fast`` extra): a body's
+constants from its initial state, and the attitude's per-sample evaluation, as scalar code that
+repeats what the Python/numpy path computes (:mod:`.polhode_constants` and
+:class:`.elliptic.JacobiElliptic`'s constants in Python floats, :class:`.polhode.PolhodeAttitude`
+with numpy arrays) operation for operation, in the same order. That path stays the reference; the
+tests hold the two together (test_attitude_kernels.py).
 
 Why: a build is ~150 Python float operations and ~10 scipy calls (~100 µs), and numpy's cost is
 ~0.5 µs per array operation whatever its length, ~80 of them a call, so a block of a few hundred
-samples (the node's) pays more for operations than for arithmetic. Compiled, a build costs a few µs,
-a call ~2 µs and a sample ~0.1 µs.
+samples (the node's) pays more for operations than for arithmetic. Compiled, a build costs a few
+µs, a call ~2 µs and a sample ~0.1 µs.
 
 What differs: the Euclidean norms (Python's ``math.hypot`` of three or four values is its own
 near-correctly-rounded algorithm, here a scaled sum of squares, within an ulp or two) and ``tanh``
 (numpy has its own vectorised one, here the C library's): the last bit of a few constants and of
-some samples. Carlson's ``R_F`` and ``R_J`` are scipy's own C functions (``scipy.special.cython_special``),
-the ones ``scipy.special.elliprf``/``elliprj`` call.
+some samples. Carlson's ``R_F`` and ``R_J`` are scipy's own C functions
+(``scipy.special.cython_special``), the ones ``scipy.special.elliprf``/``elliprj`` call.
 
-A body's constants are one row of a table (``TABLE_WIDTH`` floats, the layout below); many bodies are
-rows of one table and fill ``(bodies, samples, 3 | 4)`` outputs. ``TORQUEFREE_ROS_KERNELS=numpy`` in the
-environment turns the kernels off (the numpy path then runs, as without numba).
+A body's constants are one row of a table (``TABLE_WIDTH`` floats, the layout below); many bodies
+are rows of one table and fill ``(bodies, samples, 3 | 4)`` outputs.
+``TORQUEFREE_ROS_KERNELS=numpy`` in the environment turns the kernels off (the numpy path then
+runs, as without numba).
 """
 
 from __future__ import annotations
@@ -30,9 +47,9 @@ import threading
 import numpy as np
 
 #: numba is installed (imported only when a kernel is first asked for: it adds ~0.2 s to an import)
-AVAILABLE = importlib.util.find_spec("numba") is not None
+AVAILABLE = importlib.util.find_spec('numba') is not None
 #: whether the exact attitude evaluates through these kernels (read when a propagator is built)
-ENABLED = AVAILABLE and os.environ.get("TORQUEFREE_ROS_KERNELS", "numba") != "numpy"
+ENABLED = AVAILABLE and os.environ.get('TORQUEFREE_ROS_KERNELS', 'numba') != 'numpy'
 
 # the table's columns: common to both kinds of series ...
 RATE, INITIAL_PHASE, PER_PERIOD, PERIOD, SCALE = 0, 1, 2, 3, 4
@@ -48,17 +65,21 @@ ROOT = 40
 TABLE_WIDTH = HYPERBOLIC_CUBICS + 4 * 8
 
 #: the kinds of motion with a kernel; build_row returns an index into these, or STATIONARY
-KINDS = ("trigonometric", "hyperbolic", "separatrix")
+KINDS = ('trigonometric', 'hyperbolic', 'separatrix')
 STATIONARY = -1
-TRIGONOMETRIC_MC = 0.5  # JacobiElliptic.TRIGONOMETRIC_MC (a literal: compiled code keeps what it read)
+TRIGONOMETRIC_MC = (
+    0.5  # JacobiElliptic.TRIGONOMETRIC_MC (a literal: compiled code keeps what it read)
+)
 
 
 def kernel(kind: str):
-    """The compiled kernel for ``kind``, ``"trigonometric"`` (``m <= 1/2``), ``"hyperbolic"`` or
-    ``"separatrix"`` (numba imported, and the functions below compiled on their first call, the first
-    time one is asked for)."""
+    """
+    The compiled kernel for ``kind``, ``"trigonometric"`` (``m <= 1/2``), ``"hyperbolic"`` or
+    ``"separatrix"`` (numba imported, and the functions below compiled on their first call, the
+    first time one is asked for).
+    """
     _compile()
-    return globals()[kind + "_kernel"]
+    return globals()[kind + '_kernel']
 
 
 #: a body's initial state as build_row reads it: principal moments (3), principal axes (3x3, row by
@@ -67,15 +88,20 @@ STATE_WIDTH = 19
 
 
 def build_tables(moments, principal_axes, omega_B, q_NB):
-    """Tables for bodies given by their principal ``moments (N, 3)``, ``principal_axes (N, 3, 3)``
+    """
+    Tables for bodies given by their principal ``moments (N, 3)``, ``principal_axes (N, 3, 3)``
     (columns), rates ``omega_B (N, 3)`` and attitudes ``q_NB (N, 4)``, or one body's without the
     leading axis (:func:`build_row`):
-    ``(kinds, table)``, ``kinds[i]`` an index into :data:`KINDS`, or -1 for a stationary motion (whose
-    row is not filled). The states go in as one new (N, STATE_WIDTH) array: one compiled signature
-    whatever the inputs' flags (a read-only array is another numba type, another compilation)."""
+    ``(kinds, table)``, ``kinds[i]`` an index into :data:`KINDS`, or -1 for a stationary motion
+    (whose row is not filled). The states go in as one new (N, STATE_WIDTH) array: one compiled
+    signature whatever the inputs' flags (a read-only array is another numba type, another
+    compilation).
+    """
     _compile()
     axes = principal_axes.reshape(principal_axes.shape[:-2] + (9,))
-    states = np.concatenate((moments, axes, omega_B, q_NB), axis=-1, dtype=float).reshape((-1, STATE_WIDTH))
+    states = np.concatenate((moments, axes, omega_B, q_NB), axis=-1, dtype=float).reshape(
+        (-1, STATE_WIDTH)
+    )
     table = np.zeros((states.shape[0], TABLE_WIDTH))  # (columns a kind does not use stay 0)
     return _build_rows(states, table), table
 
@@ -92,12 +118,14 @@ _compiled = False
 
 
 def _compile() -> None:
-    """Replace this module's functions by numba's compiled ones (once, before any is called: a compiled
-    function calls what the module's globals hold when it compiles on its first call). Kept in numba's
-    cache next to this file, or in the user's cache directory when the install is read-only. The cache
-    of a function is rebuilt when *its own file* changes, not when a file it calls into does: hence every
-    compiled function, and the table layout they share, in this one file. error_model="numpy": a
-    division by zero gives inf, as numpy's does."""
+    """
+    Replace this module's functions by numba's compiled ones (once, before any is called: a
+    compiled function calls what the module's globals hold when it compiles on its first call).
+    Kept in numba's cache next to this file, or in the user's cache directory when the install is
+    read-only. The cache of a function is rebuilt when *its own file* changes, not when a file it
+    calls into does: hence every compiled function, and the table layout they share, in this one
+    file. error_model="numpy": a division by zero gives inf, as numpy's does.
+    """
     global _compiled
     with _compiling:
         if not _compiled:
@@ -110,30 +138,53 @@ def _replace_by_compiled() -> None:
     import numba
     from numba.extending import get_cython_function_address
 
-    # scipy's elliprf/elliprj for doubles (fused variant 1), called by symbol name: the compiled code then
-    # refers to no address of this process and numba's cache can keep it
+    # scipy's elliprf/elliprj for doubles (fused variant 1), called by symbol name: the compiled
+    # code then refers to no address of this process and numba's cache can keep it
     double = numba.float64
-    for name, signature in (("rf", double(double, double, double, numba.intc)),
-                            ("rj", double(double, double, double, double, numba.intc))):
-        symbol = f"torquefree_ros_ellip{name}"
-        llvmlite.binding.add_symbol(symbol, get_cython_function_address("scipy.special.cython_special",
-                                                                        f"__pyx_fuse_1ellip{name}"))
-        globals()[f"carlson_{name}"] = numba.types.ExternalFunction(symbol, signature)
+    for name, signature in (
+        ('rf', double(double, double, double, numba.intc)),
+        ('rj', double(double, double, double, double, numba.intc)),
+    ):
+        symbol = f'torquefree_ros_ellip{name}'
+        llvmlite.binding.add_symbol(
+            symbol,
+            get_cython_function_address(
+                'scipy.special.cython_special', f'__pyx_fuse_1ellip{name}'
+            ),
+        )
+        globals()[f'carlson_{name}'] = numba.types.ExternalFunction(symbol, signature)
 
-    # The GIL stays held (no nogil): a kernel call is microseconds, and releasing the GIL for it let the
-    # node's executor thread take it and keep it for up to the interpreter's switch interval (5 ms):
-    # at 4 kHz a third of the node's runs went 30-80 % late (4 runs of 12 with nogil, 1 of 16 without,
-    # 0 of 12 with numpy; 5 s runs after four at 2 kHz, one process)
+    # The GIL stays held (no nogil): a kernel call is microseconds, and releasing the GIL for it
+    # let the node's executor thread take it and keep it for up to the interpreter's switch
+    # interval (5 ms): at 4 kHz a third of the node's runs went 30-80 % late (4 runs of 12 with
+    # nogil, 1 of 16 without, 0 of 12 with numpy; 5 s runs after four at 2 kHz, one process)
     def jit(function):
         try:
-            return numba.njit(cache=True, error_model="numpy")(function)
+            return numba.njit(cache=True, error_model='numpy')(function)
         except RuntimeError:  # no writable cache anywhere: compile in every process
-            return numba.njit(error_model="numpy")(function)
+            return numba.njit(error_model='numpy')(function)
 
-    for name in ("_rf", "_rj", "_norm", "_multiply", "_matrix_quaternion", "_product_matrix_transposed",
-                 "_set_cubic", "_trigonometric_phase", "_hyperbolic_phase", "_theta_constants", "build_row",
-                 "_build_rows", "_horner", "_reduce", "_phase_minus_angle", "_finish", "trigonometric_kernel",
-                 "hyperbolic_kernel", "separatrix_kernel"):
+    for name in (
+        '_rf',
+        '_rj',
+        '_norm',
+        '_multiply',
+        '_matrix_quaternion',
+        '_product_matrix_transposed',
+        '_set_cubic',
+        '_trigonometric_phase',
+        '_hyperbolic_phase',
+        '_theta_constants',
+        'build_row',
+        '_build_rows',
+        '_horner',
+        '_reduce',
+        '_phase_minus_angle',
+        '_finish',
+        'trigonometric_kernel',
+        'hyperbolic_kernel',
+        'separatrix_kernel',
+    ):
         globals()[name] = jit(globals()[name])
 
 
@@ -171,8 +222,10 @@ def _finish(c, t, sn, cn, dn, difference, omega, q):
 
 
 def trigonometric_kernel(t, constants, omega, q):
-    """``m <= 1/2``: :meth:`.elliptic.JacobiElliptic._whole_half_period` with the phase, then the
-    attitude; ``omega (bodies, samples, 3)`` and ``q (bodies, samples, 4)`` are filled."""
+    """
+    ``m <= 1/2``: :meth:`.elliptic.JacobiElliptic._whole_half_period` with the phase, then the
+    attitude; ``omega (bodies, samples, 3)`` and ``q (bodies, samples, 4)`` are filled.
+    """
     for body in range(constants.shape[0]):
         c = constants[body]
         k = TRIGONOMETRIC_CUBICS
@@ -189,11 +242,23 @@ def trigonometric_kernel(t, constants, omega, q):
             re = c[BASE] + s * _horner(c, k + 16, s)
             im = (sine * cosine) * _horner(c, k + 20, s)
             difference = _phase_minus_angle(c, re, im, reduced_sn, reduced_cn, half_periods)
-            _finish(c, t[i], parity * reduced_sn, parity * reduced_cn, dn, difference, omega[body, i], q[body, i])
+            _finish(
+                c,
+                t[i],
+                parity * reduced_sn,
+                parity * reduced_cn,
+                dn,
+                difference,
+                omega[body, i],
+                q[body, i],
+            )
 
 
 def hyperbolic_kernel(t, constants, omega, q):
-    """``m > 1/2``: :meth:`.elliptic.JacobiElliptic._two_halves` with the phase, then the attitude."""
+    """
+    ``m > 1/2``: :meth:`.elliptic.JacobiElliptic._two_halves` with the phase, then the
+    attitude.
+    """
     for body in range(constants.shape[0]):
         c = constants[body]
         k = HYPERBOLIC_CUBICS
@@ -206,7 +271,12 @@ def hyperbolic_kernel(t, constants, omega, q):
             ch, th = math.cosh(y), math.tanh(y)
             ch2 = ch * ch
             x = 2.0 * ch2 - 1.0
-            A, B, C, D = _horner(c, k, x), _horner(c, k + 4, x), _horner(c, k + 8, x), _horner(c, k + 12, x)
+            A, B, C, D = (
+                _horner(c, k, x),
+                _horner(c, k + 4, x),
+                _horner(c, k + 8, x),
+                _horner(c, k + 12, x),
+            )
             sh_A, ch_B = (th * ch) * A, ch * B
             inverse = 1.0 / (ch_B if first else C)
             reduced_sn = math.copysign((sh_A if first else D) * inverse, r)
@@ -217,15 +287,31 @@ def hyperbolic_kernel(t, constants, omega, q):
                 re, im = _horner(c, k + 16, x), math.copysign(th, r) * _horner(c, k + 20, x)
                 linear = -c[KAPPA] * math.copysign(w, r)
             else:
-                re, im = _horner(c, k + 24, x), math.copysign(th, r) * (ch2 * _horner(c, k + 28, x))
+                re, im = (
+                    _horner(c, k + 24, x),
+                    math.copysign(th, r) * (ch2 * _horner(c, k + 28, x)),
+                )
                 linear = c[KAPPA] * math.copysign(w, r)
-            difference = _phase_minus_angle(c, re, im, reduced_sn, reduced_cn, half_periods) + linear
-            _finish(c, t[i], parity * reduced_sn, parity * reduced_cn, dn, difference, omega[body, i], q[body, i])
+            difference = (
+                _phase_minus_angle(c, re, im, reduced_sn, reduced_cn, half_periods) + linear
+            )
+            _finish(
+                c,
+                t[i],
+                parity * reduced_sn,
+                parity * reduced_cn,
+                dn,
+                difference,
+                omega[body, i],
+                q[body, i],
+            )
 
 
 def separatrix_kernel(t, constants, omega, q):
-    """``m = 1``: :meth:`.elliptic.JacobiElliptic._separatrix` with the phase (``sn = tanh``,
-    ``cn = dn = sech``, the phase ``atan2(sqrt(-n) tanh, 1)``), then the attitude."""
+    """
+    ``m = 1``: :meth:`.elliptic.JacobiElliptic._separatrix` with the phase (``sn = tanh``,
+    ``cn = dn = sech``, the phase ``atan2(sqrt(-n) tanh, 1)``), then the attitude.
+    """
     for body in range(constants.shape[0]):
         c = constants[body]
         for i in range(t.shape[0]):
@@ -237,8 +323,9 @@ def separatrix_kernel(t, constants, omega, q):
             _finish(c, t[i], tanh, sech, sech, difference, omega[body, i], q[body, i])
 
 
-# -- one body's table from its initial state ----------------------------------------------------------
-# scipy's C functions, set by _compile: double f(double x, double y, double z[, double p], int)
+# -- one body's table from its initial state
+# ---------------------------------------------------------- scipy's C functions, set by _compile:
+# double f(double x, double y, double z[, double p], int)
 carlson_rf = carlson_rj = None
 
 
@@ -251,7 +338,10 @@ def _rj(x, y, z, p):
 
 
 def _norm(values):
-    """Euclidean norm, scaled by the largest magnitude so that no square overflows or underflows."""
+    """
+    Euclidean norm, scaled by the largest magnitude so that no square overflows or
+    underflows.
+    """
     largest = 0.0
     for v in values:
         largest = max(largest, abs(v))
@@ -265,17 +355,23 @@ def _norm(values):
 
 
 def build_row(state, row):
-    """Fill ``row`` (``TABLE_WIDTH`` floats) for the body whose initial ``state`` is laid out as
-    :data:`STATE_WIDTH` says; return its kind."""
+    """
+    Fill ``row`` (``TABLE_WIDTH`` floats) for the body whose initial ``state`` is laid out as
+    :data:`STATE_WIDTH` says; return its kind.
+    """
     I, P, omega_B, q_NB = state[0:3], state[3:12].reshape((3, 3)), state[12:15], state[15:19]
     w = np.empty(3)  # the rate in principal axes (polhode_constants.to_principal)
     for k in range(3):
         w[k] = omega_B[0] * P[0, k] + omega_B[1] * P[1, k] + omega_B[2] * P[2, k]
-    if ((I[1] - I[2]) * w[1] * w[2] == 0.0) and ((I[2] - I[0]) * w[2] * w[0] == 0.0) \
-            and ((I[0] - I[1]) * w[0] * w[1] == 0.0):
+    if (
+        ((I[1] - I[2]) * w[1] * w[2] == 0.0)
+        and ((I[2] - I[0]) * w[2] * w[0] == 0.0)
+        and ((I[0] - I[1]) * w[0] * w[1] == 0.0)
+    ):
         return STATIONARY
 
-    # -- polhode_constants.solver_frame --------------------------------------------------------------
+    # -- polhode_constants.solver_frame
+    # --------------------------------------------------------------
     lo, mid, hi = 0, 1, 2  # a stable argsort of three
     if I[mid] < I[lo]:
         lo, mid = mid, lo
@@ -283,7 +379,9 @@ def build_row(state, row):
         mid, hi = hi, mid
         if I[mid] < I[lo]:
             lo, mid = mid, lo
-    gap_mid = I[lo] * (I[lo] - I[mid]) * (w[lo] * w[lo]) + I[hi] * (I[hi] - I[mid]) * (w[hi] * w[hi])
+    gap_mid = I[lo] * (I[lo] - I[mid]) * (w[lo] * w[lo]) + I[hi] * (I[hi] - I[mid]) * (
+        w[hi] * w[hi]
+    )
     major = gap_mid >= 0.0
     axes = (lo if major else hi, mid, hi if major else lo)
     inversions = (axes[0] > axes[1]) * 1 + (axes[0] > axes[2]) * 1 + (axes[1] > axes[2]) * 1
@@ -306,7 +404,8 @@ def build_row(state, row):
     n = -J3 * d21 / (J1 * d32)
     rate = math.sqrt(d32 * P1 / (J1 * J2 * J3))
 
-    # -- elliptic.JacobiElliptic's constants (the theta series' and phase's into the row) -------------
+    # -- elliptic.JacobiElliptic's constants (the theta series' and phase's into the row)
+    # -------------
     if mc > 0.0:
         K = _rf(0.0, mc, 1.0)
         slope = (_rj(0.0, mc, 1.0, 1.0 - n) / 3.0) / K
@@ -320,8 +419,11 @@ def build_row(state, row):
         row[ROOT] = math.sqrt(-n)
         kind = 2
 
-    # -- polhode_constants.attitude_constants ---------------------------------------------------------
-    solver_from_frame = np.empty((3, 3))  # solver_from_body: row i is principal axis axes[i] times signs[i]
+    # -- polhode_constants.attitude_constants
+    # ---------------------------------------------------------
+    solver_from_frame = np.empty(
+        (3, 3)
+    )  # solver_from_body: row i is principal axis axes[i] times signs[i]
     for i in range(3):
         for j in range(3):
             solver_from_frame[i, j] = signs[i] * P[j, axes[i]]
@@ -344,15 +446,25 @@ def build_row(state, row):
     psi_rate = momentum / J1 + (gain * rate) * slope
     psi_offset = direction * angle0 - gain * (sn2_integral0 - slope * u0)
 
-    # -- the row (the layout at the top) ---------------------------------------------------------------
-    row[RATE], row[INITIAL_PHASE], row[MOMENTUM], row[TWO_MOMENTUM] = rate, u0, momentum, 2.0 * momentum
+    # -- the row (the layout at the top)
+    # ---------------------------------------------------------------
+    row[RATE], row[INITIAL_PHASE], row[MOMENTUM], row[TWO_MOMENTUM] = (
+        rate,
+        u0,
+        momentum,
+        2.0 * momentum,
+    )
     for k in range(3):
         row[AMPLITUDES + k] = amplitudes[k]
         row[RATE_ROWS + k] = a * solver_from_frame[0, k]
         row[RATE_ROWS + 3 + k] = b * solver_from_frame[1, k]
         row[RATE_ROWS + 6 + k] = c * solver_from_frame[2, k]
     row[LEVER], row[LEVER + 1] = A, B
-    row[HALF_DIRECTION], row[HALF_PSI_RATE], row[HALF_PSI_OFFSET] = 0.5 * direction, 0.5 * psi_rate, 0.5 * psi_offset
+    row[HALF_DIRECTION], row[HALF_PSI_RATE], row[HALF_PSI_OFFSET] = (
+        0.5 * direction,
+        0.5 * psi_rate,
+        0.5 * psi_offset,
+    )
     _product_matrix_transposed(left, q_SF, row)
     return kind
 
@@ -361,8 +473,12 @@ def _multiply(p, q):
     """quaternion.multiply_values."""
     px, py, pz, pw = p[0], p[1], p[2], p[3]
     qx, qy, qz, qw = q
-    return (pw * qx + px * qw + py * qz - pz * qy, pw * qy - px * qz + py * qw + pz * qx,
-            pw * qz + px * qy - py * qx + pz * qw, pw * qw - px * qx - py * qy - pz * qz)
+    return (
+        pw * qx + px * qw + py * qz - pz * qy,
+        pw * qy - px * qz + py * qw + pz * qx,
+        pw * qz + px * qy - py * qx + pz * qw,
+        pw * qw - px * qx - py * qy - pz * qz,
+    )
 
 
 def _matrix_quaternion(m):
@@ -394,7 +510,9 @@ def _product_matrix_transposed(left, right, row):
     for i in range(4):
         a, b, c, d = by_left[i]
         for j in range(4):  # element (i, j) of the product matrix is (j, i) of the frame change
-            row[FRAME_CHANGE_ROWS + 4 * j + i] = a * r[0][j] + b * r[1][j] + c * r[2][j] + d * r[3][j]
+            row[FRAME_CHANGE_ROWS + 4 * j + i] = (
+                a * r[0][j] + b * r[1][j] + c * r[2][j] + d * r[3][j]
+            )
 
 
 def _theta_constants(K, Kc, m, n, trigonometric, k_prime, row):
@@ -402,7 +520,9 @@ def _theta_constants(K, Kc, m, n, trigonometric, k_prime, row):
     # _third_kind_shift
     moving = n < 0.0
     d = m - n if moving else 1.0
-    b = math.sqrt(-n / d) * _rf(m / d if moving else 1.0, m * (1.0 - n) / d if moving else 1.0, 1.0)
+    b = math.sqrt(-n / d) * _rf(
+        m / d if moving else 1.0, m * (1.0 - n) / d if moving else 1.0, 1.0
+    )
     bc = _rf(-n / (1.0 - n), (m - n) / (1.0 - n), 1.0) / math.sqrt(1.0 - n)
     ratio = Kc / K if trigonometric else K / Kc
     q = math.exp(-math.pi * ratio)
@@ -416,27 +536,79 @@ def _theta_constants(K, Kc, m, n, trigonometric, k_prime, row):
     row[SCALE] = (0.5 * math.pi) / (K if trigonometric else Kc)
     if trigonometric:
         first = TRIGONOMETRIC_CUBICS
-        _set_cubic(row, first, t3 / t2, ((1.0 - 3.0 * q2) + 5.0 * q6) - 7.0 * q12, (4.0 * q2 - 20.0 * q6) + 56.0 * q12,
-                   16.0 * q6 - 112.0 * q12, 64.0 * q12)
-        _set_cubic(row, first + 4, t4 / t2, t2, (-4.0 * q2 - 12.0 * q6) - 24.0 * q12, 16.0 * q6 + 80.0 * q12, -64.0 * q12)
-        _set_cubic(row, first + 8, t4 / t3, t3, (-4.0 * q - 16.0 * q4) - 36.0 * q9, 16.0 * q4 + 96.0 * q9, -64.0 * q9)
-        _set_cubic(row, first + 12, 1.0, t4, (4.0 * q - 16.0 * q4) + 36.0 * q9, 16.0 * q4 - 96.0 * q9, 64.0 * q9)
+        _set_cubic(
+            row,
+            first,
+            t3 / t2,
+            ((1.0 - 3.0 * q2) + 5.0 * q6) - 7.0 * q12,
+            (4.0 * q2 - 20.0 * q6) + 56.0 * q12,
+            16.0 * q6 - 112.0 * q12,
+            64.0 * q12,
+        )
+        _set_cubic(
+            row,
+            first + 4,
+            t4 / t2,
+            t2,
+            (-4.0 * q2 - 12.0 * q6) - 24.0 * q12,
+            16.0 * q6 + 80.0 * q12,
+            -64.0 * q12,
+        )
+        _set_cubic(
+            row,
+            first + 8,
+            t4 / t3,
+            t3,
+            (-4.0 * q - 16.0 * q4) - 36.0 * q9,
+            16.0 * q4 + 96.0 * q9,
+            -64.0 * q9,
+        )
+        _set_cubic(
+            row,
+            first + 12,
+            1.0,
+            t4,
+            (4.0 * q - 16.0 * q4) + 36.0 * q9,
+            16.0 * q4 - 96.0 * q9,
+            64.0 * q9,
+        )
         row[BASE] = _trigonometric_phase(K, Kc, b, bc, row, first + 16)
     else:
         first = HYPERBOLIC_CUBICS
-        _set_cubic(row, first, t3 / t4, ((1.0 - q2) - q6) + q12, (2.0 * q6 - 2.0 * q2) + 4.0 * q12, 4.0 * q6 - 4.0 * q12,
-                   -8.0 * q12)
-        _set_cubic(row, first + 4, 1.0, ((1.0 - q2) - q6) + q12, (2.0 * q2 - 2.0 * q6) - 4.0 * q12, 4.0 * q6 - 4.0 * q12,
-                   8.0 * q12)
+        _set_cubic(
+            row,
+            first,
+            t3 / t4,
+            ((1.0 - q2) - q6) + q12,
+            (2.0 * q6 - 2.0 * q2) + 4.0 * q12,
+            4.0 * q6 - 4.0 * q12,
+            -8.0 * q12,
+        )
+        _set_cubic(
+            row,
+            first + 4,
+            1.0,
+            ((1.0 - q2) - q6) + q12,
+            (2.0 * q2 - 2.0 * q6) - 4.0 * q12,
+            4.0 * q6 - 4.0 * q12,
+            8.0 * q12,
+        )
         _set_cubic(row, first + 8, t2 / t3, 1.0 - 2.0 * q4, 2.0 * q - 6.0 * q9, 4.0 * q4, 8.0 * q9)
-        _set_cubic(row, first + 12, t2 / t4, 1.0 - 2.0 * q4, 6.0 * q9 - 2.0 * q, 4.0 * q4, -8.0 * q9)
+        _set_cubic(
+            row, first + 12, t2 / t4, 1.0 - 2.0 * q4, 6.0 * q9 - 2.0 * q, 4.0 * q4, -8.0 * q9
+        )
         _hyperbolic_phase(K, Kc, b, bc, row, first + 16)
         row[QUARTER], row[HALF_QUARTER], row[K_PRIME] = K, 0.5 * K, k_prime
         row[KAPPA] = (math.pi * b) / (2.0 * K * Kc)
 
 
 def _set_cubic(row, at, factor, c0, c1, c2, c3):
-    row[at], row[at + 1], row[at + 2], row[at + 3] = factor * c0, factor * c1, factor * c2, factor * c3
+    row[at], row[at + 1], row[at + 2], row[at + 3] = (
+        factor * c0,
+        factor * c1,
+        factor * c2,
+        factor * c3,
+    )
 
 
 def _trigonometric_phase(K, Kc, b, bc, row, at):
@@ -446,10 +618,24 @@ def _trigonometric_phase(K, Kc, b, bc, row, at):
     q2 = q * q
     q6 = q2 * q2 * q2
     spread = (1.0, q2, q6, q6 * q6)
-    up = (rho, rho * rho * spread[1], rho * rho * rho * spread[2], (rho * rho) * (rho * rho) * spread[3])
-    down = (sigma, sigma * sigma * spread[1], sigma * sigma * sigma * spread[2],
-            (sigma * sigma) * (sigma * sigma) * spread[3])
-    C1, C2, C3, C4 = 0.5 * (up[0] + down[0]), 0.5 * (up[1] + down[1]), 0.5 * (up[2] + down[2]), 0.5 * (up[3] + down[3])
+    up = (
+        rho,
+        rho * rho * spread[1],
+        rho * rho * rho * spread[2],
+        (rho * rho) * (rho * rho) * spread[3],
+    )
+    down = (
+        sigma,
+        sigma * sigma * spread[1],
+        sigma * sigma * sigma * spread[2],
+        (sigma * sigma) * (sigma * sigma) * spread[3],
+    )
+    C1, C2, C3, C4 = (
+        0.5 * (up[0] + down[0]),
+        0.5 * (up[1] + down[1]),
+        0.5 * (up[2] + down[2]),
+        0.5 * (up[3] + down[3]),
+    )
     x = L * b
     sh = math.sinh(min(max(x, 0.0), 1.0))
     sh2 = sh * sh
@@ -465,10 +651,24 @@ def _trigonometric_phase(K, Kc, b, bc, row, at):
     for _ in range(6):
         q_before, q_even = q_even, q_even * q2
         base = base * ((1.0 - q_even) * (1.0 - sigma * q_before) * (1.0 - rho * q_even))
-    _set_cubic(row, at, 1.0, 4.0 * (((C1 - 4.0 * C2) + 9.0 * C3) - 16.0 * C4), 4.0 * ((4.0 * C2 - 24.0 * C3) + 80.0 * C4),
-               4.0 * (16.0 * C3 - 128.0 * C4), 256.0 * C4)
-    _set_cubic(row, at + 4, 1.0, 4.0 * (((S1 - 2.0 * S2) + 3.0 * S3) - 4.0 * S4), 4.0 * ((4.0 * S2 - 16.0 * S3) + 40.0 * S4),
-               4.0 * (16.0 * S3 - 96.0 * S4), 256.0 * S4)
+    _set_cubic(
+        row,
+        at,
+        1.0,
+        4.0 * (((C1 - 4.0 * C2) + 9.0 * C3) - 16.0 * C4),
+        4.0 * ((4.0 * C2 - 24.0 * C3) + 80.0 * C4),
+        4.0 * (16.0 * C3 - 128.0 * C4),
+        256.0 * C4,
+    )
+    _set_cubic(
+        row,
+        at + 4,
+        1.0,
+        4.0 * (((S1 - 2.0 * S2) + 3.0 * S3) - 4.0 * S4),
+        4.0 * ((4.0 * S2 - 16.0 * S3) + 40.0 * S4),
+        4.0 * (16.0 * S3 - 96.0 * S4),
+        256.0 * S4,
+    )
     return base
 
 
@@ -484,16 +684,52 @@ def _hyperbolic_phase(K, Kc, b, bc, row, at):
     sg, cg = (sin_angle, cos_angle) if direct else (cos_angle, sin_angle)
     v = sg * sg
     c0, c1 = cg, cg * (1.0 - 4.0 * v)
-    c2, c3 = cg * ((1.0 - 12.0 * v) + 16.0 * v * v), cg * (((1.0 - 24.0 * v) + 80.0 * v * v) - 64.0 * v * v * v)
+    c2, c3 = (
+        cg * ((1.0 - 12.0 * v) + 16.0 * v * v),
+        cg * (((1.0 - 24.0 * v) + 80.0 * v * v) - 64.0 * v * v * v),
+    )
     s0, s1 = sg, sg * (3.0 - 4.0 * v)
-    s2, s3 = sg * ((5.0 - 20.0 * v) + 16.0 * v * v), sg * (((7.0 - 56.0 * v) + 112.0 * v * v) - 64.0 * v * v * v)
+    s2, s3 = (
+        sg * ((5.0 - 20.0 * v) + 16.0 * v * v),
+        sg * (((7.0 - 56.0 * v) + 112.0 * v * v) - 64.0 * v * v * v),
+    )
     cos2 = 1.0 - 2.0 * v
     sin2 = 2.0 * sg * cg
     cos4, sin4 = 2.0 * cos2 * cos2 - 1.0, 2.0 * sin2 * cos2
     cos6, sin6 = cos2 * (4.0 * cos2 * cos2 - 3.0), sin2 * (3.0 - 4.0 * sin2 * sin2)
-    _set_cubic(row, at, 1.0, ((c0 - q2 * c1) - q6 * c2) + q12 * c3, (2.0 * q2 * c1 - 2.0 * q6 * c2) - 4.0 * q12 * c3,
-               4.0 * q6 * c2 - 4.0 * q12 * c3, 8.0 * q12 * c3)
-    _set_cubic(row, at + 4, 1.0, ((s0 + q2 * s1) - q6 * s2) - q12 * s3, (2.0 * q2 * s1 + 2.0 * q6 * s2) - 4.0 * q12 * s3,
-               4.0 * q6 * s2 + 4.0 * q12 * s3, 8.0 * q12 * s3)
-    _set_cubic(row, at + 8, 1.0, 1.0 - 2.0 * q4 * cos4, 2.0 * q * cos2 - 6.0 * q9 * cos6, 4.0 * q4 * cos4, 8.0 * q9 * cos6)
-    _set_cubic(row, at + 12, 1.0, 4.0 * q9 * sin6 - 4.0 * q * sin2, -8.0 * q4 * sin4, -16.0 * q9 * sin6, 0.0 * q)
+    _set_cubic(
+        row,
+        at,
+        1.0,
+        ((c0 - q2 * c1) - q6 * c2) + q12 * c3,
+        (2.0 * q2 * c1 - 2.0 * q6 * c2) - 4.0 * q12 * c3,
+        4.0 * q6 * c2 - 4.0 * q12 * c3,
+        8.0 * q12 * c3,
+    )
+    _set_cubic(
+        row,
+        at + 4,
+        1.0,
+        ((s0 + q2 * s1) - q6 * s2) - q12 * s3,
+        (2.0 * q2 * s1 + 2.0 * q6 * s2) - 4.0 * q12 * s3,
+        4.0 * q6 * s2 + 4.0 * q12 * s3,
+        8.0 * q12 * s3,
+    )
+    _set_cubic(
+        row,
+        at + 8,
+        1.0,
+        1.0 - 2.0 * q4 * cos4,
+        2.0 * q * cos2 - 6.0 * q9 * cos6,
+        4.0 * q4 * cos4,
+        8.0 * q9 * cos6,
+    )
+    _set_cubic(
+        row,
+        at + 12,
+        1.0,
+        4.0 * q9 * sin6 - 4.0 * q * sin2,
+        -8.0 * q4 * sin4,
+        -16.0 * q9 * sin6,
+        0.0 * q,
+    )

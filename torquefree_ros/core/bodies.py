@@ -1,4 +1,19 @@
-"""Bodies built from parts: boxes, cylinders, spheres and point masses, each with a mass, a size, a
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Bodies built from parts: boxes, cylinders, spheres and point masses, each with a mass, a size, a
 position and an orientation in the body frame, combined about the composite centre of mass by the
 parallel axis theorem (seed 002: find the new centre of mass, add the parts' own inertias rotated
 into the body frame, add ``m (|d|^2 1 - d d^T)`` for each part's offset ``d`` from it).
@@ -15,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import quaternion
-from .schema import Param, boolean, child, fields, number, one_key, unit_quaternion, vector
+from .schema import boolean, child, fields, number, one_key, Param, unit_quaternion, vector
 
 
 def _box(mass, size):
@@ -34,21 +49,36 @@ def _sphere(mass, radius, hollow):
 
 
 _PLACEMENT = {
-    "position": Param(vector(3, unit="m"), np.zeros(3)),
-    "orientation": Param(unit_quaternion(), np.array([0.0, 0.0, 0.0, 1.0])),
+    'position': Param(vector(3, unit='m'), np.zeros(3)),
+    'orientation': Param(unit_quaternion(), np.array([0.0, 0.0, 0.0, 1.0])),
 }
-_MASS = {"mass": Param(number(positive=True, unit="kg"))}
+_MASS = {'mass': Param(number(positive=True, unit='kg'))}
 #: part name -> (parameters, own inertia about the part's centre in the part's frame)
 PART_KINDS = {
-    "box": ({**_MASS, "size": Param(vector(3, unit="m", positive=True), help="edge lengths [x, y, z], m")},
-            lambda v: _box(v["mass"], v["size"])),
-    "cylinder": ({**_MASS, "radius": Param(number(positive=True, unit="m")),
-                  "length": Param(number(positive=True, unit="m"))},
-                 lambda v: _cylinder(v["mass"], v["radius"], v["length"])),
-    "sphere": ({**_MASS, "radius": Param(number(positive=True, unit="m")),
-                "hollow": Param(boolean, False)},
-               lambda v: _sphere(v["mass"], v["radius"], v["hollow"])),
-    "point_mass": (dict(_MASS), lambda v: np.zeros((3, 3))),
+    'box': (
+        {
+            **_MASS,
+            'size': Param(vector(3, unit='m', positive=True), help='edge lengths [x, y, z], m'),
+        },
+        lambda v: _box(v['mass'], v['size']),
+    ),
+    'cylinder': (
+        {
+            **_MASS,
+            'radius': Param(number(positive=True, unit='m')),
+            'length': Param(number(positive=True, unit='m')),
+        },
+        lambda v: _cylinder(v['mass'], v['radius'], v['length']),
+    ),
+    'sphere': (
+        {
+            **_MASS,
+            'radius': Param(number(positive=True, unit='m')),
+            'hollow': Param(boolean, False),
+        },
+        lambda v: _sphere(v['mass'], v['radius'], v['hollow']),
+    ),
+    'point_mass': (dict(_MASS), lambda v: np.zeros((3, 3))),
 }
 
 
@@ -73,11 +103,13 @@ class Composite:
 
 
 def parse_part(entry, path: str) -> Part:
-    kind, parameters = one_key(entry, path, PART_KINDS, "part")
+    kind, parameters = one_key(entry, path, PART_KINDS, 'part')
     params, own_inertia = PART_KINDS[kind]
     values = fields(parameters, child(path, kind), params)
-    rotation = quaternion.to_matrix(values["orientation"])
-    return Part(kind, values["mass"], values["position"], rotation @ own_inertia(values) @ rotation.T)
+    rotation = quaternion.to_matrix(values['orientation'])
+    return Part(
+        kind, values['mass'], values['position'], rotation @ own_inertia(values) @ rotation.T
+    )
 
 
 def combine(parts) -> Composite:
@@ -95,4 +127,14 @@ def combine(parts) -> Composite:
 
 def tensor_elements(tensor: np.ndarray) -> tuple:
     """``[Ixx, Iyy, Izz, Ixy, Ixz, Iyz]`` of a symmetric tensor (the scene's 6-element form)."""
-    return tuple(float(x) for x in (tensor[0, 0], tensor[1, 1], tensor[2, 2], tensor[0, 1], tensor[0, 2], tensor[1, 2]))
+    return tuple(
+        float(x)
+        for x in (
+            tensor[0, 0],
+            tensor[1, 1],
+            tensor[2, 2],
+            tensor[0, 1],
+            tensor[0, 2],
+            tensor[1, 2],
+        )
+    )

@@ -1,10 +1,25 @@
-"""Arithmetic on one body's numbers (plain Python floats) or on many bodies' (numpy arrays, one
-element per body), behind one set of names, so that constants are written once and computed either way
-with the same IEEE operations in the same order: ``+ - * /`` and ``sqrt`` are correctly rounded in
-Python and numpy alike, ``copysign``, ``min``/``max`` and selections are exact, scipy's Carlson
-integrals are one C function per element, and ``atan2``, ``hypot``, ``exp``, ``sin`` and the like are
-Python's ``math`` functions for both (numpy may vectorise its own). A body computed among many is
-bit for bit the body alone.
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Arithmetic on one body's numbers (plain Python floats) or on many bodies' (numpy arrays, one
+element per body), behind one set of names, so that constants are written once and computed either
+way with the same IEEE operations in the same order: ``+ - * /`` and ``sqrt`` are correctly rounded
+in Python and numpy alike, ``copysign``, ``min``/``max`` and selections are exact, scipy's Carlson
+integrals are one C function per element, and ``atan2``, ``hypot``, ``exp``, ``sin`` and the like
+are Python's ``math`` functions for both (numpy may vectorise its own). A body computed among many
+is bit for bit the body alone.
 """
 
 from __future__ import annotations
@@ -58,10 +73,15 @@ class _Floats:
 
 
 def _per_element(function):
-    """``function`` (one of ``math``'s) applied element by element to arrays over bodies, as to one body."""
+    """
+    ``function`` (one of ``math``'s) applied element by element to arrays over bodies, as to one
+    body.
+    """
+
     def apply(*arrays):
         result = [function(*values) for values in zip(*(np.ravel(a).tolist() for a in arrays))]
         return np.array(result, dtype=float).reshape(np.shape(arrays[0]))
+
     return apply
 
 
@@ -96,7 +116,7 @@ class _Columns:
 
     @staticmethod
     def order(values):
-        return tuple(np.argsort(np.stack(values, axis=-1), axis=-1, kind="stable").T)
+        return tuple(np.argsort(np.stack(values, axis=-1), axis=-1, kind='stable').T)
 
     @staticmethod
     def first_largest(values):

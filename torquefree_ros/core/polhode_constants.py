@@ -1,4 +1,19 @@
-"""The exact solution's constants from an initial state, by one set of formulas for one body (plain
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The exact solution's constants from an initial state, by one set of formulas for one body (plain
 floats: every reset builds one) or for many at once (numpy columns: ``propagate_batch``).
 
 Every function takes the arithmetic it runs on (:data:`.ops.FLOATS` or :data:`.ops.COLUMNS`), which
@@ -29,16 +44,23 @@ class SolverFrame(NamedTuple):
 
 
 def is_stationary(moments, omega) -> Any:
-    """Euler's equations' right-hand side, exactly zero only for a relative equilibrium (rest, a
-    sphere, a spin about a principal axis): the rate is then constant."""
+    """
+    Euler's equations' right-hand side, exactly zero only for a relative equilibrium (rest, a
+    sphere, a spin about a principal axis): the rate is then constant.
+    """
     I, w = moments, omega
-    return (((I[1] - I[2]) * w[1] * w[2] == 0.0) & ((I[2] - I[0]) * w[2] * w[0] == 0.0)
-            & ((I[0] - I[1]) * w[0] * w[1] == 0.0))
+    return (
+        ((I[1] - I[2]) * w[1] * w[2] == 0.0)
+        & ((I[2] - I[0]) * w[2] * w[0] == 0.0)
+        & ((I[0] - I[1]) * w[0] * w[1] == 0.0)
+    )
 
 
 def solver_frame(ops, moments, omega) -> SolverFrame:
-    """Choose the solver frame and the regime's parameters, for principal ``moments`` and the rate
-    ``omega`` in principal axes (three values each; not stationary)."""
+    """
+    Choose the solver frame and the regime's parameters, for principal ``moments`` and the rate
+    ``omega`` in principal axes (three values each; not stationary).
+    """
     I, w = moments, omega
     pick = ops.pick
     lo, mid, hi = ops.order(I)
@@ -48,8 +70,9 @@ def solver_frame(ops, moments, omega) -> SolverFrame:
     major = gap_mid >= 0.0  # the polhode circles the major axis, else the minor one
     axes = (ops.where(major, lo, hi), mid, ops.where(major, hi, lo))
     inversions = (axes[0] > axes[1]) * 1 + (axes[0] > axes[2]) * 1 + (axes[1] > axes[2]) * 1
-    # row i of the solver frame is principal axis axes[i] times signs[i], a proper rotation; rotated
-    # by pi about its axis 1 so that m3 > 0, then by pi about axis 3 so that m1(0) >= 0 (u0 in [-K, K])
+    # row i of the solver frame is principal axis axes[i] times signs[i], a proper rotation;
+    # rotated by pi about its axis 1 so that m3 > 0, then by pi about axis 3 so that m1(0) >= 0 (u0
+    # in [-K, K])
     flip_1 = ops.where(pick(w, axes[2]) < 0.0, -1.0, 1.0)
     sign_0 = 1.0 - 2.0 * (inversions % 2)
     flip_3 = ops.where(sign_0 * pick(w, axes[0]) < 0.0, -1.0, 1.0)
@@ -66,13 +89,24 @@ def solver_frame(ops, moments, omega) -> SolverFrame:
     b = ops.copysign(ops.sqrt(P3 / (J[1] * d32)), d32)
     c = ops.sqrt(P1 / (J[2] * d31))
     m = ops.clip(d21 * P3 / (d32 * P1), 0.0, 1.0)
-    return SolverFrame(axes=axes, signs=signs, moments=J, rates=ws, amplitudes=(a, b, c), mc=mc, m=m,
-                       n=-J[2] * d21 / (J[0] * d32), rate=ops.sqrt(d32 * P1 / (J[0] * J[1] * J[2])))
+    return SolverFrame(
+        axes=axes,
+        signs=signs,
+        moments=J,
+        rates=ws,
+        amplitudes=(a, b, c),
+        mc=mc,
+        m=m,
+        n=-J[2] * d21 / (J[0] * d32),
+        rate=ops.sqrt(d32 * P1 / (J[0] * J[1] * J[2])),
+    )
 
 
 class AttitudeConstants(NamedTuple):
-    """Everything :class:`~.polhode.PolhodeAttitude` evaluates with, for ``mc > 0`` (values: floats or
-    columns; the 3x3 and 4x4 matrices as nested tuples of them)."""
+    """
+    Everything :class:`~.polhode.PolhodeAttitude` evaluates with, for ``mc > 0`` (values: floats
+    or columns; the 3x3 and 4x4 matrices as nested tuples of them).
+    """
 
     initial_phase: Any  # u0
     momentum: Any  # |m|
@@ -80,15 +114,21 @@ class AttitudeConstants(NamedTuple):
     momentum_amplitudes: tuple  # m = (cn, sn, dn) * these
     direction: Any  # sign(J3 - J2)
     lever: tuple  # A, B: the angle of (m1, m2) is that of (A cn, B sn) times sign(J3 - J2)
-    psi_rate: Any  # psi = psi_rate t + direction (theta phase - angle of (A cn, B sn)) + psi_offset
+    psi_rate: (
+        Any  # psi = psi_rate t + direction (theta phase - angle of (A cn, B sn)) + psi_offset
+    )
     psi_offset: Any
     frame_change: tuple  # q_NF = (about_H_arc) @ this
 
 
-def attitude_constants(ops, frame: SolverFrame, solver_from_frame, q_NF0, sn2_integral_slope) -> AttitudeConstants:
-    """The attitude's constants for ``omega_S = solver_from_frame @ omega_F`` (rows of values), the
+def attitude_constants(
+    ops, frame: SolverFrame, solver_from_frame, q_NF0, sn2_integral_slope
+) -> AttitudeConstants:
+    """
+    The attitude's constants for ``omega_S = solver_from_frame @ omega_F`` (rows of values), the
     initial attitude ``q_NF0`` (four values) and the mean slope ``S(K)/K`` of the Jacobi functions'
-    ``S`` (:class:`.elliptic.JacobiElliptic`)."""
+    ``S`` (:class:`.elliptic.JacobiElliptic`).
+    """
     J1, J2, J3 = frame.moments
     a, b, c = frame.amplitudes
     n = frame.n
@@ -110,16 +150,23 @@ def attitude_constants(ops, frame: SolverFrame, solver_from_frame, q_NF0, sn2_in
     arc_norm = ops.hypot(m0[1], m0[0], arc_w)
     q_SF = quaternion.matrix_quaternion(solver_from_frame, ops)
     q_NS0 = quaternion.multiply_values(q_NF0, quaternion.conjugate_values(q_SF))
-    left = quaternion.multiply_values(q_NS0, (-m0[1] / arc_norm, m0[0] / arc_norm, -0.0, arc_w / arc_norm))  # conj(Q(m0))
+    left = quaternion.multiply_values(
+        q_NS0, (-m0[1] / arc_norm, m0[0] / arc_norm, -0.0, arc_w / arc_norm)
+    )  # conj(Q(m0))
     return AttitudeConstants(
         initial_phase=u0,
         momentum=momentum,
-        rate_matrix=tuple([(amplitude * row[0], amplitude * row[1], amplitude * row[2])
-                           for amplitude, row in zip((a, b, c), solver_from_frame)]),
+        rate_matrix=tuple(
+            [
+                (amplitude * row[0], amplitude * row[1], amplitude * row[2])
+                for amplitude, row in zip((a, b, c), solver_from_frame)
+            ]
+        ),
         momentum_amplitudes=amplitudes,
         direction=direction,
         lever=(A, B),
-        # gain S(u) = gain slope u + direction (theta phase): gain weight / n = sign(J3 - J1) = direction
+        # gain S(u) = gain slope u + direction (theta phase): gain weight / n = sign(J3 - J1) =
+        # direction
         psi_rate=momentum / J1 + (gain * rate) * slope,
         psi_offset=direction * angle0 - gain * (sn2_integral0 - slope * u0),
         frame_change=_transpose(quaternion.product_matrix_values(left, q_SF)),
@@ -127,18 +174,31 @@ def attitude_constants(ops, frame: SolverFrame, solver_from_frame, q_NF0, sn2_in
 
 
 def solver_from_body(ops, frame: SolverFrame, principal_axes) -> tuple:
-    """Rows of ``C`` with ``omega_S = C omega_B`` for principal axes given as the columns of
-    ``principal_axes`` (rows of values): ``C[i][j] = signs[i] principal_axes[j][axes[i]]``, exact."""
+    """
+    Rows of ``C`` with ``omega_S = C omega_B`` for principal axes given as the columns of
+    ``principal_axes`` (rows of values): ``C[i][j] = signs[i] principal_axes[j][axes[i]]``,
+    exact.
+    """
     pick, (row0, row1, row2) = ops.pick, principal_axes
-    return tuple([(sign * pick(row0, axis), sign * pick(row1, axis), sign * pick(row2, axis))
-                  for axis, sign in zip(frame.axes, frame.signs)])
+    return tuple(
+        [
+            (sign * pick(row0, axis), sign * pick(row1, axis), sign * pick(row2, axis))
+            for axis, sign in zip(frame.axes, frame.signs)
+        ]
+    )
 
 
 def to_principal(omega_B, principal_axes) -> tuple:
-    """``omega_P = principal_axes^T omega_B``, summed in one fixed order (values: floats or columns)."""
+    """
+    ``omega_P = principal_axes^T omega_B``, summed in one fixed order (values: floats or
+    columns).
+    """
     (w0, w1, w2), (a0, a1, a2) = omega_B, principal_axes
-    return (w0 * a0[0] + w1 * a1[0] + w2 * a2[0], w0 * a0[1] + w1 * a1[1] + w2 * a2[1],
-            w0 * a0[2] + w1 * a1[2] + w2 * a2[2])
+    return (
+        w0 * a0[0] + w1 * a1[0] + w2 * a2[0],
+        w0 * a0[1] + w1 * a1[1] + w2 * a2[1],
+        w0 * a0[2] + w1 * a1[2] + w2 * a2[2],
+    )
 
 
 def _transpose(matrix) -> tuple:

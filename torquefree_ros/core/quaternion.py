@@ -1,9 +1,24 @@
-"""Attitude conventions, in one place.
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Attitude conventions, in one place.
 
 Quaternions are stored ``(x, y, z, w)`` (scalar last, as geometry_msgs), use the Hamilton product,
 and ``q_NB`` is the orientation of the body frame B in the inertial frame N: ``R(q_NB)`` maps
-body-frame coordinates to inertial ones (REP 103). Kinematics with the body-frame rate ``omega_BN_B``:
-``dq_NB/dt = 1/2 q_NB ⊗ (omega_BN_B, 0)``.
+body-frame coordinates to inertial ones (REP 103). Kinematics with the body-frame rate
+``omega_BN_B``: ``dq_NB/dt = 1/2 q_NB ⊗ (omega_BN_B, 0)``.
 
 All functions broadcast over leading axes. A single quaternion or vector (1-D arrays) takes a plain
 float path: the integrators call these once per stage, where numpy's per-call cost on 3- and
@@ -17,7 +32,6 @@ import math
 import numpy as np
 
 from .ops import FLOATS
-
 
 _CONJUGATE = np.array([-1.0, -1.0, -1.0, 1.0])
 
@@ -57,12 +71,18 @@ def multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
 
 
 def multiply_values(p, q) -> tuple:
-    """``p ⊗ q`` of two quaternions given as four values each, floats or arrays (the same operations
-    as :func:`multiply`), for code that builds constants from a handful of numbers."""
+    """
+    ``p ⊗ q`` of two quaternions given as four values each, floats or arrays (the same
+    operations as :func:`multiply`), for code that builds constants from a handful of numbers.
+    """
     px, py, pz, pw = p
     qx, qy, qz, qw = q
-    return (pw * qx + px * qw + py * qz - pz * qy, pw * qy - px * qz + py * qw + pz * qx,
-            pw * qz + px * qy - py * qx + pz * qw, pw * qw - px * qx - py * qy - pz * qz)
+    return (
+        pw * qx + px * qw + py * qz - pz * qy,
+        pw * qy - px * qz + py * qw + pz * qx,
+        pw * qz + px * qy - py * qx + pz * qw,
+        pw * qw - px * qx - py * qy - pz * qz,
+    )
 
 
 def conjugate_values(q) -> tuple:
@@ -71,24 +91,45 @@ def conjugate_values(q) -> tuple:
 
 
 def product_matrix(left: np.ndarray, right: np.ndarray) -> np.ndarray:
-    """The 4x4 matrix ``M`` with ``M x = left ⊗ x ⊗ right`` for any ``x`` (one quaternion each): a
-    fixed frame change on both sides of many quaternions is then one matrix product, ``X @ M.T``."""
-    return np.array(product_matrix_values(np.asarray(left, dtype=float).tolist(),
-                                          np.asarray(right, dtype=float).tolist()))
+    """
+    The 4x4 matrix ``M`` with ``M x = left ⊗ x ⊗ right`` for any ``x`` (one quaternion each): a
+    fixed frame change on both sides of many quaternions is then one matrix product, ``X @
+    M.T``.
+    """
+    return np.array(
+        product_matrix_values(
+            np.asarray(left, dtype=float).tolist(), np.asarray(right, dtype=float).tolist()
+        )
+    )
 
 
 def product_matrix_values(left, right) -> tuple:
-    """:func:`product_matrix` with each quaternion as four values (floats or arrays): the product of
-    the matrices of ``left ⊗ .`` and ``. ⊗ right``, summed in one fixed order; rows of values."""
+    """
+    :func:`product_matrix` with each quaternion as four values (floats or arrays): the product
+    of the matrices of ``left ⊗ .`` and ``. ⊗ right``, summed in one fixed order; rows of
+    values.
+    """
     px, py, pz, pw = left
     qx, qy, qz, qw = right
     # rows: the Hamilton product's components as linear forms in x, for left ⊗ x and for x ⊗ right
     by_left = ((pw, -pz, py, px), (pz, pw, -px, py), (-py, px, pw, pz), (-px, -py, -pz, pw))
     (r00, r01, r02, r03), (r10, r11, r12, r13), (r20, r21, r22, r23), (r30, r31, r32, r33) = (
-        (qw, qz, -qy, qx), (-qz, qw, qx, qy), (qy, -qx, qw, qz), (-qx, -qy, -qz, qw))
-    return tuple([(a * r00 + b * r10 + c * r20 + d * r30, a * r01 + b * r11 + c * r21 + d * r31,
-                   a * r02 + b * r12 + c * r22 + d * r32, a * r03 + b * r13 + c * r23 + d * r33)
-                  for a, b, c, d in by_left])
+        (qw, qz, -qy, qx),
+        (-qz, qw, qx, qy),
+        (qy, -qx, qw, qz),
+        (-qx, -qy, -qz, qw),
+    )
+    return tuple(
+        [
+            (
+                a * r00 + b * r10 + c * r20 + d * r30,
+                a * r01 + b * r11 + c * r21 + d * r31,
+                a * r02 + b * r12 + c * r22 + d * r32,
+                a * r03 + b * r13 + c * r23 + d * r33,
+            )
+            for a, b, c, d in by_left
+        ]
+    )
 
 
 def conjugate(q: np.ndarray) -> np.ndarray:
@@ -110,13 +151,18 @@ def to_matrix(q: np.ndarray) -> np.ndarray:
 
 
 def from_matrix(matrix) -> np.ndarray:
-    """Unit quaternion of a proper rotation matrix (Shepperd's method, largest pivot), ``w >= 0``."""
+    """
+    Unit quaternion of a proper rotation matrix (Shepperd's method, largest pivot), ``w >=
+    0``.
+    """
     return np.array(matrix_quaternion(np.asarray(matrix, dtype=float).tolist()))
 
 
 def matrix_quaternion(m, ops=FLOATS) -> tuple:
-    """:func:`from_matrix` of a matrix given as rows of values: floats (``ops`` :data:`.ops.FLOATS`)
-    or arrays over bodies (:data:`.ops.COLUMNS`)."""
+    """
+    :func:`from_matrix` of a matrix given as rows of values: floats (``ops``
+    :data:`.ops.FLOATS`) or arrays over bodies (:data:`.ops.COLUMNS`).
+    """
     trace = m[0][0] + m[1][1] + m[2][2]
     pivot = ops.first_largest([m[0][0], m[1][1], m[2][2], trace])
     # the four candidates, one per pivot; each is the quaternion times a positive number
@@ -137,17 +183,24 @@ def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     q = np.asarray(q, dtype=float)
     v = np.asarray(v, dtype=float)
     if not _single(q, v):
-        return np.einsum("...ij,...j->...i", to_matrix(q), v)
+        return np.einsum('...ij,...j->...i', to_matrix(q), v)
     return np.array(rotate_values(q.tolist(), v.tolist()))
 
 
 def rotate_values(q, v) -> tuple:
-    """``R(q) v`` of a quaternion and a vector given as values, floats or arrays (the same operations
-    as :func:`rotate` of one pair): ``v + 2 w (u x v) + 2 u x (u x v)``, u the vector part, w the scalar."""
+    """
+    ``R(q) v`` of a quaternion and a vector given as values, floats or arrays (the same
+    operations as :func:`rotate` of one pair): ``v + 2 w (u x v) + 2 u x (u x v)``, u the vector
+    part, w the scalar.
+    """
     ux, uy, uz, w = q
     vx, vy, vz = v
     tx, ty, tz = 2.0 * (uy * vz - uz * vy), 2.0 * (uz * vx - ux * vz), 2.0 * (ux * vy - uy * vx)
-    return vx + w * tx + uy * tz - uz * ty, vy + w * ty + uz * tx - ux * tz, vz + w * tz + ux * ty - uy * tx
+    return (
+        vx + w * tx + uy * tz - uz * ty,
+        vy + w * ty + uz * tx - ux * tz,
+        vz + w * tz + ux * ty - uy * tx,
+    )
 
 
 def rotate_inverse(q: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -172,7 +225,8 @@ def exp_rotation(rotation_vector: np.ndarray) -> np.ndarray:
 
 
 def angle_between(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Rotation angle (rad, in [0, pi]) of ``p* ⊗ q``; the same for ``q`` and ``-q``.
+    """
+    Rotation angle (rad, in [0, pi]) of ``p* ⊗ q``; the same for ``q`` and ``-q``.
 
     ``atan2`` of the vector and scalar parts keeps full relative precision for tiny angles,
     where ``2 acos(|p·q|)`` would not.

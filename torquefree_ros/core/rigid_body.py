@@ -1,9 +1,25 @@
-"""Rigid body: inertia (principal moments or a full tensor), validation, invariants, the Duffing
-analog of seed 000 (Junkins, Jacobson & Blanton 1973) and a classification of the torque-free motion.
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Rigid body: inertia (principal moments or a full tensor), validation, invariants, the Duffing
+analog of seed 000 (Junkins, Jacobson & Blanton 1973) and a classification of the torque-free
+motion.
 
 Frames in names: ``omega_B`` is the body-frame rate in the user's body frame B; ``_P`` marks the
-principal frame P. ``principal_axes`` has the principal axes as columns in B coordinates, is a proper
-rotation, and ``tensor = principal_axes @ diag(moments) @ principal_axes.T``.
+principal frame P. ``principal_axes`` has the principal axes as columns in B coordinates, is a
+proper rotation, and ``tensor = principal_axes @ diag(moments) @ principal_axes.T``.
 """
 
 from __future__ import annotations
@@ -35,9 +51,11 @@ class RigidBody:
     principal_axes: np.ndarray  # 3x3 proper rotation, columns = principal axes in B
 
     @classmethod
-    def from_inertia(cls, inertia, name: str = "inertia") -> "RigidBody":
-        """From ``[I1, I2, I3]`` (principal; B is then the principal frame, any order),
-        ``[Ixx, Iyy, Izz, Ixy, Ixz, Iyz]`` (tensor elements, as in URDF) or a 3x3 matrix."""
+    def from_inertia(cls, inertia, name: str = 'inertia') -> 'RigidBody':
+        """
+        From ``[I1, I2, I3]`` (principal; B is then the principal frame, any order),
+        ``[Ixx, Iyy, Izz, Ixy, Ixz, Iyz]`` (tensor elements, as in URDF) or a 3x3 matrix.
+        """
         if isinstance(inertia, RigidBody):
             return inertia
         array = _float_array(inertia)
@@ -52,7 +70,7 @@ class RigidBody:
             xx, yy, zz, xy, xz, yz = values
             tensor = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
         if not np.all(np.isfinite(tensor)):
-            raise ValueError(f"{name}: every entry must be finite")
+            raise ValueError(f'{name}: every entry must be finite')
         _check_magnitude(tensor, name)
         if not np.any(tensor - np.diag(np.diag(tensor))):
             # Already principal: keep B as the principal frame exactly (no eigen-solver rounding).
@@ -68,7 +86,7 @@ class RigidBody:
     # -- invariants (broadcast over leading axes of omega_B) -----------------------------------
     def angular_momentum(self, omega_B) -> np.ndarray:
         """``H_B = I omega_B`` in the body frame."""
-        return np.einsum("ij,...j->...i", self.tensor, np.asarray(omega_B, dtype=float))
+        return np.einsum('ij,...j->...i', self.tensor, np.asarray(omega_B, dtype=float))
 
     def angular_momentum_inertial(self, omega_B, q_NB) -> np.ndarray:
         """``H_N = R(q_NB) I omega_B``: constant in a torque-free motion."""
@@ -77,7 +95,7 @@ class RigidBody:
     def kinetic_energy(self, omega_B) -> np.ndarray:
         """``T = omega · I omega / 2``."""
         omega_B = np.asarray(omega_B, dtype=float)
-        return 0.5 * np.einsum("...i,...i->...", omega_B, self.angular_momentum(omega_B))
+        return 0.5 * np.einsum('...i,...i->...', omega_B, self.angular_momentum(omega_B))
 
     def momentum_magnitude(self, omega_B) -> np.ndarray:
         """``|H|``."""
@@ -87,18 +105,21 @@ class RigidBody:
         return np.asarray(omega_B, dtype=float) @ self.principal_axes
 
     def momentum_energy_gaps(self, omega_B) -> np.ndarray:
-        """``H^2 - 2 T I_j`` for each principal moment ``I_j``, as ``sum_i I_i (I_i - I_j) w_i^2``.
+        """
+        ``H^2 - 2 T I_j`` for each principal moment ``I_j``, as ``sum_i I_i (I_i - I_j) w_i^2``.
 
         The direct difference of ``H^2`` and ``2 T I_j`` cancels catastrophically next to the
         separatrix (``H^2 = 2 T I_mid``); this form only subtracts moments.
         """
         w2 = self.to_principal(omega_B) ** 2
         I = self.moments
-        return np.einsum("i,ij,...i->...j", I, I[:, None] - I[None, :], w2)
+        return np.einsum('i,ij,...i->...j', I, I[:, None] - I[None, :], w2)
 
     def duffing_constants(self, omega_B):
-        """``(A, B, K)`` of ``w_i'' + A_i w_i + B_i w_i^3 = 0`` and of its integral
-        ``w_i'^2 + A_i w_i^2 + B_i/2 w_i^4 = K_i``, principal axis order (seed 000)."""
+        """
+        ``(A, B, K)`` of ``w_i'' + A_i w_i + B_i w_i^3 = 0`` and of its integral
+        ``w_i'^2 + A_i w_i^2 + B_i/2 w_i^4 = K_i``, principal axis order (seed 000).
+        """
         I = self.moments
         g = self.momentum_energy_gaps(omega_B)  # g_j = H^2 - 2 T I_j
         product = I[0] * I[1] * I[2]
@@ -109,7 +130,7 @@ class RigidBody:
             K[i] = -g[j] * g[k] / (I[i] ** 2 * I[j] * I[k])
         return A, B, K
 
-    def classify(self, omega_B) -> "MotionRegime":
+    def classify(self, omega_B) -> 'MotionRegime':
         from .polhode import classify_motion  # polhode builds on this module
 
         return classify_motion(self, omega_B)
@@ -117,41 +138,50 @@ class RigidBody:
 
 @dataclass(frozen=True)
 class MotionRegime:
-    """What kind of torque-free motion a state starts; periods in seconds (``inf`` where the
-    motion never repeats, ``nan`` where the notion does not apply)."""
+    """
+    What kind of torque-free motion a state starts; periods in seconds (``inf`` where the
+    motion never repeats, ``nan`` where the notion does not apply).
+    """
 
     kind: str  # at_rest | sphere | pure_spin | axisymmetric_oblate | axisymmetric_prolate |
     #            major_axis_polhode | minor_axis_polhode | separatrix
-    axis: str = ""  # for pure_spin: major | intermediate | minor | symmetric-plane
-    stability: str = ""  # for pure_spin: "marginally stable" or "unstable" (seed 002)
-    polhode_period: float = float("nan")  # period of the body rates
-    flip_period: float = float("nan")  # time between reversals of the intermediate-axis rate
-    precession_rate: float = float("nan")  # axisymmetric: w_p = (I3/IT - 1) w3 (seed 000)
-    separatrix_distance: float = float("nan")  # (H^2/2T - I_mid) / I_mid
-    body_cone_angle: float = float("nan")  # axisymmetric: between w and the symmetry axis, rad
-    space_cone_angle: float = float("nan")  # axisymmetric: between w and H, rad
-    inertial_precession_rate: float = float("nan")  # axisymmetric: symmetry axis about H_N, |H|/I_T
+    axis: str = ''  # for pure_spin: major | intermediate | minor | symmetric-plane
+    stability: str = ''  # for pure_spin: "marginally stable" or "unstable" (seed 002)
+    polhode_period: float = float('nan')  # period of the body rates
+    flip_period: float = float('nan')  # time between reversals of the intermediate-axis rate
+    precession_rate: float = float('nan')  # axisymmetric: w_p = (I3/IT - 1) w3 (seed 000)
+    separatrix_distance: float = float('nan')  # (H^2/2T - I_mid) / I_mid
+    body_cone_angle: float = float('nan')  # axisymmetric: between w and the symmetry axis, rad
+    space_cone_angle: float = float('nan')  # axisymmetric: between w and H, rad
+    inertial_precession_rate: float = float(
+        'nan'
+    )  # axisymmetric: symmetry axis about H_N, |H|/I_T
 
     def summary(self) -> str:
-        parts = [self.kind.replace("_", " ")]
+        parts = [self.kind.replace('_', ' ')]
         if self.axis:
-            parts.append(f"about the {self.axis} axis ({self.stability})")
+            parts.append(f'about the {self.axis} axis ({self.stability})')
         for label, value in (
-            ("polhode period", self.polhode_period),
-            ("flip period", self.flip_period),
-            ("body-frame precession rate", self.precession_rate),
+            ('polhode period', self.polhode_period),
+            ('flip period', self.flip_period),
+            ('body-frame precession rate', self.precession_rate),
         ):
             if not np.isnan(value):
-                parts.append(f"{label} {value:.6g}" + (" rad/s" if "rate" in label else " s"))
+                parts.append(f'{label} {value:.6g}' + (' rad/s' if 'rate' in label else ' s'))
         if not np.isnan(self.body_cone_angle):
-            parts.append(f"body cone angle {np.degrees(self.body_cone_angle):.6g} deg, space cone angle "
-                         f"{np.degrees(self.space_cone_angle):.6g} deg, symmetry axis precesses about H at "
-                         f"{self.inertial_precession_rate:.6g} rad/s")
-        return ", ".join(parts)
+            parts.append(
+                f'body cone angle {np.degrees(self.body_cone_angle):.6g} deg, space cone angle '
+                f'{np.degrees(self.space_cone_angle):.6g} deg, symmetry axis precesses about H at '
+                f'{self.inertial_precession_rate:.6g} rad/s'
+            )
+        return ', '.join(parts)
 
 
 def _float_array(value) -> np.ndarray | None:
-    """``value`` as a float array, or ``None`` if it is not numbers (then checked for the message)."""
+    """
+    ``value`` as a float array, or ``None`` if it is not numbers (then checked for the
+    message).
+    """
     try:
         return np.asarray(value, dtype=float)
     except (TypeError, ValueError):
@@ -160,38 +190,42 @@ def _float_array(value) -> np.ndarray | None:
 
 def _symmetric_tensor(matrix: np.ndarray, name: str) -> np.ndarray:
     if not np.all(np.isfinite(matrix)):
-        raise ValueError(f"{name}: every entry must be finite")
+        raise ValueError(f'{name}: every entry must be finite')
     scale = float(np.max(np.abs(matrix)))
     if np.max(np.abs(matrix - matrix.T)) > SYMMETRY_RTOL * scale:
-        raise ValueError(f"{name}: an inertia tensor must be symmetric, got {matrix.tolist()}")
+        raise ValueError(f'{name}: an inertia tensor must be symmetric, got {matrix.tolist()}')
     return 0.5 * (matrix + matrix.T)
 
 
-_IDENTITY = np.eye(3)  # the principal axes of a body given in its principal frame (shared: read-only)
+_IDENTITY = np.eye(
+    3
+)  # the principal axes of a body given in its principal frame (shared: read-only)
 _IDENTITY.flags.writeable = False
 
-# Sums and products of moments (eigen-solver, triangle check, I_max |H|^2) must stay finite in float64.
+# Sums and products of moments (eigen-solver, triangle check, I_max |H|^2) must stay finite in
+# float64.
 MAX_INERTIA = 1e100  # kg m^2
 
 
 def _check_magnitude(values: np.ndarray, name: str) -> None:
     if max(map(abs, values.ravel().tolist())) > MAX_INERTIA:
-        raise ValueError(f"{name}: entries must lie within ±{MAX_INERTIA:g} kg m^2 so that float64 sums and products "
-                         f"of them stay finite; this one overflows (largest {np.max(np.abs(values)):g})")
+        raise ValueError(
+            f'{name}: entries must lie within ±{MAX_INERTIA:g} kg m^2 so that float64 sums and products '
+            f'of them stay finite; this one overflows (largest {np.max(np.abs(values)):g})'
+        )
 
 
 def _check_moments(moments: np.ndarray, name: str) -> None:
     values = moments.tolist()  # plain floats: three numbers, checked on every propagator built
     if min(values) <= 0.0:
         raise ValueError(
-            f"{name}: principal moments must be positive (positive-definite tensor), "
-            f"got {values}"
+            f'{name}: principal moments must be positive (positive-definite tensor), got {values}'
         )
     largest = max(values)
     others = values[0] + values[1] + values[2] - largest
     if largest > others * (1.0 + TRIANGLE_RTOL):
         raise ValueError(
-            f"{name}: principal moments {moments.tolist()} violate the triangle inequality "
-            f"(the largest, {largest:g}, exceeds the sum of the other two, {others:g}): "
-            "no rigid body has this inertia"
+            f'{name}: principal moments {moments.tolist()} violate the triangle inequality '
+            f'(the largest, {largest:g}, exceeds the sum of the other two, {others:g}): '
+            'no rigid body has this inertia'
         )

@@ -1,13 +1,29 @@
-"""Reading files that anyone may have written (scene files, a bag's metadata.yaml) totally: only a
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Reading files that anyone may have written (scene files, a bag's metadata.yaml) totally: only a
 regular file below a size bound is read (a FIFO or a device is refused before it can block), and a
 YAML document is refused if it nests too deeply or expands, through aliases, into too many values
-("billion laughs"). Every failure is a ``ValueError`` whose text says what and where."""
+("billion laughs"). Every failure is a ``ValueError`` whose text says what and where.
+"""
 
 from __future__ import annotations
 
 import os
-import stat
 from pathlib import Path
+import stat
 
 import yaml
 
@@ -16,13 +32,15 @@ MAX_YAML_DEPTH = 64  # nesting levels; PyYAML recurses once per level
 
 
 def read_regular_file(path: Path, max_bytes: int) -> bytes:
-    """The bytes of a regular file of at most ``max_bytes``; ``OSError`` as from ``open``,
-    ``ValueError`` for a special file or one too large."""
-    descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
+    """
+    The bytes of a regular file of at most ``max_bytes``; ``OSError`` as from ``open``,
+    ``ValueError`` for a special file or one too large.
+    """
+    descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, 'O_CLOEXEC', 0))
     try:
         if not stat.S_ISREG(os.fstat(descriptor).st_mode):
             raise ValueError(f"'{clip(str(path))}' is not a regular file")
-        with os.fdopen(descriptor, "rb", closefd=False) as stream:
+        with os.fdopen(descriptor, 'rb', closefd=False) as stream:
             data = stream.read(max_bytes + 1)
     finally:
         os.close(descriptor)
@@ -48,26 +66,39 @@ def load_yaml(text: str, where: str, loader_class=yaml.SafeLoader):
         _check_node_size(node, where)
         return loader.construct_document(node)
     except yaml.reader.ReaderError as error:  # a character YAML does not allow
-        line = text.count("\n", 0, error.position) + 1
-        column = error.position - (text.rfind("\n", 0, error.position) + 1) + 1
-        raise ValueError(f"{where}:{line}:{column}: not valid YAML: character #x{error.character:04x} is not "
-                         "allowed") from None
+        line = text.count('\n', 0, error.position) + 1
+        column = error.position - (text.rfind('\n', 0, error.position) + 1) + 1
+        raise ValueError(
+            f'{where}:{line}:{column}: not valid YAML: character #x{error.character:04x} is not '
+            'allowed'
+        ) from None
     except yaml.MarkedYAMLError as error:
         mark = error.problem_mark or error.context_mark
-        at = f"{where}:{mark.line + 1}:{mark.column + 1}" if mark is not None else where
-        what = "; ".join(clip(part) for part in (error.context, error.problem) if part)
-        raise ValueError(f"{at}: not valid YAML: {what}") from None
+        at = f'{where}:{mark.line + 1}:{mark.column + 1}' if mark is not None else where
+        what = '; '.join(clip(part) for part in (error.context, error.problem) if part)
+        raise ValueError(f'{at}: not valid YAML: {what}') from None
     except yaml.YAMLError as error:
-        raise ValueError(f"{where}: not valid YAML: {clip(str(error))}") from None
+        raise ValueError(f'{where}: not valid YAML: {clip(str(error))}') from None
     except RecursionError:
-        raise ValueError(f"{where}: not valid YAML: nested too deeply (more than {MAX_YAML_DEPTH} levels)") from None
-    except (KeyError, IndexError, TypeError, OverflowError) as error:  # PyYAML's constructors on odd scalars
-        raise ValueError(f"{where}: not valid YAML: a value cannot be read ({type(error).__name__}: "
-                         f"{clip(str(error))})") from None
+        raise ValueError(
+            f'{where}: not valid YAML: nested too deeply (more than {MAX_YAML_DEPTH} levels)'
+        ) from None
+    except (
+        KeyError,
+        IndexError,
+        TypeError,
+        OverflowError,
+    ) as error:  # PyYAML's constructors on odd scalars
+        raise ValueError(
+            f'{where}: not valid YAML: a value cannot be read ({type(error).__name__}: '
+            f'{clip(str(error))})'
+        ) from None
     except ValueError as error:
         if str(error).startswith(where):
             raise
-        raise ValueError(f"{where}: not valid YAML: a value cannot be read ({clip(str(error))})") from None
+        raise ValueError(
+            f'{where}: not valid YAML: a value cannot be read ({clip(str(error))})'
+        ) from None
     finally:
         if loader is not None:
             loader.dispose()
@@ -81,8 +112,10 @@ def _check_node_size(root, where: str) -> None:
     def visit(node, depth: int) -> int:
         if depth > MAX_YAML_DEPTH:
             mark = node.start_mark
-            raise ValueError(f"{where}:{mark.line + 1}:{mark.column + 1}: nested too deeply "
-                             f"(more than {MAX_YAML_DEPTH} levels)")
+            raise ValueError(
+                f'{where}:{mark.line + 1}:{mark.column + 1}: nested too deeply '
+                f'(more than {MAX_YAML_DEPTH} levels)'
+            )
         key = id(node)
         if key in sizes and depths[key] <= depth:
             return sizes[key]
@@ -97,8 +130,10 @@ def _check_node_size(root, where: str) -> None:
         for item in children:
             size += visit(item, depth + 1)
             if size > MAX_YAML_NODES:
-                raise ValueError(f"{where}: too large once its aliases are expanded (more than "
-                                 f"{MAX_YAML_NODES:,} values)")
+                raise ValueError(
+                    f'{where}: too large once its aliases are expanded (more than '
+                    f'{MAX_YAML_NODES:,} values)'
+                )
         sizes[key] = size
         return size
 
@@ -107,4 +142,4 @@ def _check_node_size(root, where: str) -> None:
 
 def clip(text: str, limit: int = 160) -> str:
     """Error messages quote at most this much of an input."""
-    return text if len(text) <= limit else text[:limit] + f"… ({len(text)} characters)"
+    return text if len(text) <= limit else text[:limit] + f'… ({len(text)} characters)'

@@ -1,4 +1,19 @@
-"""A started simulation on the contract's sample grid, shared by the node and the offline tools.
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+A started simulation on the contract's sample grid, shared by the node and the offline tools.
 
 Sample ``k`` after a (re)start is the state at exactly ``t_k = k / rate``, stamped
 ``epoch + t_k`` in integer nanoseconds. Samples come in vectorised blocks; for a given propagator a
@@ -19,7 +34,6 @@ from .accuracy import estimate_accuracy
 from .effects.commands import command_inputs
 from .propagators import Propagator
 from .timing import check_rate, stamps_ns
-
 
 MAX_STAMP_S = 2**31  # builtin_interfaces/Time.sec is an int32
 
@@ -51,10 +65,19 @@ class Invariants:
 
 
 class Simulation:
-    """``propagator`` sampled at ``rate`` Hz from ``epoch_ns``, with ``outputs`` (output effects)."""
+    """
+    ``propagator`` sampled at ``rate`` Hz from ``epoch_ns``, with ``outputs`` (output
+    effects).
+    """
 
-    def __init__(self, propagator: Propagator, rate: float, epoch_ns: int = 0, rate_name: str = "rate",
-                 outputs=()):
+    def __init__(
+        self,
+        propagator: Propagator,
+        rate: float,
+        epoch_ns: int = 0,
+        rate_name: str = 'rate',
+        outputs=(),
+    ):
         self.propagator = propagator
         self.rate = check_rate(rate, rate_name)
         self.epoch_ns = int(epoch_ns)
@@ -64,7 +87,10 @@ class Simulation:
             hold.start(self.rate, self.epoch_ns)
         self.outputs = tuple(outputs)
         self._every = tuple(output.every(self.rate, rate_name) for output in self.outputs)
-        self._streams = tuple(output.stream(self.rate / every, propagator) for output, every in zip(self.outputs, self._every))
+        self._streams = tuple(
+            output.stream(self.rate / every, propagator)
+            for output, every in zip(self.outputs, self._every)
+        )
         omega0, x0 = propagator.omega0_B, propagator.x0
         self.kinetic_energy0 = float(propagator.energy(omega0, x0))
         self.momentum0 = float(np.linalg.norm(propagator.momentum_B(omega0, x0)))
@@ -76,7 +102,10 @@ class Simulation:
 
     @property
     def command_holds(self) -> tuple:
-        """``(effect, hold)`` of each effect that takes commands (``torque_command``), in scene order."""
+        """
+        ``(effect, hold)`` of each effect that takes commands (``torque_command``), in scene
+        order.
+        """
         return tuple((effect, effect.hold) for effect in command_inputs(self.propagator.effects))
 
     def stamp_ns(self, k: int) -> int:
@@ -86,13 +115,19 @@ class Simulation:
     def samples(self, first: int, count: int) -> SampleBlock:
         times = np.arange(first, first + count) / self.rate
         if count and self.epoch_ns / 1e9 + times[-1] >= MAX_STAMP_S:
-            raise ValueError(f"sample {first + count - 1}: its stamp would pass 2^31 s, the end of "
-                             "builtin_interfaces/Time (int32 seconds)")
+            raise ValueError(
+                f'sample {first + count - 1}: its stamp would pass 2^31 s, the end of '
+                'builtin_interfaces/Time (int32 seconds)'
+            )
         omega, q, internal = self.propagator.states(times)
         if not (np.all(np.isfinite(omega)) and np.all(np.isfinite(q))):
-            bad = int(np.argmin(np.all(np.isfinite(omega), axis=1) & np.all(np.isfinite(q), axis=1)))
-            raise ValueError(f"the state at t = {times[bad]:g} s is not finite: this body and initial state leave "
-                             f"float64's range (propagator {self.propagator.describe()})")
+            bad = int(
+                np.argmin(np.all(np.isfinite(omega), axis=1) & np.all(np.isfinite(q), axis=1))
+            )
+            raise ValueError(
+                f'the state at t = {times[bad]:g} s is not finite: this body and initial state leave '
+                f"float64's range (propagator {self.propagator.describe()})"
+            )
         outputs, positions = [], []
         for stream, every in zip(self._streams, self._every):
             if every == 1:
@@ -101,18 +136,34 @@ class Simulation:
                 continue
             start = -(-first // every) * every  # the block's first sample k with k % every == 0
             picked = np.arange(start - first, count, every)
-            outputs.append(stream.rows(start // every, times[picked], omega[picked], q[picked], internal[picked]))
+            outputs.append(
+                stream.rows(
+                    start // every, times[picked], omega[picked], q[picked], internal[picked]
+                )
+            )
             positions.append(picked)
-        return SampleBlock(first, times, stamps_ns(self.epoch_ns, times), omega, q, internal, tuple(outputs),
-                           tuple(positions))
+        return SampleBlock(
+            first,
+            times,
+            stamps_ns(self.epoch_ns, times),
+            omega,
+            q,
+            internal,
+            tuple(outputs),
+            tuple(positions),
+        )
 
     def invariants(self, omega_B, internal=None) -> Invariants:
-        """Energy and momentum (body + effects) of a sample and their drift since the (re)start.
-        Where the scene conserves them, the drift is the propagator's error (the exact one: zero up to
-        rounding); a torque or a damper changes them by physics."""
+        """
+        Energy and momentum (body + effects) of a sample and their drift since the (re)start.
+        Where the scene conserves them, the drift is the propagator's error (the exact one: zero up
+        to rounding); a torque or a damper changes them by physics.
+        """
         if internal is None:
             if self.propagator.dynamics.state_size:
-                raise ValueError("internal: the scene's effects carry a state of their own; pass it")
+                raise ValueError(
+                    "internal: the scene's effects carry a state of their own; pass it"
+                )
             internal = self.propagator.x0
         energy = float(self.propagator.energy(omega_B, internal))
         momentum = float(np.linalg.norm(self.propagator.momentum_B(omega_B, internal)))
@@ -125,35 +176,41 @@ class Simulation:
         )
 
     def summary(self) -> str:
-        """One line: inertia, initial state, invariants, regime with its period, propagator and the
-        accuracy it delivers, rate and the stamp of sample 0."""
+        """
+        One line: inertia, initial state, invariants, regime with its period, propagator and the
+        accuracy it delivers, rate and the stamp of sample 0.
+        """
         body, p = self.body, self.propagator
         inertia = _fmt(body.moments)
         if np.any(body.tensor - np.diag(np.diag(body.tensor))):
             t = body.tensor
-            inertia = (f"tensor {_fmt([t[0, 0], t[1, 1], t[2, 2], t[0, 1], t[0, 2], t[1, 2]])} "
-                       f"-> principal moments {inertia}")
+            inertia = (
+                f'tensor {_fmt([t[0, 0], t[1, 1], t[2, 2], t[0, 1], t[0, 2], t[1, 2]])} '
+                f'-> principal moments {inertia}'
+            )
         return (
-            f"inertia {inertia} kg m^2, w0 {_fmt(p.omega0_B)} rad/s, q0 {_fmt(p.q0_NB)}, "
-            f"T {self.kinetic_energy0:.9g} J, |H| {self.momentum0:.9g} kg m^2/s, "
-            f"{'regime' if p.dynamics.torque_free else 'torque-free regime of the initial state'}: "
-            f"{self.regime.summary()}; effects {self.describe_effects()}; "
-            f"propagator {p.describe()}, accuracy: {self.accuracy}; {self.rate:g} Hz, "
-            f"first stamp {self.epoch_ns // 10**9}.{self.epoch_ns % 10**9:09d} s"
+            f'inertia {inertia} kg m^2, w0 {_fmt(p.omega0_B)} rad/s, q0 {_fmt(p.q0_NB)}, '
+            f'T {self.kinetic_energy0:.9g} J, |H| {self.momentum0:.9g} kg m^2/s, '
+            f'{"regime" if p.dynamics.torque_free else "torque-free regime of the initial state"}: '
+            f'{self.regime.summary()}; effects {self.describe_effects()}; '
+            f'propagator {p.describe()}, accuracy: {self.accuracy}; {self.rate:g} Hz, '
+            f'first stamp {self.epoch_ns // 10**9}.{self.epoch_ns % 10**9:09d} s'
         )
 
     @cached_property
     def accuracy(self) -> str:
-        """What the propagator's settings deliver from this initial state (measured once, on fresh
-        propagators: :func:`~torquefree_ros.core.accuracy.estimate_accuracy`)."""
+        """
+        What the propagator's settings deliver from this initial state (measured once, on fresh
+        propagators: :func:`~torquefree_ros.core.accuracy.estimate_accuracy`).
+        """
         try:
             return estimate_accuracy(self.propagator).describe()
         except Exception as error:  # noqa: BLE001 - the estimate informs; it must not stop a run
-            return f"not estimated ({error})"
+            return f'not estimated ({error})'
 
     def describe_effects(self) -> str:
         named = [effect.describe() for effect in (*self.propagator.effects, *self.outputs)]
-        return ", ".join(named) if named else "none (torque-free)"
+        return ', '.join(named) if named else 'none (torque-free)'
 
 
 def _relative(value: float, reference: float) -> float:
@@ -161,4 +218,4 @@ def _relative(value: float, reference: float) -> float:
 
 
 def _fmt(values) -> str:
-    return "[" + ", ".join(f"{float(v):.9g}" for v in values) + "]"
+    return '[' + ', '.join(f'{float(v):.9g}' for v in values) + ']'

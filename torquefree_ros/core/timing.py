@@ -1,3 +1,17 @@
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """The contract's sample times: sample ``k`` is the state at exactly ``t_k = k / rate``."""
 
 from __future__ import annotations
@@ -14,7 +28,7 @@ _COUNT_RTOL = 1e-12
 def sample_count(duration: float, rate: float) -> int:
     """How many samples ``k = 0 ... floor(duration * rate)`` there are (both ends included)."""
     if not (math.isfinite(duration) and duration >= 0.0):
-        raise ValueError(f"duration: must be a finite number >= 0, got {duration!r}")
+        raise ValueError(f'duration: must be a finite number >= 0, got {duration!r}')
     rate = check_rate(rate)
     return math.floor(duration * rate * (1.0 + _COUNT_RTOL)) + 1
 
@@ -30,13 +44,15 @@ MAX_RATE = 1e6
 MIN_RATE = 1e-3
 
 
-def check_rate(rate, name: str = "rate") -> float:
+def check_rate(rate, name: str = 'rate') -> float:
     """A sample rate in Hz: a finite number in [MIN_RATE, MAX_RATE]."""
     if isinstance(rate, bool) or not isinstance(rate, (int, float, np.integer, np.floating)):
-        raise ValueError(f"{name}: expected a number (Hz), got {rate!r}")
+        raise ValueError(f'{name}: expected a number (Hz), got {rate!r}')
     rate = float(rate)
     if not (math.isfinite(rate) and MIN_RATE <= rate <= MAX_RATE):
-        raise ValueError(f"{name}: must be a finite number in [{MIN_RATE:g}, {MAX_RATE:g}] Hz, got {rate!r}")
+        raise ValueError(
+            f'{name}: must be a finite number in [{MIN_RATE:g}, {MAX_RATE:g}] Hz, got {rate!r}'
+        )
     return rate
 
 
@@ -46,8 +62,10 @@ def stamps_ns(epoch_ns: int, times: np.ndarray) -> np.ndarray:
 
 
 def restart_epoch_ns(now_ns: int, last_stamp_ns: int | None, rate: float) -> int:
-    """The epoch of a (re)start: now, but never before one period after the last published stamp,
-    so stamps never go backwards and a clock of our own keeps its cadence across a reset."""
+    """
+    The epoch of a (re)start: now, but never before one period after the last published stamp,
+    so stamps never go backwards and a clock of our own keeps its cadence across a reset.
+    """
     if last_stamp_ns is None:
         return int(now_ns)
     return max(int(now_ns), int(last_stamp_ns) + max(1, round(1e9 / rate)))

@@ -1,75 +1,98 @@
-"""Gymnasium environments over the plant: one body (:class:`AttitudeEnv`) or a batch (:class:`AttitudeVectorEnv`).
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
 
-Optional: this module needs ``gymnasium`` (the ``gym`` extra, ``pip install 'torquefree_ros[gym]'``);
-``import torquefree_ros`` does not import it. Importing this module registers the id
-``torquefree_ros/Attitude-v0``: ``gymnasium.make("torquefree_ros/Attitude-v0", scene="detumble")`` and
-``gymnasium.make_vec(..., num_envs=N, vectorization_mode="vector_entry_point")``.
+"""
+Gymnasium environments over the plant: one body (:class:`AttitudeEnv`) or a batch
+(:class:`AttitudeVectorEnv`).
+
+Optional: this module needs ``gymnasium`` (the ``gym`` extra, ``pip install
+'torquefree_ros[gym]'``); ``import torquefree_ros`` does not import it. Importing this module
+registers the id ``torquefree_ros/Attitude-v0``: ``gymnasium.make("torquefree_ros/Attitude-v0",
+scene="detumble")`` and ``gymnasium.make_vec(..., num_envs=N,
+vectorization_mode="vector_entry_point")``.
 
 The task (both environments)
 ----------------------------
-A scene that takes torque (it names a ``torque_command`` effect) is stepped by a :class:`~torquefree_ros.Plant`
-at ``rate`` Hz. Step ``k`` holds the action ``tau_k`` (N m, in the ``torque_command`` effect's frame:
-body or inertial) over ``[t_k, t_k+1)``, ``t_k = k / rate``, and observes the state at ``k + 1``.
+A scene that takes torque (it names a ``torque_command`` effect) is stepped by a
+:class:`~torquefree_ros.Plant` at ``rate`` Hz. Step ``k`` holds the action ``tau_k`` (N m, in the
+``torque_command`` effect's frame: body or inertial) over ``[t_k, t_k+1)``, ``t_k = k / rate``, and
+observes the state at ``k + 1``.
 
 * **Action space**: ``Box(-max_torque, max_torque, (3,), float64)``, ``max_torque`` the scene's
-  ``torque_command.max_torque``. An action is converted to float64; a finite action outside the box is
-  **clipped to the box** (the torque the scene can take; the plant itself would refuse it), and the
-  clipping is reported, not silent: ``info["torque"]`` is the torque actually held and
-  ``info["clipped"]`` says whether it differs from the action. An action that is not finite (NaN, inf),
-  not numbers, or of the wrong shape raises ``ValueError`` naming ``action`` and changes nothing.
-* **Observation**: ``[omega_B (3, rad/s, body frame), q_NB (4, x y z w), the effects' own states]``,
-  float64 (the plant's state, bit for bit). Bounds: the quaternion's components in ``[-1, 1]``; when the
-  scene's only motion effect is ``torque_command``, each rate within ``(|H_0| + sqrt(3) max_torque
-  max_steps / rate) / I_min`` (the momentum the box can add in an episode, ``|H_0| <= I_max
-  |omega_0|`` over the initial rates ``reset`` can draw), else unbounded (Gymnasium's checker then warns
-  about the infinite bounds: none is known for other effects); the effects' own states are unbounded.
+  ``torque_command.max_torque``. An action is converted to float64; a finite action outside the box
+  is **clipped to the box** (the torque the scene can take; the plant itself would refuse it), and
+  the clipping is reported, not silent: ``info["torque"]`` is the torque actually held and
+  ``info["clipped"]`` says whether it differs from the action. An action that is not finite (NaN,
+  inf), not numbers, or of the wrong shape raises ``ValueError`` naming ``action`` and changes
+  nothing.
+* **Observation**: ``[omega_B (3, rad/s, body frame), q_NB (4, x y z w), the effects' own
+  states]``, float64 (the plant's state, bit for bit). Bounds: the quaternion's components in
+  ``[-1, 1]``; when the scene's only motion effect is ``torque_command``, each rate within ``(|H_0|
+  + sqrt(3) max_torque max_steps / rate) / I_min`` (the momentum the box can add in an episode,
+    ``|H_0| <= I_max
+  |omega_0|`` over the initial rates ``reset`` can draw), else unbounded (Gymnasium's checker then
+  warns about the infinite bounds: none is known for other effects); the effects' own states are
+  unbounded.
 * **Reward** (:class:`DetumbleReward`, the default; ``h = 1 / rate``)::
 
       r_k = -h * ( |omega_B(t_k+1)|^2 / omega_ref^2 + c * |tau_k|^2 / max_torque^2 )
 
   ``omega_ref = |omega_0|`` of the scene (its own initial rate; 1 rad/s if that is zero), ``c =
-  torque_weight`` (default 0.1), ``tau_k`` the torque held. The return is a right Riemann sum of the
-  quadratic cost ``-integral (|omega|^2 / omega_ref^2 + c |tau|^2 / max_torque^2) dt``: about the same
-  for any rate, ``-T`` for ``T`` seconds of the initial tumble left alone. ``reward`` may be any
-  callable ``reward(state, torque, next_state)`` of two :class:`~torquefree_ros.PlantState` and the
-  torque held, returning a float (the vector environment calls it once a step on the whole batch: rows
-  of bodies, returning ``(N,)``).
+  torque_weight`` (default 0.1), ``tau_k`` the torque held. The return is a right Riemann sum of
+  the quadratic cost ``-integral (|omega|^2 / omega_ref^2 + c |tau|^2 / max_torque^2) dt``: about
+  the same for any rate, ``-T`` for ``T`` seconds of the initial tumble left alone. ``reward`` may
+  be any callable ``reward(state, torque, next_state)`` of two :class:`~torquefree_ros.PlantState`
+  and the torque held, returning a float (the vector environment calls it once a step on the whole
+  batch: rows of bodies, returning ``(N,)``).
 * **terminated**: ``|omega_B(t_k+1)| < omega_tol`` (default 1e-3 rad/s, 0.057 deg/s).
-  **truncated**: ``k + 1 >= max_steps`` (default 1000, 100 s at 10 Hz). Stepping a truncated episode
-  again raises ``RuntimeError`` (``reset()`` first); a terminated one may go on until ``max_steps``.
-* **info**: ``t`` (s since the episode began, ``t_k+1``), ``torque`` (N m, the torque held, ``(3,)``),
-  ``clipped`` (bool).
-* **reset(seed=..., options=...)**: ``seed`` seeds ``np_random`` (Gymnasium's rule). The episode starts
-  from the scene's own initial state, unless ``randomize`` (the constructor's, or
+  **truncated**: ``k + 1 >= max_steps`` (default 1000, 100 s at 10 Hz). Stepping a truncated
+  episode again raises ``RuntimeError`` (``reset()`` first); a terminated one may go on until
+  ``max_steps``.
+* **info**: ``t`` (s since the episode began, ``t_k+1``), ``torque`` (N m, the torque held,
+  ``(3,)``), ``clipped`` (bool).
+* **reset(seed=..., options=...)**: ``seed`` seeds ``np_random`` (Gymnasium's rule). The episode
+  starts from the scene's own initial state, unless ``randomize`` (the constructor's, or
   ``options={"randomize": True}`` for this reset): then the initial body rate is drawn from
-  ``np_random`` around the scene's, ``omega_0 = omega_scene + spread * |omega_scene| * u``, ``u`` three
-  draws of ``np_random.uniform(-1, 1, 3)`` (``spread`` default 0.25); the attitude and the effects'
-  states are the scene's.
+  ``np_random`` around the scene's, ``omega_0 = omega_scene + spread * |omega_scene| * u``, ``u``
+  three draws of ``np_random.uniform(-1, 1, 3)`` (``spread`` default 0.25); the attitude and the
+  effects' states are the scene's.
 
 The vector environment
 ----------------------
-:class:`AttitudeVectorEnv` holds N such bodies (one scene for all, or a list of scenes with the same
-kinds of motion effects and the same ``max_torque``), observations ``(N, 7 + m)``, actions ``(N, 3)``,
-with Gymnasium 1.x's **next-step autoreset** (``metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP``):
-a body whose episode ended on step ``k`` is reset on step ``k + 1`` (its action is ignored, its reward
-0, terminated and truncated False, its observation the new episode's first). Body ``i`` is bit for bit
-an :class:`AttitudeEnv` of its scene reset with seed ``seed + i`` (``reset(seed=seed)``; a list gives
-each its own) under the same actions, episode after episode: the same plant, the same draws.
+:class:`AttitudeVectorEnv` holds N such bodies (one scene for all, or a list of scenes with the
+same kinds of motion effects and the same ``max_torque``), observations ``(N, 7 + m)``, actions
+``(N, 3)``, with Gymnasium 1.x's **next-step autoreset** (``metadata["autoreset_mode"] ==
+AutoresetMode.NEXT_STEP``): a body whose episode ended on step ``k`` is reset on step ``k + 1``
+(its action is ignored, its reward 0, terminated and truncated False, its observation the new
+episode's first). Body ``i`` is bit for bit an :class:`AttitudeEnv` of its scene reset with seed
+``seed + i`` (``reset(seed=seed)``; a list gives each its own) under the same actions, episode
+after episode: the same plant, the same draws.
 
-Bodies that begin their episodes on the same step share one batched :class:`~torquefree_ros.Plant` (a
-*cohort*), advanced by one compiled call a step; a plant's bodies share its clock, and a body's samples
-depend on its episode's clock, so a body that resets starts a new cohort (a new plant) rather than
-re-entering the old one, whose remaining bodies go on untouched. A cohort's rows whose bodies have left
-are still advanced (with zero torque) until all have left, at the latest ``max_steps`` after it began.
-When all bodies start and end their episodes together (a fixed episode length, no termination, or all
-reset at once) there is one cohort: one compiled call a step for the whole batch; bodies that end at
-different steps cost one call per cohort.
+Bodies that begin their episodes on the same step share one batched :class:`~torquefree_ros.Plant`
+(a *cohort*), advanced by one compiled call a step; a plant's bodies share its clock, and a body's
+samples depend on its episode's clock, so a body that resets starts a new cohort (a new plant)
+rather than re-entering the old one, whose remaining bodies go on untouched. A cohort's rows whose
+bodies have left are still advanced (with zero torque) until all have left, at the latest
+``max_steps`` after it began. When all bodies start and end their episodes together (a fixed
+episode length, no termination, or all reset at once) there is one cohort: one compiled call a step
+for the whole batch; bodies that end at different steps cost one call per cohort.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import replace
+import math
 from typing import Any, Callable
 
 import numpy as np
@@ -82,16 +105,18 @@ try:
     from gymnasium.vector import AutoresetMode, VectorEnv
     from gymnasium.vector.utils import batch_space
 except ImportError as error:  # pragma: no cover - the extra is not installed
-    raise ImportError("torquefree_ros.plant.gym needs gymnasium (the 'gym' extra: pip install "
-                      "'torquefree_ros[gym]')") from error
+    raise ImportError(
+        "torquefree_ros.plant.gym needs gymnasium (the 'gym' extra: pip install "
+        "'torquefree_ros[gym]')"
+    ) from error
 
+from .plant import _as_scene, Plant, PlantState
 from ..core.rigid_body import RigidBody
 from ..core.scene import Scene
-from .plant import Plant, PlantState, _as_scene
 
-__all__ = ["ENV_ID", "AttitudeEnv", "AttitudeVectorEnv", "DetumbleReward"]
+__all__ = ['ENV_ID', 'AttitudeEnv', 'AttitudeVectorEnv', 'DetumbleReward']
 
-ENV_ID = "torquefree_ros/Attitude-v0"
+ENV_ID = 'torquefree_ros/Attitude-v0'
 OMEGA_TOL = 1e-3  # rad/s
 MAX_STEPS = 1000
 SPREAD = 0.25
@@ -99,9 +124,12 @@ TORQUE_WEIGHT = 0.1
 
 
 class DetumbleReward:
-    """``r_k = -h (|omega_B(t_k+1)|^2 / omega_ref^2 + c |tau_k|^2 / max_torque^2)``, ``h = dt``,
-    ``c = torque_weight`` (the module's docstring). Works on one body's arrays (a float) and on a batch's
-    rows (``(N,)``; ``omega_ref`` may then be ``(N,)``) with the same arithmetic, element by element."""
+    """
+    ``r_k = -h (|omega_B(t_k+1)|^2 / omega_ref^2 + c |tau_k|^2 / max_torque^2)``, ``h = dt``,
+    ``c = torque_weight`` (the module's docstring). Works on one body's arrays (a float) and on a
+    batch's rows (``(N,)``; ``omega_ref`` may then be ``(N,)``) with the same arithmetic, element
+    by element.
+    """
 
     def __init__(self, omega_ref, max_torque, dt: float, torque_weight: float = TORQUE_WEIGHT):
         self.omega_ref = omega_ref
@@ -117,51 +145,89 @@ class DetumbleReward:
         return -self.dt * (w2 / self._omega_ref2 + self.torque_weight * (t2 / self._torque_max2))
 
     def __repr__(self) -> str:
-        return (f"DetumbleReward(omega_ref={self.omega_ref!r}, max_torque={self.max_torque!r}, dt={self.dt!r}, "
-                f"torque_weight={self.torque_weight!r})")
+        return (
+            f'DetumbleReward(omega_ref={self.omega_ref!r}, max_torque={self.max_torque!r}, dt={self.dt!r}, '
+            f'torque_weight={self.torque_weight!r})'
+        )
 
 
 class AttitudeEnv(gymnasium.Env):
-    """One body of a scene that takes torque, as a Gymnasium environment (the module's docstring).
+    """
+    One body of a scene that takes torque, as a Gymnasium environment (the module's docstring).
 
-    ``scene``: a :class:`~torquefree_ros.Scene`, a scene file's path or a library scene's name, with a
-    ``torque_command`` effect (else ``ValueError``); ``rate``: Hz; ``max_steps``: the episode's length
-    (truncation); ``reward``: ``reward(state, torque, next_state) -> float``, default
+    ``scene``: a :class:`~torquefree_ros.Scene`, a scene file's path or a library scene's name,
+    with a ``torque_command`` effect (else ``ValueError``); ``rate``: Hz; ``max_steps``: the
+    episode's length (truncation); ``reward``: ``reward(state, torque, next_state) -> float``,
+    default
     :class:`DetumbleReward`; ``omega_tol``: rad/s, the rate below which the episode terminates;
-    ``randomize``, ``spread``: the initial rate drawn at every reset (see ``reset``); ``torque_weight``:
-    ``c`` of the default reward."""
+    ``randomize``, ``spread``: the initial rate drawn at every reset (see ``reset``);
+    ``torque_weight``: ``c`` of the default reward.
+    """
 
-    metadata = {"render_modes": []}
+    metadata = {'render_modes': []}
 
-    def __init__(self, scene="detumble", rate: float = 10.0, max_steps: int = MAX_STEPS,
-                 reward: Callable | None = None, *, omega_tol: float = OMEGA_TOL, randomize: bool = False,
-                 spread: float = SPREAD, torque_weight: float = TORQUE_WEIGHT, render_mode: str | None = None):
+    def __init__(
+        self,
+        scene='detumble',
+        rate: float = 10.0,
+        max_steps: int = MAX_STEPS,
+        reward: Callable | None = None,
+        *,
+        omega_tol: float = OMEGA_TOL,
+        randomize: bool = False,
+        spread: float = SPREAD,
+        torque_weight: float = TORQUE_WEIGHT,
+        render_mode: str | None = None,
+    ):
         if render_mode is not None:
-            raise ValueError(f"render_mode: this environment does not render, got {render_mode!r}")
-        self.scene = _as_scene(scene, "scene")
+            raise ValueError(f'render_mode: this environment does not render, got {render_mode!r}')
+        self.scene = _as_scene(scene, 'scene')
         plant = Plant(self.scene, rate)
         self.rate = plant.rate
-        self.max_steps = _positive_int(max_steps, "max_steps")
-        self.omega_tol = _non_negative(omega_tol, "omega_tol")
-        self.spread = _non_negative(spread, "spread")
+        self.max_steps = _positive_int(max_steps, 'max_steps')
+        self.omega_tol = _non_negative(omega_tol, 'omega_tol')
+        self.spread = _non_negative(spread, 'spread')
         self.randomize = bool(randomize)
-        self.max_torque = _max_torque(plant, "scene")
-        self.frame = "inertial" if _command_effect(plant.scenes[0]).inertial else "body"
-        self.reward = (DetumbleReward(_omega_ref(self.scene), self.max_torque, 1.0 / self.rate, torque_weight)
-                       if reward is None else reward)
+        self.max_torque = _max_torque(plant, 'scene')
+        self.frame = 'inertial' if _command_effect(plant.scenes[0]).inertial else 'body'
+        self.reward = (
+            DetumbleReward(_omega_ref(self.scene), self.max_torque, 1.0 / self.rate, torque_weight)
+            if reward is None
+            else reward
+        )
         if not callable(self.reward):
-            raise ValueError(f"reward: expected a callable reward(state, torque, next_state), got {reward!r}"[:300])
+            raise ValueError(
+                f'reward: expected a callable reward(state, torque, next_state), got {reward!r}'[
+                    :300
+                ]
+            )
         self.action_space = spaces.Box(-self.max_torque, self.max_torque, (3,), np.float64)
-        self.observation_space = _observation_space(self.scene, plant.state.internal.size, self.max_torque,
-                                                    self.max_steps / self.rate, self.spread)
+        self.observation_space = _observation_space(
+            self.scene,
+            plant.state.internal.size,
+            self.max_torque,
+            self.max_steps / self.rate,
+            self.spread,
+        )
         self._tol2 = self.omega_tol * self.omega_tol
         self._plant: Plant | None = None
         self._state: PlantState | None = None
-        # what gymnasium.make would give it: a spec that makes this environment again (env.spec.make())
+        # what gymnasium.make would give it: a spec that makes this environment again
+        # (env.spec.make())
         self.spec = EnvSpec(
-            ENV_ID, entry_point=f"{__name__}:AttitudeEnv",
-            kwargs={"scene": scene, "rate": rate, "max_steps": max_steps, "reward": reward, "omega_tol": omega_tol,
-                    "randomize": randomize, "spread": spread, "torque_weight": torque_weight})
+            ENV_ID,
+            entry_point=f'{__name__}:AttitudeEnv',
+            kwargs={
+                'scene': scene,
+                'rate': rate,
+                'max_steps': max_steps,
+                'reward': reward,
+                'omega_tol': omega_tol,
+                'randomize': randomize,
+                'spread': spread,
+                'torque_weight': torque_weight,
+            },
+        )
 
     @property
     def plant(self) -> Plant | None:
@@ -169,88 +235,133 @@ class AttitudeEnv(gymnasium.Env):
         return self._plant
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
-        """Start an episode at ``t = 0``: from the scene's initial state, or with the initial body rate drawn
-        from ``np_random`` when ``randomize`` (the constructor's; ``options={"randomize": bool}`` for this
-        reset). Returns ``(observation, {"t": 0.0})``."""
+        """
+        Start an episode at ``t = 0``: from the scene's initial state, or with the initial body
+        rate drawn from ``np_random`` when ``randomize`` (the constructor's;
+        ``options={"randomize": bool}`` for this reset). Returns ``(observation, {"t": 0.0})``.
+        """
         super().reset(seed=seed)
         randomize = _reset_options(options, self.randomize)
         scene = _disperse(self.scene, self.spread, self.np_random) if randomize else self.scene
         self._plant = Plant(scene, self.rate)
         self._state = self._plant.state
-        return _observation(self._state), {"t": 0.0}
+        return _observation(self._state), {'t': 0.0}
 
     def step(self, action):
         """Hold ``action`` (clipped to the box, reported in ``info``) over one sample interval."""
         plant = self._plant
         if plant is None:
-            raise RuntimeError("step: call reset() before the first step")
+            raise RuntimeError('step: call reset() before the first step')
         if plant.k >= self.max_steps:
-            raise RuntimeError(f"step: the episode was truncated at max_steps = {self.max_steps}; call reset()")
+            raise RuntimeError(
+                f'step: the episode was truncated at max_steps = {self.max_steps}; call reset()'
+            )
         torque, clipped = _clip(action, (3,), self.max_torque)
         before = self._state
         self._state = plant.step(torque)
         reward = float(self.reward(before, torque, self._state))
         terminated = bool(_squared_norm(self._state.omega_B) < self._tol2)
         truncated = plant.k >= self.max_steps
-        return (_observation(self._state), reward, terminated, truncated,
-                {"t": plant.t, "torque": torque, "clipped": bool(clipped)})
+        return (
+            _observation(self._state),
+            reward,
+            terminated,
+            truncated,
+            {'t': plant.t, 'torque': torque, 'clipped': bool(clipped)},
+        )
 
 
 class AttitudeVectorEnv(VectorEnv):
-    """N bodies in batched plants, next-step autoreset (the module's docstring). ``scene``: one scene (a
-    Scene, path or library name) for ``num_envs`` bodies, or a list of scenes (one body each; their
-    motion effects of the same kinds and their ``max_torque`` equal). The other arguments are
+    """
+    N bodies in batched plants, next-step autoreset (the module's docstring). ``scene``: one
+    scene (a Scene, path or library name) for ``num_envs`` bodies, or a list of scenes (one body
+    each; their motion effects of the same kinds and their ``max_torque`` equal). The other
+    arguments are
     :class:`AttitudeEnv`'s; a ``reward`` is called once a step with the batch's rows and returns
     ``(N,)``.
 
-    ``reset(seed=..., options=...)``: ``seed`` an int (body ``i`` gets ``seed + i``), a list of N seeds or
-    ``None`` (each body keeps its generator); ``options``: ``randomize`` (bool, this reset) and
-    Gymnasium's ``reset_mask`` (``(N,)`` bool: reset only these bodies). ``step(actions)``: ``(N, 3)``;
-    ``info``: ``t``, ``torque`` and ``clipped`` per body, each with Gymnasium's ``_key`` mask (False for
-    a body reset on this step)."""
+    ``reset(seed=..., options=...)``: ``seed`` an int (body ``i`` gets ``seed + i``), a list of N
+    seeds or ``None`` (each body keeps its generator); ``options``: ``randomize`` (bool, this
+    reset) and Gymnasium's ``reset_mask`` (``(N,)`` bool: reset only these bodies).
+    ``step(actions)``: ``(N, 3)``; ``info``: ``t``, ``torque`` and ``clipped`` per body, each with
+    Gymnasium's ``_key`` mask (False for a body reset on this step).
+    """
 
-    metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
+    metadata = {'autoreset_mode': AutoresetMode.NEXT_STEP, 'render_modes': []}
 
-    def __init__(self, scene="detumble", num_envs: int | None = None, rate: float = 10.0,
-                 max_steps: int = MAX_STEPS, reward: Callable | None = None, *, omega_tol: float = OMEGA_TOL,
-                 randomize: bool = False, spread: float = SPREAD, torque_weight: float = TORQUE_WEIGHT,
-                 render_mode: str | None = None):
+    def __init__(
+        self,
+        scene='detumble',
+        num_envs: int | None = None,
+        rate: float = 10.0,
+        max_steps: int = MAX_STEPS,
+        reward: Callable | None = None,
+        *,
+        omega_tol: float = OMEGA_TOL,
+        randomize: bool = False,
+        spread: float = SPREAD,
+        torque_weight: float = TORQUE_WEIGHT,
+        render_mode: str | None = None,
+    ):
         if render_mode is not None:
-            raise ValueError(f"render_mode: this environment does not render, got {render_mode!r}")
+            raise ValueError(f'render_mode: this environment does not render, got {render_mode!r}')
         if isinstance(scene, (list, tuple)):
-            scenes = [_as_scene(s, f"scene[{i}]") for i, s in enumerate(scene)]
+            scenes = [_as_scene(s, f'scene[{i}]') for i, s in enumerate(scene)]
             if num_envs is not None and num_envs != len(scenes):
-                raise ValueError(f"num_envs: {num_envs} given with {len(scenes)} scenes")
+                raise ValueError(f'num_envs: {num_envs} given with {len(scenes)} scenes')
         else:
-            one = _as_scene(scene, "scene")
-            scenes = [one] * _positive_int(num_envs, "num_envs")
+            one = _as_scene(scene, 'scene')
+            scenes = [one] * _positive_int(num_envs, 'num_envs')
         if not scenes:
-            raise ValueError("scene: a batch needs at least one scene")
+            raise ValueError('scene: a batch needs at least one scene')
         plant = Plant(scenes, rate)  # refuses scenes of different kinds, with the reason
         self.scenes = scenes
         self.num_envs = len(scenes)
         self.rate = plant.rate
-        self.max_steps = _positive_int(max_steps, "max_steps")
-        self.omega_tol = _non_negative(omega_tol, "omega_tol")
-        self.spread = _non_negative(spread, "spread")
+        self.max_steps = _positive_int(max_steps, 'max_steps')
+        self.omega_tol = _non_negative(omega_tol, 'omega_tol')
+        self.spread = _non_negative(spread, 'spread')
         self.randomize = bool(randomize)
-        self.max_torque = _max_torque(plant, "scene[0]" if isinstance(scene, (list, tuple)) else "scene")
-        limits = [float(_command_effect(s).values["max_torque"]) for s in scenes]
+        self.max_torque = _max_torque(
+            plant, 'scene[0]' if isinstance(scene, (list, tuple)) else 'scene'
+        )
+        limits = [float(_command_effect(s).values['max_torque']) for s in scenes]
         for index, limit in enumerate(limits):
             if limit != self.max_torque:
-                raise ValueError(f"scene[{index}]: its max_torque {limit:g} N m differs from scene[0]'s "
-                                 f"{self.max_torque:g}: the bodies of a vector environment share one action space")
-        self.reward = (DetumbleReward(np.array([_omega_ref(s) for s in scenes]), self.max_torque, 1.0 / self.rate,
-                                      torque_weight) if reward is None else reward)
+                raise ValueError(
+                    f"scene[{index}]: its max_torque {limit:g} N m differs from scene[0]'s "
+                    f'{self.max_torque:g}: the bodies of a vector environment share one action space'
+                )
+        self.reward = (
+            DetumbleReward(
+                np.array([_omega_ref(s) for s in scenes]),
+                self.max_torque,
+                1.0 / self.rate,
+                torque_weight,
+            )
+            if reward is None
+            else reward
+        )
         if not callable(self.reward):
-            raise ValueError(f"reward: expected a callable reward(state, torque, next_state), got {reward!r}"[:300])
+            raise ValueError(
+                f'reward: expected a callable reward(state, torque, next_state), got {reward!r}'[
+                    :300
+                ]
+            )
         self._width = 7 + plant.state.internal.shape[1]
         self.single_action_space = spaces.Box(-self.max_torque, self.max_torque, (3,), np.float64)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
-        bounds = [_observation_space(s, self._width - 7, self.max_torque, self.max_steps / self.rate, self.spread)
-                  for s in _distinct(scenes)]
-        self.single_observation_space = spaces.Box(np.min([b.low for b in bounds], axis=0),
-                                                   np.max([b.high for b in bounds], axis=0), dtype=np.float64)
+        bounds = [
+            _observation_space(
+                s, self._width - 7, self.max_torque, self.max_steps / self.rate, self.spread
+            )
+            for s in _distinct(scenes)
+        ]
+        self.single_observation_space = spaces.Box(
+            np.min([b.low for b in bounds], axis=0),
+            np.max([b.high for b in bounds], axis=0),
+            dtype=np.float64,
+        )
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self._tol2 = self.omega_tol * self.omega_tol
         n = self.num_envs
@@ -280,7 +391,7 @@ class AttitudeVectorEnv(VectorEnv):
     def reset(self, *, seed=None, options: dict[str, Any] | None = None):
         n = self.num_envs
         options = dict(options or {})
-        mask = options.pop("reset_mask", None)
+        mask = options.pop('reset_mask', None)
         randomize = _reset_options(options, self.randomize)
         if seed is None:
             seeds = [None] * n
@@ -289,26 +400,32 @@ class AttitudeVectorEnv(VectorEnv):
         elif isinstance(seed, (list, tuple)) and len(seed) == n:
             seeds = list(seed)
         else:
-            raise ValueError(f"seed: expected None, an int or a list of {n} seeds, got {seed!r}"[:300])
+            raise ValueError(
+                f'seed: expected None, an int or a list of {n} seeds, got {seed!r}'[:300]
+            )
         if mask is None:
             bodies = np.arange(n)
         else:
             mask = np.asarray(mask)
             if mask.shape != (n,) or mask.dtype != np.bool_ or not mask.any():
-                raise ValueError(f"options['reset_mask']: expected a ({n},) bool array with a True, got {mask!r}"[:300])
+                raise ValueError(
+                    f"options['reset_mask']: expected a ({n},) bool array with a True, got {mask!r}"[
+                        :300
+                    ]
+                )
             if not self._started:
-                raise RuntimeError("reset: the first reset resets every body (no reset_mask)")
+                raise RuntimeError('reset: the first reset resets every body (no reset_mask)')
             bodies = np.flatnonzero(mask)
         for b in bodies:
             if seeds[b] is not None or self._rngs[b] is None:
                 self._rngs[b] = seeding.np_random(seeds[b])[0]
         self._begin(bodies, randomize)
         self._started = True
-        return self._obs.copy(), {"t": self._t.copy(), "_t": _mask(n, bodies)}
+        return self._obs.copy(), {'t': self._t.copy(), '_t': _mask(n, bodies)}
 
     def step(self, actions):
         if not self._started:
-            raise RuntimeError("step: call reset() before the first step")
+            raise RuntimeError('step: call reset() before the first step')
         n = self.num_envs
         torques, clipped = _clip(actions, (n, 3), self.max_torque)
         resetting = self._autoreset.copy()
@@ -319,21 +436,37 @@ class AttitudeVectorEnv(VectorEnv):
         self._steps[stepped] += 1
         after = _split(self._obs)
         held = np.where(stepped[:, None], torques, 0.0)
-        rewards = np.where(stepped, np.asarray(self.reward(before, held, after), dtype=np.float64), 0.0)
+        rewards = np.where(
+            stepped, np.asarray(self.reward(before, held, after), dtype=np.float64), 0.0
+        )
         terminated = stepped & (_squared_norm(after.omega_B) < self._tol2)
         truncated = stepped & (self._steps >= self.max_steps)
-        if resetting.any():  # next-step autoreset: those whose episode ended on the last step begin again
+        if (
+            resetting.any()
+        ):  # next-step autoreset: those whose episode ended on the last step begin again
             self._begin(np.flatnonzero(resetting), self.randomize)
         self._autoreset = terminated | truncated
-        info = {"t": self._t.copy(), "_t": np.ones(n, dtype=bool), "torque": held, "_torque": stepped.copy(),
-                "clipped": clipped & stepped, "_clipped": stepped.copy()}
+        info = {
+            't': self._t.copy(),
+            '_t': np.ones(n, dtype=bool),
+            'torque': held,
+            '_torque': stepped.copy(),
+            'clipped': clipped & stepped,
+            '_clipped': stepped.copy(),
+        }
         return self._obs.copy(), rewards, terminated, truncated, info
 
-    # -- internals ------------------------------------------------------------------------------------
+    # -- internals
+    # ------------------------------------------------------------------------------------
     def _begin(self, bodies: np.ndarray, randomize: bool) -> None:
-        """New episodes for ``bodies``: they leave their cohorts and form a new one, at its sample 0."""
-        scenes = [_disperse(self.scenes[b], self.spread, self._rngs[b]) if randomize else self.scenes[b]
-                  for b in bodies]
+        """
+        New episodes for ``bodies``: they leave their cohorts and form a new one, at its sample
+        0.
+        """
+        scenes = [
+            _disperse(self.scenes[b], self.spread, self._rngs[b]) if randomize else self.scenes[b]
+            for b in bodies
+        ]
         cohort = _Cohort(Plant(scenes, self.rate), bodies)
         for row, b in enumerate(bodies):
             old = self._cohort_of[b]
@@ -358,8 +491,10 @@ class AttitudeVectorEnv(VectorEnv):
 
 
 class _Cohort:
-    """Bodies that began their episodes on the same step, in one batched plant; row ``r`` is body
-    ``bodies[r]`` while ``alive[r]``."""
+    """
+    Bodies that began their episodes on the same step, in one batched plant; row ``r`` is body
+    ``bodies[r]`` while ``alive[r]``.
+    """
 
     def __init__(self, plant: Plant, bodies: np.ndarray):
         self.plant = plant
@@ -371,9 +506,13 @@ class _Cohort:
         return np.concatenate([state.omega_B, state.q_NB, state.internal], axis=1)
 
 
-# -- helpers --------------------------------------------------------------------------------------------
+# -- helpers
+# --------------------------------------------------------------------------------------------
 def _squared_norm(v):
-    """``v_x^2 + v_y^2 + v_z^2`` over the last axis, in the same order for one vector and for rows."""
+    """
+    ``v_x^2 + v_y^2 + v_z^2`` over the last axis, in the same order for one vector and for
+    rows.
+    """
     v = np.asarray(v)
     return v[..., 0] * v[..., 0] + v[..., 1] * v[..., 1] + v[..., 2] * v[..., 2]
 
@@ -393,33 +532,39 @@ def _mask(n: int, bodies: np.ndarray) -> np.ndarray:
 
 
 def _clip(action, shape: tuple, max_torque: float) -> tuple[np.ndarray, np.ndarray]:
-    """The action as float64 of ``shape``, clipped to ``[-max_torque, max_torque]``; and whether each
-    body's was clipped. Not numbers, the wrong shape or not finite: ``ValueError``."""
+    """
+    The action as float64 of ``shape``, clipped to ``[-max_torque, max_torque]``; and whether
+    each body's was clipped. Not numbers, the wrong shape or not finite: ``ValueError``.
+    """
     try:
         values = np.array(action, dtype=np.float64)
     except (TypeError, ValueError):
-        raise ValueError(f"action: expected numbers of shape {shape}, got {action!r}"[:300]) from None
+        raise ValueError(
+            f'action: expected numbers of shape {shape}, got {action!r}'[:300]
+        ) from None
     if values.shape != shape:
-        raise ValueError(f"action: expected shape {shape}, got {values.shape}")
+        raise ValueError(f'action: expected shape {shape}, got {values.shape}')
     finite = np.isfinite(values)
     if not finite.all():
         where = np.argwhere(~finite)[0]
-        body = f" (body {where[0]})" if len(shape) == 2 else ""
-        raise ValueError(f"action: not finite{body}: {values[tuple(where[:-1])].tolist()}")
+        body = f' (body {where[0]})' if len(shape) == 2 else ''
+        raise ValueError(f'action: not finite{body}: {values[tuple(where[:-1])].tolist()}')
     clipped = np.clip(values, -max_torque, max_torque)
     return clipped, np.any(clipped != values, axis=-1)
 
 
 def _command_effect(scene: Scene):
-    commands = [e for e in scene.effects if e.name == "torque_command"]
+    commands = [e for e in scene.effects if e.name == 'torque_command']
     return commands[0] if commands else None
 
 
 def _max_torque(plant: Plant, where: str) -> float:
     if not plant.takes_torque:
-        raise ValueError(f"{where}: {plant.scenes[0].source} takes no torque (it names no torque_command effect); "
-                         "an attitude environment needs one")
-    return float(_command_effect(plant.scenes[0]).values["max_torque"])
+        raise ValueError(
+            f'{where}: {plant.scenes[0].source} takes no torque (it names no torque_command effect); '
+            'an attitude environment needs one'
+        )
+    return float(_command_effect(plant.scenes[0]).values['max_torque'])
 
 
 def _omega_ref(scene: Scene) -> float:
@@ -428,18 +573,25 @@ def _omega_ref(scene: Scene) -> float:
 
 
 def _disperse(scene: Scene, spread: float, rng: np.random.Generator) -> Scene:
-    """The scene with its initial body rate drawn around its own: ``omega + spread |omega| u``, ``u`` from
-    ``rng.uniform(-1, 1, 3)``."""
+    """
+    The scene with its initial body rate drawn around its own: ``omega + spread |omega| u``,
+    ``u`` from ``rng.uniform(-1, 1, 3)``.
+    """
     omega = np.asarray(scene.angular_velocity, dtype=float)
     drawn = omega + spread * float(np.linalg.norm(omega)) * rng.uniform(-1.0, 1.0, 3)
     return replace(scene, angular_velocity=tuple(float(x) for x in drawn))
 
 
-def _observation_space(scene: Scene, internal: int, max_torque: float, duration: float, spread: float) -> spaces.Box:
-    """The module's bounds: the rates within what the box can add to the initial momentum in ``duration``
-    when ``torque_command`` is the only motion effect (|omega| <= |H| / I_min), else unbounded."""
+def _observation_space(
+    scene: Scene, internal: int, max_torque: float, duration: float, spread: float
+) -> spaces.Box:
+    """
+    The module's bounds: the rates within what the box can add to the initial momentum in
+    ``duration`` when ``torque_command`` is the only motion effect (|omega| <= |H| / I_min), else
+    unbounded.
+    """
     rate = math.inf
-    if all(e.name == "torque_command" for e in scene.effects):
+    if all(e.name == 'torque_command' for e in scene.effects):
         moments = RigidBody.from_inertia(scene.inertia).moments
         omega0 = float(np.linalg.norm(np.asarray(scene.angular_velocity, dtype=float)))
         omega0 *= 1.0 + math.sqrt(3.0) * spread  # the largest rate reset can draw
@@ -460,7 +612,7 @@ def _distinct(scenes: list) -> list:
 
 def _reset_options(options, default: bool) -> bool:
     options = {} if options is None else dict(options)
-    randomize = options.pop("randomize", default)
+    randomize = options.pop('randomize', default)
     if options:
         raise ValueError(f"options: unknown {sorted(options)} (known: 'randomize')")
     if not isinstance(randomize, (bool, np.bool_)):
@@ -470,17 +622,23 @@ def _reset_options(options, default: bool) -> bool:
 
 def _positive_int(value, name: str) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-        raise ValueError(f"{name}: expected a positive integer, got {value!r}")
+        raise ValueError(f'{name}: expected a positive integer, got {value!r}')
     return int(value)
 
 
 def _non_negative(value, name: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
-            or not (math.isfinite(value) and value >= 0):
-        raise ValueError(f"{name}: expected a finite non-negative number, got {value!r}")
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, float, np.integer, np.floating))
+        or not (math.isfinite(value) and value >= 0)
+    ):
+        raise ValueError(f'{name}: expected a finite non-negative number, got {value!r}')
     return float(value)
 
 
 if ENV_ID not in gymnasium.registry:
-    gymnasium.register(ENV_ID, entry_point=f"{__name__}:AttitudeEnv",
-                       vector_entry_point=f"{__name__}:AttitudeVectorEnv")
+    gymnasium.register(
+        ENV_ID,
+        entry_point=f'{__name__}:AttitudeEnv',
+        vector_entry_point=f'{__name__}:AttitudeVectorEnv',
+    )

@@ -1,17 +1,33 @@
-"""A scene as a plant a controller steps in process: one body, or a batch of bodies advanced together.
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
 
-``Plant(scene, rate)`` holds the body at sample ``k`` (time ``t_k = k / rate``); ``step(torque)`` holds
-``torque`` over ``[t_k, t_k+1)`` under the ``torque_command`` effect's rules (its frame, ``max_torque``,
-``timeout``: a command holds until ``timeout`` simulated seconds after its sample, then the torque is
-zero) and returns the state at ``k + 1``. ``Plant([scene, ...], rate)`` holds N bodies, each with its
-own inertia, initial state and effect parameters; ``step`` takes ``(N, 3)`` torques and one compiled
-call advances every body. A body of a batch is bit for bit the same body alone: both run the same
-kernel (``motion_kernels.dop853_outputs_batch``) with the same numbers.
+"""
+A scene as a plant a controller steps in process: one body, or a batch of bodies advanced
+together.
+
+``Plant(scene, rate)`` holds the body at sample ``k`` (time ``t_k = k / rate``); ``step(torque)``
+holds ``torque`` over ``[t_k, t_k+1)`` under the ``torque_command`` effect's rules (its frame,
+``max_torque``, ``timeout``: a command holds until ``timeout`` simulated seconds after its sample,
+then the torque is zero) and returns the state at ``k + 1``. ``Plant([scene, ...], rate)`` holds N
+bodies, each with its own inertia, initial state and effect parameters; ``step`` takes ``(N, 3)``
+torques and one compiled call advances every body. A body of a batch is bit for bit the same body
+alone: both run the same kernel (``motion_kernels.dop853_outputs_batch``) with the same numbers.
 
 The plant integrates with DOP853 at the scene's ``accuracy`` (``auto``'s settings), through the
-compiled kernels: the same steps as the ``dop853`` propagator of the same scene (the stepping starts
-again at every sample when the scene takes commands, as the node's does, and at every switch of a
-torque schedule, each body of a batch at its own).
+compiled kernels: the same steps as the ``dop853`` propagator of the same scene (the stepping
+starts again at every sample when the scene takes commands, as the node's does, and at every switch
+of a torque schedule, each body of a batch at its own).
 """
 
 from __future__ import annotations
@@ -21,17 +37,19 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..core.effects.commands import sample_stamp_ns, timed_out
 from ..core.integrators import compiled
 from ..core.integrators import motion_kernels as kernels
-from ..core.effects.commands import sample_stamp_ns, timed_out
 from ..core.propagators import ATOL_PER_RTOL, DEFAULT_ACCURACY, MAX_STEPS_PER_SAMPLE
-from ..core.scene import Scene, load_scene
+from ..core.scene import load_scene, Scene
 from ..core.timing import check_rate
 
 
 class PlantState(NamedTuple):
-    """A sample: body rates (rad/s, body frame), attitude ``q_NB`` (x, y, z, w) and the effects' own
-    states (a damper's rate); a batch has a leading axis of bodies."""
+    """
+    A sample: body rates (rad/s, body frame), attitude ``q_NB`` (x, y, z, w) and the effects'
+    own states (a damper's rate); a batch has a leading axis of bodies.
+    """
 
     omega_B: np.ndarray
     q_NB: np.ndarray
@@ -39,19 +57,26 @@ class PlantState(NamedTuple):
 
 
 class Plant:
-    """See the module's docstring. ``scene``: a :class:`Scene`, a scene file's path or a library
-    scene's name, or a list of them (a batch, even of one)."""
+    """
+    See the module's docstring. ``scene``: a :class:`Scene`, a scene file's path or a library
+    scene's name, or a list of them (a batch, even of one).
+    """
 
     def __init__(self, scene, rate: float):
         self.batch = isinstance(scene, (list, tuple))
-        scenes = [_as_scene(s, f"scene[{i}]") for i, s in enumerate(scene)] if self.batch else [_as_scene(scene, "scene")]
+        scenes = (
+            [_as_scene(s, f'scene[{i}]') for i, s in enumerate(scene)]
+            if self.batch
+            else [_as_scene(scene, 'scene')]
+        )
         if not scenes:
-            raise ValueError("scene: a batch needs at least one scene")
+            raise ValueError('scene: a batch needs at least one scene')
         self.rate = check_rate(rate)
         self.scenes = scenes
         self._build()
 
-    # -- state ----------------------------------------------------------------------------------------
+    # -- state
+    # ----------------------------------------------------------------------------------------
     @property
     def size(self) -> int:
         """How many bodies."""
@@ -70,26 +95,43 @@ class Plant:
     def takes_torque(self) -> bool:
         return self._commands is not None
 
-    # -- stepping -------------------------------------------------------------------------------------
+    # -- stepping
+    # -------------------------------------------------------------------------------------
     def step(self, torque=None) -> PlantState:
-        """Hold ``torque`` (N m, in the ``torque_command`` effect's frame; ``(3,)``, or ``(N, 3)`` for a
-        batch) over ``[t_k, t_k+1)`` and return the state at ``k + 1``. ``None``: no new command (the
-        one in force holds until its timeout). A refused torque raises ``ValueError`` and changes
-        nothing."""
+        """
+        Hold ``torque`` (N m, in the ``torque_command`` effect's frame; ``(3,)``, or ``(N, 3)``
+        for a batch) over ``[t_k, t_k+1)`` and return the state at ``k + 1``. ``None``: no new
+        command (the one in force holds until its timeout). A refused torque raises ``ValueError``
+        and changes nothing.
+        """
         if torque is not None:
             self._accept(torque)
         self._advance(np.array([(self.k + 1) / self.rate]))
         return self.state
 
     def run(self, duration: float) -> PlantState:
-        """Advance ``floor(duration * rate)`` samples without new commands; returns their states, with a
-        leading axis of samples (after the bodies' axis, for a batch)."""
-        if isinstance(duration, bool) or not isinstance(duration, (int, float)) or not duration >= 0:
-            raise ValueError(f"duration: expected a non-negative number of seconds, got {duration!r}")
+        """
+        Advance ``floor(duration * rate)`` samples without new commands; returns their states,
+        with a leading axis of samples (after the bodies' axis, for a batch).
+        """
+        if (
+            isinstance(duration, bool)
+            or not isinstance(duration, (int, float))
+            or not duration >= 0
+        ):
+            raise ValueError(
+                f'duration: expected a non-negative number of seconds, got {duration!r}'
+            )
         count = int(np.floor(duration * self.rate + 1e-9))
-        if self._commands is not None:  # the hold's timeout may end within the run: one interval a call
+        if (
+            self._commands is not None
+        ):  # the hold's timeout may end within the run: one interval a call
             samples = [self._advance(np.array([(self.k + 1) / self.rate])) for _ in range(count)]
-            rows = np.concatenate(samples, axis=1) if samples else np.empty((self.size, 0, self._width))
+            rows = (
+                np.concatenate(samples, axis=1)
+                if samples
+                else np.empty((self.size, 0, self._width))
+            )
         else:
             rows = self._advance(np.arange(self.k + 1, self.k + 1 + count) / self.rate)
         return self._shaped(rows, samples_axis=True)
@@ -99,25 +141,31 @@ class Plant:
         self._build()
         return self.state
 
-    # -- internals ------------------------------------------------------------------------------------
+    # -- internals
+    # ------------------------------------------------------------------------------------
     def _build(self) -> None:
         kernels.compile_kernels()
         propagators = []
         for scene in self.scenes:
             accuracy = DEFAULT_ACCURACY if scene.accuracy is None else scene.accuracy
-            propagators.append(scene.propagator("dop853", rtol=accuracy, atol=accuracy * ATOL_PER_RTOL))
+            propagators.append(
+                scene.propagator('dop853', rtol=accuracy, atol=accuracy * ATOL_PER_RTOL)
+            )
         layouts = [_layout(p) for p in propagators]
         for index, layout in enumerate(layouts):
             if layout != layouts[0]:
-                raise ValueError(f"scene[{index}]: its motion effects ({', '.join(layout) or 'none'}) differ from "
-                                 f"scene[0]'s ({', '.join(layouts[0]) or 'none'}): a batch steps bodies of one kind "
-                                 "(make one plant per kind)")
+                raise ValueError(
+                    f'scene[{index}]: its motion effects ({", ".join(layout) or "none"}) differ from '
+                    f"scene[0]'s ({', '.join(layouts[0]) or 'none'}): a batch steps bodies of one kind "
+                    '(make one plant per kind)'
+                )
         n = 7 + propagators[0].dynamics.state_size
         count = len(propagators)
         self._width = n
         self._propagators = propagators
         self._models = np.stack([compiled.build_model(p.dynamics) for p in propagators])
-        # each body's schedule: its breakpoints (padded with inf) and the scene's held torques piece by piece
+        # each body's schedule: its breakpoints (padded with inf) and the scene's held torques
+        # piece by piece
         breaks = [list(p.dynamics.breakpoints) for p in propagators]
         width = max(1, max(len(b) for b in breaks))
         self._breaks = np.array([b + [np.inf] * (width - len(b)) for b in breaks])
@@ -142,49 +190,68 @@ class Plant:
         self._sample = self._ys.copy()[:, None, :]
         self.k = 0
         self._failed: str | None = None
-        commands = [[e for e in p.effects if getattr(e, "hold", None) is not None] for p in propagators]
+        commands = [
+            [e for e in p.effects if getattr(e, 'hold', None) is not None] for p in propagators
+        ]
         if any(len(c) > 1 for c in commands):
-            raise ValueError("scene: more than one torque_command effect; the plant takes one torque per body")
+            raise ValueError(
+                'scene: more than one torque_command effect; the plant takes one torque per body'
+            )
         if commands[0]:
             effects = [c[0] for c in commands]
             self._commands = _Commands(
                 inertial=effects[0].inertial,
                 timeout_ns=np.array([e.hold.timeout_ns for e in effects], dtype=np.int64),
                 max_torque=np.array([e.hold.max_torque for e in effects]),
-                torque=np.zeros((count, 3)), stamp_ns=np.full(count, np.iinfo(np.int64).min // 2, dtype=np.int64))
+                torque=np.zeros((count, 3)),
+                stamp_ns=np.full(count, np.iinfo(np.int64).min // 2, dtype=np.int64),
+            )
         else:
             self._commands = None
 
     def _accept(self, torque) -> None:
         commands = self._commands
         if commands is None:
-            raise ValueError("torque: the scene takes no torque (it names no torque_command effect)")
+            raise ValueError(
+                'torque: the scene takes no torque (it names no torque_command effect)'
+            )
         shape = (self.size, 3) if self.batch else (3,)
         try:
             values = np.array(torque, dtype=float)
         except (TypeError, ValueError):
-            raise ValueError(f"torque: expected numbers of shape {shape}, got {torque!r}"[:300]) from None
+            raise ValueError(
+                f'torque: expected numbers of shape {shape}, got {torque!r}'[:300]
+            ) from None
         if values.shape != shape:
-            raise ValueError(f"torque: expected shape {shape}, got {values.shape}")
+            raise ValueError(f'torque: expected shape {shape}, got {values.shape}')
         values = values.reshape(self.size, 3)
         finite = np.all(np.isfinite(values), axis=1)
         if not finite.all():
-            raise ValueError(f"torque: not finite (body {int(np.argmin(finite))}): {values[int(np.argmin(finite))].tolist()}")
+            raise ValueError(
+                f'torque: not finite (body {int(np.argmin(finite))}): {values[int(np.argmin(finite))].tolist()}'
+            )
         over = np.max(np.abs(values), axis=1) > commands.max_torque
         if over.any():
             b = int(np.argmax(over))
-            raise ValueError(f"torque: a component exceeds max_torque {commands.max_torque[b]:g} N m (body {b}): "
-                             f"{values[b].tolist()}")
+            raise ValueError(
+                f'torque: a component exceeds max_torque {commands.max_torque[b]:g} N m (body {b}): '
+                f'{values[b].tolist()}'
+            )
         commands.torque[:] = values
         commands.stamp_ns[:] = sample_stamp_ns(self.k, self.rate)
 
     def _hold(self) -> None:
-        """The torque over ``[t_k, t_k+1)``: the command in force (zero once it timed out), in its frame,
-        added to the scene's constant torques (CommandHold's rule, for every body at once)."""
+        """
+        The torque over ``[t_k, t_k+1)``: the command in force (zero once it timed out), in its
+        frame, added to the scene's constant torques (CommandHold's rule, for every body at
+        once).
+        """
         commands = self._commands
         if commands is None:
             return
-        in_force = ~timed_out(sample_stamp_ns(self.k, self.rate), commands.stamp_ns, commands.timeout_ns)
+        in_force = ~timed_out(
+            sample_stamp_ns(self.k, self.rate), commands.stamp_ns, commands.timeout_ns
+        )
         held = np.where(in_force[:, None], commands.torque, 0.0)
         self._command_helds[:] = 0.0
         if commands.inertial:
@@ -194,16 +261,41 @@ class Plant:
 
     def _advance(self, times: np.ndarray) -> np.ndarray:
         if self._failed is not None:
-            raise RuntimeError(f"plant: stopped at sample {self.k} ({self._failed}); reset() starts it again")
+            raise RuntimeError(
+                f'plant: stopped at sample {self.k} ({self._failed}); reset() starts it again'
+            )
         self._hold()
         out = np.empty((self.size, times.size, self._width))
         sample_rate = self.rate if self._commands is not None else 0.0
-        kernels.dop853_outputs_batch(times, out, MAX_STEPS_PER_SAMPLE, sample_rate, self._breaks, self._piece_helds,
-                                     self._command_helds, self._solvers, self._ys,
-                                     self._y_olds, self._fs, self._Ks, self._Fs, self._works, self._models,
-                                     self._helds, self._rtols, self._atols, self._min_steps, compiled._A,
-                                     compiled._B, compiled._C, compiled._E3, compiled._E5, compiled._D,
-                                     self._status, self._reached)
+        kernels.dop853_outputs_batch(
+            times,
+            out,
+            MAX_STEPS_PER_SAMPLE,
+            sample_rate,
+            self._breaks,
+            self._piece_helds,
+            self._command_helds,
+            self._solvers,
+            self._ys,
+            self._y_olds,
+            self._fs,
+            self._Ks,
+            self._Fs,
+            self._works,
+            self._models,
+            self._helds,
+            self._rtols,
+            self._atols,
+            self._min_steps,
+            compiled._A,
+            compiled._B,
+            compiled._C,
+            compiled._E3,
+            compiled._E5,
+            compiled._D,
+            self._status,
+            self._reached,
+        )
         failed = np.flatnonzero(self._status != kernels.DONE)
         if failed.size:
             self._fail(int(failed[0]), times)
@@ -212,11 +304,15 @@ class Plant:
         return out
 
     def _fail(self, body: int, times: np.ndarray):
-        """A body could not reach its sample. The kernels' state is mid-step for some bodies, so the plant
-        refuses to go on until ``reset()``; ``state`` stays the last sample reached."""
+        """
+        A body could not reach its sample. The kernels' state is mid-step for some bodies, so
+        the plant refuses to go on until ``reset()``; ``state`` stays the last sample reached.
+        """
         t = float(times[min(int(self._reached[body]), times.size - 1)])
-        error = compiled.dop853_error(int(self._status[body]), self._propagators[body], t, self._solvers[body])
-        self._failed = f"{'body %d: ' % body if self.batch else ''}{error}"
+        error = compiled.dop853_error(
+            int(self._status[body]), self._propagators[body], t, self._solvers[body]
+        )
+        self._failed = f'{"body %d: " % body if self.batch else ""}{error}'
         raise error
 
     def _shaped(self, rows: np.ndarray, samples_axis: bool = False) -> PlantState:
@@ -239,9 +335,19 @@ def _as_scene(scene, where: str) -> Scene:
         return scene
     if isinstance(scene, (str, Path)):
         return load_scene(scene)
-    raise ValueError(f"{where}: expected a Scene, a scene file's path or a library scene's name, got {scene!r}"[:300])
+    raise ValueError(
+        f"{where}: expected a Scene, a scene file's path or a library scene's name, got {scene!r}"[
+            :300
+        ]
+    )
 
 
 def _layout(propagator) -> tuple:
-    """What a batch's bodies must share: their motion effects' kinds, in order, and their frames."""
-    return tuple(f"{e.name}{'(inertial)' if getattr(e, 'inertial', False) else ''}" for e in propagator.effects)
+    """
+    What a batch's bodies must share: their motion effects' kinds, in order, and their
+    frames.
+    """
+    return tuple(
+        f'{e.name}{"(inertial)" if getattr(e, "inertial", False) else ""}'
+        for e in propagator.effects
+    )

@@ -1,9 +1,25 @@
-"""rclpy's parameter services, made safe against any request a DDS participant can send.
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
 
-rclpy converts each ``rcl_interfaces/Parameter`` with ``Parameter.from_parameter_msg``, which raises
-on an unknown type byte (``ValueError: 99 is not a valid Parameter.Type``); an exception in a service
-callback ends the executor's spin, and with it the node. Here every request is answered: a malformed
-parameter gets a refusal that says why, and an unexpected error an empty answer and a log line.
+"""
+rclpy's parameter services, made safe against any request a DDS participant can send.
+
+rclpy converts each ``rcl_interfaces/Parameter`` with ``Parameter.from_parameter_msg``, which
+raises on an unknown type byte (``ValueError: 99 is not a valid Parameter.Type``); an exception in
+a service callback ends the executor's spin, and with it the node. Here every request is answered:
+a malformed parameter gets a refusal that says why, and an unexpected error an empty answer and a
+log line.
 """
 
 from __future__ import annotations
@@ -26,14 +42,21 @@ def refusal(reason: str) -> SetParametersResult:
 
 
 def parameter_from_message(message) -> Parameter:
-    """``Parameter.from_parameter_msg`` with the checks it lacks; ``ValueError`` names the problem."""
+    """
+    ``Parameter.from_parameter_msg`` with the checks it lacks; ``ValueError`` names the
+    problem.
+    """
     name = message.name
     if not name or len(name) > MAX_NAME_LENGTH:
-        raise ValueError(f"{clip(name, 60)!r}: a parameter name has 1 to {MAX_NAME_LENGTH} characters")
+        raise ValueError(
+            f'{clip(name, 60)!r}: a parameter name has 1 to {MAX_NAME_LENGTH} characters'
+        )
     try:
         Parameter.Type(message.value.type)
     except ValueError:
-        raise ValueError(f"{name}: {message.value.type} is not a parameter type (rcl_interfaces/ParameterType)") from None
+        raise ValueError(
+            f'{name}: {message.value.type} is not a parameter type (rcl_interfaces/ParameterType)'
+        ) from None
     return Parameter.from_parameter_msg(message)
 
 
@@ -55,7 +78,9 @@ class GuardedParameterService(ParameterService):
     def _set_parameters_atomically_callback(self, request, response):
         node = self._get_node()
         try:
-            response.result = node.set_parameters_atomically([parameter_from_message(m) for m in request.parameters])
+            response.result = node.set_parameters_atomically(
+                [parameter_from_message(m) for m in request.parameters]
+            )
         except (ValueError, ParameterNotDeclaredException) as error:
             response.result = refusal(str(error))
         return response
@@ -69,12 +94,25 @@ def _answer_always(method):
         try:
             return method(self, request, response)
         except Exception as error:  # noqa: BLE001 - a callback must not end the executor's spin
-            self._logger.error(clip(f"parameter request not served: {type(error).__name__}: {error}", MAX_REASON_LENGTH))
+            self._logger.error(
+                clip(
+                    f'parameter request not served: {type(error).__name__}: {error}',
+                    MAX_REASON_LENGTH,
+                )
+            )
             return type(response)()
 
     return guarded
 
 
-for _name in ("_describe_parameters_callback", "_get_parameters_callback", "_get_parameter_types_callback",
-              "_list_parameters_callback", "_set_parameters_callback", "_set_parameters_atomically_callback"):
-    setattr(GuardedParameterService, _name, _answer_always(getattr(GuardedParameterService, _name)))
+for _name in (
+    '_describe_parameters_callback',
+    '_get_parameters_callback',
+    '_get_parameter_types_callback',
+    '_list_parameters_callback',
+    '_set_parameters_callback',
+    '_set_parameters_atomically_callback',
+):
+    setattr(
+        GuardedParameterService, _name, _answer_always(getattr(GuardedParameterService, _name))
+    )

@@ -1,8 +1,24 @@
-"""The attitude simulator node ``TorqueFreeSim`` (default name ``torquefree``; ``cli.sim`` runs it).
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The attitude simulator node ``TorqueFreeSim`` (default name ``torquefree``; ``cli.sim`` runs
+it).
 
 A thin layer over the dynamics core: parameters (``parameters``) describe a simulation, the
-sample loop (``sample_loop``) publishes it, ``~/reset`` restarts it, ``~/pause`` pauses and resumes it
-(the rule: ``pause``), ``/diagnostics`` reports it.
+sample loop (``sample_loop``) publishes it, ``~/reset`` restarts it, ``~/pause`` pauses and resumes
+it (the rule: ``pause``), ``/diagnostics`` reports it.
 The node computes nothing physical itself.
 """
 
@@ -17,27 +33,44 @@ from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock
 from std_srvs.srv import SetBool, Trigger
 
-from ..bag import BagError, BagWriter
-from ..bag.samples import ANGULAR_VELOCITY, ATTITUDE, CLOCK, INERTIA_KEY, SampleRecorder, sample_qos
-from ..core.bodies import tensor_elements
-from ..core.safe_files import clip
-from .commands import CommandInputs, command_diagnostics
-from .guarded_parameters import MAX_REASON_LENGTH, GuardedParameterService
-from .parameters import SPEC_BY_NAME, SPECS, ConfigurationError, ScenePolicy, check_value, rejection, run_request
+from .commands import command_diagnostics, CommandInputs
+from .guarded_parameters import GuardedParameterService, MAX_REASON_LENGTH
+from .parameters import (
+    check_value,
+    ConfigurationError,
+    rejection,
+    run_request,
+    ScenePolicy,
+    SPEC_BY_NAME,
+    SPECS,
+)
 from .pause import seconds_text
 from .qos import message_class, publisher_warnings, sample_profile
 from .sample_loop import RunRequest, SampleLoop
+from ..bag import BagError, BagWriter
+from ..bag.samples import (
+    ANGULAR_VELOCITY,
+    ATTITUDE,
+    CLOCK,
+    INERTIA_KEY,
+    sample_qos,
+    SampleRecorder,
+)
+from ..core.bodies import tensor_elements
+from ..core.safe_files import clip
 
 DIAGNOSTICS_PERIOD = 1.0  # s
-_INERTIA_CHANGED = "torquefree_ros.inertia_changed_at_a_reset"
+_INERTIA_CHANGED = 'torquefree_ros.inertia_changed_at_a_reset'
 # The share of late samples above which /diagnostics reports a warning.
 LATE_WARNING_FRACTION = 0.01
 
 
 class _Publishers:
-    """The node's sample publishers by topic: ``angular_velocity`` and ``attitude`` always, ``/clock``
-    from the first run that publishes it (a clock of our own, or ``publish_clock``), an output's topic
-    only while a scene names it."""
+    """
+    The node's sample publishers by topic: ``angular_velocity`` and ``attitude`` always,
+    ``/clock`` from the first run that publishes it (a clock of our own, or ``publish_clock``), an
+    output's topic only while a scene names it.
+    """
 
     def __init__(self, node: Node, depth: int):
         self._node, self._depth = node, depth
@@ -48,7 +81,9 @@ class _Publishers:
 
     def _create(self, message, topic: str, type_name: str):
         qos = sample_profile(self._depth, type_name)
-        events = publisher_warnings(self._node.get_logger(), self._node.resolve_topic_name(topic), qos)
+        events = publisher_warnings(
+            self._node.get_logger(), self._node.resolve_topic_name(topic), qos
+        )
         return self._node.create_publisher(message, topic, qos, event_callbacks=events)
 
     def get(self, topic: str):
@@ -63,8 +98,9 @@ class _Publishers:
             self._by_topic[CLOCK[0]] = self._create(Clock, *CLOCK)
         for output in request.outputs:
             if output.topic not in self._by_topic:
-                self._by_topic[output.topic] = self._create(message_class(output.message_type), output.topic,
-                                                            output.message_type)
+                self._by_topic[output.topic] = self._create(
+                    message_class(output.message_type), output.topic, output.message_type
+                )
                 self._outputs.add(output.topic)
 
     def topic_names(self) -> list[str]:
@@ -79,16 +115,22 @@ class _Publishers:
 
 
 class TorqueFreeSim(Node):
-    """Publishes ``angular_velocity`` and ``attitude`` from the moment it is constructed; the caller
-    spins it (services, parameters, diagnostics). Raises :class:`ConfigurationError` when the
-    start-up parameters do not describe a usable simulation. ``stepped``: a sample goes out only when
-    ``sample_loop.step(n)`` lets it (``torquefree_ros.testing`` steps the node so)."""
+    """
+    Publishes ``angular_velocity`` and ``attitude`` from the moment it is constructed; the
+    caller spins it (services, parameters, diagnostics). Raises :class:`ConfigurationError` when
+    the start-up parameters do not describe a usable simulation. ``stepped``: a sample goes out
+    only when ``sample_loop.step(n)`` lets it (``torquefree_ros.testing`` steps the node so).
+    """
 
-    def __init__(self, node_name: str = "torquefree", *, stepped: bool = False, **node_options):
+    def __init__(self, node_name: str = 'torquefree', *, stepped: bool = False, **node_options):
         # Undeclared names reach our on-set callback, whose reason names them (rclpy's does not).
         # rclpy's own parameter services end the spin on a malformed request; ours answer it
-        super().__init__(node_name, allow_undeclared_parameters=True, start_parameter_services=False,
-                         **node_options)
+        super().__init__(
+            node_name,
+            allow_undeclared_parameters=True,
+            start_parameter_services=False,
+            **node_options,
+        )
         self._declared = False
         self._loop: SampleLoop | None = None
         self._bag: SampleRecorder | None = None
@@ -97,22 +139,25 @@ class TorqueFreeSim(Node):
             for spec in SPECS:
                 self.declare_parameter(spec.name, spec.default, spec.descriptor())
             self._declared = True
-            self._scenes = ScenePolicy(self.get_parameter("scene").value,
-                                       self.get_parameter("scene_directories").value)
+            self._scenes = ScenePolicy(
+                self.get_parameter('scene').value, self.get_parameter('scene_directories').value
+            )
             request = self._run_request()
         except InvalidParameterValueException as error:
             super().destroy_node()
-            # rclpy's text is "Invalid parameter value (...) for parameter. Reason: REASON: NAME"; our
-            # reasons already start with the name
-            reason = str(error).split("Reason: ", 1)[-1]
-            name = f": {error.args[0].rsplit(': ', 1)[-1]}" if error.args else ""
-            raise ConfigurationError(reason[: -len(name)] if name and reason.endswith(name) else reason) from None
+            # rclpy's text is "Invalid parameter value (...) for parameter. Reason: REASON: NAME";
+            # our reasons already start with the name
+            reason = str(error).split('Reason: ', 1)[-1]
+            name = f': {error.args[0].rsplit(": ", 1)[-1]}' if error.args else ''
+            raise ConfigurationError(
+                reason[: -len(name)] if name and reason.endswith(name) else reason
+            ) from None
         except ValueError as error:
             super().destroy_node()
             raise ConfigurationError(str(error)) from None
 
         GuardedParameterService(self)
-        depth = self.get_parameter("qos_depth").value
+        depth = self.get_parameter('qos_depth').value
         writer = self._open_bag()
         self._outputs = _Publishers(self, depth)
         self._commands = CommandInputs(self, depth, self._command_holds, self._command_accepted)
@@ -120,24 +165,35 @@ class TorqueFreeSim(Node):
             self._bag = SampleRecorder(writer, self._resolved, sample_qos(depth))
         self._outputs.ensure(request)
         self._commands.ensure(request)
-        self.create_service(Trigger, "~/reset", self._on_reset)
-        self.create_service(SetBool, "~/pause", self._on_pause)
+        self.create_service(Trigger, '~/reset', self._on_reset)
+        self.create_service(SetBool, '~/pause', self._on_pause)
         diagnostics_qos = QoSProfile(depth=10)
         self._diagnostics = self.create_publisher(
-            DiagnosticArray, "/diagnostics", diagnostics_qos,
-            event_callbacks=publisher_warnings(self.get_logger(), "/diagnostics", diagnostics_qos))
+            DiagnosticArray,
+            '/diagnostics',
+            diagnostics_qos,
+            event_callbacks=publisher_warnings(self.get_logger(), '/diagnostics', diagnostics_qos),
+        )
         self.create_timer(DIAGNOSTICS_PERIOD, self._publish_diagnostics)
-        self._loop = SampleLoop(self._outputs, self.context.ok, self.get_logger(), self._bag, stepped=stepped)
+        self._loop = SampleLoop(
+            self._outputs, self.context.ok, self.get_logger(), self._bag, stepped=stepped
+        )
         simulation = self._loop.start(request)  # last: the first sample is due now
         self._note_inertia(simulation)
-        topics = ", ".join(self._outputs.topic_names())
-        commands = ", ".join(self._commands.topic_names())
-        listening = ""
+        topics = ', '.join(self._outputs.topic_names())
+        commands = ', '.join(self._commands.topic_names())
+        listening = ''
         if commands:
-            listening = f"; taking commands on {commands}" + (" in lock-step" if request.lockstep else "")
-        recording = f"recording bag {self._bag.writer.path}" if self._bag is not None else "not recording"
-        self.get_logger().info(f"start: publishing {topics}{listening}; {recording}; {request.configuration}; "
-                               f"{simulation.summary()}")
+            listening = f'; taking commands on {commands}' + (
+                ' in lock-step' if request.lockstep else ''
+            )
+        recording = (
+            f'recording bag {self._bag.writer.path}' if self._bag is not None else 'not recording'
+        )
+        self.get_logger().info(
+            f'start: publishing {topics}{listening}; {recording}; {request.configuration}; '
+            f'{simulation.summary()}'
+        )
         if request.left_out:
             self.get_logger().warning(request.left_out)
 
@@ -147,7 +203,8 @@ class TorqueFreeSim(Node):
 
     def _command_accepted(self) -> None:
         if self._loop is not None:
-            self._loop.command_arrived()  # lock-step as fast as possible: the next sample goes out now
+            # lock-step as fast as possible: the next sample goes out now
+            self._loop.command_arrived()
 
     def _command_holds(self) -> tuple:
         simulation = self._loop.simulation if self._loop is not None else None
@@ -157,27 +214,31 @@ class TorqueFreeSim(Node):
         return self._commands.resolved(topic) or self._outputs.resolved(topic)
 
     def _open_bag(self) -> BagWriter | None:
-        path = self.get_parameter("record_bag").value
+        path = self.get_parameter('record_bag').value
         if not path:
             return None
         try:
-            return BagWriter(path, custom_data={"torquefree_ros.node": self.get_fully_qualified_name()})
+            return BagWriter(
+                path, custom_data={'torquefree_ros.node': self.get_fully_qualified_name()}
+            )
         except BagError as error:
             super().destroy_node()
-            raise ConfigurationError(f"record_bag: {error}") from None
+            raise ConfigurationError(f'record_bag: {error}') from None
 
     def _note_inertia(self, simulation) -> None:
-        """The bag stores the body's inertia (as torquefree_bag does) so that it can be plotted; a
-        reset that changes the inertia removes it: no single value describes the recording then."""
+        """
+        The bag stores the body's inertia (as torquefree_bag does) so that it can be plotted; a
+        reset that changes the inertia removes it: no single value describes the recording then.
+        """
         if self._bag is None:
             return
         custom = self._bag.writer.metadata.custom_data
-        text = " ".join(repr(x) for x in tensor_elements(simulation.body.tensor))
+        text = ' '.join(repr(x) for x in tensor_elements(simulation.body.tensor))
         if custom.get(INERTIA_KEY, text) == text and not custom.get(_INERTIA_CHANGED):
             custom[INERTIA_KEY] = text
         else:
             custom.pop(INERTIA_KEY, None)
-            custom[_INERTIA_CHANGED] = "true"
+            custom[_INERTIA_CHANGED] = 'true'
 
     def destroy_node(self):
         if self._loop is not None:
@@ -185,18 +246,25 @@ class TorqueFreeSim(Node):
         if self._bag is not None:
             try:
                 self._bag.writer.close()
-                self.get_logger().info(f"bag closed: {self._bag.writer.path} "
-                                       f"({self._bag.writer.message_count} messages)")
+                self.get_logger().info(
+                    f'bag closed: {self._bag.writer.path} '
+                    f'({self._bag.writer.message_count} messages)'
+                )
             except BagError as error:
                 self.get_logger().error(str(error))
             self._bag = None
         super().destroy_node()
 
-    # -- parameters --------------------------------------------------------------------------------
+    # -- parameters
+    # --------------------------------------------------------------------------------
     def _values(self, changes=()) -> dict:
-        values = {spec.name: check_value(spec.name, self.get_parameter(spec.name)) for spec in SPECS}
+        values = {
+            spec.name: check_value(spec.name, self.get_parameter(spec.name)) for spec in SPECS
+        }
         for parameter in changes:
-            if parameter.name in SPEC_BY_NAME:  # rclpy's own parameters (use_sim_time) pass through
+            if (
+                parameter.name in SPEC_BY_NAME
+            ):  # rclpy's own parameters (use_sim_time) pass through
                 values[parameter.name] = check_value(parameter.name, parameter)
         return values
 
@@ -207,12 +275,14 @@ class TorqueFreeSim(Node):
         try:
             for parameter in parameters:
                 if parameter.name not in SPEC_BY_NAME and not self.has_parameter(parameter.name):
-                    known = ", ".join(spec.name for spec in SPECS)
-                    raise ValueError(f"{clip(parameter.name, 60)}: not a parameter of this node (parameters: {known})")
+                    known = ', '.join(spec.name for spec in SPECS)
+                    raise ValueError(
+                        f'{clip(parameter.name, 60)}: not a parameter of this node (parameters: {known})'
+                    )
             if self._declared:
                 for parameter in parameters:
-                    if parameter.name == "scene":
-                        self._scenes.check(check_value("scene", parameter))
+                    if parameter.name == 'scene':
+                        self._scenes.check(check_value('scene', parameter))
                 self._run_request(parameters)
             else:  # declaring: the others are not there yet to form a whole configuration
                 for parameter in parameters:
@@ -220,13 +290,22 @@ class TorqueFreeSim(Node):
         except ValueError as error:
             return rejection(error)
         except Exception as error:  # noqa: BLE001 - a callback must not end the node
-            self.get_logger().error(clip(f"parameters refused on an unexpected error: {type(error).__name__}: {error}",
-                                         MAX_REASON_LENGTH))
-            return rejection(ValueError(f"{parameters[0].name if parameters else 'parameters'}: cannot be used "
-                                        f"({type(error).__name__})"))
+            self.get_logger().error(
+                clip(
+                    f'parameters refused on an unexpected error: {type(error).__name__}: {error}',
+                    MAX_REASON_LENGTH,
+                )
+            )
+            return rejection(
+                ValueError(
+                    f'{parameters[0].name if parameters else "parameters"}: cannot be used '
+                    f'({type(error).__name__})'
+                )
+            )
         return SetParametersResult(successful=True)
 
-    # -- reset -------------------------------------------------------------------------------------
+    # -- reset
+    # -------------------------------------------------------------------------------------
     def _on_reset(self, request, response):
         try:
             run = self._run_request()
@@ -237,32 +316,42 @@ class TorqueFreeSim(Node):
             self._outputs.retire(self._loop.request)
             self._commands.retire(self._loop.request)
             response.success = False
-            reason = str(error) if isinstance(error, (ValueError, RuntimeError)) else f"{type(error).__name__}: {error}"
-            response.message = clip(f"reset refused, the running simulation continues unchanged: {reason}",
-                                    MAX_REASON_LENGTH)
+            reason = (
+                str(error)
+                if isinstance(error, (ValueError, RuntimeError))
+                else f'{type(error).__name__}: {error}'
+            )
+            response.message = clip(
+                f'reset refused, the running simulation continues unchanged: {reason}',
+                MAX_REASON_LENGTH,
+            )
             self.get_logger().warning(response.message)
             return response
         self._outputs.retire(run)
         self._commands.retire(run)
         self._note_inertia(simulation)
         response.success = True
-        response.message = f"{run.configuration}; {simulation.summary()}"
+        response.message = f'{run.configuration}; {simulation.summary()}'
         if self._loop.paused:
-            response.message += ("; paused: its sample 0 goes out when ~/pause false resumes"
-                                 + (" (its stamps then move on by the time paused)" if run.wall_clock else ""))
-        self.get_logger().info(f"reset: {response.message}")
+            response.message += '; paused: its sample 0 goes out when ~/pause false resumes' + (
+                ' (its stamps then move on by the time paused)' if run.wall_clock else ''
+            )
+        self.get_logger().info(f'reset: {response.message}')
         if run.left_out:
-            response.message += f"; {run.left_out}"
+            response.message += f'; {run.left_out}'
             self.get_logger().warning(run.left_out)
         return response
 
-    # -- pause -------------------------------------------------------------------------------------
+    # -- pause
+    # -------------------------------------------------------------------------------------
     def _on_pause(self, request, response):
         try:
             report = self._loop.pause(bool(request.data))
         except RuntimeError as error:
             response.success = False
-            response.message = clip(f"{'pause' if request.data else 'resume'} not done: {error}", MAX_REASON_LENGTH)
+            response.message = clip(
+                f'{"pause" if request.data else "resume"} not done: {error}', MAX_REASON_LENGTH
+            )
             self.get_logger().warning(response.message)
             return response
         response.success = True
@@ -271,57 +360,71 @@ class TorqueFreeSim(Node):
             self.get_logger().info(response.message)
         return response
 
-    # -- diagnostics -------------------------------------------------------------------------------
+    # -- diagnostics
+    # -------------------------------------------------------------------------------
     def _publish_diagnostics(self) -> None:
         loop = self._loop
         simulation, last = loop.simulation, loop.last
-        status = DiagnosticStatus(name=f"{self.get_name()}: simulation", hardware_id=self.get_fully_qualified_name())
+        status = DiagnosticStatus(
+            name=f'{self.get_name()}: simulation', hardware_id=self.get_fully_qualified_name()
+        )
         values = {
-            "propagator": simulation.propagator.describe(),
+            'propagator': simulation.propagator.describe(),
             # what the settings deliver, measured at the (re)start; the drifts below follow it live
-            "accuracy": simulation.accuracy,
-            "publish_rate": f"{simulation.rate:g}",
-            "regime": simulation.regime.summary(),
-            "effects": simulation.describe_effects(),
-            "samples_published": str(loop.published),
-            "late_samples": str(loop.late),
+            'accuracy': simulation.accuracy,
+            'publish_rate': f'{simulation.rate:g}',
+            'regime': simulation.regime.summary(),
+            'effects': simulation.describe_effects(),
+            'samples_published': str(loop.published),
+            'late_samples': str(loop.late),
         }
         if last is not None and last.simulation is simulation:
             invariants = simulation.invariants(last.omega_B, last.internal)
             values.update(
                 sim_time=repr(float(last.index / simulation.rate)),
-                kinetic_energy=f"{invariants.kinetic_energy:.17g}",
-                angular_momentum=f"{invariants.momentum:.17g}",
-                kinetic_energy_drift=f"{invariants.energy_drift:.3g}",
-                angular_momentum_drift=f"{invariants.momentum_drift:.3g}",
+                kinetic_energy=f'{invariants.kinetic_energy:.17g}',
+                angular_momentum=f'{invariants.momentum:.17g}',
+                kinetic_energy_drift=f'{invariants.energy_drift:.3g}',
+                angular_momentum_drift=f'{invariants.momentum_drift:.3g}',
                 # where the scene conserves a quantity its drift is the propagator's error
-                conserved=", ".join(sorted(invariants.conserved)) or "none (the effects change both)",
+                conserved=', '.join(sorted(invariants.conserved))
+                or 'none (the effects change both)',
             )
         command_values, command_warning = command_diagnostics(
-            simulation.command_holds, last.index if last is not None and last.simulation is simulation else None,
-            loop.missed_steps, loop.request.lockstep)
+            simulation.command_holds,
+            last.index if last is not None and last.simulation is simulation else None,
+            loop.missed_steps,
+            loop.request.lockstep,
+        )
         values.update(command_values)
-        values["paused"] = "true" if loop.paused else "false"
+        values['paused'] = 'true' if loop.paused else 'false'
         if loop.request.wall_clock:
             # how far pauses moved this run's wall-clock stamps (s): stamp = epoch + shift + t_k
-            values["stamp_shift"] = seconds_text(loop.stamp_shift_ns)
+            values['stamp_shift'] = seconds_text(loop.stamp_shift_ns)
         if self._bag is not None:
-            values["record_bag"] = str(self._bag.writer.path)
-            values["messages_recorded"] = str(self._bag.writer.message_count)
+            values['record_bag'] = str(self._bag.writer.path)
+            values['messages_recorded'] = str(self._bag.writer.message_count)
         if loop.failure:
             status.level, status.message = DiagnosticStatus.ERROR, loop.failure
         elif loop.recording_failure:
-            status.level, status.message = DiagnosticStatus.ERROR, f"recording stopped: {loop.recording_failure}"
+            status.level, status.message = (
+                DiagnosticStatus.ERROR,
+                f'recording stopped: {loop.recording_failure}',
+            )
         elif command_warning:
             status.level, status.message = DiagnosticStatus.WARN, command_warning
         elif loop.late > LATE_WARNING_FRACTION * max(loop.published, 1):
-            status.level, status.message = DiagnosticStatus.WARN, "more than 1% of samples published late"
+            status.level, status.message = (
+                DiagnosticStatus.WARN,
+                'more than 1% of samples published late',
+            )
         else:
-            status.level, status.message = DiagnosticStatus.OK, "running"
+            status.level, status.message = DiagnosticStatus.OK, 'running'
         if loop.paused:
-            values["paused_at"] = loop.paused_at
-            status.message = f"paused at {loop.paused_at}" + ("" if status.message == "running"
-                                                             else f"; {status.message}")
+            values['paused_at'] = loop.paused_at
+            status.message = f'paused at {loop.paused_at}' + (
+                '' if status.message == 'running' else f'; {status.message}'
+            )
         status.values = [KeyValue(key=key, value=value) for key, value in values.items()]
         array = DiagnosticArray(status=[status])
         stamp = loop.clock_now_ns

@@ -1,4 +1,20 @@
-"""``torquefree_play``: replays a bag onto its topics with the recorded timing, like ``ros2 bag play``.
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+``torquefree_play``: replays a bag onto its topics with the recorded timing, like ``ros2 bag
+play``.
 
 Each topic gets a publisher with the QoS its publishers offered when it was recorded (rosbag2's
 rule, ``ros_qos.offer_for_recorded``); messages go out as the recorded bytes, message ``i`` at
@@ -17,17 +33,24 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock
 
+from .qos import message_class, offer_for_recorded
 from ..bag import BagReader
 from ..bag.cdr import encode_times
-from .qos import message_class, offer_for_recorded
 
 ACK_TIMEOUT = 10.0  # s; reliable subscribers get everything before the player exits
 
 
 class BagPlayer(Node):
-    def __init__(self, bag: BagReader, rate: float = 1.0, clock_rate: float = 0.0, loop: bool = False,
-                 topics: list[str] | None = None, **node_options):
-        super().__init__("torquefree_play", **node_options)
+    def __init__(
+        self,
+        bag: BagReader,
+        rate: float = 1.0,
+        clock_rate: float = 0.0,
+        loop: bool = False,
+        topics: list[str] | None = None,
+        **node_options,
+    ):
+        super().__init__('torquefree_play', **node_options)
         self.bag, self.rate, self.loop = bag, rate, loop
         self.topics = [t for t in bag.topics if topics is None or t.name in topics]
         self.publishers_by_topic = {}
@@ -35,11 +58,16 @@ class BagPlayer(Node):
             try:
                 cls = message_class(topic.type)
             except ValueError as error:
-                self.get_logger().warning(f"not playing {topic.name}: {error}")
+                self.get_logger().warning(f'not playing {topic.name}: {error}')
                 continue
             self.publishers_by_topic[topic.name] = self.create_publisher(
-                cls, topic.name, offer_for_recorded(topic.offered_qos_profiles))
-        self._clock = self.create_publisher(Clock, "/clock", QoSProfile(depth=10)) if clock_rate > 0 else None
+                cls, topic.name, offer_for_recorded(topic.offered_qos_profiles)
+            )
+        self._clock = (
+            self.create_publisher(Clock, '/clock', QoSProfile(depth=10))
+            if clock_rate > 0
+            else None
+        )
         self._clock_period = 1.0 / clock_rate if clock_rate > 0 else math.inf
         self.played = 0
         self._stop = threading.Event()
@@ -88,4 +116,3 @@ class BagPlayer(Node):
                     return
             self.publishers_by_topic[message.topic].publish(message.data)
             self.played += 1
-

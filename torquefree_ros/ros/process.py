@@ -1,4 +1,19 @@
-"""The life of a node process, shared by the console scripts.
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The life of a node process, shared by the console scripts.
 
 rclpy's own signal handlers would shut the context down the moment Ctrl-C arrives, so everything
 said while closing (the node's last log lines, a bag's summary) would fail to reach ``/rosout``.
@@ -20,21 +35,25 @@ from rclpy.signals import SignalHandlerOptions
 
 
 def init(args=None) -> None:
-    """``rclpy.init`` without rclpy's signal handlers (``cli.common.console_command`` has already
-    made SIGTERM end the process like Ctrl-C)."""
+    """
+    ``rclpy.init`` without rclpy's signal handlers (``cli.common.console_command`` has already
+    made SIGTERM end the process like Ctrl-C).
+    """
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
 
 
 class Spinner(threading.Thread):
-    """Spins ``executor`` in a helper thread until :meth:`stop`; an exception from a callback ends
+    """
+    Spins ``executor`` in a helper thread until :meth:`stop`; an exception from a callback ends
     the spin and is kept in ``error`` for the main thread to report. It spins in short slices
-    rather than calling ``executor.spin()``, so that it has left the executor before anyone shuts the
-    executor down (shutting it down under a spinning thread can abort the process in rcl)."""
+    rather than calling ``executor.spin()``, so that it has left the executor before anyone shuts
+    the executor down (shutting it down under a spinning thread can abort the process in rcl).
+    """
 
     SLICE = 0.1  # s: the longest a stop waits for the spin to notice
 
     def __init__(self, executor):
-        super().__init__(name="spin", daemon=True)
+        super().__init__(name='spin', daemon=True)
         self.executor = executor
         self.error: BaseException | None = None
         self._stopping = threading.Event()
@@ -58,10 +77,12 @@ class Spinner(threading.Thread):
 
 
 def shut_down(executor, node, spinner: Spinner | None = None) -> None:
-    """Stop spinning, then shut the executor down, destroy the node (its last log lines still reach
+    """
+    Stop spinning, then shut the executor down, destroy the node (its last log lines still reach
     /rosout) and shut the context down. Any argument may be None (the process stopped before it).
     A second Ctrl-C or SIGTERM meanwhile is ignored: cut short, the bag would lose its end and rcl
-    would abort the process on half-destroyed objects."""
+    would abort the process on half-destroyed objects.
+    """
     with _interrupts_ignored():
         if spinner is not None and spinner.is_alive():
             spinner.stop()
@@ -79,7 +100,9 @@ def _interrupts_ignored():
         return
     signals = (signal.SIGINT, signal.SIGTERM)
     previous = [signal.getsignal(number) for number in signals]
-    for number in signals:  # a Python no-op, not SIG_IGN: one already pending then runs it harmlessly
+    for (
+        number
+    ) in signals:  # a Python no-op, not SIG_IGN: one already pending then runs it harmlessly
         signal.signal(number, _ignore)
     try:
         yield
@@ -93,19 +116,26 @@ def _ignore(signum, frame) -> None:
 
 
 def exit_process(status: int):
-    """End a ROS script's process with ``status`` once it has closed everything (node, bag, context),
-    skipping the interpreter's finalization: there the DDS library's static objects can be destroyed
-    while one of its threads still runs, and the C++ runtime aborts ("terminate called without an
-    active exception", seen about once in several hundred clean Ctrl-C exits in the test suite)."""
+    """
+    End a ROS script's process with ``status`` once it has closed everything (node, bag,
+    context), skipping the interpreter's finalization: there the DDS library's static objects can
+    be destroyed while one of its threads still runs, and the C++ runtime aborts ("terminate called
+    without an active exception", seen about once in several hundred clean Ctrl-C exits in the test
+    suite).
+    """
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(status)
 
 
 def process_main(main):
-    """The console-script entry of a ROS script: ``main()``, then :func:`exit_process`. (``main``
-    itself returns normally, for callers in a process of their own.)"""
+    """
+    The console-script entry of a ROS script: ``main()``, then :func:`exit_process`. (``main``
+    itself returns normally, for callers in a process of their own.)
+    """
+
     def run():
         exit_process(main())
+
     run.__doc__ = main.__doc__
     return run

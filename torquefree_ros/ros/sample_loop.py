@@ -1,13 +1,28 @@
-"""The publishing loop of the simulator node, in a thread of its own.
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The publishing loop of the simulator node, in a thread of its own.
 
 It is the one place where the running simulation changes: a restart requested by the reset service
 is applied between two samples, so no stamp ever carries a rate from one state and an attitude from
 another. Samples are computed and CDR-encoded in vectorised blocks and published in stamp order.
 
-Pacing: with ``real_time_factor == 1`` stamps are wall-clock time and sample ``k`` is published when
-the wall clock reaches its stamp; a late loop catches up without skipping and counts the samples it
-published more than one period after they were due. Any other factor runs a clock of our own,
-published on ``/clock`` just before each sample (0 = as fast as possible).
+Pacing: with ``real_time_factor == 1`` stamps are wall-clock time and sample ``k`` is published
+when the wall clock reaches its stamp; a late loop catches up without skipping and counts the
+samples it published more than one period after they were due. Any other factor runs a clock of our
+own, published on ``/clock`` just before each sample (0 = as fast as possible).
 
 Closed loop (a scene with ``torque_command``): samples are computed one at a time, when due, after
 the torque over the interval before them is sealed (commands arriving later hold from the next
@@ -15,42 +30,44 @@ interval); in lock-step the loop first waits for the controller's answer to the 
 command stamped at or after it), at most ``lockstep_timeout`` wall seconds, and always runs on its
 own clock. The commands that hold go into the bag, logged at the sample they hold from.
 
-Lock-step as fast as possible (``real_time_factor`` 0): the answer's own callback, on the executor's
-thread, seals the interval, computes the next sample and publishes it (:meth:`SampleLoop.command_arrived`)
-while the loop's thread waits for it: handing each answer over to the loop's thread would cost a thread
-switch per round trip (``make bench-lockstep`` measures both). The two threads take turns under one
-lock, and the loop's thread alone applies restarts, pauses, failures and the missed answers' timeout.
+Lock-step as fast as possible (``real_time_factor`` 0): the answer's own callback, on the
+executor's thread, seals the interval, computes the next sample and publishes it
+(:meth:`SampleLoop.command_arrived`) while the loop's thread waits for it: handing each answer over
+to the loop's thread would cost a thread switch per round trip (``make bench-lockstep`` measures
+both). The two threads take turns under one lock, and the loop's thread alone applies restarts,
+pauses, failures and the missed answers' timeout.
 
-Pause (``pause(True)``, the node's ``~/pause``): taken between two samples, like a restart; from then
-on no sample goes out and nothing is recorded, the simulated clock stands still (``/clock``, when the
-run publishes it, is republished at its held value every ``HELD_CLOCK_PERIOD`` wall seconds and not
-recorded), and a lock-step wait for the controller is interrupted. ``pause(False)`` resumes the same
-run: the samples that follow are those of a run never paused, with the same indices and values. On a
-clock of our own the stamps simply continue (the clock held); with wall-clock stamps the run's epoch
-moves on by the time paused (see :data:`.pause.WALL_CLOCK_RULE`).
+Pause (``pause(True)``, the node's ``~/pause``): taken between two samples, like a restart; from
+then on no sample goes out and nothing is recorded, the simulated clock stands still (``/clock``,
+when the run publishes it, is republished at its held value every ``HELD_CLOCK_PERIOD`` wall
+seconds and not recorded), and a lock-step wait for the controller is interrupted. ``pause(False)``
+resumes the same run: the samples that follow are those of a run never paused, with the same
+indices and values. On a clock of our own the stamps simply continue (the clock held); with
+wall-clock stamps the run's epoch moves on by the time paused (see :data:`.pause.WALL_CLOCK_RULE`).
 
-Stepped (``stepped=True``, for ``torquefree_ros.testing``): a sample goes out only once a caller has
-let it (:meth:`SampleLoop.step`), on top of the rules above; meanwhile the loop waits between two samples,
-taking restarts, pauses and a stop as usual. Sample 0 of every run waits too, so a test misses none.
+Stepped (``stepped=True``, for ``torquefree_ros.testing``): a sample goes out only once a caller
+has let it (:meth:`SampleLoop.step`), on top of the rules above; meanwhile the loop waits between
+two samples, taking restarts, pauses and a stop as usual. Sample 0 of every run waits too, so a
+test misses none.
 """
 
 from __future__ import annotations
 
 import dataclasses
+from dataclasses import dataclass
 import threading
 import time
-from dataclasses import dataclass
 from typing import Callable, NamedTuple
 
 import numpy as np
 
+from .pause import PauseReport, where
 from ..bag.cdr import encode_times
 from ..bag.samples import CLOCK, encode_block, encode_command
 from ..bag.writer import BagError
 from ..core.propagators import Propagator
 from ..core.simulation import SampleBlock, Simulation
 from ..core.timing import restart_epoch_ns
-from .pause import PauseReport, where
 
 # Samples computed ahead in one vectorised call: at most MAX_BLOCK, and at most this much wall time
 # of samples (a reset discards the rest). When paced, the block is also kept small enough that
@@ -59,11 +76,11 @@ from .pause import PauseReport, where
 # (see _Run.adapt).
 MAX_BLOCK = 256
 BLOCK_WALL_SECONDS = 0.25
-#: the longest single wait for a deadline (s): the loop then checks again. A deadline can lie beyond
-#: what a wait takes (a real_time_factor of 1e-300 puts the next sample centuries away)
+#: the longest single wait for a deadline (s): the loop then checks again. A deadline can lie
+#: beyond what a wait takes (a real_time_factor of 1e-300 puts the next sample centuries away)
 MAX_WAIT = 1.0
-#: while paused, /clock (when the run publishes it) goes out again at its held value this often (wall s):
-#: a neighbour that starts during the pause learns the time, as under a paused Gazebo
+#: while paused, /clock (when the run publishes it) goes out again at its held value this often
+#: (wall s): a neighbour that starts during the pause learns the time, as under a paused Gazebo
 HELD_CLOCK_PERIOD = 0.1
 
 
@@ -75,12 +92,20 @@ class RunRequest:
     body_frame: str
     inertial_frame: str
     outputs: tuple = ()  # the scene's output effects: each publishes one more topic
-    configuration: str = ""  # which scene and which parameter overrides describe this run
-    left_out: str = ""  # the scene's outputs this Python cannot publish, and why ("" when none)
+    configuration: str = ''  # which scene and which parameter overrides describe this run
+    left_out: str = ''  # the scene's outputs this Python cannot publish, and why ("" when none)
     lockstep: bool = False  # wait for the controller's answer to each sample (a clock of our own)
-    lockstep_timeout: float = 1.0  # wall s to wait for it before going on with the command in force
-    publish_clock: bool = False  # /clock with wall-clock stamps too (a clock of our own always has it)
-    body_position: tuple = (0.0, 0.0, 0.0)  # where tf, pose, odometry and markers place the body (m, inertial)
+    lockstep_timeout: float = (
+        1.0  # wall s to wait for it before going on with the command in force
+    )
+    publish_clock: bool = (
+        False  # /clock with wall-clock stamps too (a clock of our own always has it)
+    )
+    body_position: tuple = (
+        0.0,
+        0.0,
+        0.0,
+    )  # where tf, pose, odometry and markers place the body (m, inertial)
 
     @property
     def wall_clock(self) -> bool:
@@ -88,7 +113,10 @@ class RunRequest:
 
     @property
     def clock(self) -> bool:
-        """Whether the run publishes ``/clock`` (one message per sample, at its stamp, just before it)."""
+        """
+        Whether the run publishes ``/clock`` (one message per sample, at its stamp, just before
+        it).
+        """
         return self.publish_clock or not self.wall_clock
 
 
@@ -108,10 +136,15 @@ class _Run:
         self.simulation = simulation
         self.wall_ref_ns = time.time_ns()
         self.mono_ref = time.monotonic()
-        self.period_wall = (1.0 / (request.publish_rate * request.real_time_factor)
-                            if request.real_time_factor else 0.0)
-        samples_per_wall_second = request.publish_rate * (request.real_time_factor or float("inf"))
-        self.max_block = int(min(MAX_BLOCK, max(1.0, samples_per_wall_second * BLOCK_WALL_SECONDS)))
+        self.period_wall = (
+            1.0 / (request.publish_rate * request.real_time_factor)
+            if request.real_time_factor
+            else 0.0
+        )
+        samples_per_wall_second = request.publish_rate * (request.real_time_factor or float('inf'))
+        self.max_block = int(
+            min(MAX_BLOCK, max(1.0, samples_per_wall_second * BLOCK_WALL_SECONDS))
+        )
         # Start with a one-sample block: paced, its cost is the fixed cost of a block; as fast as
         # possible, blocks then double while they stay well inside BLOCK_WALL_SECONDS.
         self.block_size = 1
@@ -124,9 +157,13 @@ class _Run:
         self.holds = simulation.command_holds  # closed loop: (effect, hold) per command input
         self.shift_ns = 0  # wall clock: how far pauses moved the run's stamps (its epoch) in all
         self.publishers: list = []  # of self.columns' topics
-        self.stopped_by = ""  # lock-step: why the executor's thread could not compute the next sample
+        self.stopped_by = (
+            ''  # lock-step: why the executor's thread could not compute the next sample
+        )
         if self.holds:
-            self.max_block = 1  # each sample computed when due, under the commands received by then
+            self.max_block = (
+                1  # each sample computed when due, under the commands received by then
+            )
             for effect, hold in self.holds:
                 hold.frame_id = effect.frame_id(request.body_frame, request.inertial_frame)
 
@@ -146,11 +183,13 @@ class _Run:
         return self.block.first + self.position if self.block is not None else self.next_index
 
     def resume(self, paused_ns: int) -> None:
-        """Continue after ``paused_ns`` (monotonic) paused.
-        A clock of our own held: only the pacing moves on. Wall-clock stamps: the run's epoch moves on
-        by the time paused, and with it the stamps of the samples computed ahead (re-encoded from the
-        same values), the command holds' grid and the commands in force (so a command's timeout counts
-        simulated time, which stood still)."""
+        """
+        Continue after ``paused_ns`` (monotonic) paused.
+        A clock of our own held: only the pacing moves on. Wall-clock stamps: the run's epoch moves
+        on by the time paused, and with it the stamps of the samples computed ahead (re-encoded
+        from the same values), the command holds' grid and the commands in force (so a command's
+        timeout counts simulated time, which stood still).
+        """
         if not self.request.wall_clock:
             self.mono_ref += paused_ns * 1e-9
             return
@@ -158,14 +197,22 @@ class _Run:
         for _, hold in self.holds:
             hold.shift(paused_ns)
         if self.block is not None and self.position < len(self.block):
-            self.block = dataclasses.replace(self.block, stamps_ns=self.block.stamps_ns + np.int64(paused_ns))
+            self.block = dataclasses.replace(
+                self.block, stamps_ns=self.block.stamps_ns + np.int64(paused_ns)
+            )
             self.columns = self.encode(self.block)
         self.shift_ns += paused_ns
 
     def encode(self, block: SampleBlock) -> tuple:
         request = self.request
-        return encode_block(block, request.body_frame, request.inertial_frame, self.simulation.outputs,
-                            clock=request.clock, position=request.body_position)
+        return encode_block(
+            block,
+            request.body_frame,
+            request.inertial_frame,
+            self.simulation.outputs,
+            clock=request.clock,
+            position=request.body_position,
+        )
 
     def deadline(self, stamp_ns: int) -> float | None:
         """Monotonic time at which the sample is due, or None when not paced."""
@@ -173,7 +220,10 @@ class _Run:
             return self.mono_ref + (stamp_ns - self.wall_ref_ns) * 1e-9
         if self.request.real_time_factor == 0.0:
             return None
-        return self.mono_ref + (stamp_ns - self.simulation.epoch_ns) * 1e-9 / self.request.real_time_factor
+        return (
+            self.mono_ref
+            + (stamp_ns - self.simulation.epoch_ns) * 1e-9 / self.request.real_time_factor
+        )
 
     def refill(self) -> None:
         started = time.perf_counter()
@@ -192,14 +242,20 @@ class _Run:
             self.block_size = int(min(self.max_block, 2 * len(block), max(1.0, fitting)))
 
     def adapt(self, size: int, cost: float) -> None:
-        """Model a block's cost as fixed + size * per_sample. The largest block whose cost fits in
+        """
+        Model a block's cost as fixed + size * per_sample. The largest block whose cost fits in
         one period delays no sample past its period; if even the fixed cost does not fit, every
-        block delays one sample whatever its size, so the largest block makes the fewest late."""
+        block delays one sample whatever its size, so the largest block makes the fewest late.
+        """
         if self.fixed_cost is None:
             self.fixed_cost = cost
         elif size > 1:
             per_sample = max(0.0, (cost - self.fixed_cost) / (size - 1))
-            self.sample_cost = per_sample if self.sample_cost is None else 0.8 * self.sample_cost + 0.2 * per_sample
+            self.sample_cost = (
+                per_sample
+                if self.sample_cost is None
+                else 0.8 * self.sample_cost + 0.2 * per_sample
+            )
         slack = self.period_wall - self.fixed_cost
         if slack <= 0.0 or not self.sample_cost:
             self.block_size = self.max_block
@@ -208,20 +264,28 @@ class _Run:
 
 
 class SampleLoop:
-    """Publishes ``angular_velocity``, ``attitude``, the scene's outputs (and ``/clock``) from its own
-    thread.
+    """
+    Publishes ``angular_velocity``, ``attitude``, the scene's outputs (and ``/clock``) from its
+    own thread.
 
     ``publishers.get(topic)`` gives the publisher of each topic a run publishes; the caller creates
     them before it starts or restarts a run that needs them.
     ``keep_going()`` is false once the ROS context shuts down; publishing then stops quietly.
-    ``recorder`` (a ``bag.samples.SampleRecorder``), when given, gets every sample right after it is
-    published, with the same bytes; if the bag fails, recording stops and publishing goes on.
+    ``recorder`` (a ``bag.samples.SampleRecorder``), when given, gets every sample right after it
+    is published, with the same bytes; if the bag fails, recording stops and publishing goes on.
     """
 
-    def __init__(self, publishers, keep_going: Callable[[], bool], logger, recorder=None, stepped: bool = False):
+    def __init__(
+        self,
+        publishers,
+        keep_going: Callable[[], bool],
+        logger,
+        recorder=None,
+        stepped: bool = False,
+    ):
         self._publishers = publishers
         self._recorder = recorder
-        self.recording_failure = ""
+        self.recording_failure = ''
         self._keep_going = keep_going
         self._logger = logger
         self._lock = threading.Lock()
@@ -234,57 +298,70 @@ class SampleLoop:
         self.published = 0
         self.late = 0
         self.missed_steps = 0  # lock-step: samples computed without the controller's answer
-        self.failure = ""
+        self.failure = ''
         self._pause_request: tuple[bool, threading.Event, list] | None = None
         self._paused_since_ns: int | None = None  # monotonic; None: running
-        self.paused_at = ""  # while paused: the sample that goes out next, as "sample k (t = ... s)"
+        self.paused_at = (
+            ''  # while paused: the sample that goes out next, as "sample k (t = ... s)"
+        )
         self._clock_ns: int | None = None  # the last /clock value published
-        # lock-step as fast as possible: whoever computes a sample holds _turn; the loop's thread sets
-        # _awaiting (the run) while it waits on _turn for the answer to the last sample, due by _answer_due
+        # lock-step as fast as possible: whoever computes a sample holds _turn; the loop's thread
+        # sets _awaiting (the run) while it waits on _turn for the answer to the last sample, due
+        # by _answer_due
         self._turn = threading.Condition()
         self._awaiting: _Run | None = None
         self._answer_due = 0.0
-        # stepped: how many more samples may go out (step() adds, each sample sent takes one); None: not stepped
+        # stepped: how many more samples may go out (step() adds, each sample sent takes one);
+        # None: not stepped
         self._steps: int | None = 0 if stepped else None
 
     # -- called from the executor thread ---------------------------------------------------------
     def start(self, request: RunRequest) -> Simulation:
         self._run = self._begin(request)
-        self._thread = threading.Thread(target=self._main, name="torquefree_samples", daemon=True)
+        self._thread = threading.Thread(target=self._main, name='torquefree_samples', daemon=True)
         self._thread.start()
         return self._run.simulation
 
     def restart(self, request: RunRequest, timeout: float = 10.0) -> Simulation:
-        """Apply ``request`` between two samples; returns the new simulation once it is running (while
-        paused, once it is in place: it starts paused, and its sample 0 goes out on resuming)."""
+        """
+        Apply ``request`` between two samples; returns the new simulation once it is running
+        (while paused, once it is in place: it starts paused, and its sample 0 goes out on
+        resuming).
+        """
         done, result = threading.Event(), []
         with self._lock:
             if self._stopping or not self.running:
-                raise RuntimeError("the sample loop is not running")
+                raise RuntimeError('the sample loop is not running')
             self._pending = (request, done, result)
         self._signal()
         if not done.wait(timeout):
-            raise RuntimeError(f"the sample loop did not take the restart within {timeout:g} s")
+            raise RuntimeError(f'the sample loop did not take the restart within {timeout:g} s')
         return result[0]
 
     def pause(self, paused: bool, timeout: float = 10.0) -> PauseReport:
-        """Pause (True) or resume (False) between two samples; returns once the loop has done it (from
-        then on, while paused, no sample goes out)."""
+        """
+        Pause (True) or resume (False) between two samples; returns once the loop has done it
+        (from then on, while paused, no sample goes out).
+        """
         done, result = threading.Event(), []
         with self._lock:
             if self._stopping or not self.running:
-                raise RuntimeError("the sample loop is not running")
+                raise RuntimeError('the sample loop is not running')
             self._pause_request = (bool(paused), done, result)
         self._signal()
         if not done.wait(timeout):
-            raise RuntimeError(f"the sample loop did not take the {'pause' if paused else 'resume'} within "
-                               f"{timeout:g} s; it applies at the next sample")
+            raise RuntimeError(
+                f'the sample loop did not take the {"pause" if paused else "resume"} within '
+                f'{timeout:g} s; it applies at the next sample'
+            )
         return result[0]
 
     def command_arrived(self) -> None:
-        """Called on the executor's thread after a command went into its hold: in lock-step as fast as
-        possible, if it answers the sample the loop waits on, the next sample is computed and published
-        here and now (see the module's docstring)."""
+        """
+        Called on the executor's thread after a command went into its hold: in lock-step as fast
+        as possible, if it answers the sample the loop waits on, the next sample is computed and
+        published here and now (see the module's docstring).
+        """
         if self._awaiting is None:  # (read again under the lock)
             return
         with self._turn:
@@ -296,17 +373,22 @@ class SampleLoop:
             except Exception as error:  # noqa: BLE001 - the loop's thread reports it (not the executor)
                 if self._stopping or not self._keep_going():
                     return
-                run.stopped_by = f"{type(error).__name__}: {error}"
+                run.stopped_by = f'{type(error).__name__}: {error}'
             if run.stopped_by:
                 self._turn.notify_all()
 
     def step(self, count: int) -> None:
-        """Stepped loop: let ``count`` more samples go out (a negative count takes back those not sent yet)."""
+        """
+        Stepped loop: let ``count`` more samples go out (a negative count takes back those not
+        sent yet).
+        """
         with self._lock:
             if self._steps is None:
-                raise RuntimeError("the sample loop is not stepped")
+                raise RuntimeError('the sample loop is not stepped')
             self._steps = max(0, self._steps + int(count))
-            if self._run is not None:  # lock-step: the wait for the answer starts now (the loop was held)
+            if (
+                self._run is not None
+            ):  # lock-step: the wait for the answer starts now (the loop was held)
                 self._answer_due = time.monotonic() + self._run.request.lockstep_timeout
         self._signal()
 
@@ -352,14 +434,20 @@ class SampleLoop:
         last = self.last_stamp_ns
         return last if last is not None else run.simulation.epoch_ns
 
-    # -- the loop thread ---------------------------------------------------------------------------
+    # -- the loop thread
+    # ---------------------------------------------------------------------------
     def _begin(self, request: RunRequest) -> _Run:
         last = self.last_stamp_ns
         now = time.time_ns() if request.wall_clock else (last or 0)
         epoch = restart_epoch_ns(now, last, request.publish_rate)
-        simulation = Simulation(request.propagator, request.publish_rate, epoch, rate_name="publish_rate",
-                                outputs=request.outputs)
-        self.failure = ""
+        simulation = Simulation(
+            request.propagator,
+            request.publish_rate,
+            epoch,
+            rate_name='publish_rate',
+            outputs=request.outputs,
+        )
+        self.failure = ''
         self.missed_steps = 0
         run = _Run(request, simulation)
         for effect, _ in run.holds:  # command topics are in the bag from the run that takes them
@@ -400,13 +488,21 @@ class SampleLoop:
         elif changed:
             self._paused_since_ns = None
             run.resume(paused_for)
-            self._answer_due = time.monotonic() + run.request.lockstep_timeout  # the wait starts again
+            self._answer_due = (
+                time.monotonic() + run.request.lockstep_timeout
+            )  # the wait starts again
         report = PauseReport(
-            changed=changed, paused=wanted, next_index=run.next_out, rate=run.simulation.rate,
-            clock_ns=self._clock_ns if run.request.clock else None, paused_for_ns=paused_for,
-            wall_clock=run.request.wall_clock, total_shift_ns=run.shift_ns)
+            changed=changed,
+            paused=wanted,
+            next_index=run.next_out,
+            rate=run.simulation.rate,
+            clock_ns=self._clock_ns if run.request.clock else None,
+            paused_for_ns=paused_for,
+            wall_clock=run.request.wall_clock,
+            total_shift_ns=run.shift_ns,
+        )
         if changed and not wanted:
-            self.paused_at = ""
+            self.paused_at = ''
         return report
 
     def _while_paused(self) -> None:
@@ -431,8 +527,8 @@ class SampleLoop:
         except Exception as error:  # noqa: BLE001 - reported, and the node stays up for a reset
             if self._stopping or not self._keep_going():
                 return
-            self.failure = f"{type(error).__name__}: {error}"
-            self._logger.error(f"sample loop stopped: {self.failure}")
+            self.failure = f'{type(error).__name__}: {error}'
+            self._logger.error(f'sample loop stopped: {self.failure}')
 
     def _loop(self) -> None:
         while True:
@@ -440,7 +536,9 @@ class SampleLoop:
             if self.paused:
                 self._while_paused()
                 continue
-            if self._steps == 0:  # stepped, and no sample let out yet: wait for step() (or a request)
+            if (
+                self._steps == 0
+            ):  # stepped, and no sample let out yet: wait for step() (or a request)
                 if self._wake.wait(MAX_WAIT):
                     self._wake.clear()
                 continue
@@ -467,11 +565,14 @@ class SampleLoop:
             self._send(run)
 
     def _refill(self, run: _Run) -> bool:
-        """The next block computed and encoded; False (the reason in ``run.stopped_by``) when it cannot be."""
+        """
+        The next block computed and encoded; False (the reason in ``run.stopped_by``) when it
+        cannot be.
+        """
         try:
             run.refill()
         except (ValueError, ArithmeticError, RuntimeError) as error:  # RuntimeError: a step bound
-            run.stopped_by = f"cannot compute samples {run.next_index}..: {error}"
+            run.stopped_by = f'cannot compute samples {run.next_index}..: {error}'
             return False
         run.publishers = [self._publishers.get(column.topic) for column in run.columns]
         return True
@@ -493,13 +594,18 @@ class SampleLoop:
         if self._steps is not None:
             with self._lock:
                 self._steps = max(0, self._steps - 1)
-        self.last = LastSample(run.simulation, block.first + i, stamp, block.omega_B[i], block.internal[i])
+        self.last = LastSample(
+            run.simulation, block.first + i, stamp, block.omega_B[i], block.internal[i]
+        )
 
     def _lockstep_turn(self, run: _Run) -> None:
-        """Lock-step as fast as possible, on the loop's thread: wait (on ``_turn``) for the answer to the
-        last sample; the answer's callback computes and publishes the next one meanwhile, unless the
-        answer came before the wait or does not come within ``lockstep_timeout`` (a missed step): then
-        this thread does. Returns after one sample, or early for a pending request or a failure."""
+        """
+        Lock-step as fast as possible, on the loop's thread: wait (on ``_turn``) for the answer
+        to the last sample; the answer's callback computes and publishes the next one meanwhile,
+        unless the answer came before the wait or does not come within ``lockstep_timeout`` (a
+        missed step): then this thread does. Returns after one sample, or early for a pending
+        request or a failure.
+        """
         if run.stopped_by:
             self._fail(run.stopped_by)
             return
@@ -510,7 +616,8 @@ class SampleLoop:
                 try:
                     while True:
                         if run.next_index != n or run.stopped_by:
-                            return  # the callback computed it (or could not): start over from the top
+                            # the callback computed it (or could not): start over from the top
+                            return
                         if self._wake.is_set():
                             self._wake.clear()
                             return  # a restart, a pause or a stop: applied between two samples
@@ -526,7 +633,10 @@ class SampleLoop:
             self._step(run)
 
     def _step(self, run: _Run) -> None:
-        """Closed loop, one sample: seal the interval before it, compute it, publish it (under ``_turn``)."""
+        """
+        Closed loop, one sample: seal the interval before it, compute it, publish it (under
+        ``_turn``).
+        """
         n = run.next_index
         if n > 0:
             self._seal(run, n - 1)
@@ -535,9 +645,11 @@ class SampleLoop:
             self._answer_due = time.monotonic() + run.request.lockstep_timeout
 
     def _close_interval(self, run: _Run) -> bool:
-        """Closed loop: fix the torque over ``[t_n-1, t_n)`` before sample ``n`` is computed: when
+        """
+        Closed loop: fix the torque over ``[t_n-1, t_n)`` before sample ``n`` is computed: when
         ``n`` is due (paced), once the controller answered ``n - 1`` (lock-step). False when the
-        wait was cut short (a restart, a stop, or not due yet): the loop checks again."""
+        wait was cut short (a restart, a stop, or not due yet): the loop checks again.
+        """
         n = run.next_index
         if n == 0:
             return True
@@ -550,8 +662,10 @@ class SampleLoop:
                 return False
         if run.request.lockstep:
             answer = run.simulation.stamp_ns(n - 1)
-            answered = all(hold.wait_for(answer, run.request.lockstep_timeout, self._wake.is_set)
-                           for _, hold in run.holds)
+            answered = all(
+                hold.wait_for(answer, run.request.lockstep_timeout, self._wake.is_set)
+                for _, hold in run.holds
+            )
             if self._wake.is_set():
                 self._wake.clear()
                 return False
@@ -579,23 +693,29 @@ class SampleLoop:
         except BagError as error:
             self.recording_failure = str(error)
             self._recorder = None
-            self._logger.error(f"recording stopped, publishing goes on: {error}")
+            self._logger.error(f'recording stopped, publishing goes on: {error}')
 
     def _record(self, stamp: int, columns, index: int) -> None:
         self._to_bag(lambda recorder: recorder.write_sample(stamp, columns, index))
 
     def _record_commands(self, effect, hold, commands) -> None:
         """The commands that start holding, logged at the stamp of the sample they hold from."""
+
         def write(recorder):
             for command in commands:
-                recorder.write_message(effect.topic, effect.message_type, hold.stamp_ns(command.start),
-                                       encode_command(command))
+                recorder.write_message(
+                    effect.topic,
+                    effect.message_type,
+                    hold.stamp_ns(command.start),
+                    encode_command(command),
+                )
+
         self._to_bag(write)
 
     def _fail(self, reason: str) -> None:
         """Stop publishing until a restart arrives; the node stays up and reports the reason."""
         self.failure = reason
-        self._logger.error(f"simulation stopped: {reason}; call ~/reset to restart")
+        self._logger.error(f'simulation stopped: {reason}; call ~/reset to restart')
         while not self._take_pending():
             self._wake.wait()
             self._wake.clear()

@@ -1,20 +1,36 @@
-"""The simulator node in process, stepped by the test: :func:`simulator` and :class:`Simulator`.
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The simulator node in process, stepped by the test: :func:`simulator` and :class:`Simulator`.
 
 One simulator is one private rclpy context (in a ROS domain of its own, :mod:`.domains`), one
 ``SingleThreadedExecutor`` spun only in the caller's thread, the ``torquefree_sim`` node in a
 namespace of its own, and a small node of the kit's (``torquefree_test_kit``) that records what the
-simulator publishes (:attr:`Simulator.samples`) and holds the taps. Nothing waits on the wall clock:
-every wait spins the executor until a condition holds, with a timeout that names what did not happen.
+simulator publishes (:attr:`Simulator.samples`) and holds the taps. Nothing waits on the wall
+clock: every wait spins the executor until a condition holds, with a timeout that names what did
+not happen.
 """
 
 from __future__ import annotations
 
 import contextlib
+from dataclasses import dataclass
 import inspect
 import itertools
 import os
 import time
-from dataclasses import dataclass
 from typing import Any, Callable, Iterator
 
 import numpy as np
@@ -22,11 +38,14 @@ import numpy as np
 #: seconds a single wait may take before it fails (generous: CI machines are shared and noisy)
 DEFAULT_TIMEOUT = 20.0
 _NAMESPACES = itertools.count(1)
-KIT_NODE = "torquefree_test_kit"
+KIT_NODE = 'torquefree_test_kit'
 
 
 class SimulatorTimeout(TimeoutError):
-    """A wait of the kit's did not end within its timeout; the message names what did not arrive."""
+    """
+    A wait of the kit's did not end within its timeout; the message names what did not
+    arrive.
+    """
 
 
 @dataclass(frozen=True)
@@ -42,7 +61,10 @@ class Sample:
 
 @dataclass(frozen=True)
 class State:
-    """The exact state at ``t`` (s since the run's start); arrays of states when ``t`` is an array."""
+    """
+    The exact state at ``t`` (s since the run's start); arrays of states when ``t`` is an
+    array.
+    """
 
     t: Any
     angular_velocity: np.ndarray  # (3,) or (N, 3)
@@ -55,15 +77,17 @@ def stamp_ns(stamp) -> int:
 
 
 def message_stamp_ns(message) -> int | None:
-    """The stamp a message of the simulator's carries: its header's, ``/clock``'s time, the first
-    transform's or marker's; None when it has none."""
-    header = getattr(message, "header", None)
+    """
+    The stamp a message of the simulator's carries: its header's, ``/clock``'s time, the first
+    transform's or marker's; None when it has none.
+    """
+    header = getattr(message, 'header', None)
     if header is not None:
         return stamp_ns(header.stamp)
-    clock = getattr(message, "clock", None)
+    clock = getattr(message, 'clock', None)
     if clock is not None:
         return stamp_ns(clock)
-    for field in ("transforms", "markers"):
+    for field in ('transforms', 'markers'):
         items = getattr(message, field, None)
         if items:
             return stamp_ns(items[0].header.stamp)
@@ -71,31 +95,49 @@ def message_stamp_ns(message) -> int | None:
 
 
 class Tap:
-    """What is published on one topic, in order of arrival (:attr:`messages`); :meth:`wait` for more."""
+    """
+    What is published on one topic, in order of arrival (:attr:`messages`); :meth:`wait` for
+    more.
+    """
 
-    def __init__(self, simulator: "Simulator", topic: str, message_type, qos):
+    def __init__(self, simulator: 'Simulator', topic: str, message_type, qos):
         self._simulator = simulator
         self.message_type = message_type
         self.messages: list = []
-        self.subscription = simulator._kit.create_subscription(message_type, topic, self.messages.append, qos)
+        self.subscription = simulator._kit.create_subscription(
+            message_type, topic, self.messages.append, qos
+        )
         self.topic = self.subscription.topic_name
 
     def wait(self, count: int, timeout: float | None = None) -> list:
-        """Spin until ``count`` messages in all have arrived; returns them all. On timeout the error names
-        the topic, how many came and who publishes it (none: the node never answered)."""
+        """
+        Spin until ``count`` messages in all have arrived; returns them all. On timeout the
+        error names the topic, how many came and who publishes it (none: the node never
+        answered).
+        """
+
         def missing() -> str:
             publishers = self._simulator._kit.get_publishers_info_by_topic(self.topic)
-            who = ", ".join(sorted({f"{p.node_namespace.rstrip('/')}/{p.node_name}" for p in publishers})) or "none"
-            return (f"tap on {self.topic} ({_type_name(self.message_type)}): {len(self.messages)} of {count} "
-                    f"messages arrived; publishers on the topic: {who}")
+            who = (
+                ', '.join(
+                    sorted({f'{p.node_namespace.rstrip("/")}/{p.node_name}' for p in publishers})
+                )
+                or 'none'
+            )
+            return (
+                f'tap on {self.topic} ({_type_name(self.message_type)}): {len(self.messages)} of {count} '
+                f'messages arrived; publishers on the topic: {who}'
+            )
 
         self._simulator.spin_until(lambda: len(self.messages) >= count, timeout, missing)
         return self.messages
 
 
 class _Watch:
-    """What a watched subscription's callbacks have processed: they returned for ``count`` messages, the
-    last of them stamped ``latest`` (ns)."""
+    """
+    What a watched subscription's callbacks have processed: they returned for ``count``
+    messages, the last of them stamped ``latest`` (ns).
+    """
 
     def __init__(self):
         self.count = 0
@@ -113,41 +155,51 @@ class _Watch:
 
 
 class Simulator:
-    """``torquefree_sim`` in a private context, stepped by the caller. Use :func:`simulator`.
+    """
+    ``torquefree_sim`` in a private context, stepped by the caller. Use :func:`simulator`.
 
     ``scene`` and ``parameters`` are the node's parameters (``scene``, ``publish_rate``,
     ``angular_velocity``, ...). Stepped (the default), the node runs on its own clock from 0
     (``real_time_factor`` 0) and in lock-step (a scene with ``torque_command`` waits for the
-    controller's answer to each sample), unless ``parameters`` say otherwise, and a sample goes out only
-    when :meth:`advance` lets it. ``stepped=False``: the node paces itself as it would anywhere
-    (no :meth:`advance`, no :attr:`samples`; the project's own tests of pacing use it).
+    controller's answer to each sample), unless ``parameters`` say otherwise, and a sample goes out
+    only when :meth:`advance` lets it. ``stepped=False``: the node paces itself as it would
+    anywhere (no :meth:`advance`, no :attr:`samples`; the project's own tests of pacing use it).
 
     ``namespace``: default ``torquefree_test_<n>`` (with the pytest-xdist worker's name);
     ``domain_id``: default a free one claimed for this simulator alone (:mod:`.domains`);
-    ``timeout``: seconds any single wait may take (:data:`DEFAULT_TIMEOUT`); ``args``: ROS command-line
-    arguments for the context (``["--ros-args", "--params-file", FILE]``). Raises
+    ``timeout``: seconds any single wait may take (:data:`DEFAULT_TIMEOUT`); ``args``: ROS
+    command-line arguments for the context (``["--ros-args", "--params-file", FILE]``). Raises
     ``torquefree_ros.ros.parameters.ConfigurationError`` for unusable start-up parameters, leaving
     nothing behind.
     """
 
-    def __init__(self, scene: str | None = None, *, namespace: str | None = None, domain_id: int | None = None,
-                 stepped: bool = True, timeout: float = DEFAULT_TIMEOUT, args: list[str] | None = None,
-                 node_name: str = "torquefree", **parameters):
+    def __init__(
+        self,
+        scene: str | None = None,
+        *,
+        namespace: str | None = None,
+        domain_id: int | None = None,
+        stepped: bool = True,
+        timeout: float = DEFAULT_TIMEOUT,
+        args: list[str] | None = None,
+        node_name: str = 'torquefree',
+        **parameters,
+    ):
         import rclpy
         from rclpy.executors import SingleThreadedExecutor
         from rclpy.parameter import Parameter
 
-        from ..ros.node import TorqueFreeSim
         from .domains import claim_domain, keep_discovery_local
+        from ..ros.node import TorqueFreeSim
 
         if scene is not None:
-            parameters["scene"] = scene
+            parameters['scene'] = scene
         if stepped:
-            parameters.setdefault("real_time_factor", 0.0)
-            parameters.setdefault("lockstep", True)
+            parameters.setdefault('real_time_factor', 0.0)
+            parameters.setdefault('lockstep', True)
         if namespace is None:
-            worker = os.environ.get("PYTEST_XDIST_WORKER", "")
-            namespace = f"torquefree_test_{worker + '_' if worker else ''}{next(_NAMESPACES)}"
+            worker = os.environ.get('PYTEST_XDIST_WORKER', '')
+            namespace = f'torquefree_test_{worker + "_" if worker else ""}{next(_NAMESPACES)}'
         self.namespace = namespace
         self.stepped = stepped
         self.timeout = float(timeout)
@@ -169,14 +221,21 @@ class Simulator:
             rclpy.init(args=args, context=self.context, domain_id=self.domain_id)
             self.executor = SingleThreadedExecutor(context=self.context)
             overrides = [Parameter(name, value=value) for name, value in parameters.items()]
-            self.node = TorqueFreeSim(node_name, context=self.context, namespace=namespace,
-                                      parameter_overrides=overrides, stepped=stepped)
+            self.node = TorqueFreeSim(
+                node_name,
+                context=self.context,
+                namespace=namespace,
+                parameter_overrides=overrides,
+                stepped=stepped,
+            )
         except BaseException:
             self.context.try_shutdown()
             self._release_domain()
             raise
         self.executor.add_node(self.node)
-        self._kit_node = None  # the kit's own node, made when first needed (stepped: at once, to record)
+        self._kit_node = (
+            None  # the kit's own node, made when first needed (stepped: at once, to record)
+        )
         try:
             if stepped:
                 self._record()
@@ -190,41 +249,59 @@ class Simulator:
         if self._kit_node is None:
             import rclpy
 
-            self._kit_node = rclpy.create_node(KIT_NODE, context=self.context, namespace=self.namespace)
+            self._kit_node = rclpy.create_node(
+                KIT_NODE, context=self.context, namespace=self.namespace
+            )
             self.executor.add_node(self._kit_node)
         return self._kit_node
 
-    # -- the caller's nodes --------------------------------------------------------------------------
+    # -- the caller's nodes
+    # --------------------------------------------------------------------------
     def add_node(self, node) -> None:
-        """Spin ``node`` with the simulator (same context, same executor, the caller's thread); from now
-        on :meth:`advance` waits for its subscriptions to the simulator's topics. The simulator destroys
-        it on exit."""
+        """
+        Spin ``node`` with the simulator (same context, same executor, the caller's thread);
+        from now on :meth:`advance` waits for its subscriptions to the simulator's topics. The
+        simulator destroys it on exit.
+        """
         if node.context is not self.context:
-            raise ValueError(f"add_node: node '{node.get_name()}' belongs to another context; create it with "
-                             "context=sim.context (and namespace=sim.namespace, to subscribe with relative names)")
+            raise ValueError(
+                f"add_node: node '{node.get_name()}' belongs to another context; create it with "
+                'context=sim.context (and namespace=sim.namespace, to subscribe with relative names)'
+            )
         self._check_names(node)
         self._added.append(node)
         self.executor.add_node(node)
 
     def create_node(self, name: str, **options):
-        """``rclpy.create_node`` in the simulator's context and namespace, added (:meth:`add_node`)."""
+        """
+        ``rclpy.create_node`` in the simulator's context and namespace, added
+        (:meth:`add_node`).
+        """
         import rclpy
 
-        options.setdefault("namespace", self.namespace)
+        options.setdefault('namespace', self.namespace)
         node = rclpy.create_node(name, context=self.context, **options)
         self.add_node(node)
         return node
 
     def tap(self, topic: str, message_type, qos=None) -> Tap:
-        """Collect what is published on ``topic`` (relative names resolve in the simulator's namespace),
-        reliable keep-last 1000 unless ``qos`` is given."""
+        """
+        Collect what is published on ``topic`` (relative names resolve in the simulator's
+        namespace), reliable keep-last 1000 unless ``qos`` is given.
+        """
         from rclpy.qos import QoSProfile, ReliabilityPolicy
 
-        tap = Tap(self, topic, message_type, qos or QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE))
+        tap = Tap(
+            self,
+            topic,
+            message_type,
+            qos or QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE),
+        )
         self._taps.append(tap)
         return tap
 
-    # -- stepping ------------------------------------------------------------------------------------
+    # -- stepping
+    # ------------------------------------------------------------------------------------
     @property
     def k(self) -> int:
         """The index of the next sample :meth:`advance` lets out."""
@@ -240,21 +317,25 @@ class Simulator:
         return self._simulation.rate
 
     def advance(self, n: int = 1, timeout: float | None = None) -> list[Sample]:
-        """Publish the next ``n`` samples, one at a time, and return them (as :attr:`samples` has them).
+        """
+        Publish the next ``n`` samples, one at a time, and return them (as :attr:`samples` has
+        them).
 
-        A sample counts as processed, and the next goes out, once every subscription of every node added
-        (and of the kit's recorder) to a topic the sample went out on has had its callback return for that
-        sample's message or a later one (delivery is reliable and in order, so every earlier message of
-        the topic has been taken too, unless the subscription's own keep-last depth dropped it). The
-        executor is spun in this thread meanwhile, so the callbacks and whatever else is ready (timers,
-        services, the simulator's command input) run here too. A slow callback therefore only makes
-        ``advance`` slower. Each sample may take ``timeout`` s (default: the simulator's): then
-        :class:`SimulatorTimeout` names each subscription that has not processed it and why it may not
-        have (an incompatible QoS, no match), or why the simulator did not publish it."""
+        A sample counts as processed, and the next goes out, once every subscription of every node
+        added (and of the kit's recorder) to a topic the sample went out on has had its callback
+        return for that sample's message or a later one (delivery is reliable and in order, so
+        every earlier message of the topic has been taken too, unless the subscription's own
+        keep-last depth dropped it). The executor is spun in this thread meanwhile, so the
+        callbacks and whatever else is ready (timers, services, the simulator's command input) run
+        here too. A slow callback therefore only makes ``advance`` slower. Each sample may take
+        ``timeout`` s (default: the simulator's): then
+        :class:`SimulatorTimeout` names each subscription that has not processed it and why it may
+        not have (an incompatible QoS, no match), or why the simulator did not publish it.
+        """
         if not self.stepped:
-            raise RuntimeError("advance: this simulator paces itself (stepped=False)")
+            raise RuntimeError('advance: this simulator paces itself (stepped=False)')
         if n < 0:
-            raise ValueError(f"advance: n must be >= 0, got {n}")
+            raise ValueError(f'advance: n must be >= 0, got {n}')
         out = []
         for _ in range(n):
             out.append(self._advance_one(self.timeout if timeout is None else timeout))
@@ -270,8 +351,12 @@ class Simulator:
         missed = loop.missed_steps
         loop.step(1)
         try:
-            self.spin_until(lambda: self._processed(watched, expected, stamp), timeout,
-                            lambda: self._not_processed(k, stamp, watched, expected), check=self._check_loop)
+            self.spin_until(
+                lambda: self._processed(watched, expected, stamp),
+                timeout,
+                lambda: self._not_processed(k, stamp, watched, expected),
+                check=self._check_loop,
+            )
         except BaseException:
             loop.step(-1)  # if it did not go out, it must not later, unasked
             last = loop.last
@@ -279,17 +364,21 @@ class Simulator:
                 self._next = last.index + 1  # it went out (a subscriber did not process it)
             raise
         if loop.missed_steps != missed:
-            raise SimulatorTimeout(f"advance: sample {k} went out without the controller's answer to sample {k - 1}: "
-                                   f"{self._lockstep_wait(k)}")
+            raise SimulatorTimeout(
+                f"advance: sample {k} went out without the controller's answer to sample {k - 1}: "
+                f'{self._lockstep_wait(k)}'
+            )
         self._next = k + 1
         sample = self.samples[-1]
         if sample.index != k:  # the recorder is watched: its sample k is complete by now
-            raise AssertionError(f"advance: the kit recorded sample {sample.index}, expected {k}")
+            raise AssertionError(f'advance: the kit recorded sample {sample.index}, expected {k}')
         return sample
 
     def _watched(self, expected: dict) -> list:
-        """(node, subscription, watch) for every subscription to a topic in ``expected``, wrapping the
-        callbacks of subscriptions not seen before."""
+        """
+        (node, subscription, watch) for every subscription to a topic in ``expected``, wrapping
+        the callbacks of subscriptions not seen before.
+        """
         out = []
         for node in [node for node in (self._kit_node, *self._added) if node is not None]:
             for subscription in list(node.subscriptions):
@@ -307,31 +396,38 @@ class Simulator:
         """Note each message after the subscription's callback returned for it."""
         watch, original = _Watch(), subscription.callback
         raw_type = subscription.msg_type if subscription.raw else None
-        # the same kind and arity as the original: rclpy awaits a coroutine function, and passes the
-        # MessageInfo to a callback that takes two arguments
+        # the same kind and arity as the original: rclpy awaits a coroutine function, and passes
+        # the MessageInfo to a callback that takes two arguments
         if inspect.iscoroutinefunction(original):
             if _takes_two(original):
+
                 async def callback(message, info):
                     await original(message, info)
                     watch.note(message, raw_type)
             else:
+
                 async def callback(message):
                     await original(message)
                     watch.note(message, raw_type)
         elif _takes_two(original):
+
             def callback(message, info):
                 original(message, info)
                 watch.note(message, raw_type)
         else:
+
             def callback(message):
                 original(message)
                 watch.note(message, raw_type)
+
         subscription.callback = callback
         return watch
 
     def _wait_matched(self, watched: list, timeout: float) -> None:
-        """Until the simulator's publisher on each watched topic has matched the watched subscriptions
-        (a volatile sample published before then would be lost to them)."""
+        """
+        Until the simulator's publisher on each watched topic has matched the watched
+        subscriptions (a volatile sample published before then would be lost to them).
+        """
         fresh = [entry for entry in watched if id(entry[1]) not in self._matched]
         if not fresh:
             return
@@ -340,83 +436,122 @@ class Simulator:
             wanted[subscription.topic_name] = wanted.get(subscription.topic_name, 0) + 1
 
         def matched() -> bool:
-            return all(self._publisher(topic).get_subscription_count() >= count for topic, count in wanted.items()) \
-                and all(subscription.get_publisher_count() > 0 for _, subscription, _ in fresh)
+            return all(
+                self._publisher(topic).get_subscription_count() >= count
+                for topic, count in wanted.items()
+            ) and all(subscription.get_publisher_count() > 0 for _, subscription, _ in fresh)
 
         def unmatched() -> str:
-            lines = [f"node {_node_name(node)}, its subscription to {subscription.topic_name}"
-                     f"{self._qos_problem(subscription)}"
-                     for node, subscription, _ in fresh if subscription.get_publisher_count() == 0]
-            return ("discovery: the simulator's publishers have not matched every subscription to them: "
-                    + ("; ".join(lines) or "each has a publisher, but a publisher lacks a subscriber"))
+            lines = [
+                f'node {_node_name(node)}, its subscription to {subscription.topic_name}'
+                f'{self._qos_problem(subscription)}'
+                for node, subscription, _ in fresh
+                if subscription.get_publisher_count() == 0
+            ]
+            return (
+                "discovery: the simulator's publishers have not matched every subscription to them: "
+                + ('; '.join(lines) or 'each has a publisher, but a publisher lacks a subscriber')
+            )
 
         self.spin_until(matched, timeout, unmatched)
         self._matched.update(id(entry[1]) for entry in fresh)
 
     @staticmethod
     def _processed(watched: list, expected: dict, stamp: int) -> bool:
-        return all(watch.latest is not None and watch.latest >= stamp for _, subscription, watch in watched
-                   if expected[subscription.topic_name])
+        return all(
+            watch.latest is not None and watch.latest >= stamp
+            for _, subscription, watch in watched
+            if expected[subscription.topic_name]
+        )
 
     def _not_processed(self, k: int, stamp: int, watched: list, expected: dict) -> str:
         loop = self.node.sample_loop
-        head = (f"advance: sample {k} (t = {k / self._simulation.rate:g} s, stamp {_seconds(stamp)}) "
-                f"of {self._simulation_name()}")
+        head = (
+            f'advance: sample {k} (t = {k / self._simulation.rate:g} s, stamp {_seconds(stamp)}) '
+            f'of {self._simulation_name()}'
+        )
         last = loop.last
         if last is None or last.simulation is not self._simulation or last.index < k:
-            why = (f"{self._lockstep_wait(k)}" if loop.request.lockstep and self._simulation.command_holds and k > 0
-                   else "the simulator did not publish it")
-            return f"{head} did not go out: {why}"
+            why = (
+                f'{self._lockstep_wait(k)}'
+                if loop.request.lockstep and self._simulation.command_holds and k > 0
+                else 'the simulator did not publish it'
+            )
+            return f'{head} did not go out: {why}'
         lines = []
         for node, subscription, watch in watched:
-            if not expected[subscription.topic_name] or (watch.latest is not None and watch.latest >= stamp):
+            if not expected[subscription.topic_name] or (
+                watch.latest is not None and watch.latest >= stamp
+            ):
                 continue
-            seen = (f"its callback returned for {watch.count} message(s), the last stamped {_seconds(watch.latest)}"
-                    if watch.count else "its callback has not run for any message")
-            lines.append(f"{_node_name(node)}, subscription to {subscription.topic_name} "
-                         f"({_type_name(subscription.msg_type)}): {seen}{self._qos_problem(subscription)}")
-        return f"{head} was published but not processed: " + "; ".join(lines)
+            seen = (
+                f'its callback returned for {watch.count} message(s), the last stamped {_seconds(watch.latest)}'
+                if watch.count
+                else 'its callback has not run for any message'
+            )
+            lines.append(
+                f'{_node_name(node)}, subscription to {subscription.topic_name} '
+                f'({_type_name(subscription.msg_type)}): {seen}{self._qos_problem(subscription)}'
+            )
+        return f'{head} was published but not processed: ' + '; '.join(lines)
 
     def _lockstep_wait(self, k: int) -> str:
-        topics = ", ".join(self.node.resolve_topic_name(effect.topic) for effect, _ in self._simulation.command_holds)
-        return (f"in lock-step it waits for a command stamped {_seconds(self._simulation.stamp_ns(k - 1))} or later on {topics} "
-                f"(the answer to sample {k - 1}) and none came within lockstep_timeout "
-                f"({self.node.sample_loop.request.lockstep_timeout:g} s); for an open loop pass lockstep=False")
+        topics = ', '.join(
+            self.node.resolve_topic_name(effect.topic)
+            for effect, _ in self._simulation.command_holds
+        )
+        return (
+            f'in lock-step it waits for a command stamped {_seconds(self._simulation.stamp_ns(k - 1))} or later on {topics} '
+            f'(the answer to sample {k - 1}) and none came within lockstep_timeout '
+            f'({self.node.sample_loop.request.lockstep_timeout:g} s); for an open loop pass lockstep=False'
+        )
 
     def _qos_problem(self, subscription) -> str:
-        from rclpy.qos import QoSCompatibility, qos_check_compatible
+        from rclpy.qos import qos_check_compatible, QoSCompatibility
 
         try:
             publisher = self._publisher(subscription.topic_name)
         except KeyError:
-            return ""
-        compatibility, reason = qos_check_compatible(publisher.qos_profile, subscription.qos_profile)
+            return ''
+        compatibility, reason = qos_check_compatible(
+            publisher.qos_profile, subscription.qos_profile
+        )
         if compatibility == QoSCompatibility.ERROR:
-            reason = reason.strip().removeprefix("ERROR:").strip().rstrip(";")
+            reason = reason.strip().removeprefix('ERROR:').strip().rstrip(';')
             return f" (its QoS cannot match the simulator's publisher: {reason})"
-        return ""
+        return ''
 
     def _check_loop(self) -> None:
         """Fail at once, not at the timeout, when the simulator cannot publish at all."""
         loop = self.node.sample_loop
         if loop.failure:
-            raise RuntimeError(f"the simulation stopped: {loop.failure}")
+            raise RuntimeError(f'the simulation stopped: {loop.failure}')
         if loop.paused:
-            raise RuntimeError(f"the simulator is paused (at {loop.paused_at}): ~/pause false resumes it")
+            raise RuntimeError(
+                f'the simulator is paused (at {loop.paused_at}): ~/pause false resumes it'
+            )
         if loop.simulation is not self._simulation:
-            raise RuntimeError("the simulator was reset behind the kit's back (its ~/reset service): use sim.reset()")
+            raise RuntimeError(
+                "the simulator was reset behind the kit's back (its ~/reset service): use sim.reset()"
+            )
 
-    # -- truth, samples, reset -----------------------------------------------------------------------
+    # -- truth, samples, reset
+    # -----------------------------------------------------------------------
     def truth(self, t) -> State:
-        """The exact state at ``t`` (s since the run's start; a number or a sorted array), from a fresh
-        propagator of the same scene and parameters: the exact solution, or the scene's propagator at its
-        accuracy when an effect changes the motion (the node's samples are its values at ``k / rate``,
-        bit for bit). A scene that takes torque commands has no truth without them: compare with
-        :attr:`samples` instead."""
+        """
+        The exact state at ``t`` (s since the run's start; a number or a sorted array), from a
+        fresh propagator of the same scene and parameters: the exact solution, or the scene's
+        propagator at its accuracy when an effect changes the motion (the node's samples are its
+        values at ``k / rate``, bit for bit). A scene that takes torque commands has no truth
+        without them: compare with
+        :attr:`samples` instead.
+        """
         self._sync()
         if self._simulation.command_holds:
-            raise ValueError("truth: the scene takes torque commands; its motion depends on those the node received "
-                             "(compare with sim.samples)")
+            raise ValueError(
+                'truth: the scene takes torque commands; its motion depends on those the node received '
+                '(compare with sim.samples)'
+            )
         scalar = np.ndim(t) == 0
         times = np.atleast_1d(np.asarray(t, dtype=float))
         if self._truth is None:
@@ -427,8 +562,11 @@ class Simulator:
         return State(times, omega, q)
 
     def time_of(self, stamp) -> float:
-        """The time (s since the run's start) of a stamp (``builtin_interfaces/Time`` or integer ns): for a
-        sample's stamp exactly its ``k / publish_rate``, the time :meth:`truth` wants."""
+        """
+        The time (s since the run's start) of a stamp (``builtin_interfaces/Time`` or integer
+        ns): for a sample's stamp exactly its ``k / publish_rate``, the time :meth:`truth`
+        wants.
+        """
         self._sync()
         ns = stamp if isinstance(stamp, (int, np.integer)) else stamp_ns(stamp)
         k = round((ns - self._simulation.epoch_ns) * 1e-9 * self._simulation.rate)
@@ -437,10 +575,12 @@ class Simulator:
         return (ns - self._simulation.epoch_ns) * 1e-9
 
     def reset(self, **parameters) -> str:
-        """Set ``parameters`` (atomically, with the node's checks) and call ``~/reset``: the run restarts at
-        ``t = 0`` and :attr:`samples` start over. Returns the service's summary; raises ``ValueError`` with
-        the reason when a value or the reset is refused (the running simulation then goes on unchanged;
-        values accepted stay set, as through the parameter service)."""
+        """
+        Set ``parameters`` (atomically, with the node's checks) and call ``~/reset``: the run
+        restarts at ``t = 0`` and :attr:`samples` start over. Returns the service's summary; raises
+        ``ValueError`` with the reason when a value or the reset is refused (the running simulation
+        then goes on unchanged; values accepted stay set, as through the parameter service).
+        """
         from rclpy.parameter import Parameter
         from std_srvs.srv import Trigger
 
@@ -449,14 +589,18 @@ class Simulator:
             try:
                 result = self.node.set_parameters_atomically(values)
             except Exception as error:  # noqa: BLE001 - rclpy raises for read-only ones: the same refusal
-                raise ValueError(f"reset: parameters refused: {error}") from None
+                raise ValueError(f'reset: parameters refused: {error}') from None
             if not result.successful:
-                raise ValueError(f"reset: parameters refused: {result.reason}")
+                raise ValueError(f'reset: parameters refused: {result.reason}')
         if self._reset_client is None:
-            self._reset_client = self._kit.create_client(Trigger, f"{self.node.get_fully_qualified_name()}/reset")
-        self.spin_until(self._reset_client.service_is_ready, None, lambda: "the simulator's ~/reset service")
+            self._reset_client = self._kit.create_client(
+                Trigger, f'{self.node.get_fully_qualified_name()}/reset'
+            )
+        self.spin_until(
+            self._reset_client.service_is_ready, None, lambda: "the simulator's ~/reset service"
+        )
         future = self._reset_client.call_async(Trigger.Request())
-        self.spin_until(future.done, None, lambda: "the answer of ~/reset")
+        self.spin_until(future.done, None, lambda: 'the answer of ~/reset')
         response = future.result()
         if not response.success:
             raise ValueError(response.message)
@@ -465,35 +609,51 @@ class Simulator:
 
     def _sync(self, force: bool = False) -> None:
         """Take up the node's running simulation: sample 0 next, samples anew, a fresh truth."""
-        from ..ros.parameters import SPECS, check_value
+        from ..ros.parameters import check_value, SPECS
 
         loop = self.node.sample_loop
         if not force and loop.simulation is self._simulation:
             return
         self._simulation = loop.simulation
-        self._next = loop.last.index + 1 if (loop.last is not None and loop.last.simulation is self._simulation) else 0
+        self._next = (
+            loop.last.index + 1
+            if (loop.last is not None and loop.last.simulation is self._simulation)
+            else 0
+        )
         self.samples = []
         self._halves.clear()
         self._matched.clear()  # a reset may have made new output publishers
-        # the values the run was made from (they may change later, without a reset, through the parameters)
-        self._values = {spec.name: check_value(spec.name, self.node.get_parameter(spec.name)) for spec in SPECS}
+        # the values the run was made from (they may change later, without a reset, through the
+        # parameters)
+        self._values = {
+            spec.name: check_value(spec.name, self.node.get_parameter(spec.name)) for spec in SPECS
+        }
         self._truth = None
 
     def _fresh_propagator(self):
-        """The propagator the node's run has, built anew from the same values (never the running one: the
-        sample loop's thread uses it, and an integrator keeps state)."""
+        """
+        The propagator the node's run has, built anew from the same values (never the running
+        one: the sample loop's thread uses it, and an integrator keeps state).
+        """
         from ..ros.parameters import run_request
 
         propagator = run_request(self._values).propagator
         running = self._simulation.propagator
-        if not (np.array_equal(propagator.omega0_B, running.omega0_B)
-                and np.array_equal(propagator.q0_NB, running.q0_NB)):
-            raise RuntimeError("truth: the node's parameters changed between its last reset and the kit's first "
-                               "look at the run: reset it with sim.reset()")
+        if not (
+            np.array_equal(propagator.omega0_B, running.omega0_B)
+            and np.array_equal(propagator.q0_NB, running.q0_NB)
+        ):
+            raise RuntimeError(
+                "truth: the node's parameters changed between its last reset and the kit's first "
+                'look at the run: reset it with sim.reset()'
+            )
         return propagator
 
     def _topics_of(self, k: int) -> dict:
-        """resolved topic -> whether sample ``k`` goes out on it, for every topic the run publishes."""
+        """
+        resolved topic -> whether sample ``k`` goes out on it, for every topic the run
+        publishes.
+        """
         from ..bag.samples import ANGULAR_VELOCITY, ATTITUDE, CLOCK
 
         request, resolve = self.node.sample_loop.request, self.node.resolve_topic_name
@@ -501,7 +661,9 @@ class Simulator:
         if request.clock:
             topics[resolve(CLOCK[0])] = True
         for output in request.outputs:
-            topics[resolve(output.topic)] = k % output.every(request.publish_rate, "publish_rate") == 0
+            topics[resolve(output.topic)] = (
+                k % output.every(request.publish_rate, 'publish_rate') == 0
+            )
         return topics
 
     def _publisher(self, topic: str):
@@ -516,13 +678,22 @@ class Simulator:
         from rclpy.qos import QoSProfile, ReliabilityPolicy
 
         qos = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
-        self._kit.create_subscription(Vector3Stamped, "angular_velocity",
-                                      lambda m: self._half(m.header.stamp, "w", (m.vector.x, m.vector.y, m.vector.z)),
-                                      qos)
         self._kit.create_subscription(
-            QuaternionStamped, "attitude",
-            lambda m: self._half(m.header.stamp, "q", (m.quaternion.x, m.quaternion.y, m.quaternion.z, m.quaternion.w)),
-            qos)
+            Vector3Stamped,
+            'angular_velocity',
+            lambda m: self._half(m.header.stamp, 'w', (m.vector.x, m.vector.y, m.vector.z)),
+            qos,
+        )
+        self._kit.create_subscription(
+            QuaternionStamped,
+            'attitude',
+            lambda m: self._half(
+                m.header.stamp,
+                'q',
+                (m.quaternion.x, m.quaternion.y, m.quaternion.z, m.quaternion.w),
+            ),
+            qos,
+        )
 
     def _half(self, stamp, key: str, values) -> None:
         ns = stamp_ns(stamp)
@@ -532,14 +703,22 @@ class Simulator:
             del self._halves[ns]
             simulation = self._simulation
             k = round((ns - simulation.epoch_ns) * 1e-9 * simulation.rate)
-            self.samples.append(Sample(k, k / simulation.rate, ns, parts["w"], parts["q"]))
+            self.samples.append(Sample(k, k / simulation.rate, ns, parts['w'], parts['q']))
 
-    # -- spinning --------------------------------------------------------------------------------------
-    def spin_until(self, condition: Callable[[], bool], timeout: float | None = None,
-                   what: str | Callable[[], str] = "condition", check: Callable[[], None] | None = None) -> None:
-        """Spin the executor in this thread until ``condition()`` holds; :class:`SimulatorTimeout` after
-        ``timeout`` s (default: the simulator's), naming ``what`` (a text, or a function giving one then).
-        ``check()`` runs between spins and may raise to stop at once."""
+    # -- spinning
+    # --------------------------------------------------------------------------------------
+    def spin_until(
+        self,
+        condition: Callable[[], bool],
+        timeout: float | None = None,
+        what: str | Callable[[], str] = 'condition',
+        check: Callable[[], None] | None = None,
+    ) -> None:
+        """
+        Spin the executor in this thread until ``condition()`` holds; :class:`SimulatorTimeout`
+        after ``timeout`` s (default: the simulator's), naming ``what`` (a text, or a function
+        giving one then). ``check()`` runs between spins and may raise to stop at once.
+        """
         timeout = self.timeout if timeout is None else timeout
         deadline = time.monotonic() + timeout
         while not condition():
@@ -548,25 +727,30 @@ class Simulator:
             remaining = deadline - time.monotonic()
             if remaining <= 0.0:
                 text = what() if callable(what) else what
-                raise SimulatorTimeout(f"timed out after {timeout:g} s: {text}")
+                raise SimulatorTimeout(f'timed out after {timeout:g} s: {text}')
             self.executor.spin_once(timeout_sec=min(remaining, 0.1))
 
-    # -- teardown ------------------------------------------------------------------------------------
+    # -- teardown
+    # ------------------------------------------------------------------------------------
     def close(self) -> None:
-        """Stop the simulator and destroy every node of its context, the caller's included; leaves no
-        thread, context, participant or domain claim behind."""
+        """
+        Stop the simulator and destroy every node of its context, the caller's included; leaves
+        no thread, context, participant or domain claim behind.
+        """
         from rclpy.exceptions import InvalidHandle
 
         if self._closed:
             return
         self._closed = True
-        loop = self.node.sample_loop if getattr(self, "node", None) is not None else None
+        loop = self.node.sample_loop if getattr(self, 'node', None) is not None else None
         try:
             self.executor.shutdown()
             self.node.destroy_node()  # stops and joins the sample loop's thread
             for node in (*reversed(self._added), self._kit_node):
                 if node is not None:
-                    with contextlib.suppress(InvalidHandle):  # the caller may have destroyed it already
+                    with contextlib.suppress(
+                        InvalidHandle
+                    ):  # the caller may have destroyed it already
                         node.destroy_node()
         finally:
             self.context.try_shutdown()
@@ -579,34 +763,43 @@ class Simulator:
             self._claim.release()
             self._claim = None
 
-    def __enter__(self) -> "Simulator":
+    def __enter__(self) -> 'Simulator':
         return self
 
     def __exit__(self, *exc_info) -> None:
         self.close()
 
-    # -- helpers -----------------------------------------------------------------------------------------
+    # -- helpers
+    # -----------------------------------------------------------------------------------------
     def _simulation_name(self) -> str:
         return self.node.sample_loop.request.configuration
 
     def _check_names(self, node) -> None:
-        """A subscription to a topic named like the simulator's but resolved elsewhere is a namespace
-        mistake: say so now rather than at the first timeout."""
-        ours = {name.rsplit("/", 1)[-1]: name for name in self._topics_of(0)}
-        own = node.get_namespace().rstrip("/")
+        """
+        A subscription to a topic named like the simulator's but resolved elsewhere is a
+        namespace mistake: say so now rather than at the first timeout.
+        """
+        ours = {name.rsplit('/', 1)[-1]: name for name in self._topics_of(0)}
+        own = node.get_namespace().rstrip('/')
         for subscription in node.subscriptions:
             name = subscription.topic_name
-            base = name.rsplit("/", 1)[-1]
-            if base in ours and name != ours[base] and name == f"{own}/{base}":  # a relative name, elsewhere
-                raise ValueError(f"add_node: node '{node.get_name()}' subscribes to {name}, the simulator publishes "
-                                 f"{ours[base]}: create the node with namespace=sim.namespace "
-                                 f"('{self.namespace}') or subscribe to the full name")
+            base = name.rsplit('/', 1)[-1]
+            if (
+                base in ours and name != ours[base] and name == f'{own}/{base}'
+            ):  # a relative name, elsewhere
+                raise ValueError(
+                    f"add_node: node '{node.get_name()}' subscribes to {name}, the simulator publishes "
+                    f'{ours[base]}: create the node with namespace=sim.namespace '
+                    f"('{self.namespace}') or subscribe to the full name"
+                )
 
 
 @contextlib.contextmanager
 def simulator(scene: str | None = None, **options) -> Iterator[Simulator]:
-    """``with simulator(scene="dzhanibekov", publish_rate=50.0) as sim:`` — a :class:`Simulator`,
-    closed on exit (every node in it destroyed)."""
+    """
+    ``with simulator(scene="dzhanibekov", publish_rate=50.0) as sim:`` — a :class:`Simulator`,
+    closed on exit (every node in it destroyed).
+    """
     sim = Simulator(scene, **options)
     try:
         yield sim
@@ -631,12 +824,15 @@ def _node_name(node) -> str:
 
 
 def _type_name(message_type) -> str:
-    module = message_type.__module__.split(".")
-    return f"{module[0]}/{module[1]}/{message_type.__name__}" if len(module) >= 2 else message_type.__name__
+    module = message_type.__module__.split('.')
+    return (
+        f'{module[0]}/{module[1]}/{message_type.__name__}'
+        if len(module) >= 2
+        else message_type.__name__
+    )
 
 
 def _seconds(ns: int | None) -> str:
     if ns is None:
-        return "-"
-    return f"{ns // 1_000_000_000}.{ns % 1_000_000_000:09d} s"
-
+        return '-'
+    return f'{ns // 1_000_000_000}.{ns % 1_000_000_000:09d} s'

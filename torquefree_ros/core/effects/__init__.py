@@ -1,8 +1,40 @@
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """The effects catalogue: every effect behind one interface (:mod:`.base`), in one registry."""
 
 from . import commands, internal, outputs, torques  # noqa: F401  (registers the effects)
-from .base import (EFFECTS, ENERGY, MOMENTUM, Effect, MotionEffect, OutputEffect, OutputStream,
-                   invariants_conserved, parse_effect)
+from .base import (
+    Effect,
+    EFFECTS,
+    ENERGY,
+    invariants_conserved,
+    MOMENTUM,
+    MotionEffect,
+    OutputEffect,
+    OutputStream,
+    parse_effect,
+)
 
-__all__ = ["EFFECTS", "ENERGY", "MOMENTUM", "Effect", "MotionEffect", "OutputEffect", "OutputStream",
-           "invariants_conserved", "parse_effect"]
+__all__ = [
+    'EFFECTS',
+    'ENERGY',
+    'MOMENTUM',
+    'Effect',
+    'MotionEffect',
+    'OutputEffect',
+    'OutputStream',
+    'invariants_conserved',
+    'parse_effect',
+]

@@ -1,10 +1,25 @@
-"""One interface for every effect, one registry.
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+One interface for every effect, one registry.
 
 An effect is named in a scene as ``- NAME: {parameters}``. Two kinds share the registry:
 
 * a :class:`MotionEffect` changes the motion: it adds a body-frame torque to Euler's equations
-  ``I w' + w x I w = sum(torque_B)`` and may carry a state of its own (a damper's rate) with its own
-  derivative. ``uses_attitude`` says whether it needs ``q`` (then integrators must supply stage
+  ``I w' + w x I w = sum(torque_B)`` and may carry a state of its own (a damper's rate) with its
+  own derivative. ``uses_attitude`` says whether it needs ``q`` (then integrators must supply stage
   attitudes), ``conserves`` which invariants survive it, ``breakpoints`` where its torque jumps.
 * an :class:`OutputEffect` only derives a topic from the samples (an IMU, Euler angles); it never
   changes the motion, so a scene with outputs alone keeps the exact propagator.
@@ -20,11 +35,11 @@ from typing import ClassVar
 
 import numpy as np
 
-from ..schema import FieldError, Param, child, fields, number, one_key
+from ..schema import child, FieldError, fields, number, one_key, Param
 
 #: effect name -> class; filled by the modules that define effects
-EFFECTS: dict[str, type["Effect"]] = {}
-ENERGY, MOMENTUM = "energy", "momentum"
+EFFECTS: dict[str, type['Effect']] = {}
+ENERGY, MOMENTUM = 'energy', 'momentum'
 
 
 class Effect(abc.ABC):
@@ -37,24 +52,32 @@ class Effect(abc.ABC):
         self.values = values
 
     @classmethod
-    def from_parameters(cls, values: dict, path: str) -> "Effect":
+    def from_parameters(cls, values: dict, path: str) -> 'Effect':
         """Build from checked ``values``; cross-field rules raise ``FieldError`` under ``path``."""
         return cls(**values)
 
     def __eq__(self, other) -> bool:
-        """Equal when of the same kind with the same parameters (scenes loaded twice compare equal)."""
+        """
+        Equal when of the same kind with the same parameters (scenes loaded twice compare
+        equal).
+        """
         if type(other) is not type(self):
             return NotImplemented
         return self.values.keys() == other.values.keys() and all(
-            np.array_equal(value, other.values[key]) if isinstance(value, np.ndarray) else value == other.values[key]
-            for key, value in self.values.items())
+            np.array_equal(value, other.values[key])
+            if isinstance(value, np.ndarray)
+            else value == other.values[key]
+            for key, value in self.values.items()
+        )
 
     def __hash__(self) -> int:
         return hash((type(self), tuple(self.values)))
 
     def describe(self) -> str:
-        shown = ", ".join(f"{key}={_short(value)}" for key, value in self.values.items() if value is not None)
-        return f"{self.name}({shown})"
+        shown = ', '.join(
+            f'{key}={_short(value)}' for key, value in self.values.items() if value is not None
+        )
+        return f'{self.name}({shown})'
 
 
 class MotionEffect(Effect):
@@ -64,12 +87,13 @@ class MotionEffect(Effect):
     holds_per_sample: ClassVar[bool] = False
     state_size: ClassVar[int] = 0
     conserves: ClassVar[frozenset] = frozenset()
-    #: its torque's compiled form: a code of ``integrators/motion_kernels.py`` (whose section there reads
-    #: :meth:`kernel_parameters`), or None for a torque held constant on each smooth piece, which the
-    #: compiled integrators take from :meth:`held_torque` where the piece starts
+    #: its torque's compiled form: a code of ``integrators/motion_kernels.py`` (whose section there
+    #: reads
+    #: :meth:`kernel_parameters`), or None for a torque held constant on each smooth piece, which
+    #: the compiled integrators take from :meth:`held_torque` where the piece starts
     kernel_code: ClassVar[int | None] = None
 
-    def bound(self, tensor: np.ndarray) -> "MotionEffect":
+    def bound(self, tensor: np.ndarray) -> 'MotionEffect':
         """This effect for a body of inertia ``tensor`` (body frame); a copy when it needs it."""
         return self
 
@@ -77,13 +101,24 @@ class MotionEffect(Effect):
         return np.empty(0)
 
     @abc.abstractmethod
-    def torque_B(self, t: float, omega_B: np.ndarray, q_NB: np.ndarray, state: np.ndarray,
-                 segment_start: float) -> np.ndarray:
-        """Body-frame torque on the body. ``segment_start``: where the smooth piece being integrated
-        begins (a breakpoint or a step start); piecewise quantities are those of the piece starting
-        there, so a stage evaluated exactly at the next breakpoint still sees this piece."""
+    def torque_B(
+        self,
+        t: float,
+        omega_B: np.ndarray,
+        q_NB: np.ndarray,
+        state: np.ndarray,
+        segment_start: float,
+    ) -> np.ndarray:
+        """
+        Body-frame torque on the body. ``segment_start``: where the smooth piece being
+        integrated begins (a breakpoint or a step start); piecewise quantities are those of the
+        piece starting there, so a stage evaluated exactly at the next breakpoint still sees this
+        piece.
+        """
 
-    def state_rate(self, t: float, omega_B: np.ndarray, q_NB: np.ndarray, state: np.ndarray) -> np.ndarray:
+    def state_rate(
+        self, t: float, omega_B: np.ndarray, q_NB: np.ndarray, state: np.ndarray
+    ) -> np.ndarray:
         return np.empty(0)
 
     def breakpoints(self) -> tuple[float, ...]:
@@ -94,13 +129,17 @@ class MotionEffect(Effect):
         return ()
 
     def held_torque(self, segment_start: float) -> tuple[np.ndarray, bool]:
-        """For an effect without a kernel: the torque it holds on the piece starting at
-        ``segment_start``, and whether it is in the inertial frame (else the body frame)."""
-        raise NotImplementedError(f"{self.name}: neither a kernel code nor a held torque")
+        """
+        For an effect without a kernel: the torque it holds on the piece starting at
+        ``segment_start``, and whether it is in the inertial frame (else the body frame).
+        """
+        raise NotImplementedError(f'{self.name}: neither a kernel code nor a held torque')
 
     def momentum_B(self, state: np.ndarray) -> np.ndarray:
-        """Angular momentum the effect carries itself (a wheel, a damper), body frame; broadcasts
-        over leading axes of ``state``."""
+        """
+        Angular momentum the effect carries itself (a wheel, a damper), body frame; broadcasts
+        over leading axes of ``state``.
+        """
         return np.zeros(state.shape[:-1] + (3,))
 
     def energy(self, state: np.ndarray) -> np.ndarray:
@@ -108,9 +147,11 @@ class MotionEffect(Effect):
 
 
 class OutputEffect(Effect):
-    """Derives one topic from the samples. ``topic``, ``message_type``; ``frame`` is ``body`` or
+    """
+    Derives one topic from the samples. ``topic``, ``message_type``; ``frame`` is ``body`` or
     ``inertial`` (the frame id the node uses for it). :meth:`stream` starts the output for a run.
-    Every output may set its own ``rate`` (``RATE``): it then goes out on every n-th sample."""
+    Every output may set its own ``rate`` (``RATE``): it then goes out on every n-th sample.
+    """
 
     changes_motion = False
     message_type: ClassVar[str]
@@ -118,39 +159,57 @@ class OutputEffect(Effect):
     #: the message's form: "doubles" (a Header, then the row's float64s), "transform" (parent
     #: ``frame``, child the body frame), "odometry" (nav_msgs/Odometry, parent ``frame``, child the
     #: body frame) or "markers" (a MarkerArray drawn from the row)
-    layout: ClassVar[str] = "doubles"
-    RATE = Param(number(positive=True, unit="Hz"), None, "its own rate; must divide the sample rate")
+    layout: ClassVar[str] = 'doubles'
+    RATE = Param(
+        number(positive=True, unit='Hz'), None, 'its own rate; must divide the sample rate'
+    )
 
     @property
     def topic(self) -> str:
-        return self.values.get("topic") or self.name
+        return self.values.get('topic') or self.name
 
-    def every(self, rate: float, rate_name: str = "rate") -> int:
-        """``n``: the output goes out on samples ``k = 0, n, 2n, ...`` of a run at ``rate`` Hz (1
-        without a rate of its own); a rate that does not divide ``rate`` is a ``ValueError``."""
-        own = self.values.get("rate")
+    def every(self, rate: float, rate_name: str = 'rate') -> int:
+        """
+        ``n``: the output goes out on samples ``k = 0, n, 2n, ...`` of a run at ``rate`` Hz (1
+        without a rate of its own); a rate that does not divide ``rate`` is a ``ValueError``.
+        """
+        own = self.values.get('rate')
         if own is None:
             return 1
         ratio = rate / own
         n = round(ratio)
         if n < 1 or abs(ratio - n) > 1e-9 * ratio:
-            raise ValueError(f"{self.name}.rate: {own:g} Hz must divide {rate_name} {rate:g} Hz into a whole "
-                             f"number of samples, got {ratio:.6g}")
+            raise ValueError(
+                f'{self.name}.rate: {own:g} Hz must divide {rate_name} {rate:g} Hz into a whole '
+                f'number of samples, got {ratio:.6g}'
+            )
         return n
 
     @abc.abstractmethod
-    def stream(self, rate: float, propagator) -> "OutputStream":
-        """The output of one run at ``rate`` Hz of ``propagator`` (its body, initial state, invariants)."""
+    def stream(self, rate: float, propagator) -> 'OutputStream':
+        """
+        The output of one run at ``rate`` Hz of ``propagator`` (its body, initial state,
+        invariants).
+        """
 
 
 class OutputStream(abc.ABC):
-    """Per run: ``rows(first, times, omega_B, q_NB, internal)`` gives one row of float64 per sample
-    (``internal``: the effects' own states), the message's numbers in the order its layout reads them.
-    Rows depend only on the sample index and the scene, never on how samples are cut into blocks."""
+    """
+    Per run: ``rows(first, times, omega_B, q_NB, internal)`` gives one row of float64 per sample
+    (``internal``: the effects' own states), the message's numbers in the order its layout reads
+    them. Rows depend only on the sample index and the scene, never on how samples are cut into
+    blocks.
+    """
 
     @abc.abstractmethod
-    def rows(self, first: int, times: np.ndarray, omega_B: np.ndarray, q_NB: np.ndarray,
-             internal: np.ndarray) -> np.ndarray: ...
+    def rows(
+        self,
+        first: int,
+        times: np.ndarray,
+        omega_B: np.ndarray,
+        q_NB: np.ndarray,
+        internal: np.ndarray,
+    ) -> np.ndarray: ...
 
 
 def register(cls):
@@ -159,7 +218,7 @@ def register(cls):
 
 
 def parse_effect(entry, path: str) -> Effect:
-    name, parameters = one_key(entry, path, EFFECTS, "effect")
+    name, parameters = one_key(entry, path, EFFECTS, 'effect')
     cls = EFFECTS[name]
     where = child(path, name)
     values = fields(parameters, where, cls.parameters)
@@ -176,13 +235,24 @@ def invariants_conserved(effects) -> frozenset:
 
 def _short(value) -> str:
     if isinstance(value, np.ndarray):
-        return "[" + ", ".join(f"{x:g}" for x in value.ravel()) + "]"
+        return '[' + ', '.join(f'{x:g}' for x in value.ravel()) + ']'
     if isinstance(value, float):
-        return f"{value:g}"
+        return f'{value:g}'
     if isinstance(value, list):
-        return f"<{len(value)} entries>"
+        return f'<{len(value)} entries>'
     return str(value)
 
 
-__all__ = ["EFFECTS", "ENERGY", "MOMENTUM", "Effect", "FieldError", "MotionEffect", "OutputEffect",
-           "OutputStream", "invariants_conserved", "parse_effect", "register"]
+__all__ = [
+    'EFFECTS',
+    'ENERGY',
+    'MOMENTUM',
+    'Effect',
+    'FieldError',
+    'MotionEffect',
+    'OutputEffect',
+    'OutputStream',
+    'invariants_conserved',
+    'parse_effect',
+    'register',
+]

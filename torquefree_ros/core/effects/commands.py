@@ -1,16 +1,31 @@
-"""Torque commanded by a controller: the ``torque_command`` effect and the hold rule of a run.
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
 
-A command ``(stamp, torque)`` holds from the first sample ``k`` with ``t_k >= stamp`` (and not before
-the first interval still to be computed when it arrives) until the next command's start: the torque
-over ``[t_k, t_k+1)`` is the one in force at ``t_k``. So the torque only changes at sample times, and
-the numerical propagators stop at every sample time of such a scene: an interval is integrated the
-same way whether it is computed live, one sample at a time, or offline from a recorded command
-stream, which makes the replay bit for bit.
+"""
+Torque commanded by a controller: the ``torque_command`` effect and the hold rule of a run.
 
-Rules: a command stamped before the latest accepted one is dropped (stale); one with a non-finite or
-over-``max_torque`` component, or whose ``frame_id`` is not the frame the effect expects, is refused;
-each is counted by reason and never reaches the state. With no command for ``timeout`` simulated
-seconds (since the stamp of the one in force, or since the start), the torque is zero.
+A command ``(stamp, torque)`` holds from the first sample ``k`` with ``t_k >= stamp`` (and not
+before the first interval still to be computed when it arrives) until the next command's start: the
+torque over ``[t_k, t_k+1)`` is the one in force at ``t_k``. So the torque only changes at sample
+times, and the numerical propagators stop at every sample time of such a scene: an interval is
+integrated the same way whether it is computed live, one sample at a time, or offline from a
+recorded command stream, which makes the replay bit for bit.
+
+Rules: a command stamped before the latest accepted one is dropped (stale); one with a non-finite
+or over-``max_torque`` component, or whose ``frame_id`` is not the frame the effect expects, is
+refused; each is counted by reason and never reaches the state. With no command for ``timeout``
+simulated seconds (since the stamp of the one in force, or since the start), the torque is zero.
 
 Actuator models (reaction wheels with torque and speed limits, magnetic torquers) fit the same
 shape: a MotionEffect whose torque over an interval comes from the hold, limited by its own state.
@@ -19,19 +34,19 @@ shape: a MotionEffect whose torque over an interval comes from the hold, limited
 from __future__ import annotations
 
 import bisect
+from collections import Counter
 import copy
 import math
 import threading
 import time
-from collections import Counter
 from typing import NamedTuple
 
 import numpy as np
 
+from .base import MotionEffect, register
 from .. import quaternion
 from ..safe_files import clip
-from ..schema import Param, choice, number, topic_name
-from .base import MotionEffect, register
+from ..schema import choice, number, Param, topic_name
 
 
 class Command(NamedTuple):
@@ -46,29 +61,37 @@ class Command(NamedTuple):
 
 @register
 class TorqueCommand(MotionEffect):
-    name = "torque_command"
-    summary = ("torque from a controller (geometry_msgs/WrenchStamped on `topic`), held from the first sample at "
-               "or after its stamp; zero after `timeout` without a command")
-    message_type = "geometry_msgs/msg/WrenchStamped"
+    name = 'torque_command'
+    summary = (
+        'torque from a controller (geometry_msgs/WrenchStamped on `topic`), held from the first sample at '
+        'or after its stamp; zero after `timeout` without a command'
+    )
+    message_type = 'geometry_msgs/msg/WrenchStamped'
     holds_per_sample = True
     parameters = {
-        "topic": Param(topic_name, "torque_command"),
-        "frame": Param(choice("body", "inertial"), "body", "the frame of wrench.torque"),
-        "timeout": Param(number(positive=True, unit="s"), 1.0,
-                         "simulated time without a command after which the torque is zero"),
-        "max_torque": Param(number(positive=True, unit="N m"), 1.0e6,
-                            "a command with a larger torque component is refused"),
+        'topic': Param(topic_name, 'torque_command'),
+        'frame': Param(choice('body', 'inertial'), 'body', 'the frame of wrench.torque'),
+        'timeout': Param(
+            number(positive=True, unit='s'),
+            1.0,
+            'simulated time without a command after which the torque is zero',
+        ),
+        'max_torque': Param(
+            number(positive=True, unit='N m'),
+            1.0e6,
+            'a command with a larger torque component is refused',
+        ),
     }
 
     def __init__(self, **values):
         super().__init__(**values)
-        self.inertial = values["frame"] == "inertial"
+        self.inertial = values['frame'] == 'inertial'
         self.uses_attitude = self.inertial
         self.hold: CommandHold | None = None
 
     @property
     def topic(self) -> str:
-        return self.values["topic"]
+        return self.values['topic']
 
     def frame_id(self, body_frame: str, inertial_frame: str) -> str:
         """The ``header.frame_id`` its commands must carry."""
@@ -77,7 +100,7 @@ class TorqueCommand(MotionEffect):
     def bound(self, tensor):
         """A copy with a hold of its own: every propagator (every run) starts without commands."""
         bound = copy.copy(self)
-        bound.hold = CommandHold(self.values["timeout"], self.values["max_torque"])
+        bound.hold = CommandHold(self.values['timeout'], self.values['max_torque'])
         return bound
 
     def held_torque(self, segment_start):
@@ -89,23 +112,30 @@ class TorqueCommand(MotionEffect):
 
 
 def command_inputs(effects) -> tuple:
-    """The effects among ``effects`` (a propagator's, bound) that take commands, each with its hold."""
-    return tuple(effect for effect in effects if getattr(effect, "hold", None) is not None)
+    """
+    The effects among ``effects`` (a propagator's, bound) that take commands, each with its
+    hold.
+    """
+    return tuple(effect for effect in effects if getattr(effect, 'hold', None) is not None)
 
 
 class CommandHold:
-    """The commands of one run and the torque they hold on each sample interval. ``start(rate,
+    """
+    The commands of one run and the torque they hold on each sample interval. ``start(rate,
     epoch_ns)`` puts it on the run's sample grid. Thread-safe: commands arrive on one thread while
     the samples are computed on another; :meth:`seal` fixes the torque of the intervals about to be
-    computed, so a command arriving meanwhile holds from the next interval."""
+    computed, so a command arriving meanwhile holds from the next interval.
+    """
 
     def __init__(self, timeout: float, max_torque: float):
         self.timeout_ns = round(timeout * 1e9)
         self.max_torque = max_torque
         self.rate = 1.0
         self.epoch_ns = 0
-        self.frame_id = ""  # the frame_id commands must carry ("" until the run sets it)
-        self.commands: list[Command] = []  # accepted, in order; sealing forgets those no longer in force
+        self.frame_id = ''  # the frame_id commands must carry ("" until the run sets it)
+        self.commands: list[
+            Command
+        ] = []  # accepted, in order; sealing forgets those no longer in force
         self._starts: list[int] = []
         self.accepted = 0
         self.sealed = -1  # intervals 0 .. sealed have their torque fixed
@@ -114,15 +144,21 @@ class CommandHold:
         self._lock = threading.Lock()
         self._arrived = threading.Condition(self._lock)
 
-    def start(self, rate: float, epoch_ns: int, frame_id: str = "") -> None:
+    def start(self, rate: float, epoch_ns: int, frame_id: str = '') -> None:
         self.rate, self.epoch_ns, self.frame_id = float(rate), int(epoch_ns), frame_id
 
     def shift(self, offset_ns: int) -> None:
-        """Move the grid and the commands kept by ``offset_ns`` (a paused run resuming on wall-clock
-        stamps: its epoch moved on, and a command's timeout counts simulated time, which stood still)."""
+        """
+        Move the grid and the commands kept by ``offset_ns`` (a paused run resuming on
+        wall-clock stamps: its epoch moved on, and a command's timeout counts simulated time, which
+        stood still).
+        """
         with self._lock:  # commands arrive on another thread meanwhile
             self.epoch_ns += int(offset_ns)
-            self.commands[:] = [command._replace(stamp_ns=command.stamp_ns + int(offset_ns)) for command in self.commands]
+            self.commands[:] = [
+                command._replace(stamp_ns=command.stamp_ns + int(offset_ns))
+                for command in self.commands
+            ]
 
     # -- the grid -------------------------------------------------------------------------------
     def stamp_ns(self, k: int) -> int:
@@ -139,7 +175,10 @@ class CommandHold:
         return k
 
     def interval_at(self, t: float) -> int:
-        """The sample interval ``[t_k, t_k+1)`` holding ``t`` (s since the start; ``t_k = k / rate``)."""
+        """
+        The sample interval ``[t_k, t_k+1)`` holding ``t`` (s since the start; ``t_k = k /
+        rate``).
+        """
         k = math.floor(t * self.rate)
         if (k + 1) / self.rate <= t:
             k += 1
@@ -148,11 +187,19 @@ class CommandHold:
         return max(k, 0)
 
     # -- commands in ----------------------------------------------------------------------------
-    def receive(self, stamp_ns: int, torque, force=(0.0, 0.0, 0.0), frame_id: str = "",
-                arrival_ns: int | None = None) -> tuple[bool, str]:
-        """Accept a command or refuse it; returns ``(accepted, reason)`` (the reason's first words name
-        the rule). ``arrival_ns``: replaying a recording, the stamp it was logged at stands for the
-        moment it arrived (the samples before it had been computed)."""
+    def receive(
+        self,
+        stamp_ns: int,
+        torque,
+        force=(0.0, 0.0, 0.0),
+        frame_id: str = '',
+        arrival_ns: int | None = None,
+    ) -> tuple[bool, str]:
+        """
+        Accept a command or refuse it; returns ``(accepted, reason)`` (the reason's first words
+        name the rule). ``arrival_ns``: replaying a recording, the stamp it was logged at stands
+        for the moment it arrived (the samples before it had been computed).
+        """
         torque = np.array(torque, dtype=float)
         force = np.array(force, dtype=float)
         with self._lock:
@@ -160,26 +207,28 @@ class CommandHold:
                 self.sealed = max(self.sealed, self.index_at_or_after(arrival_ns) - 1)
             reason = self._refusal(stamp_ns, torque, force, frame_id)
             if reason:
-                self.refused[reason.split(":", 1)[0]] += 1
+                self.refused[reason.split(':', 1)[0]] += 1
                 return False, reason
             start = max(self.index_at_or_after(stamp_ns), self.sealed + 1)
             self._append(Command(start, int(stamp_ns), torque, force, frame_id))
-            return True, ""
+            return True, ''
 
     def _refusal(self, stamp_ns, torque, force, frame_id) -> str:
         if not (np.all(np.isfinite(torque)) and np.all(np.isfinite(force))):
-            return "not finite: wrench has a NaN or infinite component"
+            return 'not finite: wrench has a NaN or infinite component'
         if np.max(np.abs(torque)) > self.max_torque:
-            return f"too large: a torque component exceeds max_torque {self.max_torque:g} N m"
+            return f'too large: a torque component exceeds max_torque {self.max_torque:g} N m'
         if frame_id != self.frame_id:
             return f"wrong frame: header.frame_id is {clip(repr(frame_id), 80)}, the command's frame is {self.frame_id!r}"
         if self.commands and stamp_ns < self.commands[-1].stamp_ns:
-            return "stale: stamped before the latest accepted command"
-        return ""
+            return 'stale: stamped before the latest accepted command'
+        return ''
 
     def _append(self, command: Command) -> None:
         if self._starts and command.start < self._starts[-1]:
-            raise ValueError(f"command holding from sample {command.start} after one from {self._starts[-1]}")
+            raise ValueError(
+                f'command holding from sample {command.start} after one from {self._starts[-1]}'
+            )
         if np.any(command.force):
             self.force_seen = True
         self.commands.append(command)
@@ -189,14 +238,18 @@ class CommandHold:
 
     # -- the torque out -------------------------------------------------------------------------
     def seal(self, through: int) -> list[Command]:
-        """Fix the torque of intervals ``0 .. through``; returns the commands that start holding in
+        """
+        Fix the torque of intervals ``0 .. through``; returns the commands that start holding in
         the newly sealed intervals (what a recorder writes). Commands superseded before interval
-        ``through - 1`` are forgotten, so a long run keeps a bounded list."""
+        ``through - 1`` are forgotten, so a long run keeps a bounded list.
+        """
         with self._lock:
             first = bisect.bisect_right(self._starts, self.sealed)
             self.sealed = max(self.sealed, through)
-            sealed = self.commands[first:bisect.bisect_right(self._starts, self.sealed)]
-            keep = bisect.bisect_right(self._starts, through - 1) - 1  # the one in force on through - 1
+            sealed = self.commands[first: bisect.bisect_right(self._starts, self.sealed)]
+            keep = (
+                bisect.bisect_right(self._starts, through - 1) - 1
+            )  # the one in force on through - 1
             if keep > 0:
                 del self.commands[:keep], self._starts[:keep]
             return sealed
@@ -211,7 +264,10 @@ class CommandHold:
         return command
 
     def timed_out(self, k: int) -> bool:
-        """No command in force on interval ``k`` for ``timeout`` (since the last one, or the start)."""
+        """
+        No command in force on interval ``k`` for ``timeout`` (since the last one, or the
+        start).
+        """
         with self._lock:
             index = bisect.bisect_right(self._starts, k) - 1
             since = self.commands[index].stamp_ns if index >= 0 else self.epoch_ns
@@ -230,8 +286,11 @@ class CommandHold:
         return bool(self.commands) and self.commands[-1].stamp_ns >= stamp_ns
 
     def wait_for(self, stamp_ns: int, timeout: float, interrupted) -> bool:
-        """Lock-step: wait (wall clock, at most ``timeout`` s) for an accepted command stamped at or
-        after ``stamp_ns``; ``interrupted()`` is polled so that a reset or a stop need not wait."""
+        """
+        Lock-step: wait (wall clock, at most ``timeout`` s) for an accepted command stamped at
+        or after ``stamp_ns``; ``interrupted()`` is polled so that a reset or a stop need not
+        wait.
+        """
         deadline = time.monotonic() + timeout
         with self._lock:
             while not self._answered(stamp_ns):
@@ -243,12 +302,18 @@ class CommandHold:
 
 
 def sample_stamp_ns(k: int, rate: float, epoch_ns: int = 0) -> int:
-    """The stamp of sample ``k`` of a run at ``rate`` Hz from ``epoch_ns``, as the simulation stamps it."""
+    """
+    The stamp of sample ``k`` of a run at ``rate`` Hz from ``epoch_ns``, as the simulation
+    stamps it.
+    """
     return epoch_ns + round(k / rate * 1e9)
 
 
 def timed_out(now_ns, since_ns, timeout_ns):
-    """The timeout rule: no command for ``timeout`` since ``since_ns`` (integers, or arrays of them)."""
+    """
+    The timeout rule: no command for ``timeout`` since ``since_ns`` (integers, or arrays of
+    them).
+    """
     return now_ns - since_ns >= timeout_ns
 
 

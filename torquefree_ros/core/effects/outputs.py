@@ -1,4 +1,19 @@
-"""Output effects: topics derived from the samples, never changing the motion.
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Output effects: topics derived from the samples, never changing the motion.
 
 ``imu`` is a gyro on the body: ``w_meas = w + b + n`` with white noise ``n`` of density ``N``
 (rad/s/sqrt(Hz): per-sample standard deviation ``N sqrt(rate)``) and a bias random walk
@@ -10,15 +25,15 @@ the samples are cut into blocks, live or offline.
 ``tf`` is the attitude as ``tf2_msgs/TFMessage`` on ``/tf``: one transform per sample, parent the
 inertial frame, child the body frame, rotation ``q_NB``, zero translation (REP 105).
 
-``pose`` is the attitude as ``geometry_msgs/PoseStamped`` (inertial frame, zero position, ``q_NB``),
-what the 3-D panels of RViz and Foxglove draw.
+``pose`` is the attitude as ``geometry_msgs/PoseStamped`` (inertial frame, zero position,
+``q_NB``), what the 3-D panels of RViz and Foxglove draw.
 
 ``odometry`` is the whole ground truth in the message estimators and ``robot_localization`` take,
-``nav_msgs/Odometry``: ``header.frame_id`` the inertial frame, ``child_frame_id`` the body frame, zero
-position, orientation ``q_NB``, ``twist.angular`` the body rates ``w`` in the child (body) frame as
-REP 105 wants, zero linear velocity: bit for bit the numbers ``attitude`` and ``angular_velocity``
-carry. Both covariances are zero: the values are exact, not estimates (zero, not REP 145's ``-1``,
-which would say "not provided").
+``nav_msgs/Odometry``: ``header.frame_id`` the inertial frame, ``child_frame_id`` the body frame,
+zero position, orientation ``q_NB``, ``twist.angular`` the body rates ``w`` in the child (body)
+frame as REP 105 wants, zero linear velocity: bit for bit the numbers ``attitude`` and
+``angular_velocity`` carry. Both covariances are zero: the values are exact, not estimates (zero,
+not REP 145's ``-1``, which would say "not provided").
 
 ``star_tracker`` measures the attitude: ``q_meas = q_NB ⊗ exp(n / 2)`` with ``n`` a rotation vector
 in the body frame, ``n = sigma_cross (g1 e1 + g2 e2) + sigma_about g3 b`` (``b`` the boresight,
@@ -26,12 +41,13 @@ in the body frame, ``n = sigma_cross (g1 e1 + g2 e2) + sigma_about g3 b`` (``b``
 orientation filled and its covariance ``E[n n^T]`` (rad^2, body axes), the others ``-1`` (REP 145).
 Its draws are seeded and consumed in sample order like the ``imu``'s.
 
-``markers`` draws the motion for RViz/Foxglove as ``visualization_msgs/MarkerArray`` in the inertial
-frame (no ``/tf`` needed): the uniform box with the body's principal moments (sides
-``d_i ~ sqrt(J_j + J_k - J_i)``, the longest ``size`` m), oriented by its principal axes, and arrows
-from its centre along ``w`` and ``H``. Every message carries all three markers, even when ``H`` is
-constant: a viewer shows the latest MarkerArray, so one that joins late or seeks in a bag shows the
-whole picture at every sample (``momentum_interval``, which thinned the ``H`` arrow out, is refused).
+``markers`` draws the motion for RViz/Foxglove as ``visualization_msgs/MarkerArray`` in the
+inertial frame (no ``/tf`` needed): the uniform box with the body's principal moments (sides
+``d_i ~ sqrt(J_j + J_k - J_i)``, the longest ``size`` m), oriented by its principal axes, and
+arrows from its centre along ``w`` and ``H``. Every message carries all three markers, even when
+``H`` is constant: a viewer shows the latest MarkerArray, so one that joins late or seeks in a bag
+shows the whole picture at every sample (``momentum_interval``, which thinned the ``H`` arrow out,
+is refused).
 
 ``euler_angles`` are the 3-2-1 angles of seed 000 (yaw psi about z, then pitch theta about the new
 y, then roll phi about the new x) of ``[BN] = R(q_NB)^T``, published as Vector3Stamped
@@ -45,9 +61,9 @@ import math
 
 import numpy as np
 
-from .. import quaternion
-from ..schema import FieldError, Param, child, integer, number, retired, topic_name, vector
 from .base import OutputEffect, OutputStream, register
+from .. import quaternion
+from ..schema import child, FieldError, integer, number, Param, retired, topic_name, vector
 
 # sensor_msgs/Imu after its header: orientation [0:4], its covariance [4:13], angular_velocity
 # [13:16], its covariance [16:25], linear_acceleration [25:28], its covariance [28:37]
@@ -57,17 +73,17 @@ NOT_PROVIDED = -1.0  # REP 145: element 0 of a covariance is -1 when the quantit
 
 @register
 class Imu(OutputEffect):
-    name = "imu"
-    summary = "sensor_msgs/Imu gyro on the body: white noise and bias random walk, seeded (REP 145 covariances)"
-    message_type = "sensor_msgs/msg/Imu"
-    frame = "body"
+    name = 'imu'
+    summary = 'sensor_msgs/Imu gyro on the body: white noise and bias random walk, seeded (REP 145 covariances)'
+    message_type = 'sensor_msgs/msg/Imu'
+    frame = 'body'
     parameters = {
-        "gyro_noise_density": Param(number(minimum=0.0, unit="rad/s/sqrt(Hz)"), 0.0),
-        "gyro_bias_random_walk": Param(number(minimum=0.0, unit="rad/s/sqrt(s)"), 0.0),
-        "initial_bias": Param(vector(3, unit="rad/s"), np.zeros(3)),
-        "seed": Param(integer(0, 2**63 - 1), 0),
-        "topic": Param(topic_name, "imu"),
-        "rate": OutputEffect.RATE,
+        'gyro_noise_density': Param(number(minimum=0.0, unit='rad/s/sqrt(Hz)'), 0.0),
+        'gyro_bias_random_walk': Param(number(minimum=0.0, unit='rad/s/sqrt(s)'), 0.0),
+        'initial_bias': Param(vector(3, unit='rad/s'), np.zeros(3)),
+        'seed': Param(integer(0, 2**63 - 1), 0),
+        'topic': Param(topic_name, 'imu'),
+        'rate': OutputEffect.RATE,
     }
 
     def stream(self, rate, propagator):
@@ -75,8 +91,10 @@ class Imu(OutputEffect):
 
 
 class _SeededStream(OutputStream):
-    """Draws from a seeded PCG64 stream consumed in sample order: a sample's draws are the same
-    however samples are requested (skipped samples consume theirs; asking earlier restarts)."""
+    """
+    Draws from a seeded PCG64 stream consumed in sample order: a sample's draws are the same
+    however samples are requested (skipped samples consume theirs; asking earlier restarts).
+    """
 
     def __init__(self, seed: int):
         self.seed = seed
@@ -101,21 +119,24 @@ class _SeededStream(OutputStream):
 class _ImuStream(_SeededStream):
     def __init__(self, imu: Imu, rate: float):
         values = imu.values
-        self.white_sigma = values["gyro_noise_density"] * np.sqrt(rate)
-        self.walk_sigma = values["gyro_bias_random_walk"] / np.sqrt(rate)
-        self.initial_bias = np.asarray(values["initial_bias"], float)
+        self.white_sigma = values['gyro_noise_density'] * np.sqrt(rate)
+        self.walk_sigma = values['gyro_bias_random_walk'] / np.sqrt(rate)
+        self.initial_bias = np.asarray(values['initial_bias'], float)
         self.template = np.zeros(IMU_ROW)
         self.template[4] = NOT_PROVIDED  # orientation not provided
-        self.template[16:25] = np.diag(np.full(3, self.white_sigma ** 2)).ravel()
+        self.template[16:25] = np.diag(np.full(3, self.white_sigma**2)).ravel()
         self.template[28] = NOT_PROVIDED  # linear acceleration not provided
-        super().__init__(values["seed"])
+        super().__init__(values['seed'])
 
     def _restart(self):
         super()._restart()
         self.bias = self.initial_bias.copy()  # b_(k-1) of the next sample
 
     def _draw(self, count: int):
-        """White noise and bias of the next ``count`` samples; sample 0 carries the initial bias."""
+        """
+        White noise and bias of the next ``count`` samples; sample 0 carries the initial
+        bias.
+        """
         normals = self.rng.standard_normal((count, 6))
         steps = self.walk_sigma * normals[:, 3:]
         if self.next_index == 0:
@@ -139,11 +160,11 @@ class _ImuStream(_SeededStream):
 
 @register
 class EulerAngles(OutputEffect):
-    name = "euler_angles"
-    summary = "3-2-1 (yaw, pitch, roll) Euler angles of the attitude, as Vector3Stamped (roll, pitch, yaw)"
-    message_type = "geometry_msgs/msg/Vector3Stamped"
-    frame = "inertial"
-    parameters = {"topic": Param(topic_name, "euler_angles"), "rate": OutputEffect.RATE}
+    name = 'euler_angles'
+    summary = '3-2-1 (yaw, pitch, roll) Euler angles of the attitude, as Vector3Stamped (roll, pitch, yaw)'
+    message_type = 'geometry_msgs/msg/Vector3Stamped'
+    frame = 'inertial'
+    parameters = {'topic': Param(topic_name, 'euler_angles'), 'rate': OutputEffect.RATE}
 
     def stream(self, rate, propagator):
         return _EulerStream()
@@ -155,8 +176,10 @@ class _EulerStream(OutputStream):
 
 
 def roll_pitch_yaw(q_NB) -> np.ndarray:
-    """``(phi, theta, psi)`` per row: ``[BN] = R1(phi) R2(theta) R3(psi)``, ``theta`` in
-    ``[-pi/2, pi/2]``, the others in ``(-pi, pi]``."""
+    """
+    ``(phi, theta, psi)`` per row: ``[BN] = R1(phi) R2(theta) R3(psi)``, ``theta`` in
+    ``[-pi/2, pi/2]``, the others in ``(-pi, pi]``.
+    """
     R = quaternion.to_matrix(q_NB)  # [NB]; [BN] is its transpose
     yaw = np.arctan2(R[..., 1, 0], R[..., 0, 0])
     pitch = -np.arcsin(np.clip(R[..., 2, 0], -1.0, 1.0))
@@ -166,12 +189,14 @@ def roll_pitch_yaw(q_NB) -> np.ndarray:
 
 @register
 class Tf(OutputEffect):
-    name = "tf"
-    summary = "tf2_msgs/TFMessage on /tf: inertial frame -> body frame, rotation q_NB, zero translation"
-    message_type = "tf2_msgs/msg/TFMessage"
-    frame = "inertial"  # the parent; the child is the body frame
-    layout = "transform"
-    parameters = {"topic": Param(topic_name, "/tf"), "rate": OutputEffect.RATE}
+    name = 'tf'
+    summary = (
+        'tf2_msgs/TFMessage on /tf: inertial frame -> body frame, rotation q_NB, zero translation'
+    )
+    message_type = 'tf2_msgs/msg/TFMessage'
+    frame = 'inertial'  # the parent; the child is the body frame
+    layout = 'transform'
+    parameters = {'topic': Param(topic_name, '/tf'), 'rate': OutputEffect.RATE}
 
     def stream(self, rate, propagator):
         return _PoseStream()  # the same row: translation (zero), rotation q_NB
@@ -179,12 +204,14 @@ class Tf(OutputEffect):
 
 @register
 class Pose(OutputEffect):
-    name = "pose"
-    summary = "geometry_msgs/PoseStamped of the attitude (inertial frame, zero position), for 3-D panels"
-    message_type = "geometry_msgs/msg/PoseStamped"
-    frame = "inertial"
-    layout = "pose"  # stamped doubles (position, orientation), placed at the body's position
-    parameters = {"topic": Param(topic_name, "pose"), "rate": OutputEffect.RATE}
+    name = 'pose'
+    summary = (
+        'geometry_msgs/PoseStamped of the attitude (inertial frame, zero position), for 3-D panels'
+    )
+    message_type = 'geometry_msgs/msg/PoseStamped'
+    frame = 'inertial'
+    layout = 'pose'  # stamped doubles (position, orientation), placed at the body's position
+    parameters = {'topic': Param(topic_name, 'pose'), 'rate': OutputEffect.RATE}
 
     def stream(self, rate, propagator):
         return _PoseStream()
@@ -199,20 +226,23 @@ class _PoseStream(OutputStream):
 
 @register
 class Odometry(OutputEffect):
-    name = "odometry"
-    summary = ("nav_msgs/Odometry ground truth: inertial frame -> body frame, zero position, q_NB, body rates in "
-               "the body frame (REP 105), zero linear velocity; covariances zero (exact values)")
-    message_type = "nav_msgs/msg/Odometry"
-    frame = "inertial"  # header.frame_id; child_frame_id is the body frame
-    layout = "odometry"
-    parameters = {"topic": Param(topic_name, "odometry"), "rate": OutputEffect.RATE}
+    name = 'odometry'
+    summary = (
+        'nav_msgs/Odometry ground truth: inertial frame -> body frame, zero position, q_NB, body rates in '
+        'the body frame (REP 105), zero linear velocity; covariances zero (exact values)'
+    )
+    message_type = 'nav_msgs/msg/Odometry'
+    frame = 'inertial'  # header.frame_id; child_frame_id is the body frame
+    layout = 'odometry'
+    parameters = {'topic': Param(topic_name, 'odometry'), 'rate': OutputEffect.RATE}
 
     def stream(self, rate, propagator):
         return _OdometryStream()
 
 
-# an odometry row: position (x, y, z) [0:3], orientation (x, y, z, w) [3:7], linear velocity [7:10],
-# angular velocity (body frame) [10:13]; the covariances are not in the row (zero: exact values)
+# an odometry row: position (x, y, z) [0:3], orientation (x, y, z, w) [3:7], linear velocity
+# [7:10], angular velocity (body frame) [10:13]; the covariances are not in the row (zero: exact
+# values)
 ODOMETRY_ROW = 13
 
 
@@ -229,30 +259,35 @@ ARCSEC = math.pi / (180.0 * 3600.0)
 
 @register
 class StarTracker(OutputEffect):
-    name = "star_tracker"
-    summary = ("sensor_msgs/Imu with only the orientation: the attitude turned by a seeded noise rotation, "
-               "1-sigma across and about the boresight (arcsec), covariance filled (REP 145)")
-    message_type = "sensor_msgs/msg/Imu"
-    frame = "body"
+    name = 'star_tracker'
+    summary = (
+        'sensor_msgs/Imu with only the orientation: the attitude turned by a seeded noise rotation, '
+        '1-sigma across and about the boresight (arcsec), covariance filled (REP 145)'
+    )
+    message_type = 'sensor_msgs/msg/Imu'
+    frame = 'body'
     parameters = {
-        "cross_boresight_noise": Param(number(minimum=0.0, unit="arcsec"), 0.0),
-        "about_boresight_noise": Param(number(minimum=0.0, unit="arcsec"), 0.0),
-        "boresight": Param(vector(3), np.array([0.0, 0.0, 1.0])),
-        "seed": Param(integer(0, 2**63 - 1), 0),
-        "topic": Param(topic_name, "star_tracker"),
-        "rate": OutputEffect.RATE,
+        'cross_boresight_noise': Param(number(minimum=0.0, unit='arcsec'), 0.0),
+        'about_boresight_noise': Param(number(minimum=0.0, unit='arcsec'), 0.0),
+        'boresight': Param(vector(3), np.array([0.0, 0.0, 1.0])),
+        'seed': Param(integer(0, 2**63 - 1), 0),
+        'topic': Param(topic_name, 'star_tracker'),
+        'rate': OutputEffect.RATE,
     }
 
     @classmethod
     def from_parameters(cls, values, path):
-        length = float(np.linalg.norm(values["boresight"]))
+        length = float(np.linalg.norm(values['boresight']))
         if not length > 0.0:
-            raise FieldError(child(path, "boresight"), "must not be the zero vector")
-        return cls(**{**values, "boresight": values["boresight"] / length})
+            raise FieldError(child(path, 'boresight'), 'must not be the zero vector')
+        return cls(**{**values, 'boresight': values['boresight'] / length})
 
     def noise_axes(self) -> np.ndarray:
-        """Columns ``e1, e2, b``: a right-handed body-frame basis whose third axis is the boresight."""
-        b = self.values["boresight"]
+        """
+        Columns ``e1, e2, b``: a right-handed body-frame basis whose third axis is the
+        boresight.
+        """
+        b = self.values['boresight']
         helper = np.eye(3)[int(np.argmin(np.abs(b)))]  # the body axis least aligned with b
         e1 = np.cross(b, helper)
         e1 /= np.linalg.norm(e1)
@@ -260,7 +295,7 @@ class StarTracker(OutputEffect):
 
     def noise_sigmas(self) -> np.ndarray:
         """1-sigma (rad) along ``e1, e2, b``."""
-        cross, about = self.values["cross_boresight_noise"], self.values["about_boresight_noise"]
+        cross, about = self.values['cross_boresight_noise'], self.values['about_boresight_noise']
         return np.array([cross, cross, about]) * ARCSEC
 
     def covariance(self) -> np.ndarray:
@@ -279,7 +314,7 @@ class _StarTrackerStream(_SeededStream):
         self.template[4:13] = tracker.covariance().ravel()
         self.template[16] = NOT_PROVIDED  # angular velocity not provided
         self.template[28] = NOT_PROVIDED  # linear acceleration not provided
-        super().__init__(tracker.values["seed"])
+        super().__init__(tracker.values['seed'])
 
     def _draw(self, count: int):
         self.next_index += count
@@ -290,39 +325,57 @@ class _StarTrackerStream(_SeededStream):
         normals = self._draw(times.shape[0])
         rows = np.tile(self.template, (times.shape[0], 1))
         if times.shape[0]:
-            rows[:, 0:4] = quaternion.multiply(q_NB, quaternion.exp_rotation(normals @ self.scaled_axes.T))
+            rows[:, 0:4] = quaternion.multiply(
+                q_NB, quaternion.exp_rotation(normals @ self.scaled_axes.T)
+            )
         return rows
 
 
 @register
 class Markers(OutputEffect):
-    name = "markers"
-    summary = ("visualization_msgs/MarkerArray in the inertial frame: the body's inertia box on its principal "
-               "axes, arrows along w and H, all three in every message")
-    message_type = "visualization_msgs/msg/MarkerArray"
-    frame = "inertial"
-    layout = "markers"
+    name = 'markers'
+    summary = (
+        "visualization_msgs/MarkerArray in the inertial frame: the body's inertia box on its principal "
+        'axes, arrows along w and H, all three in every message'
+    )
+    message_type = 'visualization_msgs/msg/MarkerArray'
+    frame = 'inertial'
+    layout = 'markers'
     parameters = {
-        "size": Param(number(positive=True, unit="m"), 1.0, "the box's longest side"),
-        "angular_velocity_scale": Param(number(positive=True, unit="m/(rad/s)"), None,
-                                        "arrow length per rad/s; default: the initial w is size long"),
-        "momentum_scale": Param(number(positive=True, unit="m/(kg m^2/s)"), None,
-                                "arrow length per kg m^2/s; default: the initial H is 1.25 size long"),
+        'size': Param(number(positive=True, unit='m'), 1.0, "the box's longest side"),
+        'angular_velocity_scale': Param(
+            number(positive=True, unit='m/(rad/s)'),
+            None,
+            'arrow length per rad/s; default: the initial w is size long',
+        ),
+        'momentum_scale': Param(
+            number(positive=True, unit='m/(kg m^2/s)'),
+            None,
+            'arrow length per kg m^2/s; default: the initial H is 1.25 size long',
+        ),
         # refused rather than ignored: a key that silently does nothing misleads whoever set it
-        "momentum_interval": Param(retired("every MarkerArray now carries the H arrow, so that a viewer that "
-                                           "seeks or joins late shows it; remove this key"), None),
-        "topic": Param(topic_name, "markers"),
-        "rate": OutputEffect.RATE,
+        'momentum_interval': Param(
+            retired(
+                'every MarkerArray now carries the H arrow, so that a viewer that '
+                'seeks or joins late shows it; remove this key'
+            ),
+            None,
+        ),
+        'topic': Param(topic_name, 'markers'),
+        'rate': OutputEffect.RATE,
     }
 
     def box_sides(self, body) -> np.ndarray:
-        """Sides of the uniform box with the body's principal moments, along ``body.principal_axes``:
-        ``d_i^2 = 6 (J_j + J_k - J_i) / m``, scaled so the longest is ``size``; a side of a rod or a
-        plate (zero by the triangle inequality's edge) is drawn ``size / 100`` thick."""
+        """
+        Sides of the uniform box with the body's principal moments, along
+        ``body.principal_axes``: ``d_i^2 = 6 (J_j + J_k - J_i) / m``, scaled so the longest is
+        ``size``; a side of a rod or a plate (zero by the triangle inequality's edge) is drawn
+        ``size / 100`` thick.
+        """
         J = body.moments
         squared = np.maximum(J.sum() - 2.0 * J, 0.0)
         sides = np.sqrt(squared / squared.max())
-        return self.values["size"] * np.maximum(sides, MIN_SIDE)
+        return self.values['size'] * np.maximum(sides, MIN_SIDE)
 
     def stream(self, rate, propagator):
         return _MarkerStream(self, rate, propagator)
@@ -337,35 +390,52 @@ MARKER_ROW = 13
 class _MarkerStream(OutputStream):
     def __init__(self, markers: Markers, rate: float, propagator):
         values, body = markers.values, propagator.body
-        size = values["size"]
+        size = values['size']
         self.q_BP_values = tuple(quaternion.from_matrix(body.principal_axes).tolist())
         self.sides = markers.box_sides(body)
         omega0, x0 = propagator.omega0_B, propagator.x0
         self.momentum_B = propagator.momentum_B
         w0 = float(np.linalg.norm(omega0))
         h0 = float(np.linalg.norm(propagator.momentum_B(omega0, x0)))
-        self.omega_scale = values["angular_velocity_scale"] or (size / w0 if w0 > 0.0 else size)
-        self.momentum_scale = values["momentum_scale"] or (1.25 * size / h0 if h0 > 0.0 else size)
+        self.omega_scale = values['angular_velocity_scale'] or (size / w0 if w0 > 0.0 else size)
+        self.momentum_scale = values['momentum_scale'] or (1.25 * size / h0 if h0 > 0.0 else size)
 
     def rows(self, first, times, omega_B, q_NB, internal):
         count = times.shape[0]
         if count == 0:
             return np.empty((0, MARKER_ROW))
         momentum_B = self.momentum_B(omega_B, internal)
-        if count == 1:  # a closed loop's one sample at a time: floats are ~20x faster than 1-row arrays
-            return np.array([self._row(q_NB[0].tolist(), omega_B[0].tolist(), momentum_B[0].tolist())])
+        if (
+            count == 1
+        ):  # a closed loop's one sample at a time: floats are ~20x faster than 1-row arrays
+            return np.array(
+                [self._row(q_NB[0].tolist(), omega_B[0].tolist(), momentum_B[0].tolist())]
+            )
         return np.column_stack(self._row(q_NB.T, omega_B.T, momentum_B.T))
 
     def _row(self, q_NB, omega_B, momentum_B) -> tuple:
-        """A markers row from values: floats (one sample) or arrays (a block), by the same operations in
-        the same order, so a sample's row does not depend on how the blocks are cut."""
+        """
+        A markers row from values: floats (one sample) or arrays (a block), by the same
+        operations in the same order, so a sample's row does not depend on how the blocks are
+        cut.
+        """
         x, y, z, w = q_NB
         # R(q_NB), as quaternion.to_matrix writes it
-        r = ((1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)),
-             (2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)),
-             (2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)))
-        w_tip = tuple(self.omega_scale * (a * omega_B[0] + b * omega_B[1] + c * omega_B[2]) for a, b, c in r)
-        h_tip = tuple(self.momentum_scale * (a * momentum_B[0] + b * momentum_B[1] + c * momentum_B[2])
-                      for a, b, c in r)
-        sides = tuple(self.sides.tolist()) if np.ndim(x) == 0 else tuple(np.full_like(x, s) for s in self.sides)
+        r = (
+            (1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)),
+            (2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)),
+            (2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)),
+        )
+        w_tip = tuple(
+            self.omega_scale * (a * omega_B[0] + b * omega_B[1] + c * omega_B[2]) for a, b, c in r
+        )
+        h_tip = tuple(
+            self.momentum_scale * (a * momentum_B[0] + b * momentum_B[1] + c * momentum_B[2])
+            for a, b, c in r
+        )
+        sides = (
+            tuple(self.sides.tolist())
+            if np.ndim(x) == 0
+            else tuple(np.full_like(x, s) for s in self.sides)
+        )
         return quaternion.multiply_values(q_NB, self.q_BP_values) + sides + w_tip + h_tip

@@ -1,9 +1,25 @@
-"""The compiled path of the numerical propagators: a scene's motion as a kernel model, and the drivers
-that run :mod:`.motion_kernels`' DOP853 and fixed-step methods with the same stops (breakpoints,
-sample times), restarts and step budget as the reference path in ``propagators/numerical.py``.
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
 
-A propagator built while :data:`ENABLED` holds evaluates here; ``TORQUEFREE_ROS_KERNELS=numpy`` in the
-environment (or numba missing) keeps the reference path, scipy's DOP853 and numpy's stages.
+"""
+The compiled path of the numerical propagators: a scene's motion as a kernel model, and the
+drivers that run :mod:`.motion_kernels`' DOP853 and fixed-step methods with the same stops
+(breakpoints, sample times), restarts and step budget as the reference path in
+``propagators/numerical.py``.
+
+A propagator built while :data:`ENABLED` holds evaluates here; ``TORQUEFREE_ROS_KERNELS=numpy`` in
+the environment (or numba missing) keeps the reference path, scipy's DOP853 and numpy's stages.
 """
 
 from __future__ import annotations
@@ -17,9 +33,9 @@ from scipy.integrate._ivp import dop853_coefficients as tableau
 from . import motion_kernels as kernels
 
 #: numba is installed
-AVAILABLE = importlib.util.find_spec("numba") is not None
+AVAILABLE = importlib.util.find_spec('numba') is not None
 #: whether numerical propagators built from now on integrate through the kernels
-ENABLED = AVAILABLE and os.environ.get("TORQUEFREE_ROS_KERNELS", "numba") != "numpy"
+ENABLED = AVAILABLE and os.environ.get('TORQUEFREE_ROS_KERNELS', 'numba') != 'numpy'
 
 # scipy's DOP853 tableau, as the kernels read it (contiguous float64 arrays)
 _A = np.ascontiguousarray(tableau.A, dtype=float)
@@ -31,27 +47,38 @@ _D = np.ascontiguousarray(tableau.D, dtype=float)
 
 
 def build_model(dynamics) -> np.ndarray:
-    """The kernels' description of ``dynamics`` (layout in :mod:`.motion_kernels`): the inertia
+    """
+    The kernels' description of ``dynamics`` (layout in :mod:`.motion_kernels`): the inertia
     tensor, its inverse, then one entry per effect with a kernel of its own (code, state offset,
-    parameters). Effects that hold a piecewise-constant torque have no entry (see :func:`held_torques`)."""
+    parameters). Effects that hold a piecewise-constant torque have no entry (see
+    :func:`held_torques`).
+    """
     entries = []
     for effect, part in zip(dynamics.effects, dynamics.slices):
         if effect.kernel_code is None:
             continue
         parameters = [float(v) for v in effect.kernel_parameters()]
         if len(parameters) != kernels.PARAMETER_COUNTS[effect.kernel_code]:
-            raise AssertionError(f"{effect.name}: {len(parameters)} kernel parameters, its kernel reads "
-                                 f"{kernels.PARAMETER_COUNTS[effect.kernel_code]}")
+            raise AssertionError(
+                f'{effect.name}: {len(parameters)} kernel parameters, its kernel reads '
+                f'{kernels.PARAMETER_COUNTS[effect.kernel_code]}'
+            )
         entries += [float(effect.kernel_code), float(part.start), *parameters]
     tensor = dynamics.body.tensor
-    header = [*tensor.ravel().tolist(), *np.linalg.inv(tensor).ravel().tolist(),
-              float(sum(effect.kernel_code is not None for effect in dynamics.effects))]
+    header = [
+        *tensor.ravel().tolist(),
+        *np.linalg.inv(tensor).ravel().tolist(),
+        float(sum(effect.kernel_code is not None for effect in dynamics.effects)),
+    ]
     return np.array(header + entries, dtype=float)
 
 
 def held_torques(dynamics, segment_start: float, out: np.ndarray) -> np.ndarray:
-    """``out[:3]``: the sum of the body-frame torques held on the piece starting at ``segment_start``,
-    ``out[3:]`` the inertial-frame ones (in the effects' order, as Dynamics adds them)."""
+    """
+    ``out[:3]``: the sum of the body-frame torques held on the piece starting at
+    ``segment_start``, ``out[3:]`` the inertial-frame ones (in the effects' order, as Dynamics adds
+    them).
+    """
     out[:] = 0.0
     for effect in dynamics.effects:
         if effect.kernel_code is None:
@@ -64,8 +91,10 @@ def held_torques(dynamics, segment_start: float, out: np.ndarray) -> np.ndarray:
 
 
 def derivatives(dynamics, times, states) -> np.ndarray:
-    """``y'`` of ``dynamics`` at each of ``states (N, 7 + state_size)`` at ``times`` (each its own piece
-    start), through the kernels: what the tests hold against ``Dynamics.derivative``."""
+    """
+    ``y'`` of ``dynamics`` at each of ``states (N, 7 + state_size)`` at ``times`` (each its own
+    piece start), through the kernels: what the tests hold against ``Dynamics.derivative``.
+    """
     kernels.compile_kernels()
     times = np.ascontiguousarray(times, dtype=float)
     states = np.ascontiguousarray(states, dtype=float)
@@ -74,7 +103,7 @@ def derivatives(dynamics, times, states) -> np.ndarray:
     held = np.zeros(6)
     for i in range(times.size):  # the held torques may change with the piece start
         held_torques(dynamics, float(times[i]), held)
-        kernels.derivatives(times[i:i + 1], states[i:i + 1], model, held, out[i:i + 1])
+        kernels.derivatives(times[i: i + 1], states[i: i + 1], model, held, out[i: i + 1])
     return out
 
 
@@ -97,8 +126,11 @@ class _Kernel:
 
 
 class DOP853Kernel(_Kernel):
-    """``DOP853Propagator``'s evaluation through the kernels: free steps (outputs never shape them),
-    a new piece at each breakpoint (initial step selected again, as a new scipy solver does)."""
+    """
+    ``DOP853Propagator``'s evaluation through the kernels: free steps (outputs never shape
+    them), a new piece at each breakpoint (initial step selected again, as a new scipy solver
+    does).
+    """
 
     def __init__(self, propagator):
         super().__init__(propagator, 3)
@@ -110,15 +142,29 @@ class DOP853Kernel(_Kernel):
         self.restart()
 
     def restart(self) -> None:
-        """Back to the initial state: a piece that ended at t = 0 (the first step begins a new one)."""
+        """
+        Back to the initial state: a piece that ended at t = 0 (the first step begins a new
+        one).
+        """
         self.y[:] = self.initial
         self.solver[:] = 0.0
 
     def _begin(self, t0: float) -> None:
         p = self.propagator
         self.hold_from(t0)
-        kernels.dop853_begin(t0, self.dynamics.next_breakpoint(t0), p.rtol, p.atol, p.min_step, self.solver,
-                             self.y, self.f, self.work, self.model, self.held)
+        kernels.dop853_begin(
+            t0,
+            self.dynamics.next_breakpoint(t0),
+            p.rtol,
+            p.atol,
+            p.min_step,
+            self.solver,
+            self.y,
+            self.f,
+            self.work,
+            self.model,
+            self.held,
+        )
 
     def evaluate(self, times: np.ndarray) -> np.ndarray:
         out = np.empty((times.size, self.size))
@@ -126,9 +172,27 @@ class DOP853Kernel(_Kernel):
         budget = -1 if budget is None else int(budget)
         i = 0
         while i < times.size:
-            i, status = kernels.dop853_outputs(times, i, out, budget, self.solver, self.y, self.y_old, self.f,
-                                               self.K, self.F, self.work, self.model, self.held,
-                                               _A, _B, _C, _E3, _E5, _D)
+            i, status = kernels.dop853_outputs(
+                times,
+                i,
+                out,
+                budget,
+                self.solver,
+                self.y,
+                self.y_old,
+                self.f,
+                self.K,
+                self.F,
+                self.work,
+                self.model,
+                self.held,
+                _A,
+                _B,
+                _C,
+                _E3,
+                _E5,
+                _D,
+            )
             if status == kernels.DONE:
                 break
             if status == kernels.RESTART:
@@ -141,8 +205,10 @@ class DOP853Kernel(_Kernel):
 
 
 def dop853_error(status: int, propagator, t: float, solver: np.ndarray) -> RuntimeError:
-    """The error for a DOP853 kernel's ``status`` (BUDGET, TOO_SMALL, STIFF) on the way to ``t``, in the
-    reference path's words."""
+    """
+    The error for a DOP853 kernel's ``status`` (BUDGET, TOO_SMALL, STIFF) on the way to ``t``,
+    in the reference path's words.
+    """
     from ..propagators.base import StepBudgetExceeded, StepTooSmall
 
     step = abs(float(solver[kernels.H_PREVIOUS])) or float(solver[kernels.H_ABS])
@@ -151,13 +217,17 @@ def dop853_error(status: int, propagator, t: float, solver: np.ndarray) -> Runti
         return StepBudgetExceeded(propagator, t, step)
     if status == kernels.TOO_SMALL:
         return StepTooSmall(propagator, at)
-    return RuntimeError(f"dop853: the step fell to {step:.2g} s at t = {at:.6g} s, under {propagator.min_step:.2g} s "
-                        f"(1e-7 of a turn): the scene's effects are too stiff for an explicit integrator")
+    return RuntimeError(
+        f'dop853: the step fell to {step:.2g} s at t = {at:.6g} s, under {propagator.min_step:.2g} s '
+        f"(1e-7 of a turn): the scene's effects are too stiff for an explicit integrator"
+    )
 
 
 class FixedStepKernel(_Kernel):
-    """A fixed-step propagator's steps through the kernels: whole grid steps in one call up to the
-    next breakpoint, a step holding a breakpoint split there (numerical.py's ``_advance``)."""
+    """
+    A fixed-step propagator's steps through the kernels: whole grid steps in one call up to the
+    next breakpoint, a step holding a breakpoint split there (numerical.py's ``_advance``).
+    """
 
     def __init__(self, propagator, method: int):
         super().__init__(propagator, 9)
@@ -171,8 +241,10 @@ class FixedStepKernel(_Kernel):
 
     @property
     def whole_loop(self) -> bool:
-        """No breakpoint anywhere (no schedule, no torque held per sample): the loop over the times
-        runs in the kernel, with the held torques of t = 0 throughout."""
+        """
+        No breakpoint anywhere (no schedule, no torque held per sample): the loop over the times
+        runs in the kernel, with the held torques of t = 0 throughout.
+        """
         return not self.dynamics.breakpoints and self.dynamics.sample_rate is None
 
     def evaluate(self, times: np.ndarray) -> np.ndarray:
@@ -183,8 +255,20 @@ class FixedStepKernel(_Kernel):
         self.hold_from(0.0)
         i = 0
         while i < times.size:
-            i, status = kernels.fixed_outputs(self.method, times, i, out, budget, self.propagator.step, self.grid,
-                                              self.y, self.partial, self.model, self.held, self.work)
+            i, status = kernels.fixed_outputs(
+                self.method,
+                times,
+                i,
+                out,
+                budget,
+                self.propagator.step,
+                self.grid,
+                self.y,
+                self.partial,
+                self.model,
+                self.held,
+                self.work,
+            )
             if status == kernels.RESTART:
                 self.propagator._restart()
             elif status == kernels.BUDGET:
@@ -201,7 +285,9 @@ class FixedStepKernel(_Kernel):
             t = j * step
             bound = next_breakpoint(t)
             self.hold_from(t)
-            reached = kernels.fixed_steps(self.method, j, j_end, step, bound, self.y, self.model, self.held, self.work)
+            reached = kernels.fixed_steps(
+                self.method, j, j_end, step, bound, self.y, self.model, self.held, self.work
+            )
             if reached == j:  # a breakpoint inside step j
                 self._advance(t, self.y, step)
                 reached += 1

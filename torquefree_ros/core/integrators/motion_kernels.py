@@ -1,4 +1,20 @@
-"""Compiled equations of motion and integrators for scenes with effects (numba, loaded on first use).
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Compiled equations of motion and integrators for scenes with effects (numba, loaded on first
+use).
 
 The right-hand side of :class:`~..propagators.dynamics.Dynamics` and the steps of the ``dop853``,
 ``rk4`` and ``lie_rk4`` propagators as scalar loops over one flat state ``y = (w, q, x)``, without
@@ -9,12 +25,12 @@ A scene's motion is one float64 array, the *model* (built by :mod:`.compiled`)::
     [0:9]   inertia tensor, body frame, row by row     [9:18]  its inverse
     [18]    number of effect entries, then per entry: code, offset of its state in x, parameters
 
-Torques that are piecewise constant (``external_torque``, ``torque_command``'s hold) are not entries:
-the driver resolves them where each smooth piece starts and passes them as ``held`` (six floats: the
-sum held in the body frame, then the sum held in the inertial frame), as the Python effects read
-theirs at ``segment_start``. Each effect with a kernel of its own has one section below, under its
-code; its Python definition (``core/effects``) names the code and packs its parameters, and
-test_motion_kernels.py holds the two together on random states.
+Torques that are piecewise constant (``external_torque``, ``torque_command``'s hold) are not
+entries: the driver resolves them where each smooth piece starts and passes them as ``held`` (six
+floats: the sum held in the body frame, then the sum held in the inertial frame), as the Python
+effects read theirs at ``segment_start``. Each effect with a kernel of its own has one section
+below, under its code; its Python definition (``core/effects``) names the code and packs its
+parameters, and test_motion_kernels.py holds the two together on random states.
 
 Every compiled function is in this one file on purpose: numba rebuilds a function's cache when its
 own file changes, not when a file it calls into does (a stale kernel would survive an edit).
@@ -22,20 +38,22 @@ own file changes, not when a file it calls into does (a stale kernel would survi
 DOP853 is scipy's: its tableau (``scipy.integrate._ivp.dop853_coefficients``, passed in as arrays),
 its error norm, step-size control (safety 0.9, factors 0.2 to 10, exponent -1/8), initial step
 (Hairer, Nørsett & Wanner, II.4) and 7th-order dense output, operation for operation but for the
-order of a few sums; ``rtol`` and ``atol`` mean what they mean there. The tableau's zeros are skipped
-(34 of the 108 stage coefficients, 4 of 12 solution weights, 5 of 13 in each error estimate, 16 of 64
-interpolant weights): which coefficients are zero is read from scipy's tableau and compiled in as a
-constant, so each sum is unrolled with only its terms, in the same order, and the values still
-come from the arrays passed in. Adding ``K[j] * 0.0`` changed a sum by nothing but, at most, the sign
-of an exact zero (and a NaN for an infinite K[j], where an overflowed step is rejected either way).
+order of a few sums; ``rtol`` and ``atol`` mean what they mean there. The tableau's zeros are
+skipped (34 of the 108 stage coefficients, 4 of 12 solution weights, 5 of 13 in each error
+estimate, 16 of 64 interpolant weights): which coefficients are zero is read from scipy's tableau
+and compiled in as a constant, so each sum is unrolled with only its terms, in the same order, and
+the values still come from the arrays passed in. Adding ``K[j] * 0.0`` changed a sum by nothing
+but, at most, the sign of an exact zero (and a NaN for an infinite K[j], where an overflowed step
+is rejected either way).
 
 Speed (issue 27; docs/bench/effects.md): every kernel is compiled without numba's runtime
 (``_nrt=False``): they allocate nothing, and without it numba counts no references; with it, every
 array handed to an inlined helper or sliced paid an atomic increment and decrement, two calls that
-spill the registers (the right-hand side cost 45 ns a call that way, 9 ns without), and a DOP853 step
-on explorer1 0.95 µs instead of 0.3. The right-hand side and the effects are inlined by LLVM
-(``forceinline``), not by numba's IR inliner, which re-types a callee at every call (see "loading").
-The stages' states are rows of the scratch arrays, by index: a slice is a new array struct.
+spill the registers (the right-hand side cost 45 ns a call that way, 9 ns without), and a DOP853
+step on explorer1 0.95 µs instead of 0.3. The right-hand side and the effects are inlined by LLVM
+(``forceinline``), not by numba's IR inliner, which re-types a callee at every call (see
+"loading"). The stages' states are rows of the scratch arrays, by index: a slice is a new array
+struct.
 """
 
 from __future__ import annotations
@@ -45,7 +63,8 @@ import threading
 
 import numpy as np
 
-# -- effect codes (a literal each: compiled code keeps what it read when it compiled) -------------------
+# -- effect codes (a literal each: compiled code keeps what it read when it compiled)
+# -------------------
 GRAVITY_GRADIENT = 1  # parameters: mean motion n, argument of latitude u0, the inertia tensor (9)
 DAMPER = 2  # parameters: rotor inertia J, damping c; state: the rotor's rate nu (3)
 ROTOR = 3  # parameters: the wheel's momentum h_B (3)
@@ -53,7 +72,8 @@ ROTOR = 3  # parameters: the wheel's momentum h_B (3)
 PARAMETER_COUNTS = {GRAVITY_GRADIENT: 11, DAMPER: 2, ROTOR: 3}
 MODEL_HEADER = 19  # tensor, inverse, entry count
 
-# -- solver state of a DOP853 run (a float64 array, kept by the caller between calls) -----------------
+# -- solver state of a DOP853 run (a float64 array, kept by the caller between calls)
+# -----------------
 T, H_ABS, T_OLD, H_PREVIOUS, T_BOUND, RTOL, ATOL, DENSE_READY, MIN_STEP = range(9)
 SOLVER_WIDTH = 9
 # what dop853_outputs returns
@@ -61,15 +81,21 @@ DONE, SEGMENT_END, RESTART, BUDGET, TOO_SMALL, STIFF = range(6)
 SAFETY, MIN_FACTOR, MAX_FACTOR, ERROR_EXPONENT = 0.9, 0.2, 10.0, -1.0 / 8.0
 STAGES, STAGES_EXTENDED, INTERPOLATOR_POWER = 12, 16, 7
 
-# -- fixed-step methods -------------------------------------------------------------------------------
+# -- fixed-step methods
+# -------------------------------------------------------------------------------
 RK4, LIE_RK4 = 0, 1
 
 
-# ==== effects ===========================================================================================
-# Each takes the state's scalars and returns scalars: the right-hand side reads the state once.
+# ==== effects
+# =========================================================================================== Each
+# takes the state's scalars and returns scalars: the right-hand side reads the state once.
+
 
 def _gravity_gradient(t, qx, qy, qz, qw, model, p):
-    """``3 n^2 e_B x (I e_B)``, ``e_B = R(q)^T (cos u, sin u, 0)``, ``u = u0 + n t`` (GravityGradient)."""
+    """
+    ``3 n^2 e_B x (I e_B)``, ``e_B = R(q)^T (cos u, sin u, 0)``, ``u = u0 + n t``
+    (GravityGradient).
+    """
     n = model[p]
     u = model[p + 1] + n * t
     e1, e2, e3 = _rotate_inverse(qx, qy, qz, qw, math.cos(u), math.sin(u), 0.0)
@@ -81,11 +107,18 @@ def _gravity_gradient(t, qx, qy, qz, qw, model, p):
 
 
 def _damper(w1, w2, w3, n1, n2, n3, model, p):
-    """Torque ``c (nu - w)`` on the body, and the rotor's ``nu' = -c/J (nu - w) - w x nu`` (Damper)."""
+    """
+    Torque ``c (nu - w)`` on the body, and the rotor's ``nu' = -c/J (nu - w) - w x nu``
+    (Damper).
+    """
     J, c = model[p], model[p + 1]
     d1, d2, d3 = n1 - w1, n2 - w2, n3 - w3
     r = -c / J
-    rate = (r * d1 - (w2 * n3 - w3 * n2), r * d2 - (w3 * n1 - w1 * n3), r * d3 - (w1 * n2 - w2 * n1))
+    rate = (
+        r * d1 - (w2 * n3 - w3 * n2),
+        r * d2 - (w3 * n1 - w1 * n3),
+        r * d3 - (w1 * n2 - w2 * n1),
+    )
     return (c * d1, c * d2, c * d3), rate
 
 
@@ -99,15 +132,24 @@ def _rotate_inverse(qx, qy, qz, qw, vx, vy, vz):
     """``R(q)^T v`` (quaternion.rotate by the conjugate, the same operations)."""
     ux, uy, uz, w = -qx, -qy, -qz, qw
     tx, ty, tz = 2.0 * (uy * vz - uz * vy), 2.0 * (uz * vx - ux * vz), 2.0 * (ux * vy - uy * vx)
-    return (vx + w * tx + uy * tz - uz * ty, vy + w * ty + uz * tx - ux * tz, vz + w * tz + ux * ty - uy * tx)
+    return (
+        vx + w * tx + uy * tz - uz * ty,
+        vy + w * ty + uz * tx - ux * tz,
+        vz + w * tz + ux * ty - uy * tx,
+    )
 
 
-# ==== the right-hand side ===============================================================================
+# ==== the right-hand side
+# ===============================================================================
+
 
 def _rhs(t, Y, r, model, held, OUT, o):
-    """``OUT[o] = y'`` of the state ``y = Y[r] = (w, q, x)`` (Dynamics.derivative): rows of 2-D arrays,
-    by index (the steps' stages are rows of their scratch). The torque is summed in scalars, not in a
-    scratch array: stores and reloads through memory cost ~10x the arithmetic here."""
+    """
+    ``OUT[o] = y'`` of the state ``y = Y[r] = (w, q, x)`` (Dynamics.derivative): rows of 2-D
+    arrays, by index (the steps' stages are rows of their scratch). The torque is summed in
+    scalars, not in a scratch array: stores and reloads through memory cost ~10x the arithmetic
+    here.
+    """
     w1, w2, w3 = Y[r, 0], Y[r, 1], Y[r, 2]
     qx, qy, qz, qw = Y[r, 3], Y[r, 4], Y[r, 5], Y[r, 6]
     h1 = model[0] * w1 + model[1] * w2 + model[2] * w3
@@ -128,7 +170,9 @@ def _rhs(t, Y, r, model, held, OUT, o):
             at = p + 11
         elif code == DAMPER:
             s = 7 + int(model[at + 1])
-            (e1, e2, e3), (v1, v2, v3) = _damper(w1, w2, w3, Y[r, s], Y[r, s + 1], Y[r, s + 2], model, p)
+            (e1, e2, e3), (v1, v2, v3) = _damper(
+                w1, w2, w3, Y[r, s], Y[r, s + 1], Y[r, s + 2], model, p
+            )
             OUT[o, s], OUT[o, s + 1], OUT[o, s + 2] = v1, v2, v3
             at = p + 2
         else:  # ROTOR
@@ -146,7 +190,9 @@ def _rhs(t, Y, r, model, held, OUT, o):
 
 def derivative(t, y, model, held, out):
     """``out = y'`` of one state ``y = (w, q, x)`` (1-D arrays; Dynamics.derivative)."""
-    _rhs(t, y[np.newaxis, :], 0, model, held, out[np.newaxis, :], 0)  # (reshape calls a helper each time)
+    _rhs(
+        t, y[np.newaxis, :], 0, model, held, out[np.newaxis, :], 0
+    )  # (reshape calls a helper each time)
 
 
 def derivatives(t, y, model, held, out):
@@ -155,9 +201,11 @@ def derivatives(t, y, model, held, out):
         _rhs(t[i], y, i, model, held, out, i)
 
 
-# ==== DOP853 ============================================================================================
-# Which of the tableau's coefficients are not zero: scipy's, read by compile_kernels (numba compiles
-# module arrays in as constants, so in a stage's sum, unrolled for a constant stage, the zero terms vanish)
+# ==== DOP853
+# ============================================================================================
+# Which of the tableau's coefficients are not zero: scipy's, read by compile_kernels (numba
+# compiles module arrays in as constants, so in a stage's sum, unrolled for a constant stage, the
+# zero terms vanish)
 _A_USED = _B_USED = _E3_USED = _E5_USED = _D_USED = None
 # rows of the scratch ``work`` (3, n) during a step
 Y_NEW, STAGE, SCALE = 0, 1, 2
@@ -172,11 +220,18 @@ def _rms_scaled(values, work):
 
 
 def dop853_begin(t0, t_bound, rtol, atol, min_step, solver, y, f, work, model, held):
-    """A new smooth piece from ``(t0, y)`` to ``t_bound`` (inf: none): ``f = y'(t0)`` and the initial
-    step (scipy's select_initial_step with order 7); ``work`` is (3, n) of scratch."""
+    """
+    A new smooth piece from ``(t0, y)`` to ``t_bound`` (inf: none): ``f = y'(t0)`` and the
+    initial step (scipy's select_initial_step with order 7); ``work`` is (3, n) of scratch.
+    """
     derivative(t0, y, model, held, f)
     solver[T], solver[T_BOUND], solver[RTOL], solver[ATOL] = t0, t_bound, rtol, atol
-    solver[T_OLD], solver[H_PREVIOUS], solver[DENSE_READY], solver[MIN_STEP] = t0, 0.0, 0.0, min_step
+    solver[T_OLD], solver[H_PREVIOUS], solver[DENSE_READY], solver[MIN_STEP] = (
+        t0,
+        0.0,
+        0.0,
+        min_step,
+    )
     n = y.size
     interval = abs(t_bound - t0)
     if interval == 0.0:
@@ -202,9 +257,12 @@ def dop853_begin(t0, t_bound, rtol, atol, min_step, solver, y, f, work, model, h
 
 
 def _stage_sum(K, A, s, y, h, work):
-    """``work[STAGE] = y + h sum_j A[s, j] K[j]`` over the stages before ``s`` (scipy's ``np.dot(K[:s].T,
-    a[:s]) * h``), the sum over stages innermost, in a register, in the order of ``j``, the zero
-    coefficients left out (``s`` is a constant where this is inlined: the loop over ``j`` unrolls)."""
+    """
+    ``work[STAGE] = y + h sum_j A[s, j] K[j]`` over the stages before ``s`` (scipy's
+    ``np.dot(K[:s].T, a[:s]) * h``), the sum over stages innermost, in a register, in the order of
+    ``j``, the zero coefficients left out (``s`` is a constant where this is inlined: the loop over
+    ``j`` unrolls).
+    """
     for i in range(y.size):
         total = 0.0
         for j in range(s):
@@ -240,7 +298,10 @@ def _stage_state(K, A, s, y, h, work):
 
 
 def _extra_stage_state(K, A, s, y, h, work):
-    """:func:`_stage_sum` of the interpolant's stage ``s`` (13 to 15), each with its ``s`` a constant."""
+    """
+    :func:`_stage_sum` of the interpolant's stage ``s`` (13 to 15), each with its ``s`` a
+    constant.
+    """
     if s == 13:
         _stage_sum(K, A, 13, y, h, work)
     elif s == 14:
@@ -250,8 +311,11 @@ def _extra_stage_state(K, A, s, y, h, work):
 
 
 def _dop853_step(solver, y, y_old, f, K, work, model, held, A, B, C, E3, E5):
-    """One accepted step (scipy's RungeKutta._step_impl); False when the step fell below scipy's floor.
-    The sums run over stages innermost, in a register (faster here than rows of K at a time)."""
+    """
+    One accepted step (scipy's RungeKutta._step_impl); False when the step fell below scipy's
+    floor. The sums run over stages innermost, in a register (faster here than rows of K at a
+    time).
+    """
     t = solver[T]
     n = y.size
     min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
@@ -301,13 +365,15 @@ def _dop853_step(solver, y, y_old, f, K, work, model, held, A, B, C, E3, E5):
             if error == 0.0:
                 factor = MAX_FACTOR
             else:
-                factor = min(MAX_FACTOR, SAFETY * error ** ERROR_EXPONENT)
+                factor = min(MAX_FACTOR, SAFETY * error**ERROR_EXPONENT)
             if rejected:
                 factor = min(1.0, factor)
             h_abs *= factor
             break
-        shrink = SAFETY * error ** ERROR_EXPONENT
-        if not shrink > MIN_FACTOR:  # also a NaN error (an overflowed stage): scipy's max() gives 0.2 there
+        shrink = SAFETY * error**ERROR_EXPONENT
+        if (
+            not shrink > MIN_FACTOR
+        ):  # also a NaN error (an overflowed stage): scipy's max() gives 0.2 there
             shrink = MIN_FACTOR
         h_abs *= shrink
         rejected = True
@@ -352,12 +418,17 @@ def _dop853_dense(solver, y, y_old, f, K, F, work, model, held, A, C, D):
     solver[DENSE_READY] = 1.0
 
 
-def dop853_outputs(times, first, out, max_steps, solver, y, y_old, f, K, F, work, model, held, A, B, C, E3, E5, D):
-    """Fill ``out[first:]`` with the states at ``times[first:]`` (sorted), stepping as needed; returns
-    ``(index, status)`` (``q`` normalised in each output row): the first time not filled, and why it stopped: DONE; SEGMENT_END (the piece
-    ended at ``t_bound`` before ``times[index]``: the caller begins the next); RESTART (``times[index]``
-    lies before the last step); BUDGET (more than ``max_steps`` steps for one time; < 0: no bound);
-    TOO_SMALL (the step fell below scipy's floor); STIFF (an accepted step under ``solver[MIN_STEP]``)."""
+def dop853_outputs(
+    times, first, out, max_steps, solver, y, y_old, f, K, F, work, model, held, A, B, C, E3, E5, D
+):
+    """
+    Fill ``out[first:]`` with the states at ``times[first:]`` (sorted), stepping as needed;
+    returns ``(index, status)`` (``q`` normalised in each output row): the first time not filled,
+    and why it stopped: DONE; SEGMENT_END (the piece ended at ``t_bound`` before ``times[index]``:
+    the caller begins the next); RESTART (``times[index]`` lies before the last step); BUDGET (more
+    than ``max_steps`` steps for one time; < 0: no bound); TOO_SMALL (the step fell below scipy's
+    floor); STIFF (an accepted step under ``solver[MIN_STEP]``).
+    """
     n = y.size
     i = first
     while i < times.size:
@@ -395,7 +466,12 @@ def dop853_outputs(times, first, out, max_steps, solver, y, y_old, f, K, F, work
                         value *= x if r % 2 == 0 else 1.0 - x
                     out[i, k] = value + y_old[k]
             # q normalised on output, as the reference path does with numpy afterwards
-            norm = math.sqrt(out[i, 3] * out[i, 3] + out[i, 4] * out[i, 4] + out[i, 5] * out[i, 5] + out[i, 6] * out[i, 6])
+            norm = math.sqrt(
+                out[i, 3] * out[i, 3]
+                + out[i, 4] * out[i, 4]
+                + out[i, 5] * out[i, 5]
+                + out[i, 6] * out[i, 6]
+            )
             for k in range(3, 7):
                 out[i, k] /= norm
             i += 1
@@ -403,8 +479,10 @@ def dop853_outputs(times, first, out, max_steps, solver, y, y_old, f, K, F, work
 
 
 def next_sample_time(t, rate):
-    """The first sample time ``k / rate`` after ``t`` (Dynamics.next_breakpoint's rule for a torque held
-    from sample to sample, the same operations)."""
+    """
+    The first sample time ``k / rate`` after ``t`` (Dynamics.next_breakpoint's rule for a torque
+    held from sample to sample, the same operations).
+    """
     k = math.floor(t * rate) + 1
     while k > 1 and (k - 1) / rate > t:
         k -= 1
@@ -413,38 +491,99 @@ def next_sample_time(t, rate):
     return k / rate
 
 
-def dop853_outputs_batch(times, out, max_steps, sample_rate, breaks, piece_helds, command_helds, solvers, ys,
-                         y_olds, fs, Ks, Fs, works, models, helds, rtols, atols, min_steps, A, B, C, E3, E5, D,
-                         status, reached):
-    """:func:`dop853_outputs` for each body ``b`` of a batch (row ``b`` of every array; ``out (N, M, n)``),
-    a new smooth piece begun where one ends, as the single-body driver begins it: at body ``b``'s next
-    breakpoint (``breaks[b]``, ascending, padded with ``inf``) or, when ``sample_rate > 0``, the next
-    sample time, whichever comes first. A piece beginning at ``t0`` holds the torque of the scene's own
-    piece containing it (``piece_helds[b, j]``, ``j`` the breakpoints at or before ``t0``) plus the
-    commanded one (``command_helds[b]``, over this call), in ``helds[b]``. ``status[b]`` and
-    ``reached[b]``: what dop853_outputs returned last for body ``b``."""
+def dop853_outputs_batch(
+    times,
+    out,
+    max_steps,
+    sample_rate,
+    breaks,
+    piece_helds,
+    command_helds,
+    solvers,
+    ys,
+    y_olds,
+    fs,
+    Ks,
+    Fs,
+    works,
+    models,
+    helds,
+    rtols,
+    atols,
+    min_steps,
+    A,
+    B,
+    C,
+    E3,
+    E5,
+    D,
+    status,
+    reached,
+):
+    """
+    :func:`dop853_outputs` for each body ``b`` of a batch (row ``b`` of every array; ``out (N,
+    M, n)``), a new smooth piece begun where one ends, as the single-body driver begins it: at body
+    ``b``'s next breakpoint (``breaks[b]``, ascending, padded with ``inf``) or, when ``sample_rate
+    > 0``, the next sample time, whichever comes first. A piece beginning at ``t0`` holds the
+    torque of the scene's own piece containing it (``piece_helds[b, j]``, ``j`` the breakpoints at
+    or before ``t0``) plus the commanded one (``command_helds[b]``, over this call), in
+    ``helds[b]``. ``status[b]`` and ``reached[b]``: what dop853_outputs returned last for body
+    ``b``.
+    """
     for b in range(solvers.shape[0]):
         i = 0
         while True:
-            i, st = dop853_outputs(times, i, out[b], max_steps, solvers[b], ys[b], y_olds[b], fs[b], Ks[b], Fs[b],
-                                   works[b], models[b], helds[b], A, B, C, E3, E5, D)
+            i, st = dop853_outputs(
+                times,
+                i,
+                out[b],
+                max_steps,
+                solvers[b],
+                ys[b],
+                y_olds[b],
+                fs[b],
+                Ks[b],
+                Fs[b],
+                works[b],
+                models[b],
+                helds[b],
+                A,
+                B,
+                C,
+                E3,
+                E5,
+                D,
+            )
             if st == SEGMENT_END:
                 t0 = solvers[b, T]
-                j = np.searchsorted(breaks[b], t0, side="right")
+                j = np.searchsorted(breaks[b], t0, side='right')
                 bound = breaks[b, j] if j < breaks.shape[1] else np.inf
                 if sample_rate > 0.0:
                     bound = min(bound, next_sample_time(t0, sample_rate))
                 for c in range(6):
                     helds[b, c] = piece_helds[b, j, c] + command_helds[b, c]
-                dop853_begin(t0, bound, rtols[b], atols[b], min_steps[b], solvers[b], ys[b], fs[b], works[b],
-                             models[b], helds[b])
+                dop853_begin(
+                    t0,
+                    bound,
+                    rtols[b],
+                    atols[b],
+                    min_steps[b],
+                    solvers[b],
+                    ys[b],
+                    fs[b],
+                    works[b],
+                    models[b],
+                    helds[b],
+                )
                 continue
             status[b] = st
             reached[b] = i
             break
 
 
-# ==== fixed-step methods ================================================================================
+# ==== fixed-step methods
+# ================================================================================
+
 
 def _exp_times(q, vx, vy, vz, out):
     """``out = q ⊗ exp(v)`` (quaternion.exp_rotation of ``v``, then the Hamilton product)."""
@@ -459,8 +598,10 @@ def _exp_times(q, vx, vy, vz, out):
 
 
 def fixed_step(method, t, y, h, model, held, work):
-    """One step of ``method`` (RK4 or LIE_RK4, numerical.py's ``advance``) over ``[t, t + h]``, in
-    place; ``work`` is (9, n) of scratch (n >= 7)."""
+    """
+    One step of ``method`` (RK4 or LIE_RK4, numerical.py's ``advance``) over ``[t, t + h]``, in
+    place; ``work`` is (9, n) of scratch (n >= 7).
+    """
     n = y.size
     k1, k2, k3, k4, y2, y3, y4 = work[0], work[1], work[2], work[3], work[4], work[5], work[6]
     q_new, first = work[7], work[8]
@@ -480,29 +621,50 @@ def fixed_step(method, t, y, h, model, held, work):
     for i in range(n):
         y4[i] = y[i] + h * k3[i]
     if lie:
-        _exp_times(y2[3:7], h * (y3[0] - 0.5 * y[0]), h * (y3[1] - 0.5 * y[1]), h * (y3[2] - 0.5 * y[2]), y4[3:7])
+        _exp_times(
+            y2[3:7],
+            h * (y3[0] - 0.5 * y[0]),
+            h * (y3[1] - 0.5 * y[1]),
+            h * (y3[2] - 0.5 * y[2]),
+            y4[3:7],
+        )
     derivative(t + h, y4, model, held, k4)
     if lie:
         a = h / 12.0
         m1, m2, m3 = 2.0 * (y2[0] + y3[0]), 2.0 * (y2[1] + y3[1]), 2.0 * (y2[2] + y3[2])
-        _exp_times(y[3:7], a * (3.0 * y[0] + m1 - y4[0]), a * (3.0 * y[1] + m2 - y4[1]),
-                   a * (3.0 * y[2] + m3 - y4[2]), first)
-        _exp_times(first, a * (m1 - y[0] + 3.0 * y4[0]), a * (m2 - y[1] + 3.0 * y4[1]),
-                   a * (m3 - y[2] + 3.0 * y4[2]), q_new)
+        _exp_times(
+            y[3:7],
+            a * (3.0 * y[0] + m1 - y4[0]),
+            a * (3.0 * y[1] + m2 - y4[1]),
+            a * (3.0 * y[2] + m3 - y4[2]),
+            first,
+        )
+        _exp_times(
+            first,
+            a * (m1 - y[0] + 3.0 * y4[0]),
+            a * (m2 - y[1] + 3.0 * y4[1]),
+            a * (m3 - y[2] + 3.0 * y4[2]),
+            q_new,
+        )
     for i in range(n):
         y[i] = y[i] + (h / 6.0) * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
     if lie:
-        norm = math.sqrt(q_new[0] * q_new[0] + q_new[1] * q_new[1] + q_new[2] * q_new[2] + q_new[3] * q_new[3])
+        norm = math.sqrt(
+            q_new[0] * q_new[0] + q_new[1] * q_new[1] + q_new[2] * q_new[2] + q_new[3] * q_new[3]
+        )
         for i in range(4):
             y[3 + i] = q_new[i] / norm
 
 
 def fixed_outputs(method, times, first, out, max_steps, step, grid, y, partial, model, held, work):
-    """A fixed-step propagator's whole loop over sorted ``times`` (numerical.py's ``_evaluate``) for a
-    scene without breakpoints: the grid point at or below each time (a time within 4 rounding units of
-    a grid point is on it), whole steps up to it, one partial step from a copy. ``grid[0]``: the grid
-    index reached, kept between calls. Returns ``(index, status)``: DONE, RESTART (a time before the
-    grid index) or BUDGET (more than ``max_steps`` steps for one time; < 0: no bound)."""
+    """
+    A fixed-step propagator's whole loop over sorted ``times`` (numerical.py's ``_evaluate``)
+    for a scene without breakpoints: the grid point at or below each time (a time within 4 rounding
+    units of a grid point is on it), whole steps up to it, one partial step from a copy.
+    ``grid[0]``: the grid index reached, kept between calls. Returns ``(index, status)``: DONE,
+    RESTART (a time before the grid index) or BUDGET (more than ``max_steps`` steps for one time; <
+    0: no bound).
+    """
     n = y.size
     i = first
     while i < times.size:
@@ -540,8 +702,11 @@ def fixed_outputs(method, times, first, out, max_steps, step, grid, y, partial, 
 
 
 def fixed_steps(method, j, j_end, step, bound, y, model, held, work):
-    """Whole grid steps ``[j step, (j + 1) step]`` from ``j`` while ``j < j_end`` and no breakpoint
-    lies inside the step (``bound``: the first breakpoint after ``j step``); returns the ``j`` reached."""
+    """
+    Whole grid steps ``[j step, (j + 1) step]`` from ``j`` while ``j < j_end`` and no breakpoint
+    lies inside the step (``bound``: the first breakpoint after ``j step``); returns the ``j``
+    reached.
+    """
     while j < j_end:
         t = j * step
         if bound < t + step:
@@ -551,30 +716,44 @@ def fixed_steps(method, j, j_end, step, bound, y, model, held, work):
     return j
 
 
-# ==== loading ===========================================================================================
+# ==== loading
+# ===========================================================================================
 
-# Inlined where called, by LLVM (``forceinline``): the effects and the right-hand side into the steps, a
-# DOP853 step and its interpolant into the loop over the outputs. (numba's own inliner re-types the callee
-# at every call: inlining the right-hand side that way into each stage took most of the compile time.)
-_INLINED = {"_gravity_gradient", "_damper", "_rotor", "_rotate_inverse", "_rhs", "derivative", "_dop853_step",
-            "_dop853_dense", "_exp_times"}
-# Inlined by numba (``inline="always"``), small: the stage sums, so that each is typed with its stage a
-# literal (the loop over j unrolled, the zeros gone) without compiling a function per stage (LLVM's
-# inlining gave the same code, 10 % slower, for a second more of compile time).
-_INLINED_BY_NUMBA = {"_stage_sum", "_stage_state", "_extra_stage_state"}
+# Inlined where called, by LLVM (``forceinline``): the effects and the right-hand side into the
+# steps, a DOP853 step and its interpolant into the loop over the outputs. (numba's own inliner
+# re-types the callee at every call: inlining the right-hand side that way into each stage took
+# most of the compile time.)
+_INLINED = {
+    '_gravity_gradient',
+    '_damper',
+    '_rotor',
+    '_rotate_inverse',
+    '_rhs',
+    'derivative',
+    '_dop853_step',
+    '_dop853_dense',
+    '_exp_times',
+}
+# Inlined by numba (``inline="always"``), small: the stage sums, so that each is typed with its
+# stage a literal (the loop over j unrolled, the zeros gone) without compiling a function per stage
+# (LLVM's inlining gave the same code, 10 % slower, for a second more of compile time).
+_INLINED_BY_NUMBA = {'_stage_sum', '_stage_state', '_extra_stage_state'}
 # The entry points that can run long (a block of samples, 10 000 steps a sample at the step budget)
-# release the GIL: holding it, a 0.25 s block left the node's other threads (its executor: services,
-# parameters, Ctrl-C) one switch interval per block, and a start-up took minutes as fast as possible
-# with rk4 at 0.1 Hz. (The exact solution's kernels keep it: their calls are microseconds.)
-_RELEASING_THE_GIL = {"dop853_outputs", "dop853_outputs_batch", "fixed_outputs", "fixed_steps"}
+# release the GIL: holding it, a 0.25 s block left the node's other threads (its executor:
+# services, parameters, Ctrl-C) one switch interval per block, and a start-up took minutes as fast
+# as possible with rk4 at 0.1 Hz. (The exact solution's kernels keep it: their calls are
+# microseconds.)
+_RELEASING_THE_GIL = {'dop853_outputs', 'dop853_outputs_batch', 'fixed_outputs', 'fixed_steps'}
 _compiling = threading.Lock()
 _compiled = False
 
 
 def compile_kernels() -> None:
-    """Replace this module's functions by numba's compiled ones (once, before any is called: a compiled
-    function calls what the module's globals hold when it compiles). Cached next to this file, or in
-    the user's cache directory when the install is read-only."""
+    """
+    Replace this module's functions by numba's compiled ones (once, before any is called: a
+    compiled function calls what the module's globals hold when it compiles). Cached next to this
+    file, or in the user's cache directory when the install is read-only.
+    """
     global _compiled, _A_USED, _B_USED, _E3_USED, _E5_USED, _D_USED
     with _compiling:
         if _compiled:
@@ -582,29 +761,54 @@ def compile_kernels() -> None:
         import numba
         from scipy.integrate._ivp import dop853_coefficients as tableau
 
-        _A_USED, _B_USED = np.ascontiguousarray(tableau.A != 0.0), np.ascontiguousarray(tableau.B != 0.0)
-        _E3_USED, _E5_USED = np.ascontiguousarray(tableau.E3 != 0.0), np.ascontiguousarray(tableau.E5 != 0.0)
+        _A_USED, _B_USED = (
+            np.ascontiguousarray(tableau.A != 0.0),
+            np.ascontiguousarray(tableau.B != 0.0),
+        )
+        _E3_USED, _E5_USED = (
+            np.ascontiguousarray(tableau.E3 != 0.0),
+            np.ascontiguousarray(tableau.E5 != 0.0),
+        )
         _D_USED = np.ascontiguousarray(tableau.D != 0.0)
 
         def jit(function):
-            # _nrt=False: no kernel allocates, and without numba's runtime no reference is counted (an
-            # array handed to an inlined helper, or sliced, was an atomic increment and decrement each,
-            # two calls that spill the registers: 80 % of a right-hand side's time); forceinline set on
-            # every kernel, True or False, so that none inherits it from the one compiling it
-            extra = {"_nrt": False, "forceinline": function.__name__ in _INLINED}
+            # _nrt=False: no kernel allocates, and without numba's runtime no reference is counted
+            # (an array handed to an inlined helper, or sliced, was an atomic increment and
+            # decrement each, two calls that spill the registers: 80 % of a right-hand side's
+            # time); forceinline set on every kernel, True or False, so that none inherits it from
+            # the one compiling it
+            extra = {'_nrt': False, 'forceinline': function.__name__ in _INLINED}
             if function.__name__ in _INLINED_BY_NUMBA:
-                extra["inline"] = "always"
+                extra['inline'] = 'always'
             if function.__name__ in _RELEASING_THE_GIL:
-                extra["nogil"] = True
+                extra['nogil'] = True
             try:
-                return numba.njit(cache=True, error_model="numpy", **extra)(function)
+                return numba.njit(cache=True, error_model='numpy', **extra)(function)
             except RuntimeError:  # no writable cache anywhere: compile in every process
-                return numba.njit(error_model="numpy", **extra)(function)
+                return numba.njit(error_model='numpy', **extra)(function)
 
-        for name in ("_gravity_gradient", "_damper", "_rotor", "_rotate_inverse", "_rhs", "derivative", "derivatives",
-                     "_rms_scaled", "dop853_begin", "_stage_sum", "_stage_state", "_extra_stage_state", "_dop853_step",
-                     "_dop853_dense",
-                     "dop853_outputs", "next_sample_time", "dop853_outputs_batch",
-                     "_exp_times", "fixed_step", "fixed_outputs", "fixed_steps"):
+        for name in (
+            '_gravity_gradient',
+            '_damper',
+            '_rotor',
+            '_rotate_inverse',
+            '_rhs',
+            'derivative',
+            'derivatives',
+            '_rms_scaled',
+            'dop853_begin',
+            '_stage_sum',
+            '_stage_state',
+            '_extra_stage_state',
+            '_dop853_step',
+            '_dop853_dense',
+            'dop853_outputs',
+            'next_sample_time',
+            'dop853_outputs_batch',
+            '_exp_times',
+            'fixed_step',
+            'fixed_outputs',
+            'fixed_steps',
+        ):
             globals()[name] = jit(globals()[name])
         _compiled = True

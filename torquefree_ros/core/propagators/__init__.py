@@ -1,11 +1,40 @@
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Propagator registry: every propagator behind one interface, looked up by name."""
 
 from . import analytic, numerical  # noqa: F401  (registers the propagators)
-from .base import MAX_STEPS_PER_SAMPLE, PROPAGATORS, Propagator, StepBudgetExceeded, StepTooSmall, propagator_class
+from .base import (
+    MAX_STEPS_PER_SAMPLE,
+    Propagator,
+    propagator_class,
+    PROPAGATORS,
+    StepBudgetExceeded,
+    StepTooSmall,
+)
 
-__all__ = ["MAX_STEPS_PER_SAMPLE", "PROPAGATORS", "ATOL_PER_RTOL", "DEFAULT_ACCURACY", "Propagator",
-           "StepBudgetExceeded", "StepTooSmall",
-           "propagator_class", "make_propagator"]
+__all__ = [
+    'MAX_STEPS_PER_SAMPLE',
+    'PROPAGATORS',
+    'ATOL_PER_RTOL',
+    'DEFAULT_ACCURACY',
+    'Propagator',
+    'StepBudgetExceeded',
+    'StepTooSmall',
+    'propagator_class',
+    'make_propagator',
+]
 
 #: the integrator tolerance (relative, per step) of ``auto`` for a scene with effects
 DEFAULT_ACCURACY = 1e-10
@@ -13,16 +42,28 @@ DEFAULT_ACCURACY = 1e-10
 ATOL_PER_RTOL = 1e-2
 
 
-def make_propagator(body, angular_velocity, orientation, propagator: str = "auto", effects=(),
-                    accuracy: float | None = None, **options) -> Propagator:
-    """Build a propagator by name. ``auto`` is the exact solution when no effect changes the motion,
-    else DOP853 held to ``accuracy`` (``rtol``; ``atol = accuracy / 100``; default
-    :data:`DEFAULT_ACCURACY`). ``effects``: motion effects only (outputs never reach a propagator)."""
+def make_propagator(
+    body,
+    angular_velocity,
+    orientation,
+    propagator: str = 'auto',
+    effects=(),
+    accuracy: float | None = None,
+    **options,
+) -> Propagator:
+    """
+    Build a propagator by name. ``auto`` is the exact solution when no effect changes the
+    motion, else DOP853 held to ``accuracy`` (``rtol``; ``atol = accuracy / 100``; default
+    :data:`DEFAULT_ACCURACY`). ``effects``: motion effects only (outputs never reach a
+    propagator).
+    """
     effects = tuple(effects)
-    if propagator != "auto":
-        return propagator_class(propagator)(body, angular_velocity, orientation, effects, **options)
+    if propagator != 'auto':
+        return propagator_class(propagator)(
+            body, angular_velocity, orientation, effects, **options
+        )
     if not effects:
-        return propagator_class("analytic")(body, angular_velocity, orientation, **options)
+        return propagator_class('analytic')(body, angular_velocity, orientation, **options)
     tolerance = DEFAULT_ACCURACY if accuracy is None else accuracy
-    options = {"rtol": tolerance, "atol": tolerance * ATOL_PER_RTOL, **options}
-    return propagator_class("dop853")(body, angular_velocity, orientation, effects, **options)
+    options = {'rtol': tolerance, 'atol': tolerance * ATOL_PER_RTOL, **options}
+    return propagator_class('dop853')(body, angular_velocity, orientation, effects, **options)

@@ -1,4 +1,19 @@
-"""The exact torque-free propagator (see :mod:`torquefree_ros.core.polhode` for the equations).
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The exact torque-free propagator (see :mod:`torquefree_ros.core.polhode` for the equations).
 
 The regime and every constant are chosen once in the constructor; evaluation is a pure, vectorised
 function of time whose cost per sample does not depend on ``t``.
@@ -11,14 +26,14 @@ import math
 
 import numpy as np
 
-from .. import quaternion
-from ..polhode import Polhode, body_polhode, exact_attitude
 from .base import Propagator, register
+from .. import quaternion
+from ..polhode import body_polhode, exact_attitude, Polhode
 
 
 @register
 class AnalyticPropagator(Propagator):
-    name = "analytic"
+    name = 'analytic'
     exact = True
     supports_effects = False
 
@@ -28,12 +43,18 @@ class AnalyticPropagator(Propagator):
 
     @functools.cached_property
     def polhode(self) -> Polhode | None:
-        """The motion's regime parameters and Jacobi functions (``None`` for a stationary motion)."""
+        """
+        The motion's regime parameters and Jacobi functions (``None`` for a stationary
+        motion).
+        """
         return body_polhode(self.body, self.omega0_B)
 
     def _spin(self, times) -> np.ndarray:
-        """``q0 ⊗ exp(t w / 2) = cos(|w| t / 2) q0 + sin(|w| t / 2) q0 ⊗ (w / |w|, 0)`` for a constant ``w``
-        (``quaternion.exp_rotation`` would find the same axis and norm again at every sample)."""
+        """
+        ``q0 ⊗ exp(t w / 2) = cos(|w| t / 2) q0 + sin(|w| t / 2) q0 ⊗ (w / |w|, 0)`` for a
+        constant ``w`` (``quaternion.exp_rotation`` would find the same axis and norm again at
+        every sample).
+        """
         speed = math.hypot(*self.omega0_B.tolist())
         if speed == 0.0:
             q = np.empty((times.size, 4))

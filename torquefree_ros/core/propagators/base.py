@@ -1,6 +1,22 @@
-"""One interface for every propagator (after scipy's ``OdeSolver`` family): construct from a body, an
-initial state and the scene's motion effects, then evaluate ``(omega_B, q_NB)`` at any sorted array
-of times since that state."""
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+One interface for every propagator (after scipy's ``OdeSolver`` family): construct from a body,
+an initial state and the scene's motion effects, then evaluate ``(omega_B, q_NB)`` at any sorted
+array of times since that state.
+"""
 
 from __future__ import annotations
 
@@ -10,19 +26,20 @@ from typing import ClassVar
 
 import numpy as np
 
+from .dynamics import Dynamics
 from ..rigid_body import RigidBody
 from ..validation import finite_vector, initial_samples, sample_times, unit_quaternion
-from .dynamics import Dynamics
 
-
-#: integrator steps one sample (one requested time after the previous) may take: about a second of the
-#: slowest path (rk4 in Python with effects), ~10 ms compiled. The node, the offline tools and the API
-#: all refuse more, with the same reason, so no call can hang on a scene that needs ~forever
+#: integrator steps one sample (one requested time after the previous) may take: about a second of
+#: the slowest path (rk4 in Python with effects), ~10 ms compiled. The node, the offline tools and
+#: the API all refuse more, with the same reason, so no call can hang on a scene that needs
+#: ~forever
 MAX_STEPS_PER_SAMPLE = 10_000
 
 
 class Propagator(abc.ABC):
-    """Base class. Subclasses set ``name`` and ``exact`` and implement :meth:`_evaluate`.
+    """
+    Base class. Subclasses set ``name`` and ``exact`` and implement :meth:`_evaluate`.
 
     ``__call__(times)`` returns ``omega_B`` of shape ``(N, 3)`` (rad/s, body frame) and ``q_NB`` of
     shape ``(N, 4)`` (``x, y, z, w``) for the sorted, non-negative ``times`` (s); :meth:`states`
@@ -35,8 +52,9 @@ class Propagator(abc.ABC):
     name: ClassVar[str]
     exact: ClassVar[bool] = False
     #: integrator steps allowed from one requested time to the next (None: unbounded, if a caller
-    #: really means it). No sample can then hold the node's loop (a reset, a shutdown) or an offline
-    #: tool for long; over it, the evaluation raises :class:`StepBudgetExceeded` with the reason.
+    #: really means it). No sample can then hold the node's loop (a reset, a shutdown) or an
+    #: offline tool for long; over it, the evaluation raises :class:`StepBudgetExceeded` with the
+    #: reason.
     max_steps_per_sample: int | None = MAX_STEPS_PER_SAMPLE
     supports_effects: ClassVar[bool] = True
     #: option name -> default; anything else given to the constructor is an error
@@ -44,27 +62,37 @@ class Propagator(abc.ABC):
 
     def __init__(self, body, angular_velocity, orientation, effects=(), **options):
         self.body = RigidBody.from_inertia(body)
-        self.omega0_B = finite_vector(angular_velocity, "angular_velocity", (3,))
-        self.q0_NB = unit_quaternion(orientation, "orientation")
+        self.omega0_B = finite_vector(angular_velocity, 'angular_velocity', (3,))
+        self.q0_NB = unit_quaternion(orientation, 'orientation')
         _check_representable(self.body, self.omega0_B)
         unknown = sorted(set(options) - set(self.options))
         if unknown:
-            known = ", ".join(sorted(self.options)) or "none"
-            raise ValueError(f"{unknown[0]}: not an option of propagator '{self.name}' (options: {known})")
+            known = ', '.join(sorted(self.options)) or 'none'
+            raise ValueError(
+                f"{unknown[0]}: not an option of propagator '{self.name}' (options: {known})"
+            )
         effects = tuple(effects)
         if effects and not self.supports_effects:
-            names = ", ".join(effect.name for effect in effects)
-            raise ValueError(f"propagator: '{self.name}' is the exact torque-free solution; the scene's effects "
-                             f"({names}) need a numerical propagator ('auto' picks one)")
+            names = ', '.join(effect.name for effect in effects)
+            raise ValueError(
+                f"propagator: '{self.name}' is the exact torque-free solution; the scene's effects "
+                f"({names}) need a numerical propagator ('auto' picks one)"
+            )
         self.settings = {**self.options, **options}
         # Without effects (the exact solution's only case) the equations of motion are built when
         # first asked for: a propagator is built on every reset and for every body of a batch.
-        self._dynamics = Dynamics(self.body, [effect.bound(self.body.tensor) for effect in effects]) if effects else None
+        self._dynamics = (
+            Dynamics(self.body, [effect.bound(self.body.tensor) for effect in effects])
+            if effects
+            else None
+        )
         self.x0 = self._dynamics.initial_state(self.omega0_B) if effects else _NO_EFFECT_STATE
         if effects:
             overflowing = self._dynamics.overflowing_effect(self.omega0_B, self.q0_NB, self.x0)
             if overflowing is not None:
-                raise ValueError(f"effects: {overflowing_message(self._dynamics.effects[overflowing])}")
+                raise ValueError(
+                    f'effects: {overflowing_message(self._dynamics.effects[overflowing])}'
+                )
 
     @property
     def dynamics(self) -> Dynamics:
@@ -78,8 +106,10 @@ class Propagator(abc.ABC):
 
     @property
     def conserved(self) -> frozenset:
-        """The invariants (``energy``, ``momentum``) the motion keeps: a numerical propagator's drift
-        in them is its error; the others change by physics."""
+        """
+        The invariants (``energy``, ``momentum``) the motion keeps: a numerical propagator's
+        drift in them is its error; the others change by physics.
+        """
         return self.dynamics.conserved
 
     def __call__(self, times):
@@ -98,8 +128,10 @@ class Propagator(abc.ABC):
         return omega, q, x
 
     def stop_at_samples(self, rate: float) -> None:
-        """Make every sample time ``k / rate`` a breakpoint (a scene whose torque is held from sample
-        to sample: a controller's command), and start over from the initial state."""
+        """
+        Make every sample time ``k / rate`` a breakpoint (a scene whose torque is held from
+        sample to sample: a controller's command), and start over from the initial state.
+        """
         self.dynamics.sample_rate = float(rate)
         self._restart()
 
@@ -118,8 +150,8 @@ class Propagator(abc.ABC):
     def _evaluate(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
 
     def describe(self) -> str:
-        settings = ", ".join(f"{k}={v:g}" for k, v in self.settings.items())
-        return f"{self.name}({settings})" if settings else self.name
+        settings = ', '.join(f'{k}={v:g}' for k, v in self.settings.items())
+        return f'{self.name}({settings})' if settings else self.name
 
 
 class StepBudgetExceeded(RuntimeError):
@@ -127,25 +159,31 @@ class StepBudgetExceeded(RuntimeError):
 
     def __init__(self, propagator: Propagator, t: float, step: float):
         super().__init__(
-            f"{propagator.name}: reaching t = {t:.6g} s needs more than {propagator.max_steps_per_sample:,} steps "
-            f"from the sample before (the step is {step:.2g} s), the bound per sample that keeps the node responsive: raise the "
-            "sample rate, or relax the accuracy (a longer step, looser tolerances)")
+            f'{propagator.name}: reaching t = {t:.6g} s needs more than {propagator.max_steps_per_sample:,} steps '
+            f'from the sample before (the step is {step:.2g} s), the bound per sample that keeps the node responsive: raise the '
+            'sample rate, or relax the accuracy (a longer step, looser tolerances)'
+        )
 
 
 class StepTooSmall(RuntimeError):
-    """The adaptive step fell below what float64 resolves at ``t`` (scipy's "Required step size is
-    less than spacing between numbers"): the motion is too fast there, or has overflowed."""
+    """
+    The adaptive step fell below what float64 resolves at ``t`` (scipy's "Required step size is
+    less than spacing between numbers"): the motion is too fast there, or has overflowed.
+    """
 
     def __init__(self, propagator: Propagator, t: float):
         super().__init__(
-            f"{propagator.name}: at t = {t:.6g} s the step fell under 10 rounding units of t: the motion there is "
+            f'{propagator.name}: at t = {t:.6g} s the step fell under 10 rounding units of t: the motion there is '
             "too fast or too stiff for float64 steps, or has overflowed (check the scene's rates, torques and "
-            "effect parameters)")
+            'effect parameters)'
+        )
 
 
 def overflowing_message(effect) -> str:
-    return (f"{effect.describe()}: its torque or its own state's rate overflows float64 at the initial state "
-            "(a parameter far outside any physical scale)")
+    return (
+        f"{effect.describe()}: its torque or its own state's rate overflows float64 at the initial state "
+        '(a parameter far outside any physical scale)'
+    )
 
 
 _NO_EFFECT_STATE = np.empty(0)
@@ -153,16 +191,18 @@ _NO_EFFECT_STATE.flags.writeable = False
 
 
 def _check_representable(body: RigidBody, omega_B: np.ndarray) -> None:
-    # The solvers form products like I_max * |H|^2; they must stay finite in float64. (Plain floats,
-    # which overflow to inf in products; every propagator built runs this.)
+    # The solvers form products like I_max * |H|^2; they must stay finite in float64. (Plain
+    # floats, which overflow to inf in products; every propagator built runs this.)
     w = omega_B.tolist()
-    h = [row[0] * w[0] + row[1] * w[1] + row[2] * w[2] for row in body.tensor.tolist()]  # overflow gives inf
+    h = [
+        row[0] * w[0] + row[1] * w[1] + row[2] * w[2] for row in body.tensor.tolist()
+    ]  # overflow gives inf
     largest = max(body.moments.tolist())
     scale = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]) * largest * largest
     if not math.isfinite(scale):
         raise ValueError(
-            f"angular_velocity: the state {omega_B.tolist()} with moments {body.moments.tolist()} "
-            "overflows float64 (|H|^2 * I_max^2 is not finite)"
+            f'angular_velocity: the state {omega_B.tolist()} with moments {body.moments.tolist()} '
+            'overflows float64 (|H|^2 * I_max^2 is not finite)'
         )
 
 
@@ -179,5 +219,5 @@ def propagator_class(name: str) -> type[Propagator]:
     try:
         return PROPAGATORS[name]
     except KeyError:
-        known = ", ".join(["auto", *sorted(PROPAGATORS)])
-        raise ValueError(f"propagator: unknown propagator {name!r} (known: {known})") from None
+        known = ', '.join(['auto', *sorted(PROPAGATORS)])
+        raise ValueError(f'propagator: unknown propagator {name!r} (known: {known})') from None

@@ -1,4 +1,19 @@
-"""The equations of motion a numerical propagator integrates: Euler's equations with the torques
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The equations of motion a numerical propagator integrates: Euler's equations with the torques
 of a scene's motion effects, the attitude kinematics, and the effects' own states.
 
     I w' = I w x w + sum(torque_B),   q' = 1/2 q ⊗ (w, 0),   x_e' = effect_e.state_rate
@@ -14,7 +29,7 @@ import math
 
 import numpy as np
 
-from ..effects import ENERGY, MOMENTUM, invariants_conserved
+from ..effects import ENERGY, invariants_conserved, MOMENTUM
 from ..rigid_body import RigidBody
 
 
@@ -31,7 +46,9 @@ class Dynamics:
             self.slices.append(slice(offset, offset + effect.state_size))
             offset += effect.state_size
         self.state_size = offset
-        self.breakpoints = tuple(sorted({t for effect in self.effects for t in effect.breakpoints()}))
+        self.breakpoints = tuple(
+            sorted({t for effect in self.effects for t in effect.breakpoints()})
+        )
         self.conserved = invariants_conserved(self.effects)
         #: an effect whose torque changes only at sample times (a controller's command) makes every
         #: sample time ``k / sample_rate`` a breakpoint; the simulation sets the rate
@@ -44,7 +61,9 @@ class Dynamics:
         following = self.breakpoints[index] if index < len(self.breakpoints) else math.inf
         rate = self.sample_rate
         if rate is not None:
-            k = math.floor(t * rate) + 1  # the sample time k / rate just after t, as samples compute it
+            k = (
+                math.floor(t * rate) + 1
+            )  # the sample time k / rate just after t, as samples compute it
             while k > 1 and (k - 1) / rate > t:
                 k -= 1
             while k / rate <= t:
@@ -61,24 +80,36 @@ class Dynamics:
         return np.concatenate(parts) if parts else np.empty(0)
 
     def derivative(self, t: float, y: np.ndarray, segment_start: float) -> np.ndarray:
-        """``y'`` of the flat state ``y = (w, q, x)``, on the smooth piece that starts at
+        """
+        ``y'`` of the flat state ``y = (w, q, x)``, on the smooth piece that starts at
         ``segment_start`` (see :meth:`MotionEffect.torque_B`). The rigid body's part is plain float
-        arithmetic: it is evaluated once per stage, and numpy's per-call cost would dominate."""
+        arithmetic: it is evaluated once per stage, and numpy's per-call cost would dominate.
+        """
         w1, w2, w3, qx, qy, qz, qw = y[:7].tolist()
         (a11, a12, a13), (a21, a22, a23), (a31, a32, a33) = self._tensor_rows
-        h1, h2, h3 = a11 * w1 + a12 * w2 + a13 * w3, a21 * w1 + a22 * w2 + a23 * w3, a31 * w1 + a32 * w2 + a33 * w3
+        h1, h2, h3 = (
+            a11 * w1 + a12 * w2 + a13 * w3,
+            a21 * w1 + a22 * w2 + a23 * w3,
+            a31 * w1 + a32 * w2 + a33 * w3,
+        )
         m1, m2, m3 = h2 * w3 - h3 * w2, h3 * w1 - h1 * w3, h1 * w2 - h2 * w1  # (I w) x w
         if self.effects:
             torque, x_dot = self._effect_terms(t, y, segment_start)
             e1, e2, e3 = torque.tolist()
             m1, m2, m3 = m1 + e1, m2 + e2, m3 + e3
         (b11, b12, b13), (b21, b22, b23), (b31, b32, b33) = self._inverse_rows
-        rates = np.array([
-            b11 * m1 + b12 * m2 + b13 * m3, b21 * m1 + b22 * m2 + b23 * m3, b31 * m1 + b32 * m2 + b33 * m3,
-            # q' = 1/2 q ⊗ (w, 0)
-            0.5 * (qw * w1 + qy * w3 - qz * w2), 0.5 * (qw * w2 - qx * w3 + qz * w1),
-            0.5 * (qw * w3 + qx * w2 - qy * w1), -0.5 * (qx * w1 + qy * w2 + qz * w3),
-        ])
+        rates = np.array(
+            [
+                b11 * m1 + b12 * m2 + b13 * m3,
+                b21 * m1 + b22 * m2 + b23 * m3,
+                b31 * m1 + b32 * m2 + b33 * m3,
+                # q' = 1/2 q ⊗ (w, 0)
+                0.5 * (qw * w1 + qy * w3 - qz * w2),
+                0.5 * (qw * w2 - qx * w3 + qz * w1),
+                0.5 * (qw * w3 + qx * w2 - qy * w1),
+                -0.5 * (qx * w1 + qy * w2 + qz * w3),
+            ]
+        )
         return np.concatenate([rates, x_dot]) if self.effects else rates
 
     def _effect_terms(self, t, y, segment_start):
@@ -92,10 +123,14 @@ class Dynamics:
                 x_dot[part] = effect.state_rate(t, omega, q, state)
         return torque, x_dot
 
-    def overflowing_effect(self, omega_B: np.ndarray, q_NB: np.ndarray, x: np.ndarray) -> int | None:
-        """The index of the first effect whose torque or state rate is not finite at this state (a
-        parameter like a mean motion of 1e308), or None."""
-        with np.errstate(all="ignore"):
+    def overflowing_effect(
+        self, omega_B: np.ndarray, q_NB: np.ndarray, x: np.ndarray
+    ) -> int | None:
+        """
+        The index of the first effect whose torque or state rate is not finite at this state (a
+        parameter like a mean motion of 1e308), or None.
+        """
+        with np.errstate(all='ignore'):
             for index, (effect, part) in enumerate(zip(self.effects, self.slices)):
                 state = x[part]
                 try:
@@ -109,7 +144,8 @@ class Dynamics:
                     return index
         return None
 
-    # -- invariants of the whole system (body + effects' own momentum and energy) ------------------
+    # -- invariants of the whole system (body + effects' own momentum and energy)
+    # ------------------
     def momentum_B(self, omega_B: np.ndarray, x: np.ndarray) -> np.ndarray:
         total = self.body.angular_momentum(omega_B)
         for effect, part in zip(self.effects, self.slices):
@@ -123,4 +159,4 @@ class Dynamics:
         return total
 
 
-__all__ = ["Dynamics", "ENERGY", "MOMENTUM"]
+__all__ = ['Dynamics', 'ENERGY', 'MOMENTUM']

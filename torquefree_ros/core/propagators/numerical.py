@@ -1,17 +1,32 @@
-"""Numerical propagators: cross-checks for the exact solution and the integrators for scenes with
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Numerical propagators: cross-checks for the exact solution and the integrators for scenes with
 effects. They integrate :class:`~.dynamics.Dynamics` (Euler's equations with the effects' torques,
 ``q' = 1/2 q ⊗ (w, 0)``, the effects' own states) in the user's body frame with the full inertia
 tensor, independently of the principal-axis machinery the exact solver uses.
 
-With numba present (and ``TORQUEFREE_ROS_KERNELS`` not ``numpy``), a propagator hands its evaluation to
-the compiled kernels (``core/integrators``): the same method, stops and restarts, per step without
-Python; the code here stays the reference they are tested against.
+With numba present (and ``TORQUEFREE_ROS_KERNELS`` not ``numpy``), a propagator hands its
+evaluation to the compiled kernels (``core/integrators``): the same method, stops and restarts, per
+step without Python; the code here stays the reference they are tested against.
 
 Fixed-step methods advance on the grid ``t = j * step`` whatever times are asked for, and reach an
-output time with one partial step from the grid point below it, so a sample does not depend on which
-other samples were requested (the node asks in blocks; offline tools ask all at once). Every method
-stops at the effects' breakpoints (a torque schedule's switching times), so a jump in the torque
-never falls inside a step.
+output time with one partial step from the grid point below it, so a sample does not depend on
+which other samples were requested (the node asks in blocks; offline tools ask all at once). Every
+method stops at the effects' breakpoints (a torque schedule's switching times), so a jump in the
+torque never falls inside a step.
 """
 
 from __future__ import annotations
@@ -22,15 +37,20 @@ import math
 import numpy as np
 from scipy.integrate import DOP853
 
+from .base import Propagator, register, StepBudgetExceeded, StepTooSmall
 from .. import quaternion
 from ..integrators import compiled
-from .base import Propagator, StepBudgetExceeded, StepTooSmall, register
 
 
 def _positive_option(settings: dict, key: str) -> float:
     value = settings[key]
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
-        raise ValueError(f"{key}: must be a positive finite number, got {value!r}")
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, float))
+        or not math.isfinite(value)
+        or value <= 0
+    ):
+        raise ValueError(f'{key}: must be a positive finite number, got {value!r}')
     return float(value)
 
 
@@ -39,10 +59,12 @@ _GRID_SNAP_ULPS = 4
 
 
 class FixedStepPropagator(Propagator):
-    """A one-step method on a fixed grid; subclasses implement :meth:`advance` on the flat state
-    ``y = (w, q, x)``."""
+    """
+    A one-step method on a fixed grid; subclasses implement :meth:`advance` on the flat state
+    ``y = (w, q, x)``.
+    """
 
-    options = {"step": 1e-3}
+    options = {'step': 1e-3}
     #: the order of the global error (for the step-halving error estimate)
     order = 4
     #: True when the method keeps |q| = 1 by construction (no output normalisation)
@@ -53,8 +75,10 @@ class FixedStepPropagator(Propagator):
 
     def __init__(self, body, angular_velocity, orientation, effects=(), **options):
         super().__init__(body, angular_velocity, orientation, effects, **options)
-        self.step = _positive_option(self.settings, "step")
-        self._kernel = compiled.FixedStepKernel(self, self.kernel_method) if compiled.ENABLED else None
+        self.step = _positive_option(self.settings, 'step')
+        self._kernel = (
+            compiled.FixedStepKernel(self, self.kernel_method) if compiled.ENABLED else None
+        )
         self._restart()
 
     @property
@@ -80,8 +104,11 @@ class FixedStepPropagator(Propagator):
         return self.advance(t, y, end - t)
 
     def _grid_point(self, t: float) -> tuple[int, float]:
-        """The grid point ``j`` at or below ``t`` and the partial step from it. A time within rounding
-        of a grid point is on it, so a 100 Hz output on a 1 ms grid takes no extra partial step."""
+        """
+        The grid point ``j`` at or below ``t`` and the partial step from it. A time within
+        rounding of a grid point is on it, so a 100 Hz output on a 1 ms grid takes no extra partial
+        step.
+        """
         j = round(t / self.step)
         if abs(t - j * self.step) <= _GRID_SNAP_ULPS * math.ulp(t):
             return j, 0.0
@@ -110,7 +137,11 @@ class FixedStepPropagator(Propagator):
             if self._kernel is not None:
                 self._kernel.advance_grid(self._grid_index, j, self.step)
                 self._grid_index = j
-                out[i] = self._kernel.partial_step(j * self.step, partial) if partial > 0.0 else self._kernel.y
+                out[i] = (
+                    self._kernel.partial_step(j * self.step, partial)
+                    if partial > 0.0
+                    else self._kernel.y
+                )
                 continue
             while self._grid_index < j:
                 self._y = self._advance(self._grid_index * self.step, self._y, self.step)
@@ -126,7 +157,7 @@ class FixedStepPropagator(Propagator):
 class RK4Propagator(FixedStepPropagator):
     """Classical fourth-order Runge-Kutta on ``(w, q, x)``; ``q`` is normalised only on output."""
 
-    name = "rk4"
+    name = 'rk4'
     kernel_method = compiled.kernels.RK4
 
     def advance(self, t, y, h):
@@ -141,12 +172,14 @@ class RK4Propagator(FixedStepPropagator):
 
 @register
 class LieRK4Propagator(FixedStepPropagator):
-    """Commutator-free Lie-group Runge-Kutta of order 4 (Celledoni, Marthinsen & Owren, FGCS 19,
+    """
+    Commutator-free Lie-group Runge-Kutta of order 4 (Celledoni, Marthinsen & Owren, FGCS 19,
     2003) for ``q' = q ⊗ (w/2)`` acting from the right, classical RK4 on ``w`` and ``x``. The
     attitude only ever moves by products of unit quaternions, so ``|q| = 1`` by construction; the
-    renormalisation per step only removes the rounding random walk."""
+    renormalisation per step only removes the rounding random walk.
+    """
 
-    name = "lie_rk4"
+    name = 'lie_rk4'
     kernel_method = compiled.kernels.LIE_RK4
     geometric = True
 
@@ -176,29 +209,36 @@ class LieRK4Propagator(FixedStepPropagator):
         y_new = y + (h / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
         w2, w3, w4 = y2[:3], y3[:3], y4[:3]
         middle = 2.0 * (w2 + w3)
-        q_new = mul(mul(q, exp((h / 12.0) * (3.0 * w1 + middle - w4))), exp((h / 12.0) * (middle - w1 + 3.0 * w4)))
+        q_new = mul(
+            mul(q, exp((h / 12.0) * (3.0 * w1 + middle - w4))),
+            exp((h / 12.0) * (middle - w1 + 3.0 * w4)),
+        )
         y_new[3:7] = q_new / math.sqrt(q_new @ q_new)
         return y_new
 
 
 @register
 class DOP853Propagator(Propagator):
-    """Adaptive explicit Runge-Kutta 8(5,3) of Dormand & Prince with its 7th-order dense output,
-    scipy's implementation stepping freely (``t_bound = inf``) so that outputs never shape the steps.
-    ``q`` is normalised only on output."""
+    """
+    Adaptive explicit Runge-Kutta 8(5,3) of Dormand & Prince with its 7th-order dense output,
+    scipy's implementation stepping freely (``t_bound = inf``) so that outputs never shape the
+    steps. ``q`` is normalised only on output.
+    """
 
-    name = "dop853"
-    options = {"rtol": 1e-10, "atol": 1e-12}
+    name = 'dop853'
+    options = {'rtol': 1e-10, 'atol': 1e-12}
     # An explicit method whose step collapses far below the motion's own time scale is stability-
     # limited by stiff effects (a damper with damping 1e9): it would take ~forever, so it stops.
     MIN_STEP_PER_TURN = 1e-7
 
     def __init__(self, body, angular_velocity, orientation, effects=(), **options):
         super().__init__(body, angular_velocity, orientation, effects, **options)
-        self.rtol = _positive_option(self.settings, "rtol")
-        self.atol = _positive_option(self.settings, "atol")
+        self.rtol = _positive_option(self.settings, 'rtol')
+        self.atol = _positive_option(self.settings, 'atol')
         speed = float(np.linalg.norm(self.omega0_B))
-        self.min_step = self.MIN_STEP_PER_TURN * min(1.0, 2.0 * math.pi / speed if speed > 0 else 1.0)
+        self.min_step = self.MIN_STEP_PER_TURN * min(
+            1.0, 2.0 * math.pi / speed if speed > 0 else 1.0
+        )
         self._kernel = compiled.DOP853Kernel(self) if compiled.ENABLED else None
         self._restart()
 
@@ -226,22 +266,27 @@ class DOP853Propagator(Propagator):
             steps += 1
             if budget is not None and steps > budget:
                 raise StepBudgetExceeded(self, t, solver.step_size)
-            if solver.status == "finished":  # at a breakpoint: a new segment from here
+            if solver.status == 'finished':  # at a breakpoint: a new segment from here
                 self._begin_segment(solver.t, solver.y)
                 solver = self._solver
             self._step_start = solver.t
             message = solver.step()
-            if solver.status == "failed":  # scipy's "Required step size is less than spacing between numbers"
+            if (
+                solver.status == 'failed'
+            ):  # scipy's "Required step size is less than spacing between numbers"
                 raise StepTooSmall(self, solver.t)
-            if solver.step_size < self.min_step and solver.status != "finished":
+            if solver.step_size < self.min_step and solver.status != 'finished':
                 raise RuntimeError(
-                    f"dop853: the step fell to {solver.step_size:.2g} s at t = {solver.t:.6g} s, under {self.min_step:.2g} s "
-                    f"(1e-7 of a turn): the scene's effects are too stiff for an explicit integrator")
+                    f'dop853: the step fell to {solver.step_size:.2g} s at t = {solver.t:.6g} s, under {self.min_step:.2g} s '
+                    f"(1e-7 of a turn): the scene's effects are too stiff for an explicit integrator"
+                )
         return solver
 
     def _begin_segment(self, t0: float, y0: np.ndarray):
-        """A solver that ends at the next breakpoint (none: it steps freely). Made when its first step
-        is due (scipy evaluates the right-hand side at ``t0`` as it is made)."""
+        """
+        A solver that ends at the next breakpoint (none: it steps freely). Made when its first
+        step is due (scipy evaluates the right-hand side at ``t0`` as it is made).
+        """
         bound = self.dynamics.next_breakpoint(t0)
         self._segment_start = t0
         self._solver = DOP853(self._rhs, t0, y0, t_bound=bound, rtol=self.rtol, atol=self.atol)
@@ -253,15 +298,16 @@ class DOP853Propagator(Propagator):
             return out[:, :3], out[:, 3:7], out[:, 7:]
         out = np.empty((times.size, 7 + self.dynamics.state_size))
         i = 0
-        # scipy's min-step guard underflows (nextafter(0) - 0); a scene that overflows its stages ends in
-        # StepTooSmall, our message, without numpy's warnings about the steps on the way
-        with np.errstate(all="ignore"):
+        # scipy's min-step guard underflows (nextafter(0) - 0); a scene that overflows its stages
+        # ends in StepTooSmall, our message, without numpy's warnings about the steps on the way
+        with np.errstate(all='ignore'):
             while i < times.size:
                 if times[i] < self._step_start:
                     self._restart()
                 solver = self._advance_past(float(times[i]))
-                # every output time up to the step's end: its state, or one dense output for the rest
-                end = int(np.searchsorted(times, solver.t, side="right"))
+                # every output time up to the step's end: its state, or one dense output for the
+                # rest
+                end = int(np.searchsorted(times, solver.t, side='right'))
                 dense_end = end
                 if times[end - 1] == solver.t:
                     out[end - 1] = solver.y
@@ -274,9 +320,12 @@ class DOP853Propagator(Propagator):
 
 
 class _SegmentStart:
-    """Where the next segment starts, before its solver exists: a finished solver's ``t`` and ``y``."""
+    """
+    Where the next segment starts, before its solver exists: a finished solver's ``t`` and
+    ``y``.
+    """
 
-    status = "finished"
+    status = 'finished'
 
     def __init__(self, t: float, y: np.ndarray):
         self.t, self.y = t, y
