@@ -57,7 +57,7 @@ def multiply(a, b):
 
 
 def rotation(vector):
-    """The unit quaternion of the rotation vector ``vector`` (rad)."""
+    """Return the unit quaternion of the rotation vector ``vector`` (rad)."""
     angle = float(np.linalg.norm(vector))
     if angle < 1e-12:
         return np.array([0.5 * vector[0], 0.5 * vector[1], 0.5 * vector[2], 1.0])
@@ -66,7 +66,7 @@ def rotation(vector):
 
 
 def rotation_vector(q):
-    """The rotation vector (rad) of the unit quaternion ``q``, the short way round."""
+    """Return the rotation vector (rad) of the unit quaternion ``q``, the short way round."""
     q = q if q[3] >= 0.0 else -q
     s = float(np.linalg.norm(q[:3]))
     if s < 1e-12:
@@ -80,6 +80,8 @@ def nanoseconds(stamp) -> int:
 
 class AttitudeEstimator(Node):
     """
+    The complementary filter as a node (see the module's docstring).
+
     ``gain``: the share of a fix's error taken at once (0..1); ``bias_gain``: the share of the
     error rate taken into the bias estimate at each fix.
     """
@@ -126,8 +128,9 @@ class AttitudeEstimator(Node):
 
     def apply_fixes(self) -> None:
         """
-        Fixes stamped at or before the gyro's last reading, in stamp order (one that came late,
-        stamped before it, is taken as if it were stamped then).
+        Apply the fixes stamped at or before the gyro's last reading, in stamp order.
+
+        One that came late, stamped before it, is taken as if it were stamped then.
         """
         self.fixes.sort(key=lambda fix: fix[0])
         while self.fixes and self.stamp is not None and self.fixes[0][0] <= self.stamp:

@@ -34,8 +34,9 @@ from torquefree_ros.plant.gym import AttitudeEnv
 
 def episode(env, gain, seed=None):
     """
-    One episode of the rate-damping controller tau = -K omega_B (clipped to the box by the
-    env).
+    Run one episode of the rate-damping controller tau = -K omega_B.
+
+    The env clips the torque to the box.
     """
     obs, _ = env.reset(seed=seed)
     total, steps, terminated, truncated = 0.0, 0, False, False
@@ -46,7 +47,7 @@ def episode(env, gain, seed=None):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument(
         '--gain', type=float, default=0.04, help='K of tau = -K omega_B, N m s (default 0.04)'
     )
@@ -54,8 +55,9 @@ def main(argv=None):
     args = parser.parse_args(argv)
     env = AttitudeEnv('detumble', args.rate, max_steps=int(60 * args.rate))
     total, steps, terminated, t, omega = episode(env, args.gain)
+    ended = 'terminated' if terminated else 'truncated'
     print(
-        f'K = {args.gain:g} N m s at {args.rate:g} Hz: {"terminated" if terminated else "truncated"} after '
+        f'K = {args.gain:g} N m s at {args.rate:g} Hz: {ended} after '
         f'{steps} steps ({t:.1f} s), |omega| = {omega:.2e} rad/s, return {total:.4f}'
     )
     idle, *_ = episode(env, 0.0)

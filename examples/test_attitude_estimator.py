@@ -13,8 +13,9 @@
 # limitations under the License.
 
 """
-The estimator of attitude_estimator.py against the simulator's exact truth (the test kit's
-fixture).
+The estimator of attitude_estimator.py against the simulator's exact truth.
+
+It runs through the test kit's pytest fixture, ``torquefree_sim``.
 """
 
 from attitude_estimator import AttitudeEstimator
@@ -29,9 +30,8 @@ def test_the_estimate_stays_within_a_milliradian_of_the_truth(torquefree_sim):
     sim.add_node(AttitudeEstimator(context=sim.context, namespace=sim.namespace))
     estimates = sim.tap('attitude_estimate', QuaternionStamped)
     sim.advance(3000)  # 30 s: each sample processed by the estimator before the next goes out
-    estimates.wait(
-        2999
-    )  # one per gyro sample from the second on (the first fix comes with the first)
+    # one per gyro sample from the second on (the first fix comes with the first)
+    estimates.wait(2999)
     t = np.array([sim.time_of(e.header.stamp) for e in estimates.messages])
     q = np.array(
         [

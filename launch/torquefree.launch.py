@@ -12,13 +12,14 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""
-Start the torque-free attitude simulator, optionally recording a bag and opening RViz on the
-shipped view.
+r"""
+Start the torque-free attitude simulator, optionally recording a bag and opening RViz.
+
+RViz, when asked for (``rviz:=true``), opens on the shipped view.
 
     ros2 launch torquefree_ros torquefree.launch.py scene:=dzhanibekov rviz:=true
-    ros2 launch torquefree_ros torquefree.launch.py namespace:=sat1 params_file:=my_params.yaml
-    record_bag:=/tmp/run1
+    ros2 launch torquefree_ros torquefree.launch.py namespace:=sat1 \
+        params_file:=my_params.yaml record_bag:=/tmp/run1
 
 Arguments (``ros2 launch torquefree_ros torquefree.launch.py --show-args``):
 
@@ -81,8 +82,8 @@ def _actions(context):
     share = get_package_share_directory(PACKAGE)
     namespace = value('namespace').strip('/')
     use_sim_time = _is_true(value('use_sim_time'), 'use_sim_time')
-    # only what is given here overrides the file: an empty scene would replace its scene by the
-    # default one
+    # only what is given here overrides the file: an empty scene would replace its scene by
+    # the default one
     overrides = {'scene': value('scene'), 'record_bag': value('record_bag')}
     parameters = [value('params_file') or os.path.join(share, PARAMS_FILE)]
     parameters += [{name: given} for name, given in overrides.items() if given]

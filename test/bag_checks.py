@@ -13,8 +13,10 @@
 # limitations under the License.
 
 """
-Independent readers for the bag tests: the ``mcap`` library with mcap-ros2-support's decoder,
-and ``rosbags`` (AnyReader with the Jazzy typestore). Neither shares code with our writer.
+Independent readers for the bag tests.
+
+The ``mcap`` library with mcap-ros2-support's decoder, and ``rosbags`` (AnyReader with the Jazzy
+typestore). Neither shares code with our writer.
 """
 
 from __future__ import annotations
@@ -36,7 +38,7 @@ def mcap_file(bag: Path) -> Path:
 
 
 def read_with_mcap(bag: Path) -> dict:
-    """topic -> list of (log_time, publish_time, decoded message), plus the file's summary."""
+    """Read a bag with mcap: topic -> list of (log_time, publish_time, decoded message)."""
     out: dict = {}
     with open(mcap_file(bag), 'rb') as stream:
         reader = make_reader(stream, decoder_factories=[DecoderFactory()])
@@ -49,8 +51,10 @@ def read_with_mcap(bag: Path) -> dict:
 
 def stamps_and_last_messages(bag: Path) -> tuple[dict, dict, dict, dict]:
     """
-    For a long bag, without decoding every message: topic -> log times (mcap's reader), topic ->
-    count (rosbags'), and each topic's last message decoded by each reader.
+    Read a long bag's log times, message counts and last messages, without decoding every message.
+
+    Returns topic -> log times (mcap's reader), topic -> count (rosbags'), and each topic's last
+    message decoded by each reader.
     """
     log_times: dict = {}
     last_mcap: dict = {}
@@ -84,7 +88,11 @@ def summary(bag: Path):
 
 
 def read_with_rosbags(bag: Path) -> tuple[dict, dict]:
-    """topic -> list of (timestamp, deserialized message); topic -> connection."""
+    """
+    Read a bag with rosbags.
+
+    Returns topic -> list of (timestamp, deserialized message); topic -> connection.
+    """
     messages: dict = {}
     with AnyReader([bag], default_typestore=get_typestore(Stores.ROS2_JAZZY)) as reader:
         connections = {c.topic: c for c in reader.connections}

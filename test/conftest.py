@@ -29,10 +29,11 @@ def raise_on_float_errors():
 @pytest.fixture(params=['compiled', 'numpy'])
 def attitude_path(request, monkeypatch):
     """
-    Run a test on both evaluations of the exact attitude: numba's kernels (the ``fast`` extra,
-    which propagators use when it is installed) and numpy's arrays (the reference, always there).
-    Without numba the compiled run is skipped, except on CI, where requirements-test.txt installs
-    it.
+    Run a test on both evaluations of the exact attitude: numba's kernels and numpy's arrays.
+
+    Numba's kernels are the ``fast`` extra, which propagators use when it is installed; numpy's
+    arrays are the reference, always there. Without numba the compiled run is skipped, except on
+    CI, where requirements-test.txt installs it.
     """
     from torquefree_ros.core import attitude_kernels
 
@@ -48,9 +49,11 @@ def attitude_path(request, monkeypatch):
 @pytest.fixture(params=['compiled', 'reference'])
 def integrator_path(request, monkeypatch):
     """
-    Run a test on both paths of the numerical propagators: numba's kernels (core/integrators,
-    the default) and the reference (scipy's DOP853, numpy's stages). Without numba the compiled run
-    is skipped, except on CI, where the requirements install it.
+    Run a test on both paths of the numerical propagators: numba's kernels and the reference.
+
+    Numba's kernels (core/integrators) are the default; the reference is scipy's DOP853 and numpy's
+    stages. Without numba the compiled run is skipped, except on CI, where the requirements install
+    it.
     """
     from torquefree_ros.core.integrators import compiled
 
@@ -82,15 +85,16 @@ def pytest_collection_modifyitems(items):
     assert not missing, f'give ACCURATE_SETTINGS for new propagators: {missing}'
 
 
-# -- DDS isolation: each test session owns a ROS domain, so parallel runs never see each other
-# -------
+# -- DDS isolation: each test session owns a ROS domain, so parallel runs never see each other ----
 _domain = None
 
 
 def pytest_configure(config):
     """
-    Claim a free ROS domain id (the test kit's lock files, so sessions and the kit's simulators
-    never share one) before any rclpy context exists, and keep discovery on this machine.
+    Claim a free ROS domain id and keep discovery on this machine.
+
+    The domain id is claimed before any rclpy context exists, through the test kit's lock files, so
+    sessions and the kit's simulators never share one.
     """
     global _domain
     from torquefree_ros.testing.domains import claim_domain

@@ -13,12 +13,13 @@
 # limitations under the License.
 
 """
-In-process harness for the simulator node: a client node beside the node under test that
-subscribes, sets parameters and calls ``~/reset`` like any other participant, on the public test
-kit (``torquefree_ros.testing.Simulator``, which owns the private context, the namespace, the
-executor and the teardown). The node paces itself here (``stepped=False``): these tests are about
-its pacing, resets and pauses as the world sees them. Everything is driven by spinning the kit's
-executor until a condition holds (no sleeps).
+In-process harness for the simulator node.
+
+A client node beside the node under test that subscribes, sets parameters and calls ``~/reset``
+like any other participant, on the public test kit (``torquefree_ros.testing.Simulator``, which
+owns the private context, the namespace, the executor and the teardown). The node paces itself here
+(``stepped=False``): these tests are about its pacing, resets and pauses as the world sees them.
+Everything is driven by spinning the kit's executor until a condition holds (no sleeps).
 """
 
 from __future__ import annotations
@@ -42,7 +43,7 @@ SPIN_TIMEOUT = 20.0  # s; generous for a loaded 2-core CI machine
 
 
 def reset_epoch_ns(response) -> int:
-    """The stamp of sample 0 of the run a reset started, as its summary states it."""
+    """Return the stamp of sample 0 of the run a reset started, as its summary states it."""
     match = re.search(r'first stamp (\d+)\.(\d{9}) s', response.message)
     assert match, response.message
     return int(match[1]) * 1_000_000_000 + int(match[2])
@@ -50,7 +51,7 @@ def reset_epoch_ns(response) -> int:
 
 @contextlib.contextmanager
 def connected_harness(**parameters):
-    """A started, connected harness, closed on exit (the body of the tests' fixtures)."""
+    """Yield a started, connected harness, closed on exit (the body of the tests' fixtures)."""
     harness = SimHarness(**parameters)
     try:
         harness.wait_connected()
@@ -61,8 +62,10 @@ def connected_harness(**parameters):
 
 class SimHarness:
     """
-    Each harness runs in a namespace of its own, so harnesses alive at the same time (a
-    module-scoped one beside a test's own) never receive each other's samples.
+    A client of the simulator node under test, in a namespace of its own.
+
+    So harnesses alive at the same time (a module-scoped one beside a test's own) never receive
+    each other's samples.
     """
 
     _count = 0
@@ -122,8 +125,7 @@ class SimHarness:
         self.q[stamp_ns(message.header.stamp)] = np.array([q.x, q.y, q.z, q.w])
         self.frames.add(('attitude', message.header.frame_id))
 
-    # -- driving
-    # -----------------------------------------------------------------------------------
+    # -- driving ----------------------------------------------------------------------------------
     def spin_until(self, condition, timeout: float = SPIN_TIMEOUT, what: str = 'condition'):
         self.sim.spin_until(condition, timeout, f'waiting for {what}')
 
@@ -136,10 +138,7 @@ class SimHarness:
         return [(s, self.omega[s], self.q[s]) for s in sorted(self.omega.keys() & self.q.keys())]
 
     def wait_samples(self, count: int, after: int | None = None):
-        """
-        Until ``count`` complete samples with stamps after ``after`` have arrived; returns
-        them.
-        """
+        """Wait for ``count`` complete samples with stamps after ``after``; return them."""
 
         def fresh():
             return [p for p in self.pairs() if after is None or p[0] > after]

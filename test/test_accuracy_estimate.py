@@ -13,8 +13,9 @@
 # limitations under the License.
 
 """
-The accuracy a propagator's settings deliver, as the reset summary and /diagnostics state it:
-checked against independent references (the mpmath solution, a much tighter integration).
+The accuracy a propagator's settings deliver, as the reset summary and /diagnostics state it.
+
+Checked against independent references (the mpmath solution, a much tighter integration).
 """
 
 import numpy as np
@@ -104,8 +105,10 @@ def test_the_estimate_does_not_advance_the_running_propagator():
 @pytest.mark.parametrize('speed', [1e3, 1e-3])
 def test_the_estimate_follows_the_motion_for_the_same_turns_at_any_spin_rate(speed):
     """
-    A fast spin is not integrated for thousands of turns at reset, and a slow one is not judged
-    on a sliver of its motion.
+    The estimate covers the same number of turns at any spin rate.
+
+    A fast spin is not integrated for thousands of turns at reset, and a slow one is not judged on
+    a sliver of its motion.
     """
     start = (
         [3.0, 2.0, 1.0],

@@ -91,8 +91,9 @@ def test_every_hard_case_agrees_with_the_numpy_path(monkeypatch):
 
 def test_each_kind_of_motion_has_its_kernel():
     """
-    m <= 1/2, m > 1/2 and the separatrix each have their kernel; stationary motions (no polhode)
-    keep their closed form.
+    Each kind of motion has its kernel; stationary motions keep their closed form.
+
+    The kinds are m <= 1/2, m > 1/2 and the separatrix; stationary motions have no polhode.
     """
     if not kernels.ENABLED:
         pytest.skip('the kernels are turned off (TORQUEFREE_ROS_KERNELS=numpy)')
@@ -107,21 +108,21 @@ def test_each_kind_of_motion_has_its_kernel():
     assert all(
         a._table.shape == (1, kernels.TABLE_WIDTH) for a in (trigonometric, hyperbolic, separatrix)
     )
-    assert (
-        make_propagator([1.0, 2.0, 3.0], [0.0, 2.0, 0.0], [0, 0, 0, 1])._attitude is None
-    )  # a pure spin
+    # a pure spin
+    assert make_propagator([1.0, 2.0, 3.0], [0.0, 2.0, 0.0], [0, 0, 0, 1])._attitude is None
 
 
 def _component(low, high):
     """
-    Values, or 0 (products of tiny components underflow, which the strict test settings raise
-    on).
+    Return a strategy of floats in [low, high], those below 1e-6 in magnitude as 0.
+
+    Products of tiny components underflow, which the strict test settings raise on.
     """
     return st.floats(low, high).map(lambda x: 0.0 if abs(x) < 1e-6 else x)
 
 
 moments = st.lists(st.floats(0.5, 5.0), min_size=3, max_size=3).filter(
-    lambda I: max(I) <= 0.99 * (sum(I) - max(I))
+    lambda m: max(m) <= 0.99 * (sum(m) - max(m))
 )
 rates = st.lists(_component(-3.0, 3.0), min_size=3, max_size=3).filter(
     lambda w: math.hypot(*w) > 1e-3
@@ -133,20 +134,18 @@ unit = st.lists(_component(-1.0, 1.0), min_size=4, max_size=4).filter(
 
 @settings(max_examples=150, deadline=None)
 @given(moments, rates, unit, st.floats(1.0, 1e4))
-def test_random_bodies_agree_with_the_numpy_path(I, w, q0, horizon):
+def test_random_bodies_agree_with_the_numpy_path(inertia, w, q0, horizon):
     q0 = np.array(q0) / math.hypot(*q0)
     times = np.linspace(0.0, horizon, 301)
     results = {}
-    for compiled in (
-        True,
-        False,
-    ):  # (hypothesis and function-scoped fixtures do not mix: set and restore)
+    # (hypothesis and function-scoped fixtures do not mix: set and restore)
+    for compiled in (True, False):
         saved, kernels.ENABLED = kernels.ENABLED, compiled
         try:
-            results[compiled] = propagate(I, w, q0, times)
+            results[compiled] = propagate(inertia, w, q0, times)
         finally:
             kernels.ENABLED = saved
-    _assert_close(results[True], results[False], math.hypot(*w), horizon, f'I={I} w={w}')
+    _assert_close(results[True], results[False], math.hypot(*w), horizon, f'I={inertia} w={w}')
 
 
 def test_a_batch_of_both_kinds_agrees_with_the_numpy_path(monkeypatch):
@@ -187,8 +186,9 @@ def test_one_sample_and_an_empty_request(monkeypatch):
 
 def test_the_environment_turns_the_kernels_off():
     """
-    ``TORQUEFREE_ROS_KERNELS=numpy`` selects the numpy path in a new process (a user's way to
-    rule the kernels out when a result looks wrong).
+    ``TORQUEFREE_ROS_KERNELS=numpy`` selects the numpy path in a new process.
+
+    A user's way to rule the kernels out when a result looks wrong.
     """
     code = 'from torquefree_ros.core import attitude_kernels as k; print(k.ENABLED)'
     for value, expected in (('numpy', 'False'), ('numba', str(kernels.AVAILABLE))):
@@ -199,8 +199,7 @@ def test_the_environment_turns_the_kernels_off():
         assert printed.stdout.strip() == expected
 
 
-# -- the compiled constants (build_row) against the Python path's (FLOATS)
-# -----------------------------
+# -- the compiled constants (build_row) against the Python path's (FLOATS) ------------------------
 #: columns that depend on a Euclidean norm (math.hypot there, a scaled sum of squares here): the
 #: momentum, psi's rate and offset, and the frame change (entries of an orthogonal 4x4 matrix)
 NORM_COLUMNS = [
@@ -214,8 +213,9 @@ NORM_COLUMNS = [
 
 def _python_row(body, omega0, q0):
     """
-    ``(kind, row)`` from the Python path's values, in the kernels' table layout (None:
-    stationary).
+    Return ``(kind, row)`` from the Python path's values, in the kernels' table layout.
+
+    Both are None for a stationary motion.
     """
     polhode = body_polhode(body, omega0)
     if polhode is None:
@@ -274,8 +274,9 @@ def _assert_same_constants(body, omega0, q0, label):
 
 def test_compiled_constants_are_the_python_ones_on_every_hard_case():
     """
-    Operation for operation: every column but those of a norm is bit for bit the Python
-    path's.
+    Every column but those of a norm is bit for bit the Python path's, on every hard case.
+
+    The compiled constants are computed operation for operation as the Python path computes them.
     """
     import json
 
@@ -292,8 +293,8 @@ def test_compiled_constants_are_the_python_ones_on_every_hard_case():
 
 symmetric_or_not = st.one_of(
     moments,
-    moments.map(lambda I: [I[0], I[0], I[2]] if max(I) <= 0.99 * (2 * I[0]) else I),
-    moments.map(lambda I: [I[0], I[2], I[2]]),
+    moments.map(lambda m: [m[0], m[0], m[2]] if max(m) <= 0.99 * (2 * m[0]) else m),
+    moments.map(lambda m: [m[0], m[2], m[2]]),
 )
 
 
@@ -305,29 +306,32 @@ symmetric_or_not = st.one_of(
     st.floats(0.01, math.pi),
     st.booleans(),
 )
-def test_compiled_constants_are_the_python_ones_for_any_body(I, w, q0, turn, as_tensor):
+def test_compiled_constants_are_the_python_ones_for_any_body(inertia, w, q0, turn, as_tensor):
     """
-    Random bodies, symmetric ones, pure spins and rest among them, given by moments or by
-    tensors.
+    The compiled constants are the Python path's for random bodies.
+
+    Symmetric ones, pure spins and rest among them, given by moments or by tensors.
     """
     # the [I0, I2, I2] bodies of symmetric_or_not break the triangle inequality when I0 > 2 I2: no
     # rigid body has those moments, as moments or as a tensor, and RigidBody refuses them
-    largest = max(I)
-    assume(largest <= sum(I) - largest)
+    largest = max(inertia)
+    assume(largest <= sum(inertia) - largest)
     q0 = np.array(q0) / math.hypot(*q0)
     if as_tensor:  # principal axes turned about (1, 1, 1) / sqrt(3)
         axis = np.full(3, 1.0 / math.sqrt(3.0))
         cross = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
         R = np.eye(3) + math.sin(turn) * cross + (1 - math.cos(turn)) * cross @ cross
-        tensor = R @ np.diag(I) @ R.T
-        I = [tensor[0, 0], tensor[1, 1], tensor[2, 2], tensor[0, 1], tensor[0, 2], tensor[1, 2]]
-    _assert_same_constants(RigidBody.from_inertia(I), w, q0, f'I={I} w={w}')
+        tensor = R @ np.diag(inertia) @ R.T
+        inertia = [tensor[i, j] for i, j in ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))]
+    _assert_same_constants(RigidBody.from_inertia(inertia), w, q0, f'I={inertia} w={w}')
 
 
 def test_a_build_is_cheap_and_the_polhode_comes_when_asked(monkeypatch):
     """
-    With the kernels, building the exact propagator computes only the table; its ``polhode``
-    (the regime parameters, for reports) is computed on first use, by the Python path.
+    With the kernels, building the exact propagator computes only the table.
+
+    Its ``polhode`` (the regime parameters, for reports) is computed on first use, by the Python
+    path.
     """
     monkeypatch.setattr(kernels, 'ENABLED', True)
     propagator = make_propagator([2.0, 3.0, 4.0], [0.7, 0.5, 0.6], [0, 0, 0, 1])

@@ -13,10 +13,12 @@
 # limitations under the License.
 
 """
-The pose and star_tracker outputs, and output rates: pose is the attitude bit for bit; the star
-tracker's noise has the statistics its parameters state, is seeded and independent of block cuts;
-an output with a rate of its own goes out on every n-th sample, with the same stamps; all go into
-bags (read by both independent readers) and out of the node exactly as the core computes them.
+The pose and star_tracker outputs, and output rates.
+
+Pose is the attitude bit for bit; the star tracker's noise has the statistics its parameters state,
+is seeded and independent of block cuts; an output with a rate of its own goes out on every n-th
+sample, with the same stamps; all go into bags (read by both independent readers) and out of the
+node exactly as the core computes them.
 """
 
 from __future__ import annotations
@@ -111,12 +113,10 @@ def test_star_tracker_samples_are_seeded_and_do_not_depend_on_how_blocks_are_cut
     cuts = [0, 1, 7, 64, 65, 200, 300]
     pieces = np.vstack([simulation.samples(a, b - a).outputs[0] for a, b in zip(cuts, cuts[1:])])
     np.testing.assert_array_equal(pieces, whole)
-    np.testing.assert_array_equal(
-        simulation.samples(100, 50).outputs[0], whole[100:150]
-    )  # a skip back
-    np.testing.assert_array_equal(
-        _outputs(_scene(effect), 0, 300).outputs[0], whole
-    )  # the same seed
+    # a skip back
+    np.testing.assert_array_equal(simulation.samples(100, 50).outputs[0], whole[100:150])
+    # the same seed
+    np.testing.assert_array_equal(_outputs(_scene(effect), 0, 300).outputs[0], whole)
     other = {'star_tracker': {**effect['star_tracker'], 'seed': 6}}
     assert not np.array_equal(_outputs(_scene(other), 0, 300).outputs[0][:, 0:4], whole[:, 0:4])
 
@@ -166,11 +166,13 @@ def test_an_output_at_its_own_rate_is_the_same_output_sampled_at_that_rate():
     [
         (
             30.0,
-            r'star_tracker\.rate: 30 Hz must divide publish_rate 50 Hz into a whole number of samples, got 1\.66667',
+            r'star_tracker\.rate: 30 Hz must divide publish_rate 50 Hz into a whole number '
+            r'of samples, got 1\.66667',
         ),
         (
             100.0,
-            r'star_tracker\.rate: 100 Hz must divide publish_rate 50 Hz into a whole number of samples, got 0\.5',
+            r'star_tracker\.rate: 100 Hz must divide publish_rate 50 Hz into a whole number '
+            r'of samples, got 0\.5',
         ),
     ],
 )

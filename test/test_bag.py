@@ -13,8 +13,10 @@
 # limitations under the License.
 
 """
-The rosbag2 MCAP writer and ``torquefree_bag``, checked with independent readers (mcap +
-mcap-ros2-support, rosbags) and against rosbag2's own layout rules. No DDS.
+The rosbag2 MCAP writer and ``torquefree_bag``.
+
+Checked with independent readers (mcap + mcap-ros2-support, rosbags) and against rosbag2's own
+layout rules. No DDS.
 """
 
 from __future__ import annotations
@@ -117,7 +119,7 @@ def test_unknown_types_are_named():
 
 @pytest.fixture(scope='module')
 def offline_bag(tmp_path_factory) -> Path:
-    """The default scene, 2.3 s at 100 Hz: 231 samples (both ends included)."""
+    """Write the default scene, 2.3 s at 100 Hz: 231 samples (both ends included)."""
     bag = tmp_path_factory.mktemp('offline') / 'default_bag'
     assert bag_main(['default', '--duration', '2.3', '--rate', '100', '--output', str(bag)]) == 0
     return bag
@@ -286,11 +288,12 @@ def test_contract_sample_count_and_start_time(tmp_path):
         == 0
     )
     topics = read_with_mcap(bag)
+    # k = 0 … 2
     assert [log for log, _, _ in topics['/attitude']] == [
         12_500_000_000,
         12_525_000_000,
         12_550_000_000,
-    ]  # k = 0 … 2
+    ]
 
 
 def test_start_time_now_stamps_sample_0_from_the_wall_clock(tmp_path):
@@ -429,9 +432,8 @@ def test_an_error_inside_the_block_still_leaves_a_complete_bag(tmp_path):
 
 def _limit_file_size():
     signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # writes past the limit fail with EFBIG instead
-    resource.setrlimit(
-        resource.RLIMIT_FSIZE, (2_500_000, 2_500_000)
-    )  # two 1 MiB chunks fit, the third does not
+    # two 1 MiB chunks fit, the third does not
+    resource.setrlimit(resource.RLIMIT_FSIZE, (2_500_000, 2_500_000))
 
 
 def test_a_full_disk_is_a_clear_error_and_what_was_written_stays_readable(tmp_path):
@@ -466,9 +468,8 @@ def test_a_full_disk_is_a_clear_error_and_what_was_written_stays_readable(tmp_pa
         and sorted(p.name for p in bag.iterdir()) == ['full_0.mcap', 'metadata.yaml']
     )
     omega = [m for m in reader.messages() if m.topic == '/angular_velocity']
-    assert [m.log_time_ns for m in omega] == [
-        k * 10_000_000 for k in range(len(omega))
-    ]  # a gap-free prefix
+    # a gap-free prefix
+    assert [m.log_time_ns for m in omega] == [k * 10_000_000 for k in range(len(omega))]
     assert metadata(bag)['message_count'] == reader.message_count
     messages, _ = read_with_rosbags(bag)  # an independent reader agrees
     assert len(messages['/angular_velocity']) == len(omega)
@@ -479,8 +480,10 @@ def test_a_full_disk_is_a_clear_error_and_what_was_written_stays_readable(tmp_pa
 
 def test_a_scene_with_outputs_writes_them_as_the_node_publishes_them(tmp_path):
     """
-    The imu library scene: /imu (sensor_msgs/Imu) and /euler_angles beside the samples, read by
-    both independent readers, values equal to the core's rows for each sample.
+    The imu library scene's bag holds /imu and /euler_angles beside the samples.
+
+    /imu is sensor_msgs/Imu; both independent readers read them, values equal to the core's rows
+    for each sample.
     """
     from torquefree_ros import load_scene
     from torquefree_ros.core.simulation import Simulation

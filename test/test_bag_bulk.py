@@ -13,9 +13,11 @@
 # limitations under the License.
 
 """
-The bulk path of the bag writer (``bag.bulk``) writes the very bytes ``add_message`` one by one
-writes: whole files compared, across chunk boundaries, with messages of varying sizes, gaps (None),
-single rows between blocks (both paths in one chunk), compression, and scenes with every output.
+The bulk path of the bag writer (``bag.bulk``) writes the very bytes ``add_message`` writes.
+
+``add_message`` writes one message at a time; whole files are compared, across chunk boundaries,
+with messages of varying sizes, gaps (None), single rows between blocks (both paths in one chunk),
+compression, and scenes with every output.
 """
 
 from __future__ import annotations
@@ -50,8 +52,10 @@ def _write(path, batches, monkeypatch, bulk_on: bool, compression='none'):
 
 def _batches(seed: int):
     """
-    Rows of three columns: fixed 12-byte messages, 40-byte ones, and ones of any size with gaps;
-    batches of 1 to 300 rows (single rows take add_message's path even with bulk on).
+    Draw batches of rows of three columns.
+
+    Fixed 12-byte messages, 40-byte ones, and ones of any size with gaps; batches of 1 to 300 rows
+    (single rows take add_message's path even with bulk on).
     """
     rng = np.random.default_rng(seed)
     batches, t = [], 0
@@ -115,16 +119,16 @@ def test_scene_bags_are_byte_identical_either_way(tmp_path, monkeypatch, scene):
 @pytest.mark.parametrize('scene', ['estimator', 'dzhanibekov'])
 def test_scene_bags_do_not_depend_on_how_the_blocks_are_cut(tmp_path, monkeypatch, scene):
     """
+    A scene's bag is the same with blocks of one sample throughout and blocks as large as allowed.
+
     The blocks adapt to the machine's speed (one sample at first, doubling while fast), so a bag
-    must not depend on them: blocks of one sample throughout, and blocks as large as allowed.
+    must not depend on them.
     """
     from torquefree_ros.bag import offline
 
     files = []
-    for seconds in (
-        0.0,
-        1e9,
-    ):  # always too slow: blocks stay at one sample; never: they grow to the limit
+    # always too slow: blocks stay at one sample; never: they grow to the limit
+    for seconds in (0.0, 1e9):
         monkeypatch.setattr(offline, 'BLOCK_SECONDS', seconds)
         out = tmp_path / str(seconds) / scene
         write_scene_bag(load_scene(scene), out, 5.0, 100.0)

@@ -13,9 +13,11 @@
 # limitations under the License.
 
 """
-Damaged and interrupted bags: damaged metadata, special files, changed bytes anywhere in the
-file, cut files, names too long, a full disk at close. Every case gets one clear line and an exit
-status, keeps what is readable, and never plays a damaged bag as if it were whole.
+Damaged and interrupted bags.
+
+Damaged metadata, special files, changed bytes anywhere in the file, cut files, names too long, a
+full disk at close. Every case gets one clear line and an exit status, keeps what is readable, and
+never plays a damaged bag as if it were whole.
 
 (Kept apart from the node's hostile-input tests: a node spinning in the same process would share
 the interpreter with the byte-by-byte scan here.)
@@ -29,8 +31,7 @@ import time
 from hostile_yaml import billion_laughs
 import pytest
 
-# -- damaged bags
-# ---------------------------------------------------------------------------------------
+# -- damaged bags ---------------------------------------------------------------------------------
 
 
 @pytest.fixture
@@ -141,10 +142,12 @@ def _records(data: bytes) -> dict[str, list[tuple[int, int]]]:
 
 def test_every_single_byte_change_is_noticed_by_play_or_reindex(tmp_path):
     """
+    A changed byte anywhere is never silently played as if the bag were whole.
+
     A changed byte anywhere (chunks, message indexes, header, metadata record, summary, footer,
-    magic) is refused, read as a damaged/incomplete file, or repaired by reindex with a note: never
-    silently played as if the bag were whole. Every byte of the small records, every 31st of the
-    chunk, the schemas, the channels and rosbag2's metadata record.
+    magic) is refused, read as a damaged/incomplete file, or repaired by reindex with a note. Every
+    byte of the small records, every 31st of the chunk, the schemas, the channels and rosbag2's
+    metadata record.
     """
     import shutil
 
@@ -255,15 +258,13 @@ def test_damage_that_loses_no_message_is_played_as_incomplete_and_repaired(
 def test_a_cut_bag_plays_what_is_readable_and_exits_1(good_bag, capsys, keep):
     path = good_bag / 'good_0.mcap'
     data = path.read_bytes()
-    path.write_bytes(
-        data[: max(int(len(data) * keep), 8 + 30)]
-    )  # magic + a header record at least
+    # magic + a header record at least
+    path.write_bytes(data[: max(int(len(data) * keep), 8 + 30)])
     (good_bag / 'metadata.yaml').unlink()
     status, err = _play(good_bag, capsys)
     assert status == 1 and 'Traceback' not in err, err
-    first = err.splitlines()[
-        0
-    ]  # then, for the half bag, "played N messages": what was readable went out
+    # then, for the half bag, "played N messages": what was readable went out
+    first = err.splitlines()[0]
     assert (
         'is incomplete' in first and '--reindex' in first
     ) or 'it ends inside its header' in first, err
@@ -280,8 +281,7 @@ def test_bag_tools_refuse_a_name_too_long_for_the_file_system(tmp_path, capsys):
     assert err.count('File name too long') == 2 and 'Traceback' not in err
 
 
-# -- a full disk at close
-# ---------------------------------------------------------------------------------
+# -- a full disk at close -------------------------------------------------------------------------
 
 
 def _one_sample_writer(path):
@@ -308,8 +308,8 @@ def test_no_room_for_metadata_says_the_mcap_is_whole_and_how_to_repair(tmp_path,
         writer.close()
     message = str(error.value)
     assert (
-        "'bag_0.mcap' is complete, but metadata.yaml could not be written (No space left on device)"
-        in message
+        "'bag_0.mcap' is complete, but metadata.yaml could not be written"
+        ' (No space left on device)' in message
     )
     assert 'chunk' not in message and f'torquefree_bag --reindex {tmp_path / "bag"}' in message
     monkeypatch.undo()
@@ -328,9 +328,8 @@ def test_no_room_to_rebuild_after_a_write_error_gives_the_repair_command(tmp_pat
     writer = _one_sample_writer(tmp_path / 'bag')
     writer.flush()  # the sample's chunk is on disk
     monkeypatch.setattr(writer._mcap, 'finish', _no_space)
-    monkeypatch.setattr(
-        reader_module, 'reindex', _no_space
-    )  # the rebuilt copy finds no room either
+    # the rebuilt copy finds no room either
+    monkeypatch.setattr(reader_module, 'reindex', _no_space)
     with pytest.raises(BagError) as error:
         writer.close()
     message = str(error.value)

@@ -13,8 +13,9 @@
 # limitations under the License.
 
 """
-``propagate_batch``: each body exactly as ``propagate`` gives it alone (bit for bit), regimes
-mixed in one batch; shapes and bad input, named by body.
+``propagate_batch``: each body exactly as ``propagate`` gives it alone (bit for bit).
+
+Regimes mixed in one batch; shapes and bad input, named by body.
 """
 
 from __future__ import annotations
@@ -114,9 +115,8 @@ def test_a_dispersed_campaign_in_several_stacked_groups_is_bit_for_bit_the_loop(
     omega0 = rng.normal(0.0, 2.0, (count, 3))
     orientation = rng.normal(size=(count, 4))
     orientation /= np.linalg.norm(orientation, axis=1, keepdims=True)
-    times = np.concatenate(
-        [[0.0, 0.0], np.sort(rng.uniform(0.0, 1e4, 38))]
-    )  # t = 0 twice; long horizons
+    # t = 0 twice; long horizons
+    times = np.concatenate([[0.0, 0.0], np.sort(rng.uniform(0.0, 1e4, 38))])
     omega, q = propagate_batch(inertia, omega0, orientation, times)
     for i in range(count):
         alone = propagate(inertia[i], omega0[i], orientation[i], times)
@@ -124,17 +124,20 @@ def test_a_dispersed_campaign_in_several_stacked_groups_is_bit_for_bit_the_loop(
         np.testing.assert_array_equal(q[i], alone[1])
 
 
+# m > 1/2 and m <= 1/2: the two series
 @pytest.mark.parametrize(
     'moments, rate',
     [([2.0, 3.0, 4.0], [0.7, 0.5, 0.6]), ([1.5, 2.0, 3.0], [0.3, 0.2, 1.0])],
     ids=['hyperbolic', 'trigonometric'],
-)  # m > 1/2 and m <= 1/2: the two series
+)
 def test_passes_and_groups_of_one_kind_are_bit_for_bit_the_loop(
     monkeypatch, moments, rate, attitude_path
 ):
     """
-    A campaign of one kind (consecutive bodies: results written in place) in several groups,
-    each evaluated in passes of a few samples, is the loop of ``propagate``; so is one body's long
+    Groups and passes give the loop of ``propagate`` bit for bit.
+
+    A campaign of one kind (consecutive bodies: results written in place) in several groups, each
+    evaluated in passes of a few samples, is the loop of ``propagate``; so is one body's long
     request evaluated in passes against the same request whole.
     """
     from torquefree_ros.core import batch
@@ -148,9 +151,8 @@ def test_passes_and_groups_of_one_kind_are_bit_for_bit_the_loop(
     times = np.linspace(0.0, 300.0, 41)
     whole = propagate(inertia[0], omega0[0], orientation[0], times)
     monkeypatch.setattr(batch, 'GROUP_BODIES', 8)
-    monkeypatch.setattr(
-        PolhodeAttitude, 'ELEMENTS_PER_PASS', 24
-    )  # passes of 3 samples in a group, 24 alone
+    # passes of 3 samples in a group, 24 alone
+    monkeypatch.setattr(PolhodeAttitude, 'ELEMENTS_PER_PASS', 24)
     omega, q = propagate_batch(inertia, omega0, orientation, times)
     for i in range(count):
         alone = propagate(inertia[i], omega0[i], orientation[i], times)
@@ -179,8 +181,9 @@ def _random_bodies(rng, count, tensors):
 @pytest.mark.parametrize('tensors', [False, True])
 def test_random_campaigns_with_symmetries_are_bit_for_bit_the_loop(tensors, attitude_path):
     """
-    The constants computed in columns (floats for one body) agree to the last bit for any
-    mix.
+    Random campaigns with exact symmetries give the loop of ``propagate`` bit for bit.
+
+    The constants computed in columns (floats for one body) agree to the last bit for any mix.
     """
     rng = np.random.default_rng(23 + tensors)
     inertia, omega0 = _random_bodies(rng, 120, tensors)

@@ -13,14 +13,15 @@
 # limitations under the License.
 
 """
-The work-precision bench (``torquefree_bench --smoke``): its outputs have the promised columns
-and sections, every method's error falls with its tighter setting, and the methods agree with the
-independent reference where they should. The full run is a command (``make bench``), not a test.
+The work-precision bench (``torquefree_bench --smoke``).
+
+Its outputs have the promised columns and sections, every method's error falls with its tighter
+setting, and the methods agree with the independent reference where they should. The full run is a
+command (``make bench``), not a test.
 """
 
 import math
 
-import numpy as np
 import pytest
 from torquefree_ros.bench import sweep
 from torquefree_ros.bench.cases import load_cases, SMOKE_CASES
@@ -117,8 +118,9 @@ def test_report_has_the_tables_targets_plot_and_costs(smoke):
 @pytest.mark.skipif(not mujoco_available(), reason='mujoco (the bench extra) is not installed')
 def test_mujoco_free_body_follows_the_reference():
     """
-    Its free joint's conventions (body-frame rate, w-first quaternion) are read right: at a
-    small step the rates agree with the mpmath reference.
+    The conventions of MuJoCo's free joint (body-frame rate, w-first quaternion) are read right.
+
+    At a small step the rates agree with the mpmath reference.
     """
     case = load_cases(['flat_plate'])[0]
     mujoco = next(m for m in all_methods() if m.label == 'mujoco RK4')

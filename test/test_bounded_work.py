@@ -13,10 +13,11 @@
 # limitations under the License.
 
 """
-Bounded work everywhere: what the node refuses, the API and the offline tools refuse too,
-quickly and in our words (found by fuzzing scenes: integrations that ran forever, overflows,
-scipy's messages reaching the user); torquefree_bag stops on the first signal whatever it is
-computing.
+Bounded work everywhere.
+
+What the node refuses, the API and the offline tools refuse too, quickly and in our words (found by
+fuzzing scenes: integrations that ran forever, overflows, scipy's messages reaching the user);
+torquefree_bag stops on the first signal whatever it is computing.
 """
 
 import os
@@ -78,9 +79,8 @@ def test_hostile_scenes_end_quickly_in_our_words_through_the_api(case, integrato
     with np.errstate(all='ignore'), pytest.raises(error, match=words) as raised:
         propagator(np.arange(0.0, 10.0, 0.01))
     assert time.process_time() - started < 2.0  # caught within the budget, not after ~forever
-    assert 'spacing between numbers' not in str(
-        raised.value
-    )  # scipy's own words never reach the user
+    # scipy's own words never reach the user
+    assert 'spacing between numbers' not in str(raised.value)
 
 
 @pytest.mark.parametrize('mean_motion', [1e308, 1e200])
@@ -98,15 +98,12 @@ def test_an_effect_parameter_that_overflows_is_refused_at_load_with_its_path(mea
 
 def test_an_override_that_makes_an_effect_overflow_is_refused_when_the_propagator_is_built():
     """
-    The node's overrides (inertia, angular_velocity) reach the propagator without a scene
-    load.
+    An override that makes an effect overflow is refused when the propagator is built.
+
+    The node's overrides (inertia, angular_velocity) reach the propagator without a scene load.
     """
-    tilted = (
-        0.2,
-        0.3,
-        0.1,
-        float(np.sqrt(1 - 0.14)),
-    )  # the local vertical off every principal axis
+    # the local vertical off every principal axis
+    tilted = (0.2, 0.3, 0.1, float(np.sqrt(1 - 0.14)))
     scene = scene_from_mapping(
         _scene([0.1, 0.2, 0.3], [{'gravity_gradient': {'mean_motion': 1e150}}], tilted)
     )
@@ -144,17 +141,17 @@ def test_the_bag_tool_ends_on_a_refused_sample_with_a_complete_bag(tmp_path):
     assert f'needs more than {MAX_STEPS_PER_SAMPLE:,} steps' in result.stderr
     assert 'is a complete bag of the samples before it' in result.stderr
     reader = BagReader(tmp_path / 'bag')
-    assert (
-        reader.complete and reader.message_count == 2
-    )  # sample 0, the initial state, and nothing after
+    # sample 0, the initial state, and nothing after
+    assert reader.complete and reader.message_count == 2
 
 
 @pytest.mark.parametrize('sig', [signal.SIGTERM, signal.SIGINT], ids=['SIGTERM', 'SIGINT'])
 def test_the_bag_tool_stops_on_the_first_signal_even_when_a_sample_takes_long(tmp_path, sig):
     """
-    The reference path's rk4 at 0.1 Hz: each sample is 10 000 Python steps (~0.5 s); blocks
-    start at one sample and grow only while fast, so the first signal is seen within about a
-    sample.
+    The bag tool stops within about a sample of the first signal, even at 0.5 s a sample.
+
+    The reference path's rk4 at 0.1 Hz: each sample is 10 000 Python steps (~0.5 s); blocks start
+    at one sample and grow only while fast, so the first signal is seen within about a sample.
     """
     from torquefree_ros.bag import BagReader
 

@@ -13,10 +13,11 @@
 # limitations under the License.
 
 """
-Monte Carlo campaigns (issue 32): the campaign file's checks, the draws, the metrics against
-known answers, and the engine's one promise: the same table, bit for bit, in-process, on Dask
-workers (a LocalCluster, and a scheduler and workers started as separate processes) and with any
-chunking.
+Monte Carlo campaigns (issue 32).
+
+The campaign file's checks, the draws, the metrics against known answers, and the engine's one
+promise: the same table, bit for bit, in-process, on Dask workers (a LocalCluster, and a scheduler
+and workers started as separate processes) and with any chunking.
 
 Every Dask cluster here listens on 127.0.0.1 only and is closed by the test or fixture that made
 it.
@@ -45,8 +46,7 @@ import yaml
 VENV_BIN = Path(sys.executable).parent
 
 
-# -- helpers
-# ---------------------------------------------------------------------------------------------
+# -- helpers --------------------------------------------------------------------------------------
 def assert_same_table(a: pa.Table, b: pa.Table) -> None:
     """Bit for bit: the same columns, nulls, bytes of every float (NaN included) and metadata."""
     assert a.schema.equals(b.schema, check_metadata=True)
@@ -64,8 +64,9 @@ def assert_same_table(a: pa.Table, b: pa.Table) -> None:
 
 def torque_free_campaign(runs=600):
     """
-    A triaxial body near its limit (redraws happen), rates and attitude dispersed, every
-    metric.
+    Return a torque-free campaign with every metric.
+
+    A triaxial body near its limit (redraws happen), rates and attitude dispersed.
     """
     return {
         'scene': 'default',
@@ -96,9 +97,10 @@ def torque_free_campaign(runs=600):
 
 def damper_campaign(runs=60):
     """
-    explorer1 through the batched Plant; a damping dispersion so wide that some runs draw a
-    negative coefficient, which the scene refuses: those rows fail with the reason, the others
-    run.
+    Return a campaign of explorer1 through the batched Plant, in which some runs fail.
+
+    A damping dispersion so wide that some runs draw a negative coefficient, which the scene
+    refuses: those rows fail with the reason, the others run.
     """
     return {
         'scene': 'explorer1',
@@ -127,8 +129,7 @@ def cluster():
         local.close()
 
 
-# -- the engine: the same table everywhere
-# ---------------------------------------------------------------
+# -- the engine: the same table everywhere --------------------------------------------------------
 def test_same_table_in_process_on_two_workers_and_with_other_chunks(cluster):
     reference = run_campaign(torque_free_campaign(), scheduler='in-process')
     assert reference.num_rows == 600 and set(reference.column('status').to_pylist()) == {'ok'}
@@ -167,8 +168,9 @@ def test_a_scene_with_effects_gives_the_same_table_on_workers_and_failed_runs_ar
 
 def test_blocks_inside_a_chunk_change_nothing(monkeypatch):
     """
-    A chunk propagates and measures its runs a block at a time (engine.BLOCK_SAMPLES): blocks of
-    a few runs, failed runs among them, give the same table as one block a chunk.
+    Blocks of a few runs, failed runs among them, give the same table as one block a chunk.
+
+    A chunk propagates and measures its runs a block at a time (engine.BLOCK_SAMPLES).
     """
     from torquefree_ros.campaigns import engine
 
@@ -176,9 +178,8 @@ def test_blocks_inside_a_chunk_change_nothing(monkeypatch):
         run_campaign(make(), scheduler='in-process')
         for make in (torque_free_campaign, damper_campaign)
     ]
-    assert (
-        engine.block_runs(load_campaign(torque_free_campaign())) >= 600
-    )  # one block a chunk above
+    # one block a chunk above
+    assert engine.block_runs(load_campaign(torque_free_campaign())) >= 600
     monkeypatch.setattr(engine, 'BLOCK_SAMPLES', 3 * 61)
     assert engine.block_runs(load_campaign(torque_free_campaign())) == 3
     for make, reference in zip((torque_free_campaign, damper_campaign), references):
@@ -188,9 +189,10 @@ def test_blocks_inside_a_chunk_change_nothing(monkeypatch):
 @contextlib.contextmanager
 def dask_processes(tmp_path, workers: list):
     """
-    ``dask scheduler`` and one ``dask worker`` process per argument list in ``workers`` (what a
-    cluster looks like), all on loopback; yields ``(address, worker processes)``. Every process is
-    ended by its pid.
+    Start ``dask scheduler`` and one ``dask worker`` process per argument list in ``workers``.
+
+    What a cluster looks like, all on loopback; yields ``(address, worker processes)``. Every
+    process is ended by its pid.
     """
     from distributed import Client
 
@@ -261,8 +263,9 @@ def dask_processes(tmp_path, workers: list):
 
 def test_a_scheduler_and_workers_started_as_separate_processes_are_used_by_address(tmp_path):
     """
-    The campaign pointed at a scheduler's address; the workers under a nanny, as ``dask worker``
-    starts them.
+    The campaign pointed at a scheduler's address gives the in-process table.
+
+    The workers run under a nanny, as ``dask worker`` starts them.
     """
     with dask_processes(tmp_path, [['--nworkers', '2']]) as (address, _):
         table = run_campaign(torque_free_campaign(300), scheduler=address, chunk_size=50)
@@ -271,16 +274,17 @@ def test_a_scheduler_and_workers_started_as_separate_processes_are_used_by_addre
 
 def test_a_worker_killed_mid_campaign_changes_nothing_in_the_table(tmp_path):
     """
-    Two workers without nannies (each its own process); when the first chunk is in, the worker
-    that is computing a chunk is killed (SIGKILL). The scheduler gives its chunks to the other:
-    every chunk arrives once, and the table is the in-process one bit for bit.
+    A worker killed mid-campaign changes nothing in the table.
+
+    Two workers without nannies (each its own process); when the first chunk is in, the worker that
+    is computing a chunk is killed (SIGKILL). The scheduler gives its chunks to the other: every
+    chunk arrives once, and the table is the in-process one bit for bit.
     """
     from distributed import Client
 
     data = torque_free_campaign(1024)
-    data.update(
-        duration=400.0, rate=10.0
-    )  # 16 chunks of 64 runs, ~0.1 s each: the kill lands mid-campaign
+    # 16 chunks of 64 runs, ~0.1 s each: the kill lands mid-campaign
+    data.update(duration=400.0, rate=10.0)
     reference = run_campaign(data, scheduler='in-process')
     with dask_processes(tmp_path, [['--no-nanny'], ['--no-nanny']]) as (address, workers):
         pids = {process.pid: process for process in workers}
@@ -310,17 +314,18 @@ def test_a_worker_killed_mid_campaign_changes_nothing_in_the_table(tmp_path):
         ((pid, at),) = killed
         assert pids[pid].wait(timeout=10) == -signal.SIGKILL and at < 1024
         assert survivors == sorted(set(pids) - {pid})  # the scheduler saw it go
-    assert (
-        calls[0] == 0 and calls[-1] == 1024 and len(calls) == 1 + 16
-    )  # every chunk once, none twice
+    # every chunk once, none twice
+    assert calls[0] == 0 and calls[-1] == 1024 and len(calls) == 1 + 16
     assert np.all(np.diff(calls) == 64)
     assert_same_table(reference, table)
 
 
 def test_a_run_draws_from_its_own_seed_only():
     """
-    Run i's inputs depend on (seed, i): the first runs of a longer campaign are the shorter
-    one's, and run i's generator is SeedSequence(seed).spawn(runs)[i]'s.
+    Run i's inputs depend on (seed, i) only.
+
+    The first runs of a longer campaign are the shorter one's, and run i's generator is
+    SeedSequence(seed).spawn(runs)[i]'s.
     """
     short = run_campaign(torque_free_campaign(20), scheduler='in-process')
     long = run_campaign(torque_free_campaign(60), scheduler='in-process').slice(0, 20)
@@ -332,8 +337,9 @@ def test_a_run_draws_from_its_own_seed_only():
 
 def test_the_inputs_in_the_table_reproduce_each_run():
     """
-    The drawn inputs are what ran: propagating a row's body and initial state again gives its
-    final rates.
+    The drawn inputs are what ran.
+
+    Propagating a row's body and initial state again gives its final rates.
     """
     table = run_campaign(torque_free_campaign(40), scheduler='in-process').to_pydict()
     moments = np.array([[table[f'body.moments[{k}]'][i] for k in range(3)] for i in range(40)])
@@ -341,9 +347,8 @@ def test_the_inputs_in_the_table_reproduce_each_run():
         [[table[f'initial.angular_velocity[{k}]'][i] for k in range(3)] for i in range(40)]
     )
     q0 = np.array([[table[f'initial.orientation[{k}]'][i] for k in range(4)] for i in range(40)])
-    assert omega0[:, 1].tolist() == [
-        [0.0, 0.2, 0.4][i % 3] for i in range(40)
-    ]  # the sweep: values[i % 3]
+    # the sweep: values[i % 3]
+    assert omega0[:, 1].tolist() == [[0.0, 0.2, 0.4][i % 3] for i in range(40)]
     assert np.all(np.abs(omega0[:, 2] - 1.0) == 0)  # not dispersed: the scene's own
     omega, _ = propagate_batch(moments, omega0, q0, np.arange(61) / 5.0)
     assert np.array_equal(omega[:, -1, 0], table['final_wx']) and np.array_equal(
@@ -351,8 +356,7 @@ def test_the_inputs_in_the_table_reproduce_each_run():
     )
 
 
-# -- impossible bodies
-# -----------------------------------------------------------------------------------
+# -- impossible bodies ----------------------------------------------------------------------------
 def limit_body(invalid_body, tmp_path):
     scene = tmp_path / 'flat.yaml'
     scene.write_text(
@@ -372,24 +376,22 @@ def limit_body(invalid_body, tmp_path):
 
 def test_a_nominal_body_on_the_triangle_limit_redraws_or_fails_as_the_file_says(tmp_path):
     """
-    [3, 2, 1] is a flat plate: about half the draws of independent moments are no body at
-    all.
+    A nominal body on the triangle limit redraws or fails as the campaign file says.
+
+    [3, 2, 1] is a flat plate: about half the draws of independent moments are no body at all.
     """
     campaign = load_campaign(limit_body('fail', tmp_path))
     assert 0.4 < campaign.body_acceptance < 0.6  # measured when loaded, kept in the metadata
     failing = run_campaign(campaign, scheduler='in-process').to_pydict()
     bad = [i for i, s in enumerate(failing['status']) if s != 'ok']
-    assert 0.4 < len(bad) / 400 < 0.6 and set(failing['status'][i] for i in bad) == {
-        'invalid_body'
-    }
+    assert 0.4 < len(bad) / 400 < 0.6 and {failing['status'][i] for i in bad} == {'invalid_body'}
     assert all('triangle inequality' in failing['reason'][i] for i in bad)
     assert all(failing['final_wx'][i] is None for i in bad)
     redrawn = run_campaign(limit_body('redraw', tmp_path), scheduler='in-process').to_pydict()
     assert set(redrawn['status']) == {'ok'} and max(redrawn['redraws']) > 0
     m = np.array([[redrawn[f'body.moments[{k}]'][i] for k in range(3)] for i in range(400)])
-    assert np.all(
-        m.max(axis=1) <= (m.sum(axis=1) - m.max(axis=1)) * (1 + 1e-9)
-    )  # every kept body is physical
+    # every kept body is physical
+    assert np.all(m.max(axis=1) <= (m.sum(axis=1) - m.max(axis=1)) * (1 + 1e-9))
     # a run that drew a physical body first is the same run either way (the body draws last)
     for i in range(400):
         if failing['status'][i] == 'ok':
@@ -404,12 +406,12 @@ def test_a_run_that_runs_out_of_redraws_fails_with_the_count(tmp_path):
     assert reasons and all(r.endswith('(after 0 redraws)') for r in reasons)
 
 
-# -- bad campaign files
-# -----------------------------------------------------------------------------------
+# -- bad campaign files ---------------------------------------------------------------------------
 BAD_FILES = {
     'unknown distribution': (
         {'body.moments': {'relative': {'gaussian': {'sigma': 0.1}}}},
-        "dispersions.body.moments.relative: unknown distribution 'gaussian' (known: normal, truncated_normal",
+        "dispersions.body.moments.relative: unknown distribution 'gaussian' "
+        '(known: normal, truncated_normal',
     ),
     'negative sigma': (
         {'initial.angular_velocity': {'absolute': {'normal': {'sigma': -0.1}}}},
@@ -501,8 +503,7 @@ def test_bad_top_level_fields(change, expected, tmp_path):
     assert expected in str(error.value)
 
 
-# -- metrics against known answers
-# ------------------------------------------------------------------------
+# -- metrics against known answers ----------------------------------------------------------------
 def samples_of(inertia, omega0, times, q0=(0.0, 0.0, 0.0, 1.0)):
     omega, q = propagate_batch([inertia], [omega0], [q0], times)
     body = RigidBody.from_inertia(inertia)
@@ -519,8 +520,9 @@ def samples_of(inertia, omega0, times, q0=(0.0, 0.0, 0.0, 1.0)):
 
 def test_cone_angle_of_a_symmetric_top_is_its_closed_form():
     """
-    An oblate top (I_T = 1, I_3 = 2): H keeps tan(theta) = I_T w_t / (I_3 w_3) from the symmetry
-    axis.
+    The cone angle of an oblate top (I_T = 1, I_3 = 2) is its closed form.
+
+    H keeps tan(theta) = I_T w_t / (I_3 w_3) from the symmetry axis.
     """
     samples = samples_of([1.0, 1.0, 2.0], [0.3, 0.4, 1.0], np.linspace(0.0, 20.0, 401))
     expected = math.atan2(1.0 * 0.5, 2.0 * 1.0)
@@ -531,8 +533,10 @@ def test_cone_angle_of_a_symmetric_top_is_its_closed_form():
 
 def test_flips_of_a_dzhanibekov_body_over_a_known_number_of_flip_periods():
     """
-    Spun about the intermediate axis, the nut reverses once a flip period (classify gives it);
-    over K periods starting mid-dwell, K reversals, half a period clear of either end.
+    Over K flip periods, a Dzhanibekov body's nut reverses K times.
+
+    Spun about the intermediate axis, the nut reverses once a flip period (classify gives it); over
+    K periods starting mid-dwell, K reversals, half a period clear of either end.
     """
     inertia, omega0 = [1.0, 2.0, 3.0], [0.001, 5.0, 0.001]
     period = RigidBody.from_inertia(inertia).classify(omega0).flip_period
@@ -540,9 +544,8 @@ def test_flips_of_a_dzhanibekov_body_over_a_known_number_of_flip_periods():
     for K in (1, 4, 7):
         samples = samples_of(inertia, omega0, np.linspace(0.0, K * period, 200 * K + 1))
         assert METRICS['flips'].function(samples, margin=30.0)[0] == K
-    stable = samples_of(
-        inertia, [0.3, 0.2, 5.0], np.linspace(0.0, 60.0, 601)
-    )  # near the major axis: no flip
+    # near the major axis: no flip
+    stable = samples_of(inertia, [0.3, 0.2, 5.0], np.linspace(0.0, 60.0, 601))
     assert METRICS['flips'].function(stable, margin=30.0)[0] == 0
 
 
@@ -550,18 +553,19 @@ def test_drifts_of_the_exact_solution_are_rounding():
     samples = samples_of(
         [1.0, 2.0, 2.5], [0.3, 1.0, 0.2], np.linspace(0.0, 100.0, 1001), (0.1, 0.2, 0.3, 0.927)
     )
-    assert (
-        METRICS['energy_drift'].function(samples)[0] < 1e-13
-    )  # the exact solution conserves both to rounding
+    # the exact solution conserves both to rounding
+    assert METRICS['energy_drift'].function(samples)[0] < 1e-13
     assert METRICS['momentum_drift'].function(samples)[0] < 1e-13
 
 
 def test_settle_time_and_drifts_under_a_constant_torque_against_the_closed_form(tmp_path):
     """
-    A sphere (I = 1) spun at 1 rad/s about x under -0.1 N m about x: w_x = 1 - 0.1 t. |w| <
-    0.555 from t > 4.45 s, first sample 4.5 s at 10 Hz (0.005 rad/s clear of the threshold); at 8
-    s: T drops by 1 - 0.2^2 = 0.96 of T_0, H_N (along x, fixed) by 0.8 of |H_0|; the integrator's
-    1e-10 accuracy is far inside the 1e-8 allowed.
+    Settle time and drifts of a sphere under a constant torque are the closed form's.
+
+    A sphere (I = 1) spun at 1 rad/s about x under -0.1 N m about x: w_x = 1 - 0.1 t. |w| < 0.555
+    from t > 4.45 s, first sample 4.5 s at 10 Hz (0.005 rad/s clear of the threshold); at 8 s: T
+    drops by 1 - 0.2^2 = 0.96 of T_0, H_N (along x, fixed) by 0.8 of |H_0|; the integrator's 1e-10
+    accuracy is far inside the 1e-8 allowed.
     """
     scene = tmp_path / 'brake.yaml'
     scene.write_text(
@@ -592,8 +596,9 @@ def test_settle_time_and_drifts_under_a_constant_torque_against_the_closed_form(
 
 def test_attitude_error_from_the_nominal_run_is_the_drawn_inertial_rotation():
     """
-    A torque-free motion turned by an inertial rotation r stays r ⊗ q_nominal(t): the error is
-    the drawn rotation's angle at every sample.
+    The attitude error from the nominal run is the drawn rotation's angle at every sample.
+
+    A torque-free motion turned by an inertial rotation r stays r ⊗ q_nominal(t).
     """
     data = {
         'scene': 'dzhanibekov',
@@ -606,18 +611,16 @@ def test_attitude_error_from_the_nominal_run_is_the_drawn_inertial_rotation():
     }
     table = run_campaign(data, scheduler='in-process').to_pydict()
     q0 = np.array([[table[f'initial.orientation[{k}]'][i] for k in range(4)] for i in range(30)])
-    drawn = 2.0 * np.arctan2(
-        np.linalg.norm(q0[:, :3], axis=1), np.abs(q0[:, 3])
-    )  # nominal q0 is identity
-    assert (
-        np.max(np.abs(np.array(table['nominal_attitude_error']) - drawn)) < 1e-12
-    )  # rounding over 200 samples
+    # nominal q0 is identity
+    drawn = 2.0 * np.arctan2(np.linalg.norm(q0[:, :3], axis=1), np.abs(q0[:, 3]))
+    # rounding over 200 samples
+    assert np.max(np.abs(np.array(table['nominal_attitude_error']) - drawn)) < 1e-12
 
 
 def test_a_metric_added_as_a_python_function():
     @metric('peak_rate_test', unit='rad/s')
     def peak_rate(samples):
-        """The largest |w| of the run."""
+        """Return the largest |w| of the run."""
         return samples.rate_norm().max(axis=1)
 
     try:
@@ -637,8 +640,7 @@ def test_a_metric_added_as_a_python_function():
         del METRICS['peak_rate_test']
 
 
-# -- results, library, command line
-# ----------------------------------------------------------------------
+# -- results, library, command line ---------------------------------------------------------------
 def test_the_parquet_file_holds_the_table_the_campaign_and_the_versions(tmp_path):
     path = tmp_path / 'c.yaml'
     path.write_text(yaml.safe_dump(torque_free_campaign(30)))
@@ -687,8 +689,7 @@ def test_the_command_line_runs_a_file_and_refuses_a_bad_one_with_status_2(tmp_pa
     assert exit_.value.code == 2
 
 
-# -- resuming an interrupted campaign
-# ---------------------------------------------------------------------
+# -- resuming an interrupted campaign -------------------------------------------------------------
 class Interrupted(Exception):
     """What a test raises to stop a campaign part way (as Ctrl-C would)."""
 
@@ -702,7 +703,7 @@ def interrupt_after(runs):
 
 
 def computed_chunks(monkeypatch):
-    """The (start, stop) of every chunk the in-process engine computes from now on."""
+    """Collect the (start, stop) of every chunk the in-process engine computes from now on."""
     from torquefree_ros.campaigns import engine
 
     computed, original = [], engine.run_chunk
@@ -719,6 +720,8 @@ def computed_chunks(monkeypatch):
 
 def test_an_interrupted_campaign_resumes_computing_only_the_missing_runs(tmp_path, monkeypatch):
     """
+    A resumed campaign computes exactly the missing runs, and the table is the uninterrupted one.
+
     Interrupted after 3 of 8 chunks, a finished part lost besides (a hole): the resumed run, in
     other chunks, computes exactly the runs no part holds, and the table is the uninterrupted one
     bit for bit.
@@ -772,6 +775,8 @@ def test_an_interrupted_campaign_resumes_computing_only_the_missing_runs(tmp_pat
 
 def test_a_campaign_interrupted_on_workers_resumes_on_workers(tmp_path, cluster):
     """
+    A campaign interrupted on the cluster and resumed on it computes only the missing runs.
+
     Stopped after its first chunks on the cluster, resumed on it: the runs computed are those
     missing.
     """
@@ -897,8 +902,7 @@ def test_the_command_line_resumes_and_says_what_it_computed(tmp_path, capsys):
     )
 
 
-# -- the progress line
-# ----------------------------------------------------------------------------------
+# -- the progress line ----------------------------------------------------------------------------
 def test_the_progress_line_counts_runs_speed_and_eta():
     assert (
         campaign_cli.progress_line(250, 1000, 50.0)
@@ -914,13 +918,16 @@ def test_the_progress_line_counts_runs_speed_and_eta():
 
 def test_the_progress_line_is_written_on_a_terminal_only_and_at_most_twice_a_second():
     """
-    A resumed campaign (100 runs kept) whose first chunk comes in after a slow start (2 s): the
-    speed is counted from that chunk on, the line rewritten at most every 0.5 s, and always at the
-    end.
+    The progress line of a resumed campaign whose first chunk comes in after a slow start.
+
+    The campaign has 100 runs kept and its first chunk comes in after 2 s: the speed is counted
+    from that chunk on, the line rewritten at most every 0.5 s, and always at the end.
     """
     import io
 
     class Terminal(io.StringIO):
+        """A text stream that says it is a terminal."""
+
         def isatty(self):
             return True
 
@@ -973,12 +980,12 @@ def test_the_command_line_progress_can_be_forced(tmp_path, capsys):
     assert '\r30/30 runs (100 %), ' in err and ' runs/s, ETA 0:00' in err
 
 
-# -- the report
-# ------------------------------------------------------------------------------------------
+# -- the report -----------------------------------------------------------------------------------
 def markdown_rows(text: str, header: str) -> dict:
     """
-    The rows of the Markdown table whose header row starts with ``header``: first cell ->
-    cells.
+    Return the rows of the Markdown table whose header row starts with ``header``.
+
+    As a dict: first cell -> cells.
     """
     lines = text.splitlines()
     start = next(i for i, line in enumerate(lines) if line.startswith(header))
@@ -993,6 +1000,8 @@ def markdown_rows(text: str, header: str) -> dict:
 
 def test_the_report_writes_its_files_and_its_numbers_are_the_tables(tmp_path):
     """
+    The report's numbers are the table's, checked against numpy.
+
     A campaign with failed runs (a damping drawn negative): the statuses and their reasons, each
     metric's min, median, p95 and max, and the worst runs, against numpy on the table.
     """
@@ -1000,9 +1009,8 @@ def test_the_report_writes_its_files_and_its_numbers_are_the_tables(tmp_path):
 
     output = tmp_path / 'out'
     data = damper_campaign(80)
-    data['metrics'].append(
-        {'settle_time': {'threshold': 6.0}}
-    )  # |w0| = 6 rad/s dispersed: some runs never settle
+    # |w0| = 6 rad/s dispersed: some runs never settle
+    data['metrics'].append({'settle_time': {'threshold': 6.0}})
     table = run_campaign(data, scheduler='in-process', output=output)
     written = write_report(output)
     assert [p.name for p in written] == ['summary.md', 'histograms.png']
@@ -1019,14 +1027,14 @@ def test_the_report_writes_its_files_and_its_numbers_are_the_tables(tmp_path):
     for name, (count, share, reasons) in runs.items():
         assert int(count.replace(',', '')) == np.count_nonzero(status == name)
         share_expected = 100 * np.count_nonzero(status == name) / 80
-        assert float(share.rstrip(' %')) == pytest.approx(
-            share_expected, abs=0.05 + 1e-12
-        )  # one decimal
+        # one decimal
+        assert float(share.rstrip(' %')) == pytest.approx(share_expected, abs=0.05 + 1e-12)
     failed = [i for i, s in enumerate(data['status']) if s == 'invalid_scene']
+    # one kind of reason, its drawn number left out
     assert failed and all(
         data['reason'][i].startswith('effects[0].damper.damping: must be > 0 N m s, got -')
         for i in failed
-    )  # one kind of reason, its drawn number left out
+    )
     assert runs['invalid_scene'][2] == (
         f'{len(failed)}× effects[0].damper.damping: must be > 0 N m s, got … (run {failed[0]})'
     )
@@ -1052,9 +1060,8 @@ def test_the_report_writes_its_files_and_its_numbers_are_the_tables(tmp_path):
         assert int(count.replace(',', '')) == finite.size
         assert int(undefined.replace(',', '')) == values.size - finite.size
         expected = [finite.min(), np.median(finite), np.percentile(finite, 95), finite.max()]
-        assert np.allclose(
-            [float(x) for x in numbers], expected, rtol=5e-6, atol=0
-        )  # written to 6 digits
+        # written to 6 digits
+        assert np.allclose([float(x) for x in numbers], expected, rtol=5e-6, atol=0)
 
     worst = markdown_rows(text, '| metric | run | value |')
     assert list(worst) == columns
@@ -1069,8 +1076,8 @@ def test_the_report_writes_its_files_and_its_numbers_are_the_tables(tmp_path):
         drawn = ', '.join(f'{data[f"initial.angular_velocity[{k}]"][run]:.6g}' for k in range(3))
         assert f'`initial.angular_velocity` = [{drawn}]' in worst[column][2]
     assert (
-        'No trajectories kept (the campaign file has no `trajectories` option), so no percentile envelopes'
-        in text
+        'No trajectories kept (the campaign file has no `trajectories` option), '
+        'so no percentile envelopes' in text
     )
     assert not (output / 'trajectories').exists()
 
@@ -1166,8 +1173,7 @@ def test_an_output_directory_with_a_damaged_manifest_or_stray_parts_is_refused(t
     assert sorted(p.name for p in output.iterdir()) == ['campaign.yaml', 'runs.parquet']
 
 
-# -- trajectories
-# ----------------------------------------------------------------------------------------
+# -- trajectories ---------------------------------------------------------------------------------
 def trajectories_of(directory) -> pa.Table:
     """DIR/trajectories opened as a notebook would (pyarrow.dataset), rows by run then time."""
     import pyarrow.dataset as ds
@@ -1190,8 +1196,10 @@ def test_trajectories_are_the_batch_propagation_at_the_kept_times_everywhere_and
     tmp_path, cluster
 ):
     """
-    Every 4th sample of each run (12 s at 5 Hz: t = 0, 0.8, ..., 12): the batch propagation of
-    the table's inputs at those times, bit for bit; the same rows from 1 and 2 workers and after a
+    Kept trajectories are the batch propagation at the kept times, everywhere and after a resume.
+
+    Every 4th sample of each run (12 s at 5 Hz: t = 0, 0.8, ..., 12): the batch propagation of the
+    table's inputs at those times, bit for bit; the same rows from 1 and 2 workers and after a
     resume whose interruption left a trajectory part without its results part.
     """
     data = dict(torque_free_campaign(90), trajectories={'every': 4})
@@ -1213,9 +1221,8 @@ def test_trajectories_are_the_batch_propagation_at_the_kept_times_everywhere_and
         scheduler='in-process',
         output=tmp_path / 'by-rate',
     )
-    assert_same_trajectories(
-        reference, trajectories_of(tmp_path / 'by-rate')
-    )  # {rate: 1.25} is {every: 4}
+    # {rate: 1.25} is {every: 4}
+    assert_same_trajectories(reference, trajectories_of(tmp_path / 'by-rate'))
     rows = table.to_pydict()
     for run in (0, 41, 89):  # again, one at a time, from the table's inputs: the same numbers
         moments = [[rows[f'body.moments[{k}]'][run] for k in range(3)]]
@@ -1283,13 +1290,14 @@ def test_trajectories_are_the_batch_propagation_at_the_kept_times_everywhere_and
     assert_same_trajectories(reference, trajectories_of(output))
 
 
-def test_trajectories_of_a_scene_with_effects_keep_its_states_and_no_failed_run_and_the_report_plots_them(
+def test_trajectories_of_a_scene_with_effects_keep_its_states_and_no_failed_run_and_are_plotted(
     tmp_path, capsys
 ):
     """
-    explorer1 (a damper, 3 states) with some runs failed: the kept rows are the finished runs',
-    equal to the run's scene propagator at the kept times; the report's envelopes are numpy's
-    percentiles of |w|.
+    Kept trajectories of explorer1 (a damper, 3 states) hold its states and no failed run.
+
+    Some runs fail: the kept rows are the finished runs', equal to the run's scene propagator at
+    the kept times; the report's envelopes are numpy's percentiles of |w|.
     """
     import pyarrow.compute as pc
     from torquefree_ros.campaigns import engine
@@ -1333,8 +1341,8 @@ def test_trajectories_of_a_scene_with_effects_keep_its_states_and_no_failed_run_
     )
     text = written[0].read_text()
     assert (
-        f'Trajectories kept: every 5th sample (0.2 Hz, 7 samples a run) of each finished run ({len(ok)} runs)'
-        in text
+        'Trajectories kept: every 5th sample (0.2 Hz, 7 samples a run) of each finished run '
+        f'({len(ok)} runs)' in text
     )
     assert f'and the worst run, run {envelopes["worst_run"]} (by the largest final |w|)' in text
     assert '![percentile envelopes of |w|](envelopes.png)' in text

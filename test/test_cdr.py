@@ -13,9 +13,10 @@
 # limitations under the License.
 
 """
-The vectorised CDR encoder against rclpy's own serializer: decode ours with rclpy and compare
-the values; compare our bytes with rclpy's everywhere except the alignment padding (Fast-CDR leaves
-padding uninitialised).
+The vectorised CDR encoder against rclpy's own serializer.
+
+Decode ours with rclpy and compare the values; compare our bytes with rclpy's everywhere except the
+alignment padding (Fast-CDR leaves padding uninitialised).
 """
 
 from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
@@ -84,6 +85,5 @@ def test_clock_equals_rclpy(stamps):
         message.clock.sec, message.clock.nanosec = divmod(stamp, 10**9)
         assert ours == serialize_message(message)  # no padding in a Clock: byte-identical
         assert deserialize_message(ours, Clock) == message
-        assert (
-            encode_times(np.array([stamp], dtype=np.int64))[0] == ours
-        )  # alone: packed directly, the same
+        # alone: packed directly, the same
+        assert encode_times(np.array([stamp], dtype=np.int64))[0] == ours

@@ -13,9 +13,10 @@
 # limitations under the License.
 
 """
-Command-line manners of every console script, run as a user runs them (the scripts in this
-environment's bin/, installed by the README's commands): --help, Ctrl-C / SIGTERM, closed pipes,
-progress only on a terminal, hand-typed input.
+Command-line manners of every console script, run as a user runs them.
+
+The scripts are this environment's bin/ ones, installed by the README's commands. Checked: --help,
+Ctrl-C / SIGTERM, closed pipes, progress only on a terminal, hand-typed input.
 """
 
 from __future__ import annotations
@@ -140,8 +141,10 @@ def _interrupt_when_output_appears(argv, sig, tmp_path, delay=0.5):
 )
 def test_an_interrupted_bag_is_complete_and_says_so(tmp_path, sig, delay):
     """
-    Ctrl-C / SIGTERM at any moment: the bag closes at the next block with every sample written
-    so far, both independent readers open it and agree with metadata.yaml; exit status 130.
+    Ctrl-C / SIGTERM at any moment leaves a complete bag and exit status 130.
+
+    The bag closes at the next block with every sample written so far; both independent readers
+    open it and agree with metadata.yaml.
     """
     status, _, err = _interrupt_when_output_appears(
         ['torquefree_bag', 'default', '--duration', '1e6', '--rate', '1000', '--output', 'long'],
@@ -161,9 +164,8 @@ def test_an_interrupted_bag_is_complete_and_says_so(tmp_path, sig, delay):
     assert counts == {'/angular_velocity': samples, '/attitude': samples} and samples > 0
     assert {topic: len(times) for topic, times in log_times.items()} == counts
     for topic in counts:
-        assert log_times[topic] == [
-            k * 1_000_000 for k in range(samples)
-        ]  # a gap-free prefix of the run
+        # a gap-free prefix of the run
+        assert log_times[topic] == [k * 1_000_000 for k in range(samples)]
         for last in (last_by_mcap[topic], last_by_rosbags[topic]):
             assert (
                 last.header.stamp.sec * 1_000_000_000 + last.header.stamp.nanosec
@@ -212,9 +214,8 @@ def test_the_recording_node_stops_on_a_signal_cleanly_with_its_bag(tmp_path, sig
         tmp_path,
     )
     assert status == 0, err
-    assert (
-        'Traceback' not in err and 'rosout' not in err
-    )  # no "Failed to publish log message to rosout"
+    # no "Failed to publish log message to rosout"
+    assert 'Traceback' not in err and 'rosout' not in err
     log = out + err
     assert 'start: publishing /angular_velocity, /attitude; recording bag run;' in log
     assert 'bag closed: run (' in log
@@ -223,14 +224,8 @@ def test_the_recording_node_stops_on_a_signal_cleanly_with_its_bag(tmp_path, sig
 
 
 def test_progress_is_shown_on_a_terminal_and_not_when_piped(tmp_path):
-    argv = [
-        str(BIN / 'torquefree_bag'),
-        'default',
-        '--duration',
-        '300',
-        '--rate',
-        '1000',
-    ]  # ~3 s of work
+    # ~3 s of work
+    argv = [str(BIN / 'torquefree_bag'), 'default', '--duration', '300', '--rate', '1000']
     piped = subprocess.run(
         [*argv, '--output', str(tmp_path / 'piped')],
         capture_output=True,

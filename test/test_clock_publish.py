@@ -13,9 +13,10 @@
 # limitations under the License.
 
 """
-``publish_clock``: /clock at real_time_factor 1 too, one message per sample at the sample's
-stamp, so that a neighbour started with use_sim_time:=true follows the simulator (without it, such
-a neighbour waits forever for a clock). In process, with a neighbour node on sim time.
+``publish_clock``: /clock at real_time_factor 1 too, one message per sample at its stamp.
+
+So a neighbour started with use_sim_time:=true follows the simulator (without it, such a neighbour
+waits forever for a clock). In process, with a neighbour node on sim time.
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ from sim_harness import connected_harness, reset_epoch_ns
 PERIOD = 10_000_000  # ns at 100 Hz
 
 
-def test_at_real_time_factor_1_the_clock_is_the_samples_stamps_and_a_sim_time_neighbour_follows_it():
+def test_at_real_time_factor_1_the_clock_is_the_sample_stamps_and_sim_time_neighbours_follow_it():
     with connected_harness(publish_rate=100.0, publish_clock=True) as harness:
         # the worked example: a neighbour on sim time (as RViz started with use_sim_time:=true)
         neighbour = rclpy.create_node(
@@ -109,9 +110,8 @@ def test_publish_clock_is_checked_like_the_others_and_takes_effect_at_the_next_r
         )
         clock = [c for c in harness.clock if c >= epoch]
         np.testing.assert_array_equal(np.diff(clock), PERIOD)
-        assert all(
-            (c - epoch) % PERIOD == 0 for c in clock
-        )  # on the new run's grid: its samples' stamps
+        # on the new run's grid: its samples' stamps
+        assert all((c - epoch) % PERIOD == 0 for c in clock)
         # off again at the next reset: the clock stops (the publisher stays, as after a clock of
         # our own)
         (result,) = harness.set_parameters(publish_clock=False)

@@ -13,11 +13,13 @@
 # limitations under the License.
 
 """
-Closing the loop through the node: an in-process PD (rate-damping) controller detumbles a body
-in lock-step as the closed loop predicts; two runs are bit-identical; the same controller stepping
-the plant in process and the recorded commands re-simulated offline give the very same samples;
-without lock-step the hold times out to zero and /diagnostics warns; malformed commands are counted
-there; a scene without the effect has no subscription.
+Closing the loop through the node.
+
+An in-process PD (rate-damping) controller detumbles a body in lock-step as the closed loop
+predicts; two runs are bit-identical; the same controller stepping the plant in process and the
+recorded commands re-simulated offline give the very same samples; without lock-step the hold times
+out to zero and /diagnostics warns; malformed commands are counted there; a scene without the
+effect has no subscription.
 """
 
 from __future__ import annotations
@@ -46,9 +48,10 @@ def _scene(tmp_path, inertia=(SPHERE, SPHERE, SPHERE), extra=''):
 
 class RateDamper:
     """
-    The controller under test: answers each angular_velocity sample with ``-K w``, stamped with
-    the sample's stamp, in the body frame. The node must take commands already (its start-up
-    scene).
+    The controller under test: answers each angular_velocity sample with ``-K w``.
+
+    The answer is stamped with the sample's stamp, in the body frame. The node must take commands
+    already (its start-up scene).
     """
 
     def __init__(self, harness, gain=GAIN, reliability='reliable'):
@@ -212,8 +215,10 @@ def test_a_best_effort_and_a_reliable_controller_both_drive_the_lockstep_loop(
     tmp_path, reliability
 ):
     """
-    The command input matches either publisher (a best-effort one is common at high rates and on
-    micro-ROS), even one that appears after the subscription, and the loop runs as predicted.
+    The command input matches either publisher, and the loop runs as predicted.
+
+    A best-effort one is common at high rates and on micro-ROS; the input matches even one that
+    appears after the subscription.
     """
     from sim_harness import connected_harness
 
@@ -226,14 +231,12 @@ def test_a_best_effort_and_a_reliable_controller_both_drive_the_lockstep_loop(
         lockstep_timeout=20.0,
         scene=str(scene),
     ) as harness:
-        damper = RateDamper(
-            harness, reliability=reliability
-        )  # waits until the node's input matches it
+        # waits until the node's input matches it
+        damper = RateDamper(harness, reliability=reliability)
         assert damper.publisher.qos_profile.reliability.name.lower() == reliability
         _, omega, _ = _run(harness, scene, count)
-        assert (
-            harness.node.sample_loop.missed_steps == 0
-        )  # every sample waited for its answer and had it
+        # every sample waited for its answer and had it
+        assert harness.node.sample_loop.missed_steps == 0
     factor = 1.0 - GAIN / (RATE * SPHERE)
     # the closed loop's prediction, as in the replay test (rounding of 40 products: 1e-12)
     np.testing.assert_allclose(
@@ -412,6 +415,5 @@ def test_a_second_ctrl_c_while_closing_still_closes_the_bag_and_exits_cleanly(tm
         process.kill()
     assert process.returncode == 0, stderr
     assert 'terminate called' not in stderr and 'Traceback' not in stderr, stderr
-    assert (
-        metadata(bag)['message_count'] > 0
-    )  # closed: metadata.yaml written, the summary in place
+    # closed: metadata.yaml written, the summary in place
+    assert metadata(bag)['message_count'] > 0

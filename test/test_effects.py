@@ -13,9 +13,10 @@
 # limitations under the License.
 
 """
-Each effect against an independent check: closed forms, conservation laws, textbook frequencies,
-noise statistics. Numerical propagators are held to a stated tolerance; the references never go
-through the code under test.
+Each effect against an independent check.
+
+Closed forms, conservation laws, textbook frequencies, noise statistics. Numerical propagators are
+held to a stated tolerance; the references never go through the code under test.
 """
 
 import numpy as np
@@ -56,8 +57,7 @@ def inertial_momentum(propagator, times):
     return quaternion.rotate(q, propagator.momentum_B(omega, x))
 
 
-# -- external_torque
-# ---------------------------------------------------------------------------------
+# -- external_torque ------------------------------------------------------------------------------
 @pytest.mark.parametrize('name', NUMERICAL)
 def test_a_torque_fixed_in_the_inertial_frame_changes_H_N_linearly(name):
     """H_N(t) = H_N(0) + tau_N t whatever the attitude does (Euler's law in the inertial frame)."""
@@ -79,8 +79,10 @@ def test_a_torque_fixed_in_the_inertial_frame_changes_H_N_linearly(name):
 @pytest.mark.parametrize('name', NUMERICAL)
 def test_a_piecewise_schedule_switches_exactly_at_its_breakpoints(name):
     """
+    A piecewise torque schedule's switching times, off the fixed-step grid, are hit exactly.
+
     A body torque along the spin axis of a pure spin: w3(t) is the integral of tau3 / I3, a
-    piecewise-linear ramp; the switching times (off the fixed-step grid) are hit exactly.
+    piecewise-linear ramp.
     """
     schedule = [
         {'start': 0.5, 'torque': [0.0, 0.0, 0.2]},
@@ -142,8 +144,7 @@ def test_schedule_errors_name_the_segment():
         )
 
 
-# -- gravity_gradient
-# --------------------------------------------------------------------------------
+# -- gravity_gradient -----------------------------------------------------------------------------
 def test_the_gravity_gradient_torque_is_3_mu_over_r3_r_cross_I_r():
     rng = np.random.default_rng(7)
     mu, radius = 3.986004418e14, 7.0e6
@@ -214,8 +215,10 @@ def test_small_pitch_librations_have_the_textbook_frequency(name):
 
 def test_lie_rk4_is_fourth_order_with_attitude_dependent_torques():
     """
-    With gravity gradient the torque depends on q, so lie_rk4 needs its stage attitudes; without
-    them the method would drop to first order in the attitude coupling.
+    With gravity gradient, lie_rk4 stays fourth order: it needs its stage attitudes.
+
+    The torque depends on q; without the stage attitudes the method would drop to first order in
+    the attitude coupling.
     """
     s = scene(
         [3.0, 2.0, 1.0],
@@ -233,8 +236,7 @@ def test_lie_rk4_is_fourth_order_with_attitude_dependent_torques():
     assert np.all((orders > 3.7) & (orders < 4.3)), orders
 
 
-# -- damper
-# ------------------------------------------------------------------------------------------
+# -- damper ---------------------------------------------------------------------------------------
 def test_a_damped_prolate_body_ends_in_a_flat_spin_about_its_major_axis():
     """Explorer 1: spin about the minor axis, energy dissipated, |H| kept: the major axis rule."""
     s = scene([1.0, 10.0, 10.5], [2.0, 0.05, 0.0], [{'damper': {'inertia': 0.1, 'damping': 0.05}}])
@@ -255,8 +257,7 @@ def test_a_damped_prolate_body_ends_in_a_flat_spin_about_its_major_axis():
     assert energy[-1] == pytest.approx(H * H / (2.0 * (10.5 + 0.1)), rel=1e-3)
 
 
-# -- rotor
-# -------------------------------------------------------------------------------------------
+# -- rotor ----------------------------------------------------------------------------------------
 def test_a_rotor_conserves_total_momentum_and_stabilises_the_intermediate_axis():
     omega0 = [0.01, 1.0, 0.01]
     free = scene(
@@ -277,8 +278,7 @@ def test_a_rotor_conserves_total_momentum_and_stabilises_the_intermediate_axis()
     assert np.any(free(times)[0][:, 1] < 0.0)  # ... which, without it, flips
 
 
-# -- imu
-# ---------------------------------------------------------------------------------------------
+# -- imu ------------------------------------------------------------------------------------------
 def _allan_deviation(x, rate, m):
     """Overlapping Allan deviation of rate samples x at tau = m / rate (IEEE Std 952)."""
     theta = np.concatenate([[0.0], np.cumsum(x)]) / rate
@@ -308,9 +308,8 @@ def test_imu_noise_statistics_match_its_parameters():
     block = sim.samples(0, 200_000)  # 2000 s
     (rows,) = block.outputs
     error = rows[:, 13:16] - block.omega_B
-    bias_free = np.diff(
-        error, axis=0
-    )  # white noise differenced: variance 2 sigma^2 (+ walk steps)
+    # white noise differenced: variance 2 sigma^2 (+ walk steps)
+    bias_free = np.diff(error, axis=0)
     sigma = N * np.sqrt(rate)
     # 200 000 samples: the variance estimate has relative standard error sqrt(2/n) ~ 0.3%
     assert np.var(bias_free) == pytest.approx(2 * sigma**2 + K**2 / rate, rel=0.02)
@@ -350,9 +349,8 @@ def test_imu_samples_do_not_depend_on_how_blocks_are_cut_and_are_seeded():
     )
     np.testing.assert_array_equal(pieces, whole)
     again = Simulation(s.propagator(), 50.0, outputs=s.outputs)
-    np.testing.assert_array_equal(
-        again.samples(500, 10).outputs[0], whole[500:510]
-    )  # skipping ahead
+    # skipping ahead
+    np.testing.assert_array_equal(again.samples(500, 10).outputs[0], whole[500:510])
     other = scene(
         [3.0, 2.0, 1.0], [0.3, 0.2, 1.0], [{'imu': {'gyro_noise_density': 1e-3, 'seed': 12}}]
     )
@@ -362,12 +360,15 @@ def test_imu_samples_do_not_depend_on_how_blocks_are_cut_and_are_seeded():
     )
 
 
-# -- euler_angles
-# ------------------------------------------------------------------------------------
+# -- euler_angles ---------------------------------------------------------------------------------
 def test_euler_angles_follow_the_spinning_top_equations_of_seed_000():
     """
+    The 3-2-1 angles follow the spinning top equations of seed 000.
+
     Inertial frame aligned with H_N = -H n3: the 3-2-1 angle rates obey
-    psi' = -H (sin^2 phi / I2 + cos^2 phi / I3), theta' = H/2 (1/I3 - 1/I2) sin 2phi cos theta,
+
+    psi' = -H (sin^2 phi / I2 + cos^2 phi / I3),
+    theta' = H/2 (1/I3 - 1/I2) sin 2phi cos theta,
     phi' = H (1/I1 - sin^2 phi / I2 - cos^2 phi / I3) sin theta.
     """
     I1, I2, I3 = 1.0, 2.0, 3.0
@@ -404,8 +405,7 @@ def test_euler_angles_reproduce_the_attitude():
     assert np.all(np.abs(pitch) <= np.pi / 2)
 
 
-# -- only what is called for
-# ---------------------------------------------------------------------------
+# -- only what is called for ----------------------------------------------------------------------
 def test_a_scene_without_effects_builds_no_effect_and_uses_the_exact_solution(monkeypatch):
     built = []
     original = Effect.__init__

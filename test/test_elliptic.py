@@ -13,15 +13,16 @@
 # limitations under the License.
 
 """
-Jacobi functions, amplitude and the integral ``S`` against mpmath at 60 digits (more where
-``mc`` is so small that ``m = 1 - mc`` needs them).
+Jacobi functions, amplitude and the integral ``S`` against mpmath at 60 digits.
+
+More digits where ``mc`` is so small that ``m = 1 - mc`` needs them.
 
 Tolerance, per value ``f`` at argument ``u``: ``|error| <= 8 eps (|f| + |u| |f'|)``. The first term
 is a few rounding units of the value; the second is what rounding ``u`` (and the period it is
 reduced by) can move it, since every ``u`` carries a relative error ``~eps`` before any function is
-evaluated. (The reference itself is good to ~1e-60 absolute, allowed for where a value is 0.)
-Next to the separatrix this demands ``cn`` and ``dn`` to relative precision at the
-turning points, where they are as small as ``k' = sqrt(mc)``.
+evaluated. (The reference itself is good to ~1e-60 absolute, allowed for where a value is 0.) Next
+to the separatrix this demands ``cn`` and ``dn`` to relative precision at the turning points, where
+they are as small as ``k' = sqrt(mc)``.
 """
 
 from hypothesis import given, settings
@@ -176,9 +177,10 @@ def test_bad_parameters_are_refused_by_name():
 @pytest.mark.parametrize('mc', PARAMETERS)
 def test_theta_phase_gives_n_S_to_its_condition(mc, n):
     """
-    ``n S(u) = n slope u + weight phase``: the attitude's form of ``S``, good to the size of the
-    linear term (``n S`` is added to it there), which is what the tolerance adds to the one above;
-    ``phase`` alone is periodic (``2K``).
+    The attitude's form of ``S``, ``n S(u) = n slope u + weight phase``, is good to its condition.
+
+    It is good to the size of the linear term (``n S`` is added to it there), which is what the
+    tolerance adds to the one above; ``phase`` alone is periodic (``2K``).
     """
     jacobi = JacobiElliptic(mc, n)
     u = arguments(jacobi)
@@ -198,8 +200,8 @@ def test_theta_phase_gives_n_S_to_its_condition(mc, n):
             + abs(n) * 1e-50
         )
         assert abs(got[i] - n * S) <= tolerance, (
-            f'n S(u={ui!r} | mc={mc}, n={n}) = {got[i]!r}, expected {n * S!r} (error {abs(got[i] - n * S):.2e} > '
-            f'{tolerance:.2e})'
+            f'n S(u={ui!r} | mc={mc}, n={n}) = {got[i]!r}, expected {n * S!r} '
+            f'(error {abs(got[i] - n * S):.2e} > {tolerance:.2e})'
         )
         if shifted is not None and n < 0.0 and abs(ui) <= 4.0 * jacobi.quarter_period:
             # periodic in 2K, to the rounding of u + 2K times the phase's slope n (S' - slope) /
@@ -223,12 +225,14 @@ def test_theta_phase_gives_n_S_to_its_condition(mc, n):
 )
 def test_theta_phase_agrees_with_carlsons_integral_anywhere(log_mc, log_minus_n, quarters):
     """
-    Between the grid above: the attitude's form of ``n S`` against ``S`` from Carlson's ``R_J``
-    (the other path, to relative precision) for any parameter, characteristic and argument. A
-    cross-check of the two formulas over the whole space (a wrong term or branch is off by far
-    more); the mpmath grid pins the last bits. Tolerance: 32 eps of the sizes of the terms both
-    forms add, the phase's with its own condition for small ``|n|`` (``q e^(2 beta) = exp(-pi
-    b'/K)`` multiplies the rounding of ``b'`` by its exponent, about ``ln(4/|n|)``).
+    The attitude's form of ``n S`` agrees with ``S`` from Carlson's ``R_J`` anywhere.
+
+    Between the grid above, for any parameter, characteristic and argument (Carlson's ``R_J`` is
+    the other path, to relative precision). A cross-check of the two formulas over the whole space
+    (a wrong term or branch is off by far more); the mpmath grid pins the last bits. Tolerance: 32
+    eps of the sizes of the terms both forms add, the phase's with its own condition for small
+    ``|n|`` (``q e^(2 beta) = exp(-pi b'/K)`` multiplies the rounding of ``b'`` by its exponent,
+    about ``ln(4/|n|)``).
     """
     mc, n = 10.0**log_mc, -(10.0**log_minus_n)
     jacobi = JacobiElliptic(mc, n)
@@ -253,6 +257,8 @@ def test_theta_phase_agrees_with_carlsons_integral_anywhere(log_mc, log_minus_n,
 @given(mc=st.floats(0.5, 1.0), quarters=st.floats(-4e5, 4e5))
 def test_whole_half_period_agrees_with_the_two_halves(mc, quarters):
     """
+    The whole half-period path agrees with the two halves' for any parameter and argument.
+
     For ``m <= 1/2`` and no ``S`` the functions come from the trigonometric series on the whole
     half-period (cubics in ``sin^2 z``, no selection between halves); with ``S`` from the two
     halves of the quarter period (the path the mpmath grid above pins, ``S`` included). The two

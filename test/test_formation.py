@@ -13,9 +13,11 @@
 # limitations under the License.
 
 """
-Several bodies side by side: nodes in their own namespaces, in one process and one context, each
-with a frame_prefix, publish distinct body frames under one shared inertial frame. (/tf itself
-needs tf2_msgs: test_tf_live.py checks it the same way.)
+Several bodies side by side, in one process.
+
+Nodes in their own namespaces, in one process and one context, each with a frame_prefix, publish
+distinct body frames under one shared inertial frame. (/tf itself needs tf2_msgs: test_tf_live.py
+checks it the same way.)
 """
 
 from __future__ import annotations
@@ -36,8 +38,10 @@ BODIES = ('sat1', 'sat2')
 @contextlib.contextmanager
 def formation(prefixed=True, positions=None, **parameters):
     """
+    Run a node per body and a client in one context; yield (client, executor, nodes).
+
     A node per body in namespace /<body> (frame_prefix '<body>/' when ``prefixed``; ``position``
-    ``positions[body]`` when given), and a client; yields (client, executor, nodes).
+    ``positions[body]`` when given), and a client, all spun by one executor.
     """
     context = rclpy.Context()
     rclpy.init(context=context)

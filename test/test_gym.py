@@ -13,7 +13,8 @@
 # limitations under the License.
 
 """
-The Gymnasium environments over the plant (torquefree_ros.plant.gym, the optional 'gym' extra):
+The Gymnasium environments over the plant (torquefree_ros.plant.gym, the optional 'gym' extra).
+
 gymnasium's own check_env passes without a warning; a rate-damping controller ends the detumble
 episode within the steps its sampled-data energy bound allows; an episode is the Plant's samples
 bit for bit; seeded resets repeat; each body of the vector environment is the single environment
@@ -30,10 +31,10 @@ import numpy as np
 import pytest
 
 gymnasium = pytest.importorskip('gymnasium')
+check_env = pytest.importorskip('gymnasium.utils.env_checker').check_env
+seeding = pytest.importorskip('gymnasium.utils.seeding')
+AutoresetMode = pytest.importorskip('gymnasium.vector').AutoresetMode
 
-from gymnasium.utils import seeding  # noqa: E402
-from gymnasium.utils.env_checker import check_env  # noqa: E402
-from gymnasium.vector import AutoresetMode  # noqa: E402
 from torquefree_ros import load_scene, Plant, RigidBody  # noqa: E402
 from torquefree_ros.core.scene import scene_from_mapping  # noqa: E402
 from torquefree_ros.plant.gym import (  # noqa: E402
@@ -52,7 +53,7 @@ def _observation(state):
 
 
 def _damper_scene(frame='inertial'):
-    """A scene with an effect state (a damper's rate) and inertial-frame commands."""
+    """Build a scene with an effect state (a damper's rate) and inertial-frame commands."""
     return scene_from_mapping(
         {
             'body': {'inertia': [0.4, 4.6, 4.95]},
@@ -103,30 +104,35 @@ def test_gymnasium_make_and_make_vec_build_the_environments():
 
 def test_a_proportional_controller_detumbles_within_the_sampled_data_bound():
     """
-    a = -K w, held over h = 1 / rate. E = w.I w (twice the kinetic energy) changes only by the
-    torque, dE/dt = 2 w(t).tau = -2K w(t).w_k on [t_k, t_k+1). With w(t) = w_k + e(t) and |w'| <=
-    K|w_k| / I_min + G |w|^2 (G = max|I_j - I_k| / I_i / sqrt(3), the gyroscopic term), E not
-    increasing keeps |w| <= W = sqrt(E_0 / I_min), and Gronwall gives |e(t)| <= c |w_k| (t - t_k),
-    c = (K / I_min + G W) exp(G W h). So E_k+1 - E_k lies within -2K h |w_k|^2 (1 -/+ c h / 2), and
-    with E / I_max <= |w|^2 <= E / I_min: rho_lo E_k <= E_k+1 <= rho_hi E_k, rho_hi = 1 - 2K h (1 -
-    c h/2) / I_max, rho_lo = 1 - 2K h (1 + c h/2) / I_min. The episode ends (|w_n| < tol) by n_hi =
-    ceil(ln(E_0 / (I_min tol^2)) / -ln rho_hi) and not before n_lo = ln(E_0 / (I_max tol^2)) / -ln
-    rho_lo. K W <= max_torque: the box never clips.
+    A proportional controller detumbles within the steps its sampled-data energy bound allows.
+
+    The action a = -K w is held over h = 1 / rate. E = w.I w (twice the kinetic energy) changes
+    only by the torque, dE/dt = 2 w(t).tau = -2K w(t).w_k on [t_k, t_k+1). With w(t) = w_k + e(t)
+    and |w'| <= K|w_k| / I_min + G |w|^2 (G = max|I_j - I_k| / I_i / sqrt(3), the gyroscopic term),
+    E not increasing keeps |w| <= W = sqrt(E_0 / I_min), and Gronwall gives
+    |e(t)| <= c |w_k| (t - t_k), c = (K / I_min + G W) exp(G W h). So E_k+1 - E_k lies within
+    -2K h |w_k|^2 (1 -/+ c h / 2), and with E / I_max <= |w|^2 <= E / I_min:
+    rho_lo E_k <= E_k+1 <= rho_hi E_k, rho_hi = 1 - 2K h (1 - c h/2) / I_max,
+    rho_lo = 1 - 2K h (1 + c h/2) / I_min. The episode ends (|w_n| < tol) by
+    n_hi = ceil(ln(E_0 / (I_min tol^2)) / -ln rho_hi) and not before
+    n_lo = ln(E_0 / (I_max tol^2)) / -ln rho_lo. K W <= max_torque: the box never clips.
     """
     env = AttitudeEnv('detumble', RATE, max_steps=400)
     scene = env.scene
     body = RigidBody.from_inertia(scene.inertia)
     np.testing.assert_array_equal(body.principal_axes, np.eye(3))
-    I = np.asarray(scene.inertia, dtype=float)
-    I_min, I_max, h, tol = I.min(), I.max(), 1.0 / RATE, env.omega_tol
+    moments = np.asarray(scene.inertia, dtype=float)
+    I_min, I_max, h, tol = moments.min(), moments.max(), 1.0 / RATE, env.omega_tol
     w0 = np.asarray(scene.angular_velocity)
-    E0 = w0 @ (I * w0)
+    E0 = w0 @ (moments * w0)
     W = math.sqrt(E0 / I_min)
     K = 0.04
     assert K * W <= MAX_TORQUE  # unsaturated: the torque limit is never reached
-    G = max(abs(I[1] - I[2]) / I[0], abs(I[2] - I[0]) / I[1], abs(I[0] - I[1]) / I[2]) / math.sqrt(
-        3.0
-    )
+    G = max(
+        abs(moments[1] - moments[2]) / moments[0],
+        abs(moments[2] - moments[0]) / moments[1],
+        abs(moments[0] - moments[1]) / moments[2],
+    ) / math.sqrt(3.0)
     c = (K / I_min + G * W) * math.exp(G * W * h)
     assert c * h < 1.0  # the increments are small: E does not increase within a step
     rho_hi = 1.0 - 2.0 * K * h * (1.0 - 0.5 * c * h) / I_max
@@ -141,7 +147,7 @@ def test_a_proportional_controller_detumbles_within_the_sampled_data_bound():
         obs, reward, terminated, truncated, info = env.step(-K * obs[:3])
         n += 1
         assert not truncated and not info['clipped']
-        E = obs[:3] @ (I * obs[:3])
+        E = obs[:3] @ (moments * obs[:3])
         assert rho_lo * energy <= E <= rho_hi * energy, n
         energy, total = E, total + reward
     assert n_lo <= n <= n_hi
@@ -161,6 +167,8 @@ def test_a_proportional_controller_detumbles_within_the_sampled_data_bound():
 
 def test_an_episode_is_the_plants_samples_bit_for_bit():
     """
+    An episode is the Plant's samples bit for bit, and its reward the documented one.
+
     The same torques, clipped to the box as the environment documents, through a Plant of the
     scene; the reward is the documented detumble reward.
     """
@@ -201,8 +209,10 @@ def test_an_episode_is_the_plants_samples_bit_for_bit():
 
 def test_the_observation_bounds_hold_at_full_torque():
     """
-    The largest spin-up the box allows (|tau| = sqrt(3) max_torque along w) stays within the
-    rates' bound over an episode from the most dispersed start.
+    The observation bounds hold at the largest spin-up the box allows.
+
+    The largest spin-up the box allows (|tau| = sqrt(3) max_torque along w) stays within the rates'
+    bound over an episode from the most dispersed start.
     """
     env = AttitudeEnv('detumble', RATE, max_steps=200, randomize=True, spread=0.25)
     obs, _ = env.reset(seed=0)
@@ -210,12 +220,10 @@ def test_the_observation_bounds_hold_at_full_torque():
         assert obs in env.observation_space
         obs, *_ = env.step(MAX_TORQUE * np.sign(obs[:3]))
     assert obs in env.observation_space
-    assert (
-        np.linalg.norm(obs[:3]) > 0.3 * env.observation_space.high[0]
-    )  # the bound is not vacuous
-    assert np.isinf(
-        AttitudeEnv(_damper_scene(), RATE).observation_space.high[[0, 7]]
-    ).all()  # no bound known
+    # the bound is not vacuous
+    assert np.linalg.norm(obs[:3]) > 0.3 * env.observation_space.high[0]
+    # no bound known
+    assert np.isinf(AttitudeEnv(_damper_scene(), RATE).observation_space.high[[0, 7]]).all()
 
 
 def test_seeded_resets_repeat_and_draw_the_documented_rate():
@@ -250,6 +258,8 @@ def test_seeded_resets_repeat_and_draw_the_documented_rate():
 
 def test_the_vector_bodies_are_the_single_environments_bit_for_bit():
     """
+    Each body of the vector environment is the single environment, bit for bit.
+
     Four bodies of three inertias, dispersed starts, a noisy proportional controller: bodies end
     their episodes at different steps (terminated or truncated), autoreset on the next step into
     new cohorts; each is, step by step and across its episodes, the single environment reset with
@@ -262,7 +272,7 @@ def test_the_vector_bodies_are_the_single_environments_bit_for_bit():
         base,
         replace(base, inertia=(0.2, 0.15, 0.1)),
     ]
-    options = dict(max_steps=40, omega_tol=0.05, randomize=True, spread=0.6)
+    options = {'max_steps': 40, 'omega_tol': 0.05, 'randomize': True, 'spread': 0.6}
     vector = AttitudeVectorEnv(scenes, rate=RATE, **options)
     singles = [AttitudeEnv(scene, RATE, **options) for scene in scenes]
     n = len(scenes)
@@ -302,9 +312,8 @@ def test_the_vector_bodies_are_the_single_environments_bit_for_bit():
                     endings['truncated'].add(step)
             np.testing.assert_array_equal(obs[i], expected_obs)
         ended = terminated | truncated
-    assert (
-        len(endings['terminated']) >= 2 and endings['truncated']
-    )  # bodies ended apart, both ways
+    # bodies ended apart, both ways
+    assert len(endings['terminated']) >= 2 and endings['truncated']
     assert max(cohorts) > 1
 
 
@@ -360,9 +369,8 @@ def test_bad_vector_actions_scenes_and_order_get_clear_errors():
         vector.step(actions)
     with pytest.raises(ValueError, match=r'action: expected shape \(3, 3\), got \(3,\)'):
         vector.step(np.zeros(3))
-    np.testing.assert_array_equal(
-        vector.step(np.zeros((3, 3)))[4]['t'], np.full(3, 0.1)
-    )  # nothing moved before
+    # nothing moved before
+    np.testing.assert_array_equal(vector.step(np.zeros((3, 3)))[4]['t'], np.full(3, 0.1))
     with pytest.raises(RuntimeError, match='call reset'):
         AttitudeEnv('detumble', RATE).step(np.zeros(3))
     with pytest.raises(ValueError, match='takes no torque .* an attitude environment needs one'):

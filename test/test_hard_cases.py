@@ -13,9 +13,10 @@
 # limitations under the License.
 
 """
-The exact propagator against the independent high-precision reference
-(torquefree_ros/bench/hard_cases.json, made by tools/make_reference.py: mpmath Taylor-series
-integration at 45 digits).
+The exact propagator against the independent high-precision reference.
+
+The reference is torquefree_ros/bench/hard_cases.json, made by tools/make_reference.py: mpmath
+Taylor-series integration at 45 digits.
 
 Tolerance, per case and per sample: attitude error (rad) and relative rate error
 <= 100 x max(floor, 1e-15), where the floor is what float64 itself allows (the change of the exact
@@ -23,7 +24,6 @@ solution when the inputs move by one rounding unit, from the reference's perturb
 """
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -96,8 +96,9 @@ def test_analytic_is_within_100_floors_of_the_reference(name, attitude_path):
 
 def test_reference_floors_are_physical():
     """
-    The floors grow where the physics is sensitive: near the separatrix and over long
-    horizons.
+    The floors grow where the physics is sensitive.
+
+    They grow near the separatrix and over long horizons.
     """
     assert max(CASES['near_separatrix_above_1e-10']['rate_floor']) > 1e-9
     assert max(CASES['long_horizon_1e5']['attitude_floor']) > 1e-13  # ~ |w| t eps

@@ -13,10 +13,11 @@
 # limitations under the License.
 
 """
-Hostile input: malformed parameter messages and fuzzed parameter values sent over DDS, and
-mutated scene files (damaged bags: test_bag_damage.py). Every input gets a clear refusal (or a
-Scene) in bounded time and size, and the node keeps publishing. Budgets are fixed (hypothesis
-``max_examples``) so CI time is bounded.
+Hostile input: malformed parameter messages, fuzzed parameter values, mutated scene files.
+
+The parameter messages and values are sent over DDS; damaged bags are test_bag_damage.py's. Every
+input gets a clear refusal (or a Scene) in bounded time and size, and the node keeps publishing.
+Budgets are fixed (hypothesis ``max_examples``) so CI time is bounded.
 """
 
 from __future__ import annotations
@@ -39,11 +40,11 @@ from torquefree_ros.core.scene import load_scene, MAX_SCENE_BYTES, Scene, SceneE
 from torquefree_ros.ros.guarded_parameters import MAX_REASON_LENGTH
 from torquefree_ros.ros.parameters import SPECS
 
-MAX_MESSAGE = (
-    MAX_REASON_LENGTH + 40
-)  # a refusal is one line; "… (N characters)" may follow the clip
+# a refusal is one line; "… (N characters)" may follow the clip
+MAX_MESSAGE = MAX_REASON_LENGTH + 40
 SCENE = (
-    'description: fuzz\nbody:\n  inertia: [3.0, 2.0, 1.0]\ninitial:\n  angular_velocity: [0.3, 0.2, 1.0]\n'
+    'description: fuzz\nbody:\n  inertia: [3.0, 2.0, 1.0]\n'
+    'initial:\n  angular_velocity: [0.3, 0.2, 1.0]\n'
     '  orientation: [0.0, 0.0, 0.0, 1.0]\neffects:\n  - damper: {inertia: 0.05, damping: 0.01}\n'
     '  - imu: {gyro_noise_density: 1.0e-4, seed: 42}\naccuracy: 1.0e-9\n'
 )
@@ -104,6 +105,7 @@ def _raw(name, kind, **fields):
             _raw('scene', ParameterType.PARAMETER_STRING, string_value='/' + 's' * 256),
             'nor a file under scene_directories',
         ),
+        # inside scene_directories: read, and refused for its name (ENAMETOOLONG)
         (
             _raw(
                 'scene',
@@ -111,7 +113,7 @@ def _raw(name, kind, **fields):
                 string_value=os.path.join(tempfile.gettempdir(), 's' * 256),
             ),
             'cannot read',
-        ),  # inside scene_directories: read, and refused for its name (ENAMETOOLONG)
+        ),
     ],
 )
 def test_malformed_parameter_messages_are_refused_and_the_node_keeps_publishing(
@@ -201,8 +203,10 @@ def test_fuzzed_parameter_requests_never_stop_the_node(harness, names, values):
 
 def test_a_real_time_factor_too_small_for_any_wait_leaves_the_node_waiting(harness):
     """
-    1e-300 is in range, and puts the next sample beyond what a thread can wait for at once (it
-    once stopped the sample loop with OverflowError: found by the fuzz test above).
+    A real_time_factor too small for any wait leaves the node waiting.
+
+    1e-300 is in range, and puts the next sample beyond what a thread can wait for at once (it once
+    stopped the sample loop with OverflowError: found by the fuzz test above).
     """
     request = SetParameters.Request(
         parameters=[_raw('real_time_factor', ParameterType.PARAMETER_DOUBLE, double_value=1e-300)]
@@ -219,8 +223,7 @@ def test_a_real_time_factor_too_small_for_any_wait_leaves_the_node_waiting(harne
     _still_publishing(harness)
 
 
-# -- scene files
-# --------------------------------------------------------------------------------------
+# -- scene files ----------------------------------------------------------------------------------
 
 
 def _load(tmp_path, text: str):
@@ -253,10 +256,8 @@ def _load(tmp_path, text: str):
             SCENE.replace('seed: 42', 'seed: 0b'),
             "effects[1].imu.seed: expected an integer, got '0b'",
         ),
-        (
-            SCENE.replace('seed: 42', 'seed: !!int '),
-            'a value cannot be read (IndexError',
-        ),  # found by hypothesis
+        # found by hypothesis
+        (SCENE.replace('seed: 42', 'seed: !!int '), 'a value cannot be read (IndexError'),
         (
             SCENE.replace('accuracy: 1.0e-9', 'accuracy: 0o99'),
             "accuracy: expected a finite number, got '0o99'",
@@ -336,9 +337,8 @@ def test_mutated_scene_files_give_a_scene_or_a_scene_error(tmp_path, mutations):
         assert np.all(np.isfinite(block.omega_B)) and np.all(np.isfinite(block.q_NB))
         # unit quaternions: 1e-12 is far above the propagators' rounding (test_propagators.py)
         np.testing.assert_allclose(np.linalg.norm(block.q_NB, axis=1), 1.0, rtol=0, atol=1e-12)
-        np.testing.assert_array_equal(
-            block.stamps_ns, [0, 100_000_000, 200_000_000]
-        )  # 3 samples at 10 Hz
+        # 3 samples at 10 Hz
+        np.testing.assert_array_equal(block.stamps_ns, [0, 100_000_000, 200_000_000])
 
 
 def test_an_output_topic_too_long_for_dds_is_a_scene_error(tmp_path):

@@ -13,9 +13,11 @@
 # limitations under the License.
 
 """
-A stranger's install: the wheel of this checkout into a clean virtual environment (no system
-packages) pulls every runtime dependency, and the documented console scripts and API work there.
-Versions come from requirements.lock; pip's cache makes this take under a minute.
+A stranger's install: the wheel of this checkout in a clean virtual environment.
+
+Installed into a clean virtual environment (no system packages), the wheel pulls every runtime
+dependency, and the documented console scripts and API work there. Versions come from
+requirements.lock; pip's cache makes this take under a minute.
 """
 
 from __future__ import annotations
@@ -102,14 +104,15 @@ def test_the_wheel_installs_into_a_clean_venv_with_every_runtime_dependency(tmp_
     )
     api = (
         "import torquefree_ros as t; s = t.load_scene('dzhanibekov'); "
-        'w, q = t.propagate(s.inertia, s.angular_velocity, s.orientation, [0.0, 1.0]); print(q.shape)'
+        'w, q = t.propagate(s.inertia, s.angular_velocity, s.orientation, [0.0, 1.0]); '
+        'print(q.shape)'
     )
     assert _run([bin_dir / 'python', '-c', api], cwd=tmp_path).stdout.strip() == '(2, 4)'
     # numba came with the plain install: the kernels are on, compiled in the installed package
     # (numba's cache beside it), and give what the numpy/scipy reference path gives
     kernels = (
-        'from torquefree_ros.core import attitude_kernels as k; from torquefree_ros.core.integrators import '
-        'compiled as c; print(k.ENABLED, c.ENABLED)'
+        'from torquefree_ros.core import attitude_kernels as k; '
+        'from torquefree_ros.core.integrators import compiled as c; print(k.ENABLED, c.ENABLED)'
     )
     assert _run([bin_dir / 'python', '-c', kernels], cwd=tmp_path).stdout.strip() == 'True True'
     reference = _run(
@@ -123,8 +126,8 @@ def test_the_wheel_installs_into_a_clean_venv_with_every_runtime_dependency(tmp_
         )
     # a scene with an effect, on both paths (explorer1: a damper, DOP853 at 1e-9)
     effects = (
-        "import torquefree_ros as t; p = t.load_scene('explorer1').propagator(); w, q = p([0.0, 10.0]); "
-        'print(p.compiled, *w[-1], *q[-1])'
+        "import torquefree_ros as t; p = t.load_scene('explorer1').propagator(); "
+        'w, q = p([0.0, 10.0]); print(p.compiled, *w[-1], *q[-1])'
     )
     fast = _run([bin_dir / 'python', '-c', effects], cwd=tmp_path).stdout.split()
     slow = _run(

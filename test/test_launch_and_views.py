@@ -13,8 +13,9 @@
 # limitations under the License.
 
 """
-The launch file, the RViz configuration and the Foxglove/Lichtblick layout, as far as they can
-be tested without ``launch``, ``launch_ros`` and RViz (none installable here).
+The launch file, the RViz configuration and the Foxglove/Lichtblick layout.
+
+Tested as far as they can be without ``launch``, ``launch_ros`` and RViz (none installable here).
 
 * The launch file compiles; read with ``ast``, the only parameters it gives the simulator node are
   ones the node declares, its launch arguments are the documented ones, the executable is one of
@@ -49,8 +50,7 @@ PACKAGE = 'torquefree_ros'
 LAUNCH_ARGUMENTS = {'scene', 'params_file', 'namespace', 'use_sim_time', 'record_bag', 'rviz'}
 
 
-# -- setup.py, read by running it with setuptools.setup replaced
-# ---------------------------------------
+# -- setup.py, read by running it with setuptools.setup replaced ----------------------------------
 @pytest.fixture(scope='module')
 def setup_arguments():
     import setuptools
@@ -67,7 +67,11 @@ def setup_arguments():
 
 
 def _installed(setup_arguments) -> dict[str, str]:
-    """source path (relative to the project) -> the directory setup.py installs it into"""
+    """
+    Map each source path to the directory setup.py installs it into.
+
+    Source paths are relative to the project.
+    """
     return {
         source: destination
         for destination, sources in setup_arguments['data_files']
@@ -89,8 +93,7 @@ def test_setup_installs_the_launch_file_and_both_views_under_share(setup_argumen
     assert installed['config/torquefree.yaml'] == f'share/{PACKAGE}/config'
 
 
-# -- the launch file, read with ast
-# ---------------------------------------------------------------------
+# -- the launch file, read with ast ---------------------------------------------------------------
 @pytest.fixture(scope='module')
 def launch_tree():
     source = LAUNCH_FILE.read_text()
@@ -201,14 +204,17 @@ def test_the_executable_is_a_console_script_and_the_named_files_exist_and_are_in
     assert LAUNCH_FILE.relative_to(ROOT).as_posix() in installed
 
 
-# -- the launch file, run against stand-ins for launch and launch_ros
-# -----------------------------------
+# -- the launch file, run against stand-ins for launch and launch_ros -----------------------------
 class _Recorded:
+    """Stand-in for a launch class: records the arguments it is given."""
+
     def __init__(self, *args, **kwargs):
         self.args, self.kwargs = args, kwargs
 
 
 class _LaunchConfiguration:
+    """Stand-in for LaunchConfiguration: ``perform`` gives the argument's value in the context."""
+
     def __init__(self, name):
         self.name = name
 
@@ -247,8 +253,9 @@ def _stand_ins(monkeypatch, share: Path):
 
 def _launch(monkeypatch, share: Path, **given):
     """
-    The actions the launch file starts for launch arguments ``given`` (defaults for the
-    rest).
+    Return the actions the launch file starts for launch arguments ``given``.
+
+    The launch arguments not given take their defaults.
     """
     _stand_ins(monkeypatch, share)
     module = runpy.run_path(str(LAUNCH_FILE))
@@ -263,7 +270,7 @@ def _launch(monkeypatch, share: Path, **given):
 
 @pytest.fixture
 def share(tmp_path):
-    """An installed share/torquefree_ros, as setup.py's data_files lay it out."""
+    """Build an installed share/torquefree_ros, as setup.py's data_files lay it out."""
     share = tmp_path / 'share' / PACKAGE
     for relative in ('config/torquefree.yaml', 'rviz/torquefree.rviz'):
         (share / relative).parent.mkdir(parents=True, exist_ok=True)
@@ -325,6 +332,8 @@ def test_a_launch_flag_that_is_not_true_or_false_is_refused_with_its_name(monkey
 
 def test_the_node_starts_from_what_the_launch_gives_it(monkeypatch, share, tmp_path):
     """
+    The node starts from what the launch file gives it.
+
     What ``ros2 launch`` would pass (--params-file, then -p overrides), given to the node in
     process.
     """
@@ -343,9 +352,8 @@ def test_the_node_starts_from_what_the_launch_gives_it(monkeypatch, share, tmp_p
         assert harness.get_parameter('scene') == 'dzhanibekov'
         assert harness.get_parameter('record_bag') == str(bag)
         assert harness.get_parameter('publish_clock') is True
-        assert (
-            harness.get_parameter('real_time_factor') == 1.0
-        )  # the shipped file's: /clock all the same
+        # the shipped file's: /clock all the same
+        assert harness.get_parameter('real_time_factor') == 1.0
         harness.wait_samples(5)
         stamps = set(harness.omega)
         harness.spin_until(
@@ -354,13 +362,14 @@ def test_the_node_starts_from_what_the_launch_gives_it(monkeypatch, share, tmp_p
     assert (bag / 'metadata.yaml').is_file()
 
 
-# -- the views
-# ---------------------------------------------------------------------------------------
+# -- the views ------------------------------------------------------------------------------------
 @pytest.fixture(scope='module')
 def published():
     """
-    Topics the node publishes (relative to its namespace, absolute ones as they are) under its
-    defaults and with every library scene naming an output, and the frames it names by default.
+    Return the topics the node publishes and the frames it names by default.
+
+    Topics relative to its namespace (absolute ones as they are), under its defaults and with every
+    library scene naming an output.
     """
     from sim_harness import connected_harness
     from torquefree_ros import load_scene
@@ -437,9 +446,8 @@ def test_the_foxglove_layout_names_only_what_the_node_publishes(published):
     three_d = next(config for name, config in panels.items() if name.startswith('3D!'))
     assert three_d['followTf'] == 'world'
     assert three_d['topics']['/markers']['visible'] is True
-    assert (
-        three_d['cameraState']['distance'] <= 5.0
-    )  # the 1 m body fills the view, not a speck at 20 m
+    # the 1 m body fills the view, not a speck at 20 m
+    assert three_d['cameraState']['distance'] <= 5.0
     plots = [config for name, config in panels.items() if name.startswith('Plot!')]
     plotted = [path['value'] for plot in plots for path in plot['paths']]
     script_output = '/studio_script/torquefree_invariants'
@@ -498,8 +506,10 @@ def test_the_layout_embeds_the_invariants_script_file():
 )
 def test_the_invariants_script_turns_the_nodes_diagnostics_into_numbers():
     """
-    The user script run (node.js, its type annotations stripped) on a /diagnostics message the
-    node published gives the very numbers the node wrote as text.
+    The invariants script turns the node's diagnostics into numbers.
+
+    The user script run (node.js, its type annotations stripped) on a /diagnostics message the node
+    published gives the very numbers the node wrote as text.
     """
     import subprocess
 

@@ -90,6 +90,7 @@ def test_every_source_file_carries_the_copyright_and_license_header():
     assert missing == [], f'without the copyright and license header: {missing}'
 
 
+@pytest.mark.linter
 def test_the_license_file_is_the_apache_2_0_text():
     text = (REPO / 'LICENSE').read_text(encoding='utf-8')
     assert 'Apache License' in text and 'Version 2.0, January 2004' in text

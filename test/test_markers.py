@@ -13,11 +13,12 @@
 # limitations under the License.
 
 """
-The ``markers`` output: the box's geometry is the uniform box of the body's principal moments on
-its principal axes; the arrows are w and H in the inertial frame, all three markers in every
-message (a viewer that seeks shows the latest message alone); the encoding decodes in rclpy and is
-rosbags' own byte for byte; bags (both independent readers) and the live node carry what the core
-computes.
+The ``markers`` output: the body's box and the arrows w and H.
+
+The box's geometry is the uniform box of the body's principal moments on its principal axes; the
+arrows are w and H in the inertial frame, all three markers in every message (a viewer that seeks
+shows the latest message alone); the encoding decodes in rclpy and is rosbags' own byte for byte;
+bags (both independent readers) and the live node carry what the core computes.
 """
 
 from __future__ import annotations
@@ -33,14 +34,8 @@ from torquefree_ros.core.scene import scene_from_mapping, SceneError
 from torquefree_ros.core.simulation import Simulation
 
 RATE = 50.0
-GENERIC_TENSOR = [
-    4.0,
-    3.0,
-    2.5,
-    0.3,
-    -0.2,
-    0.4,
-]  # Ixx, Iyy, Izz, Ixy, Ixz, Iyz: principal axes tilted
+# Ixx, Iyy, Izz, Ixy, Ixz, Iyz: principal axes tilted
+GENERIC_TENSOR = [4.0, 3.0, 2.5, 0.3, -0.2, 0.4]
 ORIENTATION = [0.1, -0.3, 0.2, math.sqrt(0.86)]
 
 
@@ -56,7 +51,11 @@ def _simulation(body, angular_velocity, *effects, rate=RATE):
 
 
 def _box_inertia_N(row):
-    """The inertia tensor (per unit mass, inertial frame) of the uniform box a marker row draws."""
+    """
+    Return the inertia tensor of the uniform box a marker row draws.
+
+    Per unit mass, in the inertial frame.
+    """
     a2, b2, c2 = row[4:7] ** 2
     box = np.diag([b2 + c2, a2 + c2, a2 + b2]) / 12.0
     R = quaternion.to_matrix(row[0:4])
@@ -102,9 +101,8 @@ def test_the_arrows_are_w_and_h_in_the_inertial_frame_with_the_default_scales():
     w0, h0 = np.linalg.norm(block.omega_B[0]), np.linalg.norm(h_N[0])
     np.testing.assert_allclose(rows[:, 7:10], w_N * (2.0 / w0), rtol=0, atol=1e-14)
     np.testing.assert_allclose(rows[:, 10:13], h_N * (2.5 / h0), rtol=0, atol=1e-14)
-    assert np.linalg.norm(rows[0, 7:10]) == pytest.approx(
-        2.0, rel=1e-15
-    )  # the initial w: `size` long
+    # the initial w: `size` long
+    assert np.linalg.norm(rows[0, 7:10]) == pytest.approx(2.0, rel=1e-15)
     # torque-free: the H arrow stands still while the w arrow wanders round it
     np.testing.assert_allclose(
         rows[:, 10:13], np.broadcast_to(rows[0, 10:13], (500, 3)), rtol=0, atol=1e-13
@@ -336,8 +334,10 @@ def test_a_bag_carries_markers_as_the_core_computes_them_in_both_independent_rea
 @pytest.mark.parametrize('seed', [3, 31])
 def test_one_marker_array_at_a_random_sample_of_a_bag_is_the_whole_picture(tmp_path, seed):
     """
-    What a viewer does after a seek: show the latest MarkerArray alone. Read just that one
-    message (the mcap reader, by log time) and find every marker, each where the core puts it.
+    One MarkerArray at a random sample of a bag is the whole picture.
+
+    What a viewer does after a seek: show the latest MarkerArray alone. Read just that one message
+    (the mcap reader, by log time) and find every marker, each where the core puts it.
     """
     from mcap.reader import make_reader
     from mcap_ros2.decoder import DecoderFactory

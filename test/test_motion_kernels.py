@@ -13,9 +13,11 @@
 # limitations under the License.
 
 """
-The compiled equations of motion and integrators (core/integrators) held to the reference path
-(Dynamics.derivative in Python, scipy's DOP853, numpy's RK4 stages) and to closed forms. The
-effects' physics is checked against independent references in test_effects.py, on both paths.
+The compiled equations of motion and integrators (core/integrators).
+
+Held to the reference path (Dynamics.derivative in Python, scipy's DOP853, numpy's RK4 stages) and
+to closed forms. The effects' physics is checked against independent references in test_effects.py,
+on both paths.
 """
 
 import math
@@ -65,17 +67,17 @@ def _dynamics(entries, inertia=(4.0, 3.0, 2.0, 0.1, -0.2, 0.05)):
         parse_effect(entry, f'effects[{i}]').bound(body.tensor) for i, entry in enumerate(entries)
     ]
     for effect in effects:
-        if (
-            getattr(effect, 'hold', None) is not None
-        ):  # a command in force from the start, so the torque is not zero
+        if getattr(effect, 'hold', None) is not None:
+            # a command in force from the start, so the torque is not zero
             effect.hold.receive(0, [0.01, -0.02, 0.005], frame_id='')
     return Dynamics(body, effects)
 
 
 def test_every_motion_effect_has_a_compiled_form():
     """
-    A kernel code the kernels read, with as many parameters as its section reads, or a held
-    torque.
+    Every motion effect has a compiled form.
+
+    A kernel code the kernels read, with as many parameters as its section reads, or a held torque.
     """
     motion = [cls for cls in EFFECTS.values() if issubclass(cls, MotionEffect)]
     assert {cls.name for cls in motion} == {next(iter(e)) for e in EFFECT_ENTRIES.values()}
@@ -101,8 +103,9 @@ def _random_states(rng, count, state_size):
 @pytest.mark.parametrize('label', [*EFFECT_ENTRIES, 'all at once'])
 def test_the_compiled_right_hand_side_equals_the_python_one_on_random_states(label):
     """
-    Same formulas, other order of a few sums: within 16 eps of the largest term, per
-    component.
+    The compiled right-hand side equals the Python one on random states, to rounding.
+
+    Same formulas, other order of a few sums: within 16 eps of the largest term, per component.
     """
     entries = list(EFFECT_ENTRIES.values()) if label == 'all at once' else [EFFECT_ENTRIES[label]]
     dynamics = _dynamics(entries)
@@ -162,9 +165,10 @@ def test_the_compiled_right_hand_side_holds_for_any_body_and_parameters(
 
 def test_the_stage_sums_leave_out_only_the_tableau_s_zeros():
     """
-    The compiled stage sums skip the coefficients that are zero in scipy's tableau, each stage's
-    sum unrolled in the order of j: on random stages they equal the whole sum in that order bit for
-    bit.
+    The compiled stage sums leave out only the coefficients that are zero in scipy's tableau.
+
+    Each stage's sum is unrolled in the order of j: on random stages the sums equal the whole sum
+    in that order bit for bit.
     """
     motion_kernels.compile_kernels()
     rng = np.random.default_rng(27)
@@ -195,9 +199,10 @@ def test_the_stage_sums_leave_out_only_the_tableau_s_zeros():
 
 def test_the_kernels_are_compiled_without_numba_s_runtime():
     """
-    No kernel allocates. With numba's runtime, each array handed to an inlined helper or sliced
-    was an atomic increment and decrement, two calls that spill the registers: 2.5 times the time
-    of a step.
+    The kernels are compiled without numba's runtime: no kernel allocates.
+
+    With numba's runtime, each array handed to an inlined helper or sliced was an atomic increment
+    and decrement, two calls that spill the registers: 2.5 times the time of a step.
     """
     motion_kernels.compile_kernels()
     kernels = [
@@ -216,6 +221,8 @@ SCENES_WITH_EFFECTS = ['explorer1', 'gyrostat', 'gravity_gradient']
 @pytest.mark.parametrize('name', SCENES_WITH_EFFECTS)
 def test_compiled_dop853_follows_scipy_dop853_at_the_same_tolerances(name, monkeypatch):
     """
+    The compiled DOP853 follows scipy's DOP853 at the same tolerances.
+
     Both paths at the scene's accuracy take the same steps (but for rounding in a few sums), so
     their errors against a tight reference agree to 1 % and they differ by far less than either's
     error: rtol and atol mean what they mean in scipy.
@@ -274,8 +281,9 @@ def test_compiled_fixed_step_methods_repeat_the_reference_steps(method, label, m
 @pytest.mark.parametrize('method', ['dop853', 'rk4', 'lie_rk4'])
 def test_samples_do_not_depend_on_how_the_times_are_asked(method):
     """
-    All at once, in blocks, one by one, or going back (a restart): the same samples bit for
-    bit.
+    Samples do not depend on how the times are asked for.
+
+    All at once, in blocks, one by one, or going back (a restart): the same samples bit for bit.
     """
     s = load_scene('explorer1')
     options = {'step': 0.01} if method != 'dop853' else {}
@@ -315,6 +323,8 @@ def test_a_sphere_under_a_constant_body_torque_spins_up_in_closed_form():
 
 def test_gravity_gradient_pitch_follows_the_pendulum_in_closed_form():
     """
+    A gravity-gradient pitch motion follows the pendulum's closed form.
+
     A planar pitch motion: the angle a between body x and the local vertical obeys
     C a'' = -3 n^2 (B - A) sin a cos a, a pendulum in 2a: sin a = sin a0 sn(K - w t | sin^2 a0),
     w = n sqrt(3 (B - A) / C), at finite amplitude (not the small-angle frequency).

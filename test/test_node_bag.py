@@ -13,9 +13,10 @@
 # limitations under the License.
 
 """
-The node's own recording (``record_bag``): what it publishes, byte for byte, closed cleanly on
-shutdown and signals, bounded loss on SIGKILL. Checked against the offline bag and independent
-readers.
+The node's own recording (``record_bag``): what it publishes, byte for byte.
+
+Closed cleanly on shutdown and signals, bounded loss on SIGKILL. Checked against the offline bag
+and independent readers.
 """
 
 from __future__ import annotations
@@ -46,9 +47,8 @@ def _payloads(bag: Path, suffix: str) -> list:
 
 def test_the_node_records_what_it_publishes_across_a_reset(tmp_path):
     bag = tmp_path / 'node_bag'
-    h = SimHarness(
-        record_bag=str(bag), real_time_factor=20.0, publish_rate=100.0
-    )  # paced: ~2000 samples/s
+    # paced: ~2000 samples/s
+    h = SimHarness(record_bag=str(bag), real_time_factor=20.0, publish_rate=100.0)
     try:
         h.wait_samples(300)
         assert h.reset().success
@@ -179,8 +179,10 @@ def test_a_signal_closes_the_bag_cleanly(signum, tmp_path):
 
 def test_sigkill_loses_at_most_the_open_chunk(tmp_path):
     """
-    Chunks are written out at least once a second; stamps are wall-clock at real_time_factor 1,
-    so the last readable stamp tells how much was lost.
+    SIGKILL loses at most the open chunk.
+
+    Chunks are written out at least once a second; stamps are wall-clock at real_time_factor 1, so
+    the last readable stamp tells how much was lost.
     """
     bag = tmp_path / 'killed'
     process = _start_recording_node(bag)
@@ -195,9 +197,8 @@ def test_sigkill_loses_at_most_the_open_chunk(tmp_path):
     assert len(stamps) >= 200  # at least one second of samples survived
     assert np.all(np.diff(stamps) == 5_000_000)  # a gap-free prefix from sample 0
     lost_seconds = (killed_at - stamps[-1]) / 1e9
-    assert lost_seconds <= 1.0 + 0.5, (
-        lost_seconds
-    )  # the chunk bound plus slack for a loaded machine
+    # the chunk bound plus slack for a loaded machine
+    assert lost_seconds <= 1.0 + 0.5, lost_seconds
     # torquefree_bag --reindex makes it a complete bag that independent readers open
     assert bag_main(['--reindex', str(bag)]) == 0
     messages, _ = read_with_rosbags(bag)

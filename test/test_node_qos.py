@@ -13,8 +13,9 @@
 # limitations under the License.
 
 """
-The node's QoS: what it offers and requests, and the warning it logs when a peer's QoS cannot
-match (read from /rosout, where every node's log goes, as any participant would see it).
+The node's QoS: what it offers and requests, and its warning when a peer's cannot match.
+
+The warning is read from /rosout, where every node's log goes, as any participant would see it.
 """
 
 from __future__ import annotations
@@ -109,6 +110,8 @@ def test_a_subscriber_asking_for_more_than_the_node_offers_gets_a_warning_naming
 
 def test_a_publisher_offering_less_than_a_subscription_requests_gets_a_warning():
     """
+    A publisher offering less than a subscription requests gets a warning.
+
     The subscriptions' side of the same callbacks. The node's own command input requests best
     effort, volatile, no deadline: every publisher matches it, so a reliable subscription shows the
     warning.
@@ -138,6 +141,7 @@ def test_a_publisher_offering_less_than_a_subscription_requests_gets_a_warning()
             lambda: _warnings_of(logs, client.get_logger().name), what='the warning on /rosout'
         )
         assert _warnings_of(logs, client.get_logger().name) == [
-            f'{topic}: a publisher offers QoS this node does not accept (last policy in conflict: reliability; '
-            'requested: reliable, volatile, keep-last 5), so none of its messages arrive (incompatible publishers so far: 1)'
+            f'{topic}: a publisher offers QoS this node does not accept '
+            '(last policy in conflict: reliability; requested: reliable, volatile, keep-last 5), '
+            'so none of its messages arrive (incompatible publishers so far: 1)'
         ]

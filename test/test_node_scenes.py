@@ -13,8 +13,10 @@
 # limitations under the License.
 
 """
-Scenes in the node: outputs publish only while a scene names them, their samples are the core's,
-effects switch the propagator, and a bad scene file changes nothing.
+Scenes in the node.
+
+Outputs publish only while a scene names them, their samples are the core's, effects switch the
+propagator, and a bad scene file changes nothing.
 """
 
 from __future__ import annotations

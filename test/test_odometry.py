@@ -13,11 +13,13 @@
 # limitations under the License.
 
 """
-The ``odometry`` output (nav_msgs/Odometry): the core's rows, the encoding (rclpy's own
-serializer decodes it, rosbags re-encodes it byte for byte), the bag (both independent readers, the
-schema text rosbag2 writes) and the node in process. Everywhere the pose is ``q_NB`` and the
-twist's angular part the body rates bit for bit as the ``attitude`` and ``angular_velocity`` of the
-same sample carry them; position and linear velocity zero, both covariances zero (exact values).
+The ``odometry`` output (nav_msgs/Odometry): the core's rows, the encoding, bags, the node.
+
+The encoding: rclpy's own serializer decodes it, rosbags re-encodes it byte for byte. The bag: both
+independent readers, the schema text rosbag2 writes. The node: in process. Everywhere the pose is
+``q_NB`` and the twist's angular part the body rates bit for bit as the ``attitude`` and
+``angular_velocity`` of the same sample carry them; position and linear velocity zero, both
+covariances zero (exact values).
 """
 
 from __future__ import annotations
@@ -53,18 +55,15 @@ def _simulation(scene=SCENE, rate=RATE, epoch=0):
     return Simulation(scene.propagator(), rate, epoch, outputs=scene.outputs)
 
 
-# -- core
-# --------------------------------------------------------------------------------------------
+# -- core -----------------------------------------------------------------------------------------
 def test_rows_are_the_samples_attitude_and_rates_bit_for_bit():
     block = _simulation().samples(0, 300)
     (rows,) = block.outputs
     assert rows.shape == (300, ODOMETRY_ROW)
-    np.testing.assert_array_equal(
-        rows[:, 3:7], block.q_NB
-    )  # pose.orientation: q_NB, the same floats
-    np.testing.assert_array_equal(
-        rows[:, 10:13], block.omega_B
-    )  # twist.angular: w, body (child) frame
+    # pose.orientation: q_NB, the same floats
+    np.testing.assert_array_equal(rows[:, 3:7], block.q_NB)
+    # twist.angular: w, body (child) frame
+    np.testing.assert_array_equal(rows[:, 10:13], block.omega_B)
     np.testing.assert_array_equal(rows[:, 0:3], 0.0)  # position
     np.testing.assert_array_equal(rows[:, 7:10], 0.0)  # linear velocity
 
@@ -95,8 +94,7 @@ def test_parameters_are_checked_with_the_field_path(parameters, reason):
         _simulation({**SCENE, 'effects': [{'odometry': parameters}]}).samples(0, 1)
 
 
-# -- the encoding
-# ------------------------------------------------------------------------------------
+# -- the encoding ---------------------------------------------------------------------------------
 stamps = st.lists(st.integers(0, 2**31 * 10**9 - 1), min_size=1, max_size=8)
 frame_ids = st.text(
     alphabet=st.characters(blacklist_characters='\x00', blacklist_categories=('Cs',)), max_size=12
@@ -188,8 +186,7 @@ def test_schema_text_is_rosbag2s_layout():
     )
 
 
-# -- bags
-# --------------------------------------------------------------------------------------------
+# -- bags -----------------------------------------------------------------------------------------
 def _vector(v):
     return [v.x, v.y, v.z]
 
@@ -282,8 +279,7 @@ def test_a_bag_carries_odometry_equal_to_its_attitude_and_rates_in_both_independ
         assert m.child_frame_id == 'base_link'
 
 
-# -- the node
-# ----------------------------------------------------------------------------------------
+# -- the node -------------------------------------------------------------------------------------
 def test_the_node_publishes_odometry_equal_to_its_attitude_and_rates(tmp_path):
     from nav_msgs.msg import Odometry
     from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy

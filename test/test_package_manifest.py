@@ -13,9 +13,11 @@
 # limitations under the License.
 
 """
-package.xml names every dependency that requirements*.txt installs: by its rosdep key where one
-exists (checked by hand against ros/rosdistro's rosdep/python.yaml and base.yaml, 2026-08), in a
-comment where none does, so that a ROS user's rosdep install and a pip user's install agree.
+Every dependency that requirements*.txt installs is named in package.xml.
+
+By its rosdep key where one exists (checked by hand against ros/rosdistro's rosdep/python.yaml and
+base.yaml, 2026-08), in a comment where none does, so that a ROS user's rosdep install and a pip
+user's install agree.
 """
 
 from __future__ import annotations
@@ -35,10 +37,8 @@ KEYS = {
     'numpy': ('python3-numpy', RUNTIME),
     'scipy': ('python3-scipy', RUNTIME),
     'pyyaml': ('python3-yaml', RUNTIME),
-    'mcap': (
-        'mcap-ros2-support',
-        RUNTIME,
-    ),  # the pip key that installs mcap with its ROS 2 support
+    # the pip key that installs mcap with its ROS 2 support
+    'mcap': ('mcap-ros2-support', RUNTIME),
     'numba': ('python3-numba', RUNTIME),
     'pyarrow': None,
     'dask': None,

@@ -13,10 +13,11 @@
 # limitations under the License.
 
 """
-Pause and resume through the node (``~/pause``, std_srvs/SetBool), in process: no sample while
-paused, the resumed samples are those of a run never paused (same indices, the exact values),
-/clock held, a pause in lock-step, a pause while recording (the bag shows the gap in time and
-nothing else), a reset while paused, and what /diagnostics and the answers say.
+Pause and resume through the node (``~/pause``, std_srvs/SetBool), in process.
+
+No sample while paused, the resumed samples are those of a run never paused (same indices, the
+exact values), /clock held, a pause in lock-step, a pause while recording (the bag shows the gap in
+time and nothing else), a reset while paused, and what /diagnostics and the answers say.
 
 "Nothing arrives while paused" can only be shown by waiting: each such test spins the executor for
 PAUSED_SPIN wall seconds (bounded; the node's own counters say nothing went out, the received
@@ -105,8 +106,7 @@ def our_diagnostics(harness, key: str, value: str):
     return None
 
 
-# -- a clock of our own: the clock holds, stamps continue without a gap
-# -----------------------------
+# -- a clock of our own: the clock holds, stamps continue without a gap ---------------------------
 
 
 @pytest.mark.parametrize('factor', [0.0, 2.0], ids=['as_fast_as_possible', 'twice_real_time'])
@@ -202,13 +202,11 @@ def test_nothing_goes_out_while_paused_the_clock_holds_and_the_run_continues(fac
         assert np.all(np.diff(clock) >= 0)
         changes = np.concatenate([[True], np.diff(clock) != 0])
         np.testing.assert_array_equal(clock[changes], stamps)
-        assert (
-            np.count_nonzero(clock == held) >= 2
-        )  # the sample's own clock message and at least one held
+        # the sample's own clock message and at least one held
+        assert np.count_nonzero(clock == held) >= 2
 
 
-# -- wall-clock stamps: the epoch moves on by the time paused
-# -----------------------------------------
+# -- wall-clock stamps: the epoch moves on by the time paused -------------------------------------
 
 
 def test_wall_clock_stamps_move_on_by_the_time_paused_and_the_values_are_the_unpaused_run(
@@ -228,9 +226,8 @@ def test_wall_clock_stamps_move_on_by_the_time_paused_and_the_values_are_the_unp
         held = epoch + (k - 1) * PERIOD
         assert loop.last.stamp_ns == held
         spin_for(harness, PAUSED_SPIN)
-        assert (
-            loop.last.stamp_ns == held and max(harness.omega) == held
-        )  # nothing went out, nothing arrived
+        # nothing went out, nothing arrived
+        assert loop.last.stamp_ns == held and max(harness.omega) == held
         # /clock held at the last stamp: again and again after the last sample's own message
         harness.spin_until(lambda: harness.clock.count(held) >= 2, what='the held clock')
         assert max(harness.clock) == held
@@ -273,8 +270,7 @@ def test_wall_clock_stamps_move_on_by_the_time_paused_and_the_values_are_the_unp
         )
 
 
-# -- lock-step
-# ------------------------------------------------------------------------------------------
+# -- lock-step ------------------------------------------------------------------------------------
 
 
 def test_a_pause_in_lockstep_holds_the_loop_and_the_run_is_bit_for_bit_the_unpaused_one(tmp_path):
@@ -300,15 +296,13 @@ def test_a_pause_in_lockstep_holds_the_loop_and_the_run_is_bit_for_bit_the_unpau
         assert response.success, response.message
         epoch = reset_epoch_ns(response)
         harness.wait_samples(20, after=epoch - 1)
-        response = call_pause(
-            harness, client, True
-        )  # the loop is waiting for the controller, or computing
+        # the loop is waiting for the controller, or computing
+        response = call_pause(harness, client, True)
         k = paused_at(response)
         held = epoch + (k - 1) * period
         assert loop.last.index == k - 1 and '/clock holds at' in response.message
-        spin_for(
-            harness, PAUSED_SPIN
-        )  # the controller's answer to k - 1 arrives: still nothing goes out
+        # the controller's answer to k - 1 arrives: still nothing goes out
+        spin_for(harness, PAUSED_SPIN)
         assert loop.last.index == k - 1 and max(harness.omega) == held
         harness.spin_until(lambda: harness.clock.count(held) >= 2, what='the held clock')
         assert max(harness.clock) == held
@@ -330,6 +324,8 @@ def test_a_pause_in_lockstep_holds_the_loop_and_the_run_is_bit_for_bit_the_unpau
 
 def test_a_pause_in_a_wall_clock_closed_loop_moves_the_command_hold_with_the_stamps(tmp_path):
     """
+    A pause in a wall-clock closed loop moves the command hold with the stamps.
+
     Paused longer than the command timeout: the command in force still holds on resuming (the
     timeout counts simulated time, which stood still), and the controller's answers to the shifted
     samples are taken.
@@ -350,9 +346,8 @@ def test_a_pause_in_a_wall_clock_closed_loop_moves_the_command_hold_with_the_sta
         shift = shift_ns(call_pause(harness, client, False))
         assert shift >= 0.6e9
         assert hold.epoch_ns == loop.simulation.epoch_ns
-        assert hold.in_force(k) is not None and not hold.timed_out(
-            k
-        )  # 0.6 s paused, yet not timed out
+        # 0.6 s paused, yet not timed out
+        assert hold.in_force(k) is not None and not hold.timed_out(k)
         harness.spin_until(
             lambda: hold.accepted >= accepted + 5, what='answers to the resumed samples'
         )
@@ -366,8 +361,7 @@ def test_a_pause_in_a_wall_clock_closed_loop_moves_the_command_hold_with_the_sta
         assert remainder == 0 and command.start - answered in (0, 1)
 
 
-# -- recording
-# -------------------------------------------------------------------------------------------
+# -- recording ------------------------------------------------------------------------------------
 
 
 @pytest.mark.parametrize('factor', [1.0, 2.0], ids=['wall_clock', 'own_clock'])
@@ -394,9 +388,8 @@ def test_a_pause_while_recording_shows_in_the_bag_as_the_gap_in_time_and_nothing
     clock = {'/clock'} if factor != 1.0 else set()
     assert set(messages) == {f'{namespace}/angular_velocity', f'{namespace}/attitude'} | clock
     omega, attitude = messages[f'{namespace}/angular_velocity'], messages[f'{namespace}/attitude']
-    assert (
-        len(omega) == len(attitude) == published
-    )  # every sample once: nothing while paused, nothing twice
+    # every sample once: nothing while paused, nothing twice
+    assert len(omega) == len(attitude) == published
     log = np.array([log for log, _ in omega])
     stamps = np.array([stamp_ns(m.header.stamp) for _, m in omega])
     np.testing.assert_array_equal(stamps, log)
@@ -418,8 +411,7 @@ def test_a_pause_while_recording_shows_in_the_bag_as_the_gap_in_time_and_nothing
         assert shift >= PAUSED_SPIN * 1e9
 
 
-# -- a reset while paused
-# ---------------------------------------------------------------------------------
+# -- a reset while paused -------------------------------------------------------------------------
 
 
 @pytest.mark.parametrize('factor', [2.0, 1.0], ids=['own_clock', 'wall_clock'])

@@ -13,9 +13,11 @@
 # limitations under the License.
 
 """
-The plant (torquefree_ros.Plant): stepped in process, it follows the node's command rules bit
-for bit (the same hold, the same integrator), a batch body is bit for bit the body alone, a
-rate-damping loop meets its sampled-data closed form, and a refused torque changes nothing.
+The plant (torquefree_ros.Plant), stepped in process.
+
+It follows the node's command rules bit for bit (the same hold, the same integrator), a batch body
+is bit for bit the body alone, a rate-damping loop meets its sampled-data closed form, and a
+refused torque changes nothing.
 """
 
 import numpy as np
@@ -46,17 +48,17 @@ def _plant_scene(
 def _commands(count, seed=0):
     rng = np.random.default_rng(seed)
     torques = 0.1 * rng.standard_normal((count, 3))
-    torques[5:9] = (
-        np.nan
-    )  # no new command for a while: the last one holds until its timeout, then zero
+    # no new command for a while: the last one holds until its timeout, then zero
+    torques[5:9] = np.nan
     return torques
 
 
 def _assert_steps_as_the_node(scene, count):
     """
-    The node's path without DDS: each command offered to the run's hold at its sample, the
-    interval sealed, the sample computed by the Simulation; the plant gives the same samples, bit
-    for bit.
+    Assert that the plant steps as the node does, bit for bit.
+
+    The node's path without DDS: each command offered to the run's hold at its sample, the interval
+    sealed, the sample computed by the Simulation; the plant gives the same samples, bit for bit.
     """
     simulation = Simulation(scene.propagator(), RATE)
     ((_, hold),) = simulation.command_holds
@@ -113,6 +115,8 @@ def test_a_batch_body_is_bit_for_bit_the_body_alone():
 
 def test_a_rate_damping_loop_on_a_sphere_meets_its_sampled_data_closed_form():
     """
+    A rate-damping loop on a sphere meets its sampled-data closed form.
+
     tau_k = -K w_k held over each period h: w' = tau / J is constant on the interval, so
     w_k+1 = (1 - K h / J) w_k exactly (DOP853 integrates a linear w to rounding), the continuous
     w0 exp(-K t / J) in the limit h -> 0.
@@ -190,8 +194,10 @@ def test_reset_starts_again_from_sample_0():
 
 def _schedule_scene(frame='inertial', shift=0.0, commanded=False, starts=(0.35, 1.0, 1.7)):
     """
-    A damper body under a torque schedule (its switches between samples and on one, shift moves
-    them), with a torque_command too when ``commanded``.
+    Build a damper body under a torque schedule.
+
+    Its switches fall between samples and on one (``shift`` moves them); with a torque_command too
+    when ``commanded``.
     """
     schedule = [{'start': 0.0, 'torque': [0.01, 0.0, -0.02]}]
     schedule += [
@@ -217,9 +223,8 @@ def _schedule_scene(frame='inertial', shift=0.0, commanded=False, starts=(0.35, 
 @pytest.mark.parametrize('frame', ['inertial', 'body'])
 def test_a_torque_schedule_runs_bit_for_bit_as_the_scene_propagator(frame):
     scene = _schedule_scene(frame)
-    run = Plant(scene, RATE).run(
-        2.5
-    )  # the switches at 0.35 and 1.7 fall between samples, 1.0 on one
+    # the switches at 0.35 and 1.7 fall between samples, 1.0 on one
+    run = Plant(scene, RATE).run(2.5)
     omega, q, x = scene.propagator().states(np.arange(1, 26) / RATE)
     np.testing.assert_array_equal(run.omega_B, omega)
     np.testing.assert_array_equal(run.q_NB, q)

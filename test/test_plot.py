@@ -13,8 +13,9 @@
 # limitations under the License.
 
 """
-torquefree_plot: three PNG files for a scene, an energy sweep or a bag; clear errors
-otherwise.
+The torquefree_plot command: three PNG files for a scene, an energy sweep or a bag.
+
+Anything else gets a clear error.
 """
 
 import sys
@@ -33,8 +34,9 @@ KINDS = ('rates', 'polhode', 'phase')
 @pytest.fixture
 def drawn(monkeypatch):
     """
-    What each saved figure draws, by file name, read just before it is written: per axes, the
-    (x, y) or (x, y, z) data of its lines; and the figure's size in pixels.
+    Record what each saved figure draws, by file name, just before it is written.
+
+    Per axes, the (x, y) or (x, y, z) data of its lines; and the figure's size in pixels.
     """
     from torquefree_ros import plot
 
@@ -61,10 +63,12 @@ def drawn(monkeypatch):
 
 def assert_pngs(directory, name, drawn, one_run=True):
     """
-    Each PNG reads back as an image of its figure's size, not blank (an empty figure is all
-    white; axes, ticks and text alone cover ~2 %). One run draws its lines in matplotlib's first
-    colour (tab:blue): they cover >= 2e-4 of the pixels of each picture (measured 4e-4 to 5e-3 with
-    the lines, 0 to 9e-5 without them: only a legend's swatch then).
+    Assert that each PNG reads back as a picture of its figure, not blank.
+
+    Each PNG reads back as an image of its figure's size, not blank (an empty figure is all white;
+    axes, ticks and text alone cover ~2 %). One run draws its lines in matplotlib's first colour
+    (tab:blue): they cover >= 2e-4 of the pixels of each picture (measured 4e-4 to 5e-3 with the
+    lines, 0 to 9e-5 without them: only a legend's swatch then).
     """
     from matplotlib.image import imread
 
@@ -75,17 +79,17 @@ def assert_pngs(directory, name, drawn, one_run=True):
         assert coloured > 0.01, (kind, coloured)
         if one_run:
             tab_blue = np.array([0x1F, 0x77, 0xB4]) / 255
-            share = (
-                np.abs(image - tab_blue).max(axis=-1) < 0.06
-            ).mean()  # 0.06: antialiased edges excluded
+            # 0.06: antialiased edges excluded
+            share = (np.abs(image - tab_blue).max(axis=-1) < 0.06).mean()
             assert share >= 2e-4, (kind, share)
 
 
 def assert_draws_the_run(drawn, name, body, times, omega):
     """
-    One run: the rates are its three w_i(t); the polhode its H in principal axes, on the sphere
-    |H| = |H0| (the exact solution conserves it to rounding: 1e-12); the phase planes its
-    w_i(t).
+    Assert that the figures draw one run's rates, polhode and phase planes.
+
+    The rates are its three w_i(t); the polhode its H in principal axes, on the sphere |H| = |H0|
+    (the exact solution conserves it to rounding: 1e-12); the phase planes its w_i(t).
     """
     (rates,) = drawn[f'{name}_rates.png'][0]  # one axes
     assert len(rates) == 3
@@ -125,12 +129,8 @@ def test_plots_of_a_library_scene_and_an_energy_sweep(tmp_path, capsys, drawn):
     members = runs_from_scene(load_scene('energy_sweep'), 10.0, 20.0)
     assert len(members) == 9
     rates = drawn['energy_sweep_rates.png'][0]
-    assert [len(lines) for lines in rates] == [
-        9,
-        9,
-        9,
-        0,
-    ]  # w1, w2, w3: a line per member; the colour bar
+    # w1, w2, w3: a line per member; the colour bar
+    assert [len(lines) for lines in rates] == [9, 9, 9, 0]
     for i, lines in enumerate(rates[:3]):
         for (_, w), (_, _, omega) in zip(lines, members):
             np.testing.assert_array_equal(w, omega[:, i])
@@ -175,9 +175,8 @@ def test_a_scene_is_plotted_for_as_long_as_it_says_it_must_be_watched():
         .propagator()
         .body.classify(load_scene('dzhanibekov').angular_velocity)
     )
-    assert times[-1] == pytest.approx(
-        2 * period.polhode_period, abs=0.1
-    )  # no watch: two polhode periods
+    # no watch: two polhode periods
+    assert times[-1] == pytest.approx(2 * period.polhode_period, abs=0.1)
 
 
 def test_plot_errors_are_named(tmp_path, capsys, monkeypatch):

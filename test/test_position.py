@@ -13,10 +13,11 @@
 # limitations under the License.
 
 """
-The ``position`` parameter (``torquefree_bag --position``): several bodies side by side in one
-view. /tf's translation, pose's and odometry's position and the markers' place (the box, both
-arrows' start and end) move by it; nothing else in any message changes; the origin gives the bytes
-of no position.
+The ``position`` parameter (``torquefree_bag --position``): bodies side by side in one view.
+
+/tf's translation, pose's and odometry's position and the markers' place (the box, both arrows'
+start and end) move by it; nothing else in any message changes; the origin gives the bytes of no
+position.
 """
 
 from __future__ import annotations
@@ -56,9 +57,8 @@ def test_an_output_at_a_rate_of_its_own_before_pose_leaves_it_at_the_origin():
     pose = encode_block(block, 'body', 'world', simulation.outputs)[-1]
     assert pose.topic == 'pose'
     for message in pose.messages:
-        assert message[4 + 24: 4 + 24 + 24] == bytes(
-            24
-        )  # position: after the header (stamp, "world"), zero
+        # position: after the header (stamp, "world"), zero
+        assert message[4 + 24: 4 + 24 + 24] == bytes(24)
 
 
 @pytest.mark.parametrize('count', [1, 40])  # one sample (a closed loop's) is packed differently

@@ -13,8 +13,9 @@
 # limitations under the License.
 
 """
-The same checks over every registered propagator (after scipy's test_ivp), plus what is specific
-to each: convergence order, geometric |q| = 1, exactness of the analytic one.
+The same checks over every registered propagator (after scipy's test_ivp).
+
+Plus what is specific to each: convergence order, geometric |q| = 1, exactness of the analytic one.
 """
 
 import ast
@@ -238,16 +239,17 @@ def test_fixed_step_methods_converge_at_fourth_order(name):
 @pytest.mark.parametrize('name', ['rk4', 'lie_rk4'])
 def test_outputs_on_the_grid_take_no_partial_step(name, integrator_path):
     """
-    100 Hz outputs on a 1 ms grid: k * 0.01 differs from (10 k) * 0.001 by rounding, and must
-    not cost a partial step. 1 s of outputs is exactly 1000 steps of 4 evaluations each (compiled:
-    1000 whole grid steps, and no step outside them).
+    Outputs on the step grid take no partial step.
+
+    100 Hz outputs on a 1 ms grid: k * 0.01 differs from (10 k) * 0.001 by rounding, and must not
+    cost a partial step. 1 s of outputs is exactly 1000 steps of 4 evaluations each (compiled: 1000
+    whole grid steps, and no step outside them).
     """
     p = make_propagator(INERTIA, OMEGA, Q0, name, step=1e-3)
     calls = []
     if integrator_path == 'compiled':
-        advance = (
-            p._kernel._advance
-        )  # the split and partial steps; whole grid steps run in the kernel
+        # the split and partial steps; whole grid steps run in the kernel
+        advance = p._kernel._advance
         p._kernel._advance = lambda *args: calls.append(1) or advance(*args)
         omega, q = p(np.arange(101) * 0.01)
         assert calls == [] and p._grid_index == 1000
@@ -301,7 +303,11 @@ def test_core_imports_no_ros_module():
             )
             for name in names:
                 assert not name.startswith(ros), f'{path.name} imports {name}'
-    code = "import sys, torquefree_ros; torquefree_ros.propagate([1,2,3],[0,1,0],[0,0,0,1],[1.0]); print(sorted(m for m in sys.modules if m.startswith('rclpy')))"
+    code = (
+        'import sys, torquefree_ros; '
+        'torquefree_ros.propagate([1,2,3],[0,1,0],[0,0,0,1],[1.0]); '
+        "print(sorted(m for m in sys.modules if m.startswith('rclpy')))"
+    )
     out = subprocess.run(
         [sys.executable, '-c', code],
         capture_output=True,

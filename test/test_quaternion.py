@@ -86,8 +86,10 @@ def test_angle_between_ignores_sign_and_is_exact_for_tiny_angles(q):
 @given(unit, unit, vector, vector)
 def test_the_single_float_path_agrees_with_the_batched_one(p, q, v, u):
     """
-    One quaternion or vector takes plain float arithmetic (the integrators' stages); a batch
-    takes numpy's. Both give the same numbers.
+    The single-float path agrees with the batched one.
+
+    One quaternion or vector takes plain float arithmetic (the integrators' stages); a batch takes
+    numpy's. Both give the same numbers.
     """
     np.testing.assert_allclose(
         quaternion.multiply(p, q), quaternion.multiply(p[None], q[None])[0], atol=1e-15

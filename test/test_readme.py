@@ -40,6 +40,7 @@ def test_the_example_test_shown_is_the_example_test():
     text = README.read_text(encoding='utf-8')
     section = text[text.index('### Testing your node against torquefree_ros'):]
     shown = re.search(r'```python\n(.*?)```', section, re.S).group(1)
-    source = (README.parent / 'examples' / 'test_attitude_estimator.py').read_text(encoding='utf-8')
+    example = README.parent / 'examples' / 'test_attitude_estimator.py'
+    source = example.read_text(encoding='utf-8')
     license_header, _, code = source.partition('\n\n')
     assert license_header.startswith('# Copyright') and shown == code

@@ -13,8 +13,9 @@
 # limitations under the License.
 
 """
-``torquefree_record`` and ``torquefree_play`` as processes on this test session's DDS domain:
-player → recorder round trip, recorder against the node's own recording, and their input errors.
+The ``torquefree_record`` and ``torquefree_play`` processes, on this test session's DDS domain.
+
+Player → recorder round trip, recorder against the node's own recording, and their input errors.
 """
 
 from __future__ import annotations
@@ -164,16 +165,16 @@ def test_recorder_gets_every_sample_the_node_publishes(tmp_path):
             f'published[{published.index(got[mismatch]) if got[mismatch] in published else None}]'
             f', expected published[{first + mismatch}]'
         )
-        assert (
-            len(published) - (first + len(got)) <= 20
-        )  # at most 0.1 s of samples at 200 Hz in flight
+        # at most 0.1 s of samples at 200 Hz in flight
+        assert len(published) - (first + len(got)) <= 20
 
 
 def test_recorder_resolves_relative_names_and_duration_is_recorded_time(tmp_path):
     """
-    ``--topics angular_velocity`` is ``/angular_velocity`` (the recorder's namespace is ``/``);
-    the 1.5 s of ``--duration`` count from the first message, not from start-up (discovery takes
-    time).
+    The recorder resolves relative names, and ``--duration`` is recorded time.
+
+    ``--topics angular_velocity`` is ``/angular_velocity`` (the recorder's namespace is ``/``); the
+    1.5 s of ``--duration`` count from the first message, not from start-up (discovery takes time).
     """
     recorded = tmp_path / 'recorded'
     node = _spawn('torquefree_ros.cli.sim', '--ros-args', '-p', 'publish_rate:=100.0')

@@ -51,8 +51,9 @@ def test_six_element_order_is_xx_yy_zz_xy_xz_yz():
 
 def test_flat_plate_on_the_triangle_bound_is_accepted():
     """
-    A flat plate's moments satisfy I3 = I1 + I2 exactly: the limit of a rigid body, not beyond
-    it.
+    A flat plate, on the triangle bound, is accepted.
+
+    A flat plate's moments satisfy I3 = I1 + I2 exactly: the limit of a rigid body, not beyond it.
     """
     moments = [1.5, 2.5, 4.0]
     assert moments[2] == moments[0] + moments[1]  # on the bound, exactly in float64
@@ -121,7 +122,7 @@ def test_duffing_analog_holds_along_trajectories(inertia, omega):
     """Seed 000: w_i'' + A_i w_i + B_i w_i^3 = 0 and w_i'^2 + A_i w_i^2 + B_i/2 w_i^4 = K_i."""
     body = RigidBody.from_inertia(inertia)
     A, B, K = body.duffing_constants(omega)
-    I = np.asarray(inertia)
+    moments = np.asarray(inertia)
     t = np.linspace(0.5, 20.0, 40)
     h = 1e-3
 
@@ -135,9 +136,9 @@ def test_duffing_analog_holds_along_trajectories(inertia, omega):
     # w' from Euler's equations: I_i w_i' = (I_j - I_k) w_j w_k
     w_dot = np.stack(
         [
-            (I[1] - I[2]) * w[:, 1] * w[:, 2] / I[0],
-            (I[2] - I[0]) * w[:, 2] * w[:, 0] / I[1],
-            (I[0] - I[1]) * w[:, 0] * w[:, 1] / I[2],
+            (moments[1] - moments[2]) * w[:, 1] * w[:, 2] / moments[0],
+            (moments[2] - moments[0]) * w[:, 2] * w[:, 0] / moments[1],
+            (moments[0] - moments[1]) * w[:, 0] * w[:, 1] / moments[2],
         ],
         axis=1,
     )

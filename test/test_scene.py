@@ -12,10 +12,7 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""
-Scene files: the built-in default, and errors that name the file, the field path and the
-reason.
-"""
+"""Scene files: the built-in default, and errors naming the file, the field path and the reason."""
 
 from pathlib import Path
 
@@ -80,7 +77,8 @@ def test_a_minimal_scene_from_the_contract_loads(tmp_path):
             'finite',
         ),
         (
-            'body: {inertia: [3, 2, 1]}\ninitial: {angular_velocity: [0, 0, 1], orientation: [0, 0, 0, 0]}\n',
+            'body: {inertia: [3, 2, 1]}\n'
+            'initial: {angular_velocity: [0, 0, 1], orientation: [0, 0, 0, 0]}\n',
             'initial.orientation',
             'zero quaternion',
         ),
@@ -95,12 +93,14 @@ def test_a_minimal_scene_from_the_contract_loads(tmp_path):
             'unknown key',
         ),
         (
-            'body: {inertia: [3, 2, 1]}\ninitial: {angular_velocity: [0, 0, 1]}\neffects: [{warp_drive: {}}]\n',
+            'body: {inertia: [3, 2, 1]}\ninitial: {angular_velocity: [0, 0, 1]}\n'
+            'effects: [{warp_drive: {}}]\n',
             'effects[0]',
             "unknown effect 'warp_drive'",
         ),
         (
-            'body: {inertia: [3, 2, 1]}\ninitial: {angular_velocity: [0, 0, 1]}\neffects: {damper: {}}\n',
+            'body: {inertia: [3, 2, 1]}\ninitial: {angular_velocity: [0, 0, 1]}\n'
+            'effects: {damper: {}}\n',
             'effects',
             'expected a list',
         ),
@@ -147,7 +147,8 @@ def test_a_hand_typed_orientation_is_normalised_in_scenes_and_the_api(tmp_path):
 
     path = tmp_path / 'typed.yaml'
     path.write_text(
-        f'body: {{inertia: [3, 2, 1]}}\ninitial: {{angular_velocity: [0, 0, 1], orientation: {HAND_TYPED}}}\n'
+        'body: {inertia: [3, 2, 1]}\n'
+        f'initial: {{angular_velocity: [0, 0, 1], orientation: {HAND_TYPED}}}\n'
     )
     expected = np.array(HAND_TYPED) / np.linalg.norm(HAND_TYPED)
     np.testing.assert_allclose(load_scene(path).orientation, expected, rtol=0, atol=2e-16)
@@ -157,9 +158,10 @@ def test_a_hand_typed_orientation_is_normalised_in_scenes_and_the_api(tmp_path):
 
 def test_an_orientation_unit_to_rounding_is_used_bit_for_bit():
     """
+    An orientation of unit norm to rounding is used bit for bit.
+
     The decision for "the initial state exactly": an input whose norm is 1 to float64 rounding
-    (here |q| may compute as 1 - 1 ulp) is not divided by its norm, so sample 0 equals the
-    input.
+    (here |q| may compute as 1 - 1 ulp) is not divided by its norm, so sample 0 equals the input.
     """
     from torquefree_ros import propagate
     from torquefree_ros.core.validation import unit_quaternion
@@ -189,7 +191,8 @@ def test_an_orientation_beyond_tf2s_tolerance_is_refused_with_the_normalised_val
 ):
     path = tmp_path / 'far.yaml'
     path.write_text(
-        f'body: {{inertia: [3, 2, 1]}}\ninitial: {{angular_velocity: [0, 0, 1], orientation: {orientation}}}\n'
+        'body: {inertia: [3, 2, 1]}\n'
+        f'initial: {{angular_velocity: [0, 0, 1], orientation: {orientation}}}\n'
     )
     with pytest.raises(
         SceneError, match=f'^{path}: initial.orientation: expected a unit quaternion.*' + message
@@ -202,8 +205,7 @@ def test_a_missing_scene_file_names_the_path():
         load_scene('/no/such/scene.yaml')
 
 
-# -- bodies from parts
-# ----------------------------------------------------------------------------------
+# -- bodies from parts ----------------------------------------------------------------------------
 def parts_scene(parts):
     return scene_from_mapping(
         {'body': {'parts': parts}, 'initial': {'angular_velocity': [0.1, 0.2, 0.3]}}
@@ -212,6 +214,8 @@ def parts_scene(parts):
 
 def test_two_boxes_combine_by_the_parallel_axis_theorem():
     """
+    Two boxes combine by the parallel axis theorem.
+
     Hand computation: centre of mass (0, 0, 0.1); own inertias m (b^2 + c^2) / 12 ...; offsets
     dA = (0.5, 0, -0.1), dB = (-1, 0, 0.2) add m (|d|^2 1 - d d^T).
     """
@@ -235,11 +239,11 @@ def test_part_orientation_rotates_its_inertia_and_shapes_have_their_textbook_mom
                 'box': {
                     'mass': 3.0,
                     'size': [1.0, 2.0, 3.0],
-                    'orientation': [0.0, 0.0, np.sqrt(0.5), np.sqrt(0.5)],
+                    'orientation': [0.0, 0.0, np.sqrt(0.5), np.sqrt(0.5)],  # 90 deg about z
                 }
             }
         ]
-    )  # 90 deg about z
+    )
     plain = parts_scene([{'box': {'mass': 3.0, 'size': [2.0, 1.0, 3.0]}}])
     np.testing.assert_allclose(turned.inertia, plain.inertia, atol=1e-14)
     cylinder = parts_scene([{'cylinder': {'mass': 2.0, 'radius': 0.5, 'length': 3.0}}])
@@ -377,11 +381,16 @@ def test_bad_effects_name_the_path_and_the_reason(effects, where, reason):
 
 
 def test_yaml_1_2_numbers_are_numbers(tmp_path):
-    """PyYAML reads 3.986e14 and 1e-3 as strings (YAML 1.1); scene files read them as numbers."""
+    """
+    Scene files read YAML 1.2 numbers as numbers.
+
+    PyYAML reads 3.986e14 and 1e-3 as strings (YAML 1.1); scene files read them as numbers.
+    """
     path = tmp_path / 's.yaml'
     path.write_text(
         'body: {inertia: [3, 2, 1]}\ninitial: {angular_velocity: [1e-3, 0, 2]}\n'
-        'effects: [{gravity_gradient: {radius: 7e6, gravitational_parameter: 3.986e14}}]\naccuracy: 1e-9\n'
+        'effects: [{gravity_gradient: {radius: 7e6, gravitational_parameter: 3.986e14}}]\n'
+        'accuracy: 1e-9\n'
     )
     scene = load_scene(path)
     assert scene.angular_velocity == (0.001, 0.0, 2.0) and scene.accuracy == 1e-9

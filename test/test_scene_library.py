@@ -13,8 +13,10 @@
 # limitations under the License.
 
 """
-The scene library (torquefree_ros/scenes): every scene loads, says what it is in one line, and
-shows what its description promises, checked independently of the code that made the promise.
+The scene library (torquefree_ros/scenes).
+
+Every scene loads, says what it is in one line, and shows what its description promises, checked
+independently of the code that made the promise.
 """
 
 from pathlib import Path
@@ -55,9 +57,8 @@ def test_the_library_has_every_scene_each_with_a_one_line_description():
 
 
 def test_load_scene_takes_library_names_from_any_directory(tmp_path, monkeypatch):
-    monkeypatch.chdir(
-        tmp_path
-    )  # not the repository root: names do not depend on the working directory
+    # not the repository root: names do not depend on the working directory
+    monkeypatch.chdir(tmp_path)
     assert load_scene('dzhanibekov') == library('dzhanibekov')
     assert load_scene('explorer1').source == str(LIBRARY / 'explorer1.yaml')
     assert load_scene('default').source == '<built-in default>'
@@ -99,9 +100,8 @@ def test_axisymmetric_coning_reports_the_cones_it_sweeps():
     omega, q = p(times)
     H_N = p.body.angular_momentum_inertial(omega, q)
     omega_N = quaternion.rotate(q, omega)
-    alpha = np.arctan2(
-        np.linalg.norm(omega[:, 1:], axis=1), np.abs(omega[:, 0])
-    )  # w to the symmetry axis x
+    # w to the symmetry axis x
+    alpha = np.arctan2(np.linalg.norm(omega[:, 1:], axis=1), np.abs(omega[:, 0]))
     beta = np.arctan2(
         np.linalg.norm(np.cross(omega_N, H_N), axis=1), np.sum(omega_N * H_N, axis=1)
     )
@@ -173,9 +173,11 @@ def test_energy_sweep_spans_minimum_to_maximum_energy_at_constant_momentum():
     scene = library('energy_sweep')
     members = scene.members()
     assert len(members) == 9
-    I = np.array(scene.inertia)
-    H0 = np.linalg.norm(I * scene.angular_velocity)
+    moments = np.array(scene.inertia)
+    H0 = np.linalg.norm(moments * scene.angular_velocity)
     omegas = np.array([m.angular_velocity for m in members])
-    np.testing.assert_allclose(np.linalg.norm(I * omegas, axis=1), H0, rtol=1e-14)
-    two_T = np.sum(I * omegas**2, axis=1)
-    np.testing.assert_allclose(two_T, np.linspace(H0**2 / I.max(), H0**2 / I.min(), 9), rtol=1e-14)
+    np.testing.assert_allclose(np.linalg.norm(moments * omegas, axis=1), H0, rtol=1e-14)
+    two_T = np.sum(moments * omegas**2, axis=1)
+    np.testing.assert_allclose(
+        two_T, np.linspace(H0**2 / moments.max(), H0**2 / moments.min(), 9), rtol=1e-14
+    )

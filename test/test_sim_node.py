@@ -13,9 +13,10 @@
 # limitations under the License.
 
 """
-The simulator node, in-process without launch: a private context per test, the session's own DDS
-domain (conftest), a client node that subscribes, sets parameters and resets like any
-participant.
+The simulator node, in-process without launch.
+
+A private context per test, the session's own DDS domain (conftest), a client node that subscribes,
+sets parameters and resets like any participant.
 """
 
 from __future__ import annotations
@@ -60,8 +61,10 @@ def run_start(pairs, omega0, q0):
 
 def assert_run_is_exact(pairs, inertia, omega0, q0, rate):
     """
-    Samples from a run's sample 0 on: on the grid epoch + k/rate with no sample missing, values
-    equal to propagate(...) at t_k, R(q) I w constant.
+    Assert that the samples from a run's sample 0 on are the exact solution.
+
+    On the grid epoch + k/rate with no sample missing, values equal to propagate(...) at t_k,
+    R(q) I w constant.
     """
     epoch = pairs[0][0]
     stamps = np.array([s for s, _, _ in pairs])
@@ -81,8 +84,7 @@ def harness(request):
         yield h
 
 
-# -- samples
-# ---------------------------------------------------------------------------------------
+# -- samples --------------------------------------------------------------------------------------
 
 
 @pytest.mark.parametrize('harness', [{'publish_rate': 200.0}], indirect=True)
@@ -157,8 +159,7 @@ def test_wall_clock_mode_has_no_clock_publisher(harness):
     assert harness.clock == []
 
 
-# -- reset
-# -------------------------------------------------------------------------------------------
+# -- reset ----------------------------------------------------------------------------------------
 
 NEW_STATE = {
     'inertia': [1.0, 2.0, 3.0],
@@ -200,12 +201,8 @@ def test_reset_restarts_from_the_new_parameters(harness, atomically):
 
 @pytest.mark.parametrize('harness', [{'publish_rate': 100.0}], indirect=True)
 def test_reset_summary_names_the_scene_the_member_and_the_overrides_in_force(harness):
-    typed = [
-        0.2,
-        0.1,
-        -0.3,
-        0.927,
-    ]  # hand-typed: accepted and normalised, the summary shows the value used
+    # hand-typed: accepted and normalised, the summary shows the value used
+    typed = [0.2, 0.1, -0.3, 0.927]
     result = harness.set_parameters_atomically(orientation=typed, angular_velocity=[0.1, 0.2, 0.3])
     assert result.successful, result.reason
     result = harness.set_parameters_atomically(scene='energy_sweep', sweep_member=8)
@@ -243,8 +240,9 @@ def _has_state(pairs, omega0, q0):
 
 def assert_run_follows(pairs, scene):
     """
-    Samples of a run we did not see start: same inertial momentum as the scene's initial
-    state.
+    Assert that a run we did not see start conserves the scene's momentum.
+
+    Its samples have the same inertial momentum as the scene's initial state.
     """
     reference = inertial_momentum(scene.inertia, scene.angular_velocity, scene.orientation)
     for _, omega, q in pairs:
@@ -270,8 +268,7 @@ def test_reset_with_a_tensor_inertia_reports_principal_moments(harness):
     )
 
 
-# -- bad input
-# ---------------------------------------------------------------------------------------
+# -- bad input ------------------------------------------------------------------------------------
 
 BAD_VALUES = [
     ('angular_velocity', [math.nan, 0.0, 1.0], 'finite'),
@@ -305,11 +302,8 @@ BAD_VALUES = [
     ('frame_prefix', '/sat1/', 'start of a frame id'),  # a leading '/', as for frame ids
     ('frame_prefix', 'sat1//', 'start of a frame id'),  # an empty name between the '/'
     ('frame_prefix', 'sat 1/', 'start of a frame id'),
-    (
-        'frame_prefix',
-        's' * 253,
-        'the body frame has 257 characters, at most 256',
-    ),  # with body_frame 'body'
+    # with body_frame 'body'
+    ('frame_prefix', 's' * 253, 'the body frame has 257 characters, at most 256'),
     ('angular_velocity', [1e200, 1.0, 1.0], 'overflows'),
     ('qos_depth', 5, 'read-only'),
 ]
@@ -413,8 +407,7 @@ def test_bad_start_up_parameters_raise_a_configuration_error_naming_them():
         SimHarness(publish_rate=-1.0)
 
 
-# -- reset storm
-# -------------------------------------------------------------------------------------
+# -- reset storm ----------------------------------------------------------------------------------
 
 STATE_A = {'angular_velocity': [0.3, 0.2, 1.0], 'orientation': [0.0, 0.0, 0.0, 1.0]}
 STATE_B = {'angular_velocity': [-1.0, 0.5, 0.1], 'orientation': [0.5, 0.5, 0.5, 0.5]}
@@ -468,8 +461,7 @@ def test_reset_storm_never_tears_a_sample(harness):
     assert set(starts) == {0, 1} and starts[-1] == 1
 
 
-# -- diagnostics, parameter file, process
-# --------------------------------------------------------------
+# -- diagnostics, parameter file, process ---------------------------------------------------------
 
 
 @pytest.mark.parametrize('harness', [{'publish_rate': 100.0}], indirect=True)
@@ -508,9 +500,8 @@ def test_the_installed_parameter_file_configures_the_node_in_any_namespace(tmp_p
 
     path = REPO / 'config' / 'torquefree.yaml'
     document = yaml.safe_load(path.read_text())
-    assert list(document) == [
-        '/**'
-    ]  # every node, whatever its name and namespace (not /torquefree only)
+    # every node, whatever its name and namespace (not /torquefree only)
+    assert list(document) == ['/**']
     expected = document['/**']['ros__parameters']
     # every parameter that has a default, at its default; the overrides (no default) as comments
     assert expected == {spec.name: spec.default for spec in SPECS if spec.default is not None}
@@ -559,9 +550,8 @@ def _start_node(*ros_args):
 def test_the_process_exits_cleanly_on_signals(signum):
     process = _start_node('-p', 'publish_rate:=500.0')
     try:
-        for (
-            line
-        ) in process.stderr:  # rclpy logs to stderr; the start line means samples are flowing
+        # rclpy logs to stderr; the start line means samples are flowing
+        for line in process.stderr:
             if 'start: ' in line:
                 break
         process.send_signal(signum)

@@ -13,8 +13,9 @@
 # limitations under the License.
 
 """
-The contract's sample grid as the node and the offline tools use it (core.simulation,
-core.timing).
+The contract's sample grid, as the node and the offline tools use it.
+
+Modules tested: core.simulation and core.timing.
 """
 
 import numpy as np
@@ -111,10 +112,11 @@ def test_a_too_stiff_scene_stops_within_a_bounded_budget_with_its_reason():
 @pytest.mark.parametrize('method', ['rk4', 'lie_rk4', 'dop853'])
 def test_a_step_budget_per_sample_bounds_the_work_before_it_is_done(method):
     """
+    A step budget per sample bounds the work before it is done.
+
     The node's bound (``max_steps_per_sample``): a sample needing more steps than it allows is
     refused, a fixed step before any work, an adaptive one as soon as it is over; samples within it
-    are unchanged; the estimate of the accuracy stays bounded work too (it says what it
-    skipped).
+    are unchanged; the estimate of the accuracy stays bounded work too (it says what it skipped).
     """
     import time
 

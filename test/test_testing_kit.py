@@ -13,9 +13,10 @@
 # limitations under the License.
 
 """
-The public test kit (torquefree_ros.testing) and its pytest fixture: isolation under
-pytest-xdist, reproducible samples, advance's promise to wait for the nodes added, clear timeouts,
-clean teardown.
+The public test kit (torquefree_ros.testing) and its pytest fixture.
+
+Isolation under pytest-xdist, reproducible samples, advance's promise to wait for the nodes added,
+clear timeouts, clean teardown.
 """
 
 import json
@@ -37,21 +38,25 @@ from torquefree_ros.testing import simulator, SimulatorTimeout
 
 RELIABLE = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
 
-# -- pytest -n 2: two workers at once, twice at once, no cross-talk
-# ------------------------------------ Each inner test runs a body of its own (its own initial
-# rate) through the plugin's fixture and checks that what it received is exactly its run: 300
-# samples, indices 0..299, every value the truth's.
+# -- pytest -n 2: two workers at once, twice at once, no cross-talk -------------------------------
+# Each inner test runs a body of its own (its own initial rate) through the plugin's fixture and
+# checks that what it received is exactly its run: 300 samples, indices 0..299, every value the
+# truth's.
 INNER = """
 import json, os, time
 import numpy as np
 import pytest
 
 # KIT_SABOTAGE (to show the check can fail): every simulator in one domain and one namespace
-SHARED = {"domain_id": int(os.environ["KIT_SABOTAGE"]), "namespace": "shared"} if "KIT_SABOTAGE" in os.environ else {}
+SHARED = {}
+if "KIT_SABOTAGE" in os.environ:
+    SHARED = {"domain_id": int(os.environ["KIT_SABOTAGE"]), "namespace": "shared"}
 SPINS = [float(s) for s in os.environ["KIT_SPINS"].split()]
+SIMULATORS = [dict(angular_velocity=[0.01, spin, 0.02], timeout=5.0, **SHARED) for spin in SPINS]
 
-@pytest.mark.parametrize("torquefree_sim", [dict(angular_velocity=[0.01, spin, 0.02], timeout=5.0, **SHARED)
-                                            for spin in SPINS], indirect=True, ids=[str(spin) for spin in SPINS])
+@pytest.mark.parametrize(
+    "torquefree_sim", SIMULATORS, indirect=True, ids=[str(spin) for spin in SPINS]
+)
 def test_own_samples_only(torquefree_sim):
     sim = torquefree_sim
     # a barrier: with this simulator up, wait for another worker's, so that two surely run at once
@@ -67,8 +72,10 @@ def test_own_samples_only(torquefree_sim):
                    "started": started, "ended": ended}, out)
     assert [s.index for s in sim.samples] == list(range(300))
     truth = sim.truth([s.t for s in sim.samples])
-    assert np.array_equal(np.array([s.angular_velocity for s in sim.samples]), truth.angular_velocity)
-    assert np.array_equal(np.array([s.attitude for s in sim.samples]), truth.attitude)
+    rates = np.array([s.angular_velocity for s in sim.samples])
+    attitudes = np.array([s.attitude for s in sim.samples])
+    assert np.array_equal(rates, truth.angular_velocity)
+    assert np.array_equal(attitudes, truth.attitude)
 """
 
 
@@ -126,6 +133,8 @@ def test_two_runs_of_two_xdist_workers_at_once_each_see_only_their_own_samples(t
 
 def test_the_parallel_check_fails_when_the_simulators_share_a_domain_and_a_namespace(tmp_path):
     """
+    The parallel check fails when the simulators share a domain and a namespace.
+
     The inner run with the isolation defeated: the two workers' samples mix, and the inner tests
     say so.
     """
@@ -140,11 +149,9 @@ def test_the_parallel_check_fails_when_the_simulators_share_a_domain_and_a_names
     assert run.returncode == 1 and 'failed' in output, output
 
 
-# -- reproducible
-# ----------------------------------------------------------------------------------------
-@pytest.mark.parametrize(
-    'scene', ['estimator', 'explorer1']
-)  # exact with noisy outputs; DOP853 with a damper
+# -- reproducible ---------------------------------------------------------------------------------
+# exact with noisy outputs; DOP853 with a damper
+@pytest.mark.parametrize('scene', ['estimator', 'explorer1'])
 def test_twenty_runs_give_the_same_samples_bit_for_bit_and_they_are_the_truth(scene):
     with simulator(scene=scene) as sim:
         imu = sim.tap('imu', Imu) if scene == 'estimator' else None
@@ -152,9 +159,8 @@ def test_twenty_runs_give_the_same_samples_bit_for_bit_and_they_are_the_truth(sc
         for _ in range(20):
             sim.advance(30)
             samples = sim.samples
-            t0 = samples[
-                0
-            ].stamp_ns  # each run's stamps start later (a reset never goes back in time)
+            # each run's stamps start later (a reset never goes back in time)
+            t0 = samples[0].stamp_ns
             gyro = (
                 [
                     (
@@ -217,8 +223,7 @@ def test_a_closed_loop_in_lockstep_runs_the_same_twice():
             sim.truth(0.1)
 
 
-# -- advance waits for the nodes added
-# ---------------------------------------------------------------
+# -- advance waits for the nodes added ------------------------------------------------------------
 def test_advance_returns_only_after_a_slow_subscriber_processed_every_sample():
     with simulator(scene='estimator') as sim:
         node = sim.create_node('slow')
@@ -234,17 +239,17 @@ def test_advance_returns_only_after_a_slow_subscriber_processed_every_sample():
         )
         samples = sim.advance(5)
         assert seen == [s.stamp_ns for s in samples]
-        samples += sim.advance(
-            11
-        )  # the star tracker (10 Hz at 100 Hz) goes out on samples 0 and 10
+        # the star tracker (10 Hz at 100 Hz) goes out on samples 0 and 10
+        samples += sim.advance(11)
         assert seen == [s.stamp_ns for s in samples]
         assert [sim.time_of(m.header.stamp) for m in fixes] == [0.0, 0.1]
 
 
 def test_advance_waits_for_callbacks_of_every_kind():
     """
-    With the MessageInfo, a coroutine, a raw subscription: each has run for the sample on
-    return.
+    The kit's advance waits for callbacks of every kind.
+
+    With the MessageInfo, a coroutine, a raw subscription: each has run for the sample on return.
     """
     with simulator(scene='dzhanibekov') as sim:
         node = sim.create_node('kinds')
@@ -270,8 +275,7 @@ def test_advance_waits_for_callbacks_of_every_kind():
         assert all(isinstance(message, bytes) for message in raw)
 
 
-# -- clear timeouts
-# ------------------------------------------------------------------------------------------
+# -- clear timeouts -------------------------------------------------------------------------------
 def test_a_subscriber_that_cannot_match_gets_a_timeout_naming_it_and_why():
     with simulator(scene='dzhanibekov', timeout=2.0) as sim:
         node = sim.create_node('deaf')
@@ -314,17 +318,15 @@ def test_a_controller_that_never_answers_in_lockstep_gets_a_timeout_naming_the_c
             sim.advance(1)
 
 
-# -- teardown
-# --------------------------------------------------------------------------------------------------
+# -- teardown -------------------------------------------------------------------------------------
 def _tasks() -> int:
-    """The process's native threads (DDS's included), not only Python's."""
+    """Count the process's native threads (DDS's included), not only Python's."""
     return len(os.listdir('/proc/self/task'))
 
 
 def test_teardown_leaves_no_thread_context_node_or_participant_behind():
-    with simulator(
-        scene='dzhanibekov'
-    ) as warm:  # DDS's process-wide threads start with the first participant
+    # DDS's process-wide threads start with the first participant
+    with simulator(scene='dzhanibekov') as warm:
         warm.advance(1)
     threads, tasks = set(threading.enumerate()), _tasks()
     # a participant of our own watches the graph of the domain the simulator will claim (the next
@@ -377,8 +379,9 @@ def _wait_graph(node, context, condition, what: str) -> None:
 
 def _spin_briefly(node, context) -> None:
     """
-    Let discovery traffic in: the graph updates on its own threads, a spin waits for it a
-    little.
+    Let discovery traffic in: spin the node once, briefly.
+
+    The graph updates on its own threads; a spin waits for it a little.
     """
     from rclpy.executors import SingleThreadedExecutor
 
@@ -389,8 +392,7 @@ def _spin_briefly(node, context) -> None:
     executor.shutdown()
 
 
-# -- the fixture's parameters, resets, mistakes
-# --------------------------------------------------------------
+# -- the fixture's parameters, resets, mistakes ---------------------------------------------------
 @pytest.mark.torquefree_sim(scene='dzhanibekov', publish_rate=50.0)
 def test_the_marker_sets_the_fixture_s_parameters(torquefree_sim):
     assert torquefree_sim.publish_rate == 50.0

@@ -13,11 +13,12 @@
 # limitations under the License.
 
 """
-The ``tf`` output and the vendored tf2_msgs interface: bags carry /tf with rosbag2's full schema
-and Jazzy's type hash, its messages equal the attitude bit for bit and read in both independent
-readers; the encoding is rosbags' own, byte for byte; live, through rclpy, with tf2_msgs built from
-the vendored interface by the PyPI rosidl toolchain; a node whose Python lacks tf2_msgs leaves /tf
-out and says so.
+The ``tf`` output and the vendored tf2_msgs interface.
+
+Bags carry /tf with rosbag2's full schema and Jazzy's type hash, its messages equal the attitude
+bit for bit and read in both independent readers; the encoding is rosbags' own, byte for byte;
+live, through rclpy, with tf2_msgs built from the vendored interface by the PyPI rosidl toolchain;
+a node whose Python lacks tf2_msgs leaves /tf out and says so.
 """
 
 from __future__ import annotations
@@ -167,7 +168,10 @@ def test_live_tf_through_rclpy_with_tf2_msgs_built_from_the_vendored_interface(t
 
     missing = build.missing_tools()
     if missing:
-        reason = f'building tf2_msgs needs {", ".join(missing)} (the rosidl toolchain compiles its typesupport)'
+        reason = (
+            f'building tf2_msgs needs {", ".join(missing)} '
+            '(the rosidl toolchain compiles its typesupport)'
+        )
         pytest.fail(reason) if os.environ.get('CI') else pytest.skip(reason)
     environment = {**os.environ, **build.build('tf2_msgs', tmp_path_factory.mktemp('tf2_msgs'))}
     # a process of its own: the typesupport libraries must be on the library path when it starts

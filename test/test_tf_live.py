@@ -13,10 +13,12 @@
 # limitations under the License.
 
 """
-The live /tf round trip through rclpy: the node publishes tf2_msgs/TFMessage on /tf and a client
-subscribed with tf2_msgs' own class receives the attitude bit for bit (parent the inertial frame,
-child the body frame, zero translation, the samples' stamps); two nodes in two namespaces, each
-with its frame_prefix, publish two body frames under the one inertial frame, at tf2_ros's depth.
+The live /tf round trip through rclpy.
+
+The node publishes tf2_msgs/TFMessage on /tf and a client subscribed with tf2_msgs' own class
+receives the attitude bit for bit (parent the inertial frame, child the body frame, zero
+translation, the samples' stamps); two nodes in two namespaces, each with its frame_prefix, publish
+two body frames under the one inertial frame, at tf2_ros's depth.
 
 Needs tf2_msgs for Python: a ROS install has it; here test_tf.py builds it with the rosidl
 toolchain from PyPI and runs this file in a process that has it (the libraries must be on the path

@@ -13,11 +13,13 @@
 # limitations under the License.
 
 """
-The torque_command effect in the core: the hold rule (a command holds from the first sample at
-or after its stamp, stale ones dropped, zero after the timeout, body or inertial frame) against an
-independent integration with the same piecewise-constant torque; malformed commands are refused
-with a counted reason and never reach the state; live (one sample at a time, sealed) equals a
-replay from the recorded commands bit for bit; a scene without the effect is untouched.
+The torque_command effect in the core.
+
+The hold rule (a command holds from the first sample at or after its stamp, stale ones dropped,
+zero after the timeout, body or inertial frame) against an independent integration with the same
+piecewise-constant torque; malformed commands are refused with a counted reason and never reach the
+state; live (one sample at a time, sealed) equals a replay from the recorded commands bit for bit;
+a scene without the effect is untouched.
 """
 
 from __future__ import annotations
@@ -54,8 +56,10 @@ def _simulation(frame='body', timeout=0.5, accuracy=1e-12, epoch_ns=0):
 
 def _reference(torques, frame='body', count=20):
     """
-    Euler's equations and q' = q ⊗ (w/2), integrated by scipy's LSODA interval by interval with
-    the torque ``torques[k]`` (N m, in ``frame``) held over ``[t_k, t_k+1)``.
+    Integrate the reference motion, each torque held over its sample interval.
+
+    Euler's equations and q' = q ⊗ (w/2), integrated by scipy's LSODA interval by interval with the
+    torque ``torques[k]`` (N m, in ``frame``) held over ``[t_k, t_k+1)``.
     """
     J = np.diag(INERTIA)
 
@@ -87,12 +91,10 @@ def _reference(torques, frame='body', count=20):
 def test_the_hold_rule_against_an_independent_integration(frame):
     simulation, hold = _simulation(frame, timeout=0.5)
     frame_id = hold.frame_id
-    assert hold.receive(250_000_000, [0.1, 0.0, 0.0], frame_id=frame_id)[
-        0
-    ]  # holds from t = 0.3 (k = 3) ...
-    assert hold.receive(300_000_000, [0.0, 0.2, 0.0], frame_id=frame_id)[
-        0
-    ]  # ... replaced there by this one
+    # holds from t = 0.3 (k = 3) ...
+    assert hold.receive(250_000_000, [0.1, 0.0, 0.0], frame_id=frame_id)[0]
+    # ... replaced there by this one
+    assert hold.receive(300_000_000, [0.0, 0.2, 0.0], frame_id=frame_id)[0]
     assert hold.receive(100_000_000, [5.0, 5.0, 5.0], frame_id=frame_id) == (
         False,
         'stale: stamped before the latest accepted command',
@@ -196,9 +198,8 @@ def test_live_one_sample_at_a_time_equals_the_replay_of_its_commands_bit_for_bit
     assert [c.start for c in replay_hold.commands] == [
         hold.index_at_or_after(arrival) for arrival, _, _ in log
     ]
-    assert (
-        len(hold.commands) <= 3 < replay_hold.accepted == hold.accepted
-    )  # sealing forgets superseded ones
+    # sealing forgets superseded ones
+    assert len(hold.commands) <= 3 < replay_hold.accepted == hold.accepted
     np.testing.assert_array_equal(np.vstack([r.omega_B for r in rows]), block.omega_B)
     np.testing.assert_array_equal(np.vstack([r.q_NB for r in rows]), block.q_NB)
     assert np.ptp(block.omega_B, axis=0).max() > 0.01  # the commands did move it

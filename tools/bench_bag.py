@@ -14,8 +14,9 @@
 # limitations under the License.
 
 """
-Benchmark of the offline bag writer (a script, not a test): prints what it measured and the
-machine.
+Benchmark of the offline bag writer.
+
+A script, not a test: it prints what it measured and the machine.
 
 - ``torquefree_bag`` throughput (samples/s; a sample = angular_velocity + attitude) for a 1 min and
   a 1 h bag at 100 Hz, side by side in the same run with the raw ``mcap`` writer writing the same
@@ -63,8 +64,9 @@ def _ours(duration: float, output: Path, rate: float = RATE) -> float:
 
 def _raw_mcap(messages: list[bytes], output: Path) -> float:
     """
-    The same message count through mcap's Writer alone: one schema, two channels, no metadata
-    work.
+    Time mcap's Writer alone writing the same messages.
+
+    The same message count through mcap's Writer alone: one schema, two channels, no metadata work.
     """
     from mcap.writer import CompressionType, Writer
 
@@ -114,7 +116,7 @@ def _in_child(case: str) -> dict:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--child', help=argparse.SUPPRESS)
     parser.add_argument(
         '--repeats', type=int, default=3, help='runs of each measurement (default: 3)'
@@ -147,9 +149,8 @@ def main() -> int:
         '| bag | samples | `torquefree_bag` s | samples/s | raw mcap writer s | raw / ours |'
     )
     report.add('|---|---|---|---|---|---|')
-    with (
-        tempfile.TemporaryDirectory() as tmp
-    ):  # warm up (imports, the exact kernels' load), not measured
+    # warm up (imports, the exact kernels' load), not measured
+    with tempfile.TemporaryDirectory() as tmp:
         _ours(1.0, Path(tmp) / 'warm')
     for name, duration in CASES.items():
         samples = int(duration * RATE) + 1
@@ -179,11 +180,11 @@ def main() -> int:
         case: [_in_child(case)['max_rss_mib'] for _ in range(args.repeats)]
         for case in ('imports', *CASES)
     }
+    labels = {case: 'imports only' if case == 'imports' else f'{case} bag' for case in memory}
     report.add(
         'peak memory (VmHWM, MiB, a fresh process each): '
         + ', '.join(
-            f'{"imports only" if case == "imports" else case + " bag"} {statistics.median(values):.0f}'
-            for case, values in memory.items()
+            f'{labels[case]} {statistics.median(values):.0f}' for case, values in memory.items()
         )
     )
     report.save(args.output)

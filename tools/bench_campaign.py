@@ -14,8 +14,10 @@
 # limitations under the License.
 
 """
-Benchmark of Monte Carlo campaigns (``torquefree_ros.campaigns``; a script, not a test): what
-the campaign machinery adds to the compute and how it scales, beside Basilisk's figures.
+Benchmark of Monte Carlo campaigns (``torquefree_ros.campaigns``).
+
+A script, not a test: what the campaign machinery adds to the compute and how it scales, beside
+Basilisk's figures.
 
 - 10 000 torque-free runs (the library's ``dzhanibekov_rates``: the Dzhanibekov body, rates and
   spin dispersed, six metrics), 100 s at 10 Hz, metrics only, written to a directory as the command
@@ -53,17 +55,18 @@ DURATION, RATE = 100.0, 10.0
 OVERHEAD_TASKS = 400  # one-run, one-sample chunks: the engine's cost per chunk
 BASILISK = (
     "Basilisk 2.12's Monte Carlo `Controller` (2 threads) runs 40 torque-free runs of 100 s at "
-    '**1.5–1.7 runs/s** (it sleeps 1 s per run and builds a process pool per pair of runs); a plain process '
-    'pool of the same Basilisk simulations reaches **14.9 runs/s** (issue 32, measured by another session on '
-    'this machine)'
+    '**1.5–1.7 runs/s** (it sleeps 1 s per run and builds a process pool per pair of runs); a '
+    'plain process pool of the same Basilisk simulations reaches **14.9 runs/s** (issue 32, '
+    'measured by another session on this machine)'
 )
 
 
 def use_the_workers_allocator() -> bool:
     """
-    Set this process's glibc allocator as a local cluster's workers'
-    (``engine.MALLOC_ENVIRONMENT``): the bare compute and the in-process figures are then measured
-    on the workers' footing.
+    Set this process's glibc allocator as a local cluster's workers'.
+
+    The workers' settings are ``engine.MALLOC_ENVIRONMENT``: the bare compute and the in-process
+    figures are then measured on the workers' footing.
     """
     import ctypes
 
@@ -91,8 +94,10 @@ def torque_free_campaign(runs: int = RUNS):
 
 def bare_compute(campaign, draws) -> float:
     """
-    The runs' physics and metrics alone: propagate_batch and the metrics, a block of runs at a
-    time (the engine's blocks: the size that keeps the arrays' pages, engine.BLOCK_SAMPLES).
+    Time the runs' physics and metrics alone, in seconds.
+
+    propagate_batch and the metrics, a block of runs at a time (the engine's blocks: the size that
+    keeps the arrays' pages, engine.BLOCK_SAMPLES).
     """
     import numpy as np
     from torquefree_ros import propagate_batch
@@ -138,8 +143,9 @@ def worker_cpu(client) -> float:
 
 def wall_and_cpu(function, client=None) -> tuple[float, float, float]:
     """
-    Wall seconds, and CPU seconds of this process and of the workers of ``client``: on a shared
-    machine the CPU shows the work even when other processes take the cores.
+    Time ``function``: wall seconds, and CPU seconds of this process and of ``client``'s workers.
+
+    On a shared machine the CPU shows the work even when other processes take the cores.
     """
     cpu0, workers0 = time.process_time(), worker_cpu(client)
     wall = timed(function)
@@ -147,7 +153,11 @@ def wall_and_cpu(function, client=None) -> tuple[float, float, float]:
 
 
 def start_cluster(workers: int):
-    """A local cluster and its client, warmed: every worker has run a chunk (imports, kernels)."""
+    """
+    Start a local cluster and its client, warmed.
+
+    Warmed: every worker has run a chunk (imports, kernels).
+    """
     from distributed import Client
     from torquefree_ros.campaigns import run_campaign
     from torquefree_ros.campaigns.engine import local_cluster
@@ -171,9 +181,8 @@ def worker_memory(client) -> list[tuple[float, float]]:
 
         import psutil
 
-        return psutil.Process().memory_info().rss / 2**20, resource.getrusage(
-            resource.RUSAGE_SELF
-        ).ru_maxrss / 2**10
+        rss = psutil.Process().memory_info().rss / 2**20
+        return rss, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**10
 
     return list(client.run(measure).values())
 
@@ -250,7 +259,7 @@ def engine_costs(clusters: dict, directory: Path) -> dict:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--output', help='write the report here (Markdown)')
     parser.add_argument('--rounds', type=int, default=3)
     args = parser.parse_args(argv)
@@ -267,8 +276,9 @@ def main(argv=None) -> int:
         "Monte Carlo campaigns: the machinery's cost and its scaling", 'make bench-campaign'
     )
     report.add(
-        f'- versions: numpy {numpy.__version__}, numba {numba.__version__}, dask {dask.__version__}, '
-        f'distributed {distributed.__version__}, pyarrow {pyarrow.__version__}'
+        f'- versions: numpy {numpy.__version__}, numba {numba.__version__}, '
+        f'dask {dask.__version__}, distributed {distributed.__version__}, '
+        f'pyarrow {pyarrow.__version__}'
     )
     report.add('')
     campaign = load_campaign(torque_free_campaign())
@@ -280,16 +290,17 @@ def main(argv=None) -> int:
             else "glibc's defaults (mallopt unavailable)"
         )
     )
-    report.add(
-        f'- load average when it started: {" ".join(f"{x:.2f}" for x in os.getloadavg())} (the cores are shared)'
-    )
+    load = ' '.join(f'{x:.2f}' for x in os.getloadavg())
+    report.add(f'- load average when it started: {load} (the cores are shared)')
     report.add('')
     report.add(
-        f'{args.rounds} round{"s" if args.rounds != 1 else ""}; each figure is the median (min–max) over the '
-        f'rounds (wall time unless it says CPU), the ratios taken within each round. Torque-free: `dzhanibekov_rates` with '
-        f'{RUNS:,} runs of {DURATION:g} s at {RATE:g} Hz ({campaign.samples:,} samples a run; metrics '
-        f'{", ".join(use.metric.name for use in campaign.metrics)}), written to a directory (part files, '
-        'then `runs.parquet`) on a local cluster started and warmed before the timing.'
+        f'{args.rounds} round{"s" if args.rounds != 1 else ""}; each figure is the median '
+        '(min–max) over the rounds (wall time unless it says CPU), the ratios taken within each '
+        f'round. Torque-free: `dzhanibekov_rates` with {RUNS:,} runs of {DURATION:g} s at '
+        f'{RATE:g} Hz ({campaign.samples:,} samples a run; metrics '
+        f'{", ".join(use.metric.name for use in campaign.metrics)}), written to a directory '
+        '(part files, then `runs.parquet`) on a local cluster started and warmed before the '
+        'timing.'
     )
     report.add('')
 
@@ -315,27 +326,32 @@ def main(argv=None) -> int:
     def median(key):
         return statistics.median(r[key] for r in rounds)
 
+    def runs_per_second(key):
+        return spread([RUNS / r[key] for r in rounds])
+
     ratio, speedup, explorer = median('ratio_1'), median('speedup_2'), median('explorer')
     report.add('| measure | value | target (issue 32) | met |')
     report.add('|---|---|---|---|')
     report.add(
-        f'| bare compute: `propagate_batch` + metrics, {RUNS:,} runs, one process | {column("bare")} s '
-        f'({spread([RUNS / r["bare"] for r in rounds])} runs/s; CPU {column("bare_cpu")} s) | | |'
+        f'| bare compute: `propagate_batch` + metrics, {RUNS:,} runs, one process | '
+        f'{column("bare")} s ({runs_per_second("bare")} runs/s; CPU {column("bare_cpu")} s) | | |'
     )
     report.add(
-        f'| campaign, 1 local worker | {column("workers_1")} s ({spread([RUNS / r["workers_1"] for r in rounds])} '
+        f'| campaign, 1 local worker | {column("workers_1")} s ({runs_per_second("workers_1")} '
         f'runs/s), {column("ratio_1")} of the bare compute (CPU, workers and this process: '
         f"{column('workers_1_cpu')} s, {column('ratio_1_cpu')} of the bare compute's) | ≤ 1.3x | "
         f'{"yes" if ratio <= 1.3 else "**no**"} |'
     )
     report.add(
-        f'| campaign, 2 local workers | {column("workers_2")} s ({spread([RUNS / r["workers_2"] for r in rounds])} '
-        f'runs/s), {column("speedup_2")} the runs/s of 1 worker (CPU {column("workers_2_cpu")} s) | ≥ 1.8x | '
+        f'| campaign, 2 local workers | {column("workers_2")} s ({runs_per_second("workers_2")} '
+        f'runs/s), {column("speedup_2")} the runs/s of 1 worker '
+        f'(CPU {column("workers_2_cpu")} s) | ≥ 1.8x | '
         f'{"yes" if speedup >= 1.8 else "**no**"} |'
     )
     report.add(
-        f'| 1,000 dispersed explorer1 runs, 900 s at 1 Hz, 2 local workers, end to end (cluster start and '
-        f'close included) | {column("explorer")} s | ≤ 30 s | {"yes" if explorer <= 30 else "**no**"} |'
+        '| 1,000 dispersed explorer1 runs, 900 s at 1 Hz, 2 local workers, end to end '
+        f'(cluster start and close included) | {column("explorer")} s | ≤ 30 s | '
+        f'{"yes" if explorer <= 30 else "**no**"} |'
     )
     report.add('')
     report.add(
@@ -344,21 +360,25 @@ def main(argv=None) -> int:
     )
     report.add('')
     report.add(
-        'Where the time of the torque-free campaign goes (this process unless it says workers; on 2 workers '
-        "this process's CPU (the client's results, the part files, the table) shares the 2 cores with them):"
+        'Where the time of the torque-free campaign goes (this process unless it says workers; '
+        "on 2 workers this process's CPU (the client's results, the part files, the table) shares "
+        'the 2 cores with them):'
     )
     report.add('')
     report.add('| stage | time |')
     report.add('|---|---|')
     report.add(f'| the bare compute | {column("bare")} s |')
     report.add(
-        f"| drawing the {RUNS:,} runs' inputs (a generator per run, the body checked) | {column('draws')} s |"
+        f"| drawing the {RUNS:,} runs' inputs (a generator per run, the body checked) | "
+        f'{column("draws")} s |'
     )
     report.add(
-        f'| the campaign in this process (draws, chunks, metrics, table) | {column("in_process")} s |'
+        '| the campaign in this process (draws, chunks, metrics, table) | '
+        f'{column("in_process")} s |'
     )
     report.add(
-        f'| the same, written to a directory (part files, `runs.parquet`) | {column("in_process_output")} s |'
+        '| the same, written to a directory (part files, `runs.parquet`) | '
+        f'{column("in_process_output")} s |'
     )
     report.add(
         f'| the same on 1 warm local worker | {column("workers_1")} s (CPU: this process '
@@ -379,11 +399,11 @@ def main(argv=None) -> int:
         )
         report.add('')
         report.add(
-            f'With {cores} cores this process (the client: results, part files, table) shares them with the 2 '
-            f'workers. From the CPU times alone, which other processes do not change, the best 2-worker '
-            f'speed-up this machine allows is {bound:.3g}x: 1 worker at best takes its own CPU (this process '
-            f"beside it on the other core), 2 workers at best all the CPU, this process's included, over "
-            f'{cores} cores.'
+            f'With {cores} cores this process (the client: results, part files, table) shares '
+            'them with the 2 workers. From the CPU times alone, which other processes do not '
+            f'change, the best 2-worker speed-up this machine allows is {bound:.3g}x: 1 worker at '
+            'best takes its own CPU (this process beside it on the other core), 2 workers at best '
+            f"all the CPU, this process's included, over {cores} cores."
         )
     report.add('')
     report.add('What the engine costs:')
@@ -392,12 +412,12 @@ def main(argv=None) -> int:
     report.add('|---|---|')
     for workers, (up, first) in start_up.items():
         report.add(
-            f'| a local cluster of {workers} worker{"s" if workers > 1 else ""}: start-up (workers connected) | '
-            f'{up:.2f} s |'
+            f'| a local cluster of {workers} worker{"s" if workers > 1 else ""}: start-up '
+            f'(workers connected) | {up:.2f} s |'
         )
         report.add(
-            f'| its first campaign ({workers} one-run chunks: imports and kernels loaded in each worker) | '
-            f'{first:.2f} s |'
+            f'| its first campaign ({workers} one-run chunks: imports and kernels loaded in each '
+            f'worker) | {first:.2f} s |'
         )
     report.add(
         f'| a chunk in this process (one run of one sample, {OVERHEAD_TASKS} chunks) | '
@@ -405,17 +425,18 @@ def main(argv=None) -> int:
     )
     report.add(f"| writing a chunk's part file | {costs['part_file_ms']:.2f} ms |")
     report.add(
-        f'| a chunk on a warm local worker, beyond its cost in this process | {costs["chunk_dask_ms"]:.2f} ms |'
+        '| a chunk on a warm local worker, beyond its cost in this process | '
+        f'{costs["chunk_dask_ms"]:.2f} ms |'
     )
     for index, (rss, peak) in enumerate(memory):
         report.add(
-            f'| worker {index} of 2 after the campaigns: RSS (peak) | {rss:.0f} MiB ({peak:.0f} MiB) |'
+            f'| worker {index} of 2 after the campaigns: RSS (peak) | '
+            f'{rss:.0f} MiB ({peak:.0f} MiB) |'
         )
     report.save(args.output)
     return 0
 
 
-if (
-    __name__ == '__main__'
-):  # the local cluster's workers are spawned processes that import this module
+# the local cluster's workers are spawned processes that import this module
+if __name__ == '__main__':
     sys.exit(main())

@@ -14,8 +14,9 @@
 # limitations under the License.
 
 """
-Benchmark of the numerical propagators on scenes with motion effects (issue 27; a script, not a
-test): prints what it measured and the machine.
+Benchmark of the numerical propagators on scenes with motion effects (issue 27).
+
+A script, not a test: it prints what it measured and the machine.
 
 Per case (a scene with a motion effect, DOP853 at the scene's accuracy: rtol = accuracy, atol =
 accuracy / 100, what ``auto`` builds), the CPU time (``time.process_time``) per simulated second of
@@ -116,14 +117,12 @@ class Case:
     atol: float
     times: object = None
     reference: tuple = None  # (w, q) of the tight reference
-    floor: dict = field(
-        default_factory=dict
-    )  # the compiled path at the tight tolerances vs the reference
+    # the compiled path at the tight tolerances vs the reference
+    floor: dict = field(default_factory=dict)
 
     def propagator(self):
-        return self.scene.propagator(
-            rtol=self.rtol, atol=self.atol
-        )  # auto: DOP853 for an effects scene
+        # auto: DOP853 for an effects scene
+        return self.scene.propagator(rtol=self.rtol, atol=self.atol)
 
 
 def _cases() -> list[Case]:
@@ -167,9 +166,11 @@ _CYRK = {}
 
 def _cyrk_setup():
     """
-    The cfunc right-hand side (cyrk's diffeq signature: ``void(dy*, t, y*, args*)``) and an njit
-    driver. ``args`` = (n, model size, 3 unused floats (were scratch), held torques (6), model):
-    they live in cyrk's own copy of ``args``, so the right-hand side allocates nothing.
+    Build cyrk's cfunc right-hand side and an njit driver, once.
+
+    The cfunc right-hand side has cyrk's diffeq signature, ``void(dy*, t, y*, args*)``. ``args`` =
+    (n, model size, 3 unused floats (were scratch), held torques (6), model): they live in cyrk's
+    own copy of ``args``, so the right-hand side allocates nothing.
     """
     if _CYRK:
         return _CYRK
@@ -177,7 +178,6 @@ def _cyrk_setup():
     from CyRK.nb.numba_solver import cyjit_sig
     from numba import carray
     import numba as nb
-    import numpy as np
     from torquefree_ros.core.integrators import motion_kernels
 
     motion_kernels.compile_kernels()
@@ -211,9 +211,11 @@ def _cyrk_setup():
 
 def _cyrk_run(case: Case, times=None):
     """
-    (w, q, steps) at ``times`` (default ``case.times``; a sample on every breakpoint), from the
-    scene: its Dynamics (a propagator on the reference path, which builds no kernel state), the
-    kernels' model, then cyrk piece by piece.
+    Return cyrk's (w, q, steps) at ``times``.
+
+    ``times`` defaults to ``case.times``; a sample on every breakpoint. From the scene: its
+    Dynamics (a propagator on the reference path, which builds no kernel state), the kernels'
+    model, then cyrk piece by piece.
     """
     import numpy as np
     from torquefree_ros.core.integrators import compiled
@@ -233,9 +235,8 @@ def _cyrk_run(case: Case, times=None):
     t0, first, steps = 0.0, 0, 0
     while first < times.size:
         t1 = min(dynamics.next_breakpoint(t0), float(times[-1]))
-        last = int(
-            np.searchsorted(times, t1, side='right')
-        )  # a sample on the breakpoint ends this piece
+        # a sample on the breakpoint ends this piece
+        last = int(np.searchsorted(times, t1, side='right'))
         compiled.held_torques(dynamics, t0, args[5:11])
         status, taken = cy['solve'](
             cy['address'],
@@ -296,8 +297,9 @@ def _errors(case: Case, w, q) -> tuple[float, float]:
 
 def _tight_references(cases: list[Case]) -> None:
     """
-    The reference path at rtol 1e-13, atol 1e-15, and the compiled path there beside it (how far
-    the error measure can see).
+    Set each case's tight reference: the reference path at rtol 1e-13, atol 1e-15.
+
+    And the compiled path there beside it, in ``case.floor`` (how far the error measure can see).
     """
     from torquefree_ros.core.integrators import compiled
 
@@ -314,8 +316,9 @@ def _tight_references(cases: list[Case]) -> None:
 
 def _round(cases: list[Case], calls: int) -> dict:
     """
-    Every case on every path, interleaved call by call: {(case, path): (seconds, attitude error,
-    w error)}.
+    Run every case on every path, interleaved call by call.
+
+    Returns {(case, path): (seconds, attitude error, w error)}.
     """
     result = {}
     for case in cases:
@@ -333,7 +336,11 @@ def _round(cases: list[Case], calls: int) -> dict:
 
 
 def _stops(case: Case):
-    """The breakpoints before the end and the end: a run's times with no output between them."""
+    """
+    Return the breakpoints before the end, and the end.
+
+    A run's times with no output between them.
+    """
     import numpy as np
 
     p = case.propagator()
@@ -345,12 +352,13 @@ def _stops(case: Case):
 
 def _diagnostics(cases: list[Case], calls: int) -> dict:
     """
-    Where the compiled path's time goes, per case: building the propagator, its kernel's
-    evaluate (the stepping, the outputs and q normalised in them), the rest of states(); the kernel
-    and cyrk stepping alone (outputs only at the breakpoints and the end), so that (all - stepping)
-    / samples is the outputs' cost; scipy's DOP853 step count over the same run (solve_ivp on the
-    compiled right-hand side, piece by piece: the compiled path takes scipy's steps) beside
-    cyrk's.
+    Measure where the compiled path's time goes, per case.
+
+    Building the propagator, its kernel's evaluate (the stepping, the outputs and q normalised in
+    them), the rest of states(); the kernel and cyrk stepping alone (outputs only at the
+    breakpoints and the end), so that (all - stepping) / samples is the outputs' cost; scipy's
+    DOP853 step count over the same run (solve_ivp on the compiled right-hand side, piece by piece:
+    the compiled path takes scipy's steps) beside cyrk's.
     """
     from CyRK import pysolve_ivp
     import numpy as np
@@ -444,9 +452,10 @@ def _diagnostics(cases: list[Case], calls: int) -> dict:
 
 def _latencies(calls: int) -> dict:
     """
-    ns of one operation in a chain of dependent ones (each waits for the one before), compiled:
-    double addition, multiplication, division, square root, and ``x ** -0.125`` (the C library's
-    pow, scipy's step factor).
+    Measure the ns of one operation in a chain of dependent ones, compiled.
+
+    Each operation waits for the one before: double addition, multiplication, division, square
+    root, and ``x ** -0.125`` (the C library's pow, scipy's step factor).
     """
     import numba
 
@@ -504,12 +513,13 @@ def _latencies(calls: int) -> dict:
 
 def _critical_path(n: int) -> dict:
     """
-    The operations one DOP853 step must run one after the other on explorer1's scene (``n``
-    state components, a damper), however it is coded: each stage's state waits for the right-hand
-    side of the stage before, the next step waits for the step factor. A stage's sum over the
-    earlier stages can be added up while the newest one is computed; its newest term comes last in
-    scipy's order of ``j`` (which the samples keep), so what waits is that term's product and one
-    addition:
+    Count the operations one DOP853 step must run one after the other on explorer1's scene.
+
+    The operations one DOP853 step must run one after the other on explorer1's scene (``n`` state
+    components, a damper), however it is coded: each stage's state waits for the right-hand side of
+    the stage before, the next step waits for the step factor. A stage's sum over the earlier
+    stages can be added up while the newest one is computed; its newest term comes last in scipy's
+    order of ``j`` (which the samples keep), so what waits is that term's product and one addition:
 
     - stages 2 to 11: the newest term (a multiplication, an addition), times ``h``, plus ``y``
       (stage 1: times ``h``, plus ``y``); then the right-hand side on that state: ``I w`` (a
@@ -555,9 +565,12 @@ built = time.perf_counter()
 p.states([0.01])
 done = time.perf_counter()
 hwm = [line for line in open("/proc/self/status") if line.startswith("VmHWM:")][0].split()[1]
-print(json.dumps({"import_s": imported - started, "build_s": built - imported, "sample_s": done - built,
-                  "inside_s": done - started, "compiled": p.compiled, "numba_imported": "numba" in sys.modules,
-                  "hwm_mib": int(hwm) / 1024, "maxrss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}))
+print(json.dumps({
+    "import_s": imported - started, "build_s": built - imported, "sample_s": done - built,
+    "inside_s": done - started, "compiled": p.compiled, "numba_imported": "numba" in sys.modules,
+    "hwm_mib": int(hwm) / 1024,
+    "maxrss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+}))
 """
 
 
@@ -615,9 +628,9 @@ def _versions() -> str:
         r for r in importlib.metadata.requires('cyrk') or () if 'extra ==' not in r
     )
     return (
-        f'python {platform.python_version()}, numpy {numpy.__version__}, scipy {scipy.__version__}, '
-        f'numba {numba.__version__} (llvmlite {version("llvmlite")}), cyrk {version("cyrk")} (not a dependency '
-        f'of this package; it requires {requires})'
+        f'python {platform.python_version()}, numpy {numpy.__version__}, '
+        f'scipy {scipy.__version__}, numba {numba.__version__} (llvmlite {version("llvmlite")}), '
+        f'cyrk {version("cyrk")} (not a dependency of this package; it requires {requires})'
     )
 
 
@@ -625,8 +638,10 @@ def _report_floor(
     report: Report, cases: list[Case], rounds: list[dict], diagnostics: dict, latencies: dict
 ) -> None:
     """
-    Why compiled ≤ 0.25x cyrk is out of reach for a step: the floor of a step (its critical path
-    at this machine's latencies) against a quarter of cyrk's step.
+    Report the floor of a step against a quarter of cyrk's step.
+
+    Why compiled ≤ 0.25x cyrk is out of reach for a step: the floor of a step (its critical path at
+    this machine's latencies) against a quarter of cyrk's step.
     """
     case = next(c for c in cases if c.name == 'explorer1 @ 1e-10')
     d = diagnostics[case.name]
@@ -639,14 +654,15 @@ def _report_floor(
     report.add("## How far a step can go: the floor against a quarter of cyrk's")
     report.add('')
     report.add(
-        f"Both solvers take scipy's steps and call the right-hand side as often (the table above), so "
-        f'compiled/cyrk is a ratio of costs per step. A DOP853 step on {case.name.split()[0]} (n = {n}, the '
-        f'damper) must run one after the other, however it is coded, at least {path["add"]} additions, '
-        f'{path["mul"]} multiplications, {path["div"]} divisions, a square root and a `pow` (its critical '
-        f"path, counted from scipy's tableau and the right-hand side: `_critical_path` in this script says "
-        f'which). Latencies measured in this run (a chain of dependent operations, compiled): addition '
-        f'{latencies["add"]:.2f} ns, multiplication {latencies["mul"]:.2f}, division {latencies["div"]:.2f}, '
-        f'square root {latencies["sqrt"]:.2f}, `pow` {latencies["pow"]:.1f}.'
+        "Both solvers take scipy's steps and call the right-hand side as often (the table above), "
+        f'so compiled/cyrk is a ratio of costs per step. A DOP853 step on {case.name.split()[0]} '
+        f'(n = {n}, the damper) must run one after the other, however it is coded, at '
+        f'least {path["add"]} additions, {path["mul"]} multiplications, {path["div"]} divisions, '
+        "a square root and a `pow` (its critical path, counted from scipy's tableau and the "
+        'right-hand side: `_critical_path` in this script says which). Latencies measured in this '
+        f'run (a chain of dependent operations, compiled): addition {latencies["add"]:.2f} ns, '
+        f'multiplication {latencies["mul"]:.2f}, division {latencies["div"]:.2f}, square '
+        f'root {latencies["sqrt"]:.2f}, `pow` {latencies["pow"]:.1f}.'
     )
     report.add('')
     report.add("| | ns per step | / cyrk's step |")
@@ -657,16 +673,18 @@ def _report_floor(
     )
     report.add(f"| the target: a quarter of cyrk's step | {0.25 * cyrk_ns:.0f} | 0.25 |")
     report.add(
-        f"| the compiled path's step (stepping alone, above) | {kernel_ns:.0f} | {kernel_ns / cyrk_ns:.2f} |"
+        f"| the compiled path's step (stepping alone, above) | {kernel_ns:.0f} "
+        f'| {kernel_ns / cyrk_ns:.2f} |'
     )
     report.add(f"| cyrk's step | {cyrk_ns:.0f} | 1 |")
     report.add('')
     verdict = 'below the floor: out of reach' if 0.25 * cyrk_ns < floor_ns else 'above the floor'
     report.add(
-        f"A quarter of cyrk's step is {verdict}; the compiled step is {kernel_ns / floor_ns:.1f}x the floor. "
-        f"Per simulated second (the table's measure, which also holds the outputs, where cyrk is slower, and "
-        f'building the propagator): the steps alone at the floor would cost {steps_only:.2f} µs per simulated '
-        f"second on {case.name}, against a quarter of cyrk's whole run, {0.25 * cyrk_total:.2f} µs."
+        f"A quarter of cyrk's step is {verdict}; the compiled step is {kernel_ns / floor_ns:.1f}x "
+        "the floor. Per simulated second (the table's measure, which also holds the outputs, "
+        'where cyrk is slower, and building the propagator): the steps alone at the floor would '
+        f'cost {steps_only:.2f} µs per simulated second on {case.name}, against a quarter of '
+        f"cyrk's whole run, {0.25 * cyrk_total:.2f} µs."
     )
 
 
@@ -675,7 +693,7 @@ def _met(value: float, target: float) -> str:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    parser = argparse.ArgumentParser(description=__doc__.strip().split('\n\n')[0])
     parser.add_argument(
         '--rounds', type=int, default=3, help='rounds of every measurement (default 3)'
     )
@@ -685,7 +703,6 @@ def main() -> int:
     parser.add_argument('--output', help='also write the report to this Markdown file')
     args = parser.parse_args()
 
-    import numpy as np
     from torquefree_ros.core.integrators import compiled
 
     if not compiled.AVAILABLE:
@@ -696,9 +713,8 @@ def main() -> int:
     cases = _cases()
     _cyrk_setup()
     _tight_references(cases)
-    for (
-        case
-    ) in cases:  # warm up (imports, the kernels loaded, cyrk's driver compiled), not measured
+    # warm up (imports, the kernels loaded, cyrk's driver compiled), not measured
+    for case in cases:
         for path in PATHS:
             _run(case, path)
     rounds = [_round(cases, args.calls) for _ in range(args.rounds)]
@@ -711,31 +727,35 @@ def main() -> int:
     report.add(f'- versions: {_versions()}')
     report.add('')
     report.add(
-        f'{args.rounds} rounds in {elapsed:.0f} s; each figure is median (min–max) over the rounds of the '
-        f'fastest of {args.calls} runs. **CPU time** is `time.process_time()` of one run from the loaded '
-        'scene to every sample at 100 Hz (the propagator built, then `states()` on all the sample times; '
-        "for cyrk: the scene's Dynamics and the kernels' model, then its solver), **per simulated second**."
+        f'{args.rounds} rounds in {elapsed:.0f} s; each figure is median (min–max) over the '
+        f'rounds of the fastest of {args.calls} runs. **CPU time** is `time.process_time()` of '
+        'one run from the loaded scene to every sample at 100 Hz (the propagator built, then '
+        "`states()` on all the sample times; for cyrk: the scene's Dynamics and the kernels' "
+        'model, then its solver), **per simulated second**.'
     )
     report.add('')
     report.add(
-        '- **compiled**: the default path, numba kernels (`torquefree_ros/core/integrators`), DOP853 with '
-        "scipy's tableau and step control."
+        '- **compiled**: the default path, numba kernels (`torquefree_ros/core/integrators`), '
+        "DOP853 with scipy's tableau and step control."
     )
     report.add(
-        '- **reference**: the same propagator with `compiled.ENABLED = False` (= `TORQUEFREE_ROS_KERNELS=numpy`): '
-        "scipy's `DOP853` stepping on the Python right-hand side `Dynamics.derivative`."
+        '- **reference**: the same propagator with `compiled.ENABLED = False` (= '
+        "`TORQUEFREE_ROS_KERNELS=numpy`): scipy's `DOP853` stepping on the Python right-hand side "
+        '`Dynamics.derivative`.'
     )
     report.add(
-        "- **cyrk**: `CyRK.nbsolve2_ivp` (cyrk's numba entry point into its C++ solver) with method "
-        '`DOP853`, the same rtol/atol, `t_eval` = the sample times, and a numba `cfunc` right-hand side that '
-        "calls `motion_kernels.derivative` (the compiled path's own; its scratch is kept in cyrk's copy of "
-        '`args`, so no allocation per call). A torque schedule is solved piece by piece between its '
-        'breakpoints, each piece with its held torque, as the propagators do.'
+        "- **cyrk**: `CyRK.nbsolve2_ivp` (cyrk's numba entry point into its C++ solver) with "
+        'method `DOP853`, the same rtol/atol, `t_eval` = the sample times, and a numba `cfunc` '
+        "right-hand side that calls `motion_kernels.derivative` (the compiled path's own; its "
+        "scratch is kept in cyrk's copy of `args`, so no allocation per call). A torque schedule "
+        'is solved piece by piece between its breakpoints, each piece with its held torque, as '
+        'the propagators do.'
     )
     report.add(
-        f'- **error**: the largest attitude error (rad; the angle of q_ref* ⊗ q) and |Δω| (rad/s) over the '
-        f'samples, against the reference path at rtol {TIGHT_RTOL:g}, atol {TIGHT_ATOL:g}. The compiled path '
-        "at those tolerances lies this far from it (the measure's floor): "
+        '- **error**: the largest attitude error (rad; the angle of q_ref* ⊗ q) and |Δω| (rad/s) '
+        f'over the samples, against the reference path at rtol {TIGHT_RTOL:g}, '
+        f'atol {TIGHT_ATOL:g}. The compiled path at those tolerances lies this far from it (the '
+        "measure's floor): "
         + '; '.join(
             f'{c.name} {c.floor["attitude"]:.1e} rad, {c.floor["omega"]:.1e} rad/s' for c in cases
         )
@@ -743,15 +763,17 @@ def main() -> int:
     )
     report.add('')
     report.add(
-        "Cases: DOP853 at the scene's accuracy (rtol = accuracy, atol = accuracy / 100: what `auto` builds); "
-        'the two torque scenes are built with `scene_from_mapping` (inertia 2, 3, 4 kg m², '
-        'ω0 = (0.3, 0.2, 1.0) rad/s; torque (0.02, -0.01, 0.03) N m in the inertial frame; the schedule: '
-        '5 segments of 20 s). `detumble` (torque_command) is not here: it needs a controller answering '
-        'each sample; its hold goes through the same held-torque path as external_torque.'
+        "Cases: DOP853 at the scene's accuracy (rtol = accuracy, atol = accuracy / 100: what "
+        '`auto` builds); the two torque scenes are built with `scene_from_mapping` (inertia 2, 3, '
+        '4 kg m², ω0 = (0.3, 0.2, 1.0) rad/s; torque (0.02, -0.01, 0.03) N m in the inertial '
+        'frame; the schedule: 5 segments of 20 s). `detumble` (torque_command) is not here: it '
+        'needs a controller answering each sample; its hold goes through the same held-torque '
+        'path as external_torque.'
     )
     report.add('')
     report.add(
-        '| case | effect | simulated s | rtol / atol | path | µs CPU per simulated s | attitude error (rad) | |Δω| (rad/s) |'
+        '| case | effect | simulated s | rtol / atol | path | µs CPU per simulated s '
+        '| attitude error (rad) | |Δω| (rad/s) |'
     )
     report.add('|---|---|---|---|---|---|---|---|')
     for case in cases:
@@ -761,14 +783,16 @@ def main() -> int:
             attitude = max(v[1] for v in values)
             omega = max(v[2] for v in values)
             report.add(
-                f'| {case.name} | {case.effect} | {case.duration:g} | {case.rtol:g} / {case.atol:g} | {path} | '
-                f'{cost} | {attitude:.1e} | {omega:.1e} |'
+                f'| {case.name} | {case.effect} | {case.duration:g} '
+                f'| {case.rtol:g} / {case.atol:g} | {path} | {cost} '
+                f'| {attitude:.1e} | {omega:.1e} |'
             )
     report.add('')
     report.add('## Targets (issue 27; ratios of CPU time taken within each round, case by case)')
     report.add('')
     report.add(
-        f'| case | compiled / reference | ≤ {TARGET_REFERENCE:g} | compiled / cyrk | ≤ {TARGET_CYRK:g} |'
+        f'| case | compiled / reference | ≤ {TARGET_REFERENCE:g} | compiled / cyrk | '
+        f'≤ {TARGET_CYRK:g} |'
     )
     report.add('|---|---|---|---|---|')
     summary = {'reference': [], 'cyrk': []}
@@ -783,35 +807,40 @@ def main() -> int:
     e1 = [r['explorer1 @ 1e-10', 'compiled'][0] / 100.0 * 1e6 for r in rounds]
     report.add('')
     report.add(
-        f'- explorer1 at rtol 1e-10, atol 1e-12 (100 s, 100 Hz): compiled {spread(e1)} µs of CPU per simulated '
-        f'second; target ≤ {TARGET_EXPLORER1_US:g}: {_met(statistics.median(e1), TARGET_EXPLORER1_US)}.'
+        f'- explorer1 at rtol 1e-10, atol 1e-12 (100 s, 100 Hz): compiled {spread(e1)} µs of CPU '
+        f'per simulated second; target ≤ {TARGET_EXPLORER1_US:g}: '
+        f'{_met(statistics.median(e1), TARGET_EXPLORER1_US)}.'
     )
     report.add(
-        f'- compiled ≤ {TARGET_REFERENCE:g}x reference: {sum(summary["reference"])} of {len(cases)} cases; '
-        f'compiled ≤ {TARGET_CYRK:g}x cyrk: {sum(summary["cyrk"])} of {len(cases)} cases.'
+        f'- compiled ≤ {TARGET_REFERENCE:g}x reference: {sum(summary["reference"])} '
+        f'of {len(cases)} cases; compiled ≤ {TARGET_CYRK:g}x cyrk: {sum(summary["cyrk"])} '
+        f'of {len(cases)} cases.'
     )
     report.add('')
     report.add("## Where the compiled path's time goes")
     report.add('')
     report.add(
-        'Per case, the fastest of the calls: building the propagator; `DOP853Kernel.evaluate` alone from a '
-        'restart (all the stepping and the dense output, q normalised in each output row: one numba call per '
-        'smooth piece); the rest of `states()` (build + states() minus the parts, each '
-        'the fastest of its own calls: it can come out slightly negative). Then the stepping alone, for the '
-        'kernel and for cyrk: the same run asked only for the breakpoints and the end (no dense output), per '
-        'step; and the outputs, (all samples − stepping alone) per sample (dense output and its 3 extra '
-        "right-hand-side calls per step, cyrk's storage of the samples; for cyrk also the Dynamics, the q "
-        "normalisation, the copy). DOP853 steps: scipy's (`solve_ivp` on the kernels' right-hand side, piece "
-        "by piece; the compiled path reproduces scipy's step control and takes these steps) and cyrk's. "
-        "Right-hand-side calls of the stepping alone: scipy's `nfev` (the kernel's: 12 an attempted step, 2 "
-        "a piece's initial step) and cyrk's (its `pysolve_ivp`, the same C++ solver, on a Python right-hand "
-        "side that counts its calls); the stepping's time per call."
+        'Per case, the fastest of the calls: building the propagator; `DOP853Kernel.evaluate` '
+        'alone from a restart (all the stepping and the dense output, q normalised in each output '
+        'row: one numba call per smooth piece); the rest of `states()` (build + states() minus '
+        'the parts, each the fastest of its own calls: it can come out slightly negative). Then '
+        'the stepping alone, for the kernel and for cyrk: the same run asked only for the '
+        'breakpoints and the end (no dense output), per step; and the outputs, (all samples − '
+        'stepping alone) per sample (dense output and its 3 extra right-hand-side calls per step, '
+        "cyrk's storage of the samples; for cyrk also the Dynamics, the q normalisation, the "
+        "copy). DOP853 steps: scipy's (`solve_ivp` on the kernels' right-hand side, piece by "
+        "piece; the compiled path reproduces scipy's step control and takes these steps) and "
+        "cyrk's. Right-hand-side calls of the stepping alone: scipy's `nfev` (the kernel's: 12 an "
+        "attempted step, 2 a piece's initial step) and cyrk's (its `pysolve_ivp`, the same C++ "
+        "solver, on a Python right-hand side that counts its calls); the stepping's time per call."
     )
     report.add('')
     report.add(
-        '| case | build (µs) | kernel evaluate (µs) | rest of states() (µs) | DOP853 steps '
-        '(scipy / cyrk) | right-hand-side calls, stepping (scipy / cyrk) | stepping, µs per step (kernel / cyrk) '
-        '| stepping, ns per right-hand-side call (kernel / cyrk) | outputs, ns per sample (kernel / cyrk) |'
+        '| case | build (µs) | kernel evaluate (µs) | rest of states() (µs) '
+        '| DOP853 steps (scipy / cyrk) | right-hand-side calls, stepping (scipy / cyrk) '
+        '| stepping, µs per step (kernel / cyrk) '
+        '| stepping, ns per right-hand-side call (kernel / cyrk) '
+        '| outputs, ns per sample (kernel / cyrk) |'
     )
     report.add('|---|---|---|---|---|---|---|---|---|')
     for case in cases:
@@ -830,29 +859,32 @@ def main() -> int:
     report.add('## What numba costs a process')
     report.add('')
     report.add(
-        "A new process (`python -c`): import `torquefree_ros`, build explorer1's propagator (`auto`), evaluate one "
-        "sample. Wall time from outside includes the interpreter's start and the ROS wheels' re-exec of it "
-        "(the same in every row); inside: from the child's first line to its sample. Peak RSS: the "
-        "child's `VmHWM` (/proc/self/status) at its end; `resource.getrusage(RUSAGE_SELF).ru_maxrss` in "
-        "the child is given beside it but is not the child's own: the child is forked from this (large) "
-        "benchmark process and Linux carries that image's high-water mark over `execve` (checked: a "
-        '`python -c` child reads ~470 MiB of ru_maxrss under a parent holding 480 MiB, 27 under a small one; '
-        'VmHWM 13 MiB both times). *cached*: the default, the kernels loaded '
-        "from numba's cache (written before); *numpy*: `TORQUEFREE_ROS_KERNELS=numpy`; *first use*: an empty "
+        "A new process (`python -c`): import `torquefree_ros`, build explorer1's propagator "
+        "(`auto`), evaluate one sample. Wall time from outside includes the interpreter's start "
+        "and the ROS wheels' re-exec of it (the same in every row); inside: from the child's "
+        "first line to its sample. Peak RSS: the child's `VmHWM` (/proc/self/status) at its end; "
+        '`resource.getrusage(RUSAGE_SELF).ru_maxrss` in the child is given beside it but is not '
+        "the child's own: the child is forked from this (large) benchmark process and Linux "
+        "carries that image's high-water mark over `execve` (checked: a `python -c` child reads "
+        '~470 MiB of ru_maxrss under a parent holding 480 MiB, 27 under a small one; VmHWM 13 MiB '
+        "both times). *cached*: the default, the kernels loaded from numba's cache (written "
+        'before); *numpy*: `TORQUEFREE_ROS_KERNELS=numpy`; *first use*: an empty '
         '`NUMBA_CACHE_DIR` (every kernel the run touches compiled).'
     )
     report.add('')
     report.add(
-        '| process | wall, outside (s) | inside (s) | import (s) | build propagator (s) | first sample (s) | '
-        'numba imported | peak RSS, VmHWM (MiB) | ru_maxrss (MiB) |'
+        '| process | wall, outside (s) | inside (s) | import (s) | build propagator (s) '
+        '| first sample (s) | numba imported | peak RSS, VmHWM (MiB) | ru_maxrss (MiB) |'
     )
     report.add('|---|---|---|---|---|---|---|---|---|')
     for kind, runs in processes.items():
         report.add(
-            f'| {kind} | {spread([r["wall_s"] for r in runs])} | {spread([r["inside_s"] for r in runs])} | '
-            f'{spread([r["import_s"] for r in runs])} | {spread([r["build_s"] for r in runs])} | '
-            f'{spread([r["sample_s"] for r in runs])} | {"yes" if runs[0]["numba_imported"] else "no"} | '
-            f'{spread([r["hwm_mib"] for r in runs])} | {spread([r["maxrss_mib"] for r in runs])} |'
+            f'| {kind} | {spread([r["wall_s"] for r in runs])} '
+            f'| {spread([r["inside_s"] for r in runs])} | {spread([r["import_s"] for r in runs])} '
+            f'| {spread([r["build_s"] for r in runs])} | {spread([r["sample_s"] for r in runs])} '
+            f'| {"yes" if runs[0]["numba_imported"] else "no"} '
+            f'| {spread([r["hwm_mib"] for r in runs])} '
+            f'| {spread([r["maxrss_mib"] for r in runs])} |'
         )
     cached = statistics.median(r['wall_s'] for r in processes['cached'])
     numpy_wall = statistics.median(r['wall_s'] for r in processes['numpy'])
@@ -865,11 +897,10 @@ def main() -> int:
     )
     report.add('')
     report.add(
-        f"numba's cost to a process (medians, cached − numpy): {cached - numpy_wall:+.2f} s of wall time "
-        f"({inside:+.2f} s of it inside the child's own measure; the rest is outside it: the interpreter's exit "
-        'with numba loaded), '
-        f'{rss:+.0f} MiB of peak RSS (VmHWM); the first use with an empty cache {first - cached:+.2f} s more than a '
-        'cached start.'
+        f"numba's cost to a process (medians, cached − numpy): {cached - numpy_wall:+.2f} s of "
+        f"wall time ({inside:+.2f} s of it inside the child's own measure; the rest is outside "
+        f"it: the interpreter's exit with numba loaded), {rss:+.0f} MiB of peak RSS (VmHWM); the "
+        f'first use with an empty cache {first - cached:+.2f} s more than a cached start.'
     )
     report.save(args.output)
     return 0

@@ -14,8 +14,9 @@
 # limitations under the License.
 
 """
-Benchmark of the exact propagator's cost (a script, not a test): prints what it measured and the
-machine.
+Benchmark of the exact propagator's cost.
+
+A script, not a test: it prints what it measured and the machine.
 
 On every hard case of ``torquefree_ros/bench/hard_cases.json``, side by side in the same process:
 
@@ -66,8 +67,10 @@ def _use(path: str) -> None:
 
 def _first_call_s(cache_dir: str) -> float:
     """
-    Seconds of a new process's first propagation (m > 1/2, then m <= 1/2) beyond the same
-    process's second: the kernels compiled, or loaded from ``cache_dir``.
+    Time a new process's first propagation beyond its second, in seconds.
+
+    The first propagation (m > 1/2, then m <= 1/2) of a new process beyond the same process's
+    second: the kernels compiled, or loaded from ``cache_dir``.
     """
     import subprocess
 
@@ -75,7 +78,8 @@ def _first_call_s(cache_dir: str) -> float:
         'import time; from torquefree_ros import propagate\n'
         'def both(): propagate([2, 3, 4], [0.7, 0.5, 0.6], [0, 0, 0, 1], [1.0]); '
         'propagate([1, 2, 3], [0.3, 0.2, 1], [0, 0, 0, 1], [1.0])\n'
-        'a = time.perf_counter(); both(); b = time.perf_counter(); both(); c = time.perf_counter()\n'
+        'a = time.perf_counter(); both(); b = time.perf_counter(); both(); '
+        'c = time.perf_counter()\n'
         'print((b - a) - (c - b))'
     )
     env = {**os.environ, 'NUMBA_CACHE_DIR': cache_dir, 'TORQUEFREE_ROS_KERNELS': 'numba'}
@@ -103,19 +107,18 @@ def _case_round(case, calls: int) -> dict:
     m = 1.0 - polhode.jacobi.mc if polhode is not None else 0.5
     u = times * (polhode.rate if polhode is not None else 1.0)
     per_sample = fastest(lambda: propagator(times), calls) / BLOCK
+    small_per_sample = fastest(lambda: propagator(small), 10 * calls) / SMALL_BLOCK
+    build = fastest(
+        lambda: make_propagator(case.inertia, case.angular_velocity, case.orientation),
+        20 * calls,
+    )
     return {
         'sample_ns': per_sample * 1e9,
         'ellipj_ratio': per_sample / (fastest(lambda: ellipj(u, m), calls) / BLOCK),
         'generic_ellipj_ratio': per_sample / (fastest(lambda: ellipj(u, 0.5), calls) / BLOCK),
-        'small_block_ratio': fastest(lambda: propagator(small), 10 * calls)
-        / SMALL_BLOCK
-        / per_sample,
+        'small_block_ratio': small_per_sample / per_sample,
         'one_sample_us': fastest(lambda: propagator(small[:1]), 20 * calls) * 1e6,
-        'build_us': fastest(
-            lambda: make_propagator(case.inertia, case.angular_velocity, case.orientation),
-            20 * calls,
-        )
-        * 1e6,
+        'build_us': build * 1e6,
     }
 
 
@@ -146,7 +149,7 @@ def _batch_round(calls: int) -> dict:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    parser = argparse.ArgumentParser(description=__doc__.strip().split('\n\n')[0])
     parser.add_argument(
         '--rounds', type=int, default=3, help='rounds of every measurement (default 3)'
     )
@@ -185,8 +188,8 @@ def main() -> int:
 
     report = Report("The exact propagator's cost", 'make bench-exact')
     report.add(
-        f'{args.rounds} rounds in {time.monotonic() - started:.0f} s; each figure is median (min–max) '
-        'over the rounds of the fastest of several calls.'
+        f'{args.rounds} rounds in {time.monotonic() - started:.0f} s; each figure is median '
+        '(min–max) over the rounds of the fastest of several calls.'
     )
     if 'compiled' in paths:
         import numba
@@ -203,28 +206,27 @@ def main() -> int:
         )
     report.add('')
     report.add(
-        f'`propagate_batch`, {BODIES:,} dispersed bodies (inertia 2, 3, 4 kg m², ω0 0.7, 0.5, 0.6 rad/s, 1 % spread) x {BODY_SAMPLES} samples, '
-        f"beside one body's stream of {BODIES * BODY_SAMPLES:,} samples and the loop of `propagate` calls:"
+        f'`propagate_batch`, {BODIES:,} dispersed bodies (inertia 2, 3, 4 kg m², '
+        f'ω0 0.7, 0.5, 0.6 rad/s, 1 % spread) x {BODY_SAMPLES} samples, '
+        f"beside one body's stream of {BODIES * BODY_SAMPLES:,} samples and the loop of "
+        '`propagate` calls:'
     )
     report.add('')
     report.add('| path | | ns per body-sample | / one stream |')
     report.add('|---|---|---|---|')
     for path in paths:
-        b = batch[path]
-        report.add(
-            f'| {path} | propagate_batch | {spread([r["batch_ns"] for r in b])} | {spread([r["batch_ratio"] for r in b])} |'
-        )
-        report.add(
-            f'| {path} | loop of propagate | {spread([r["loop_ns"] for r in b])} | {spread([r["loop_ratio"] for r in b])} |'
-        )
-        report.add(f'| {path} | one stream | {spread([r["stream_ns"] for r in b])} | 1 |')
+        cell = {key: spread([r[key] for r in batch[path]]) for key in batch[path][0]}
+        report.add(f'| {path} | propagate_batch | {cell["batch_ns"]} | {cell["batch_ratio"]} |')
+        report.add(f'| {path} | loop of propagate | {cell["loop_ns"]} | {cell["loop_ratio"]} |')
+        report.add(f'| {path} | one stream | {cell["stream_ns"]} | 1 |')
     if first_calls:
         compiled = [first for first, _ in first_calls]
         cached = [again for _, again in first_calls]
         report.add('')
         report.add(
-            "The kernels' first call in a new process (both kinds; beyond the second call's time): compiling "
-            f"them {spread(compiled)} s; loading them from numba's cache {spread(cached)} s."
+            "The kernels' first call in a new process (both kinds; beyond the second call's "
+            f"time): compiling them {spread(compiled)} s; loading them from numba's cache "
+            f'{spread(cached)} s.'
         )
     report.save(args.output)
     return 0
@@ -233,15 +235,15 @@ def main() -> int:
 def _case_table(report, path: str, rounds: dict) -> None:
     report.add('')
     report.add(
-        f'**{path}**: per sample in a block of {BLOCK:,} and beside one `scipy.special.ellipj` call per '
-        "element (same count; at the case's parameter, where scipy takes shortcuts next to m = 0 and m = 1, "
-        f'and at m = 1/2); a block of {SMALL_BLOCK} per sample over a block of {BLOCK:,}; a call of one sample '
-        "(a call's fixed cost); building the propagator:"
+        f'**{path}**: per sample in a block of {BLOCK:,} and beside one `scipy.special.ellipj` '
+        "call per element (same count; at the case's parameter, where scipy takes shortcuts next "
+        f'to m = 0 and m = 1, and at m = 1/2); a block of {SMALL_BLOCK} per sample over a block '
+        f"of {BLOCK:,}; a call of one sample (a call's fixed cost); building the propagator:"
     )
     report.add('')
     report.add(
-        f"| case | ns per sample | / ellipj (case's m) | / ellipj (m = 1/2) | block {SMALL_BLOCK} / block {BLOCK:,} "
-        '| one sample (µs) | build (µs) |'
+        f"| case | ns per sample | / ellipj (case's m) | / ellipj (m = 1/2) | "
+        f'block {SMALL_BLOCK} / block {BLOCK:,} | one sample (µs) | build (µs) |'
     )
     report.add('|---|---|---|---|---|---|---|')
     keys = (

@@ -14,8 +14,9 @@
 # limitations under the License.
 
 """
-Benchmark of the closed loop in lock-step (a script, not a test): prints what it measured and
-the machine it ran on.
+Benchmark of the closed loop in lock-step.
+
+A script, not a test: it prints what it measured and the machine it ran on.
 
 - round trips per second: the node (this process, lock-step, as fast as the controller answers, the
   ``detumble`` library scene) and a rate-damping controller in another process that answers every
@@ -88,9 +89,8 @@ def round_trips(seconds: float) -> dict:
                 raise RuntimeError('the controller was not discovered')
             time.sleep(0.01)
         loop = node.node.sample_loop
-        time.sleep(
-            1.5
-        )  # past the start-up run's unanswered first samples (each waits lockstep_timeout)
+        # past the start-up run's unanswered first samples (each waits lockstep_timeout)
+        time.sleep(1.5)
         published0, missed0 = loop.published, loop.missed_steps
         cpu0, wall0 = time.process_time(), time.monotonic()
         time.sleep(seconds)
@@ -105,11 +105,12 @@ def round_trips(seconds: float) -> dict:
 
 def ping_pong(seconds: float, threaded: bool) -> float:
     """
-    Round trips per second of rclpy alone: this process publishes a raw angular_velocity sample
-    and waits for the same controller's answer before the next. ``threaded``: as the node does it,
-    the sample goes out from a thread of its own that waits for the executor's thread to hand it
-    the answer; otherwise the answer's callback publishes the next sample (one thread, the
-    floor).
+    Measure the round trips per second of rclpy alone.
+
+    This process publishes a raw angular_velocity sample and waits for the same controller's
+    answer before the next. ``threaded``: as the node does it, the sample goes out from a thread of
+    its own that waits for the executor's thread to hand it the answer; otherwise the answer's
+    callback publishes the next sample (one thread, the floor).
     """
     import threading
 
@@ -255,7 +256,7 @@ def step_costs(steps: int = 2000) -> dict:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    parser = argparse.ArgumentParser(description=__doc__.strip().split('\n\n')[0])
     parser.add_argument(
         '--seconds', type=float, default=5.0, help='duration of each round-trip run (default: 5)'
     )
@@ -278,40 +279,39 @@ def main(argv=None) -> int:
         handoffs.append(ping_pong(args.seconds, threaded=True))
     ratios = [r['rate'] / f for r, f in zip(runs, floors)]
     report.add(
-        f'Round trips per second (library scene `detumble` at 100 Hz, DOP853 at 1e-10 across each hold, the '
-        f'controller in another process, {args.seconds:g} s each): {spread([r["rate"] for r in runs])}; '
+        'Round trips per second (library scene `detumble` at 100 Hz, DOP853 at 1e-10 across each '
+        f'hold, the controller in another process, {args.seconds:g} s each): '
+        f'{spread([r["rate"] for r in runs])}; '
         f"missed steps {spread([r['missed'] for r in runs])}; the node's process CPU "
         f'{spread([100 * r["cpu"] for r in runs])} % of a core.'
     )
     report.add('')
     report.add(
-        f"rclpy's floor, side by side (the same controller; this process publishes a raw sample and waits for "
-        f"the answer before the next): answered from the answer's callback, one thread, "
-        f'{spread(floors)} round trips per second; from a thread of its own handed each answer by the '
-        f"executor's thread, as the node's sample loop is, {spread(handoffs)}."
+        "rclpy's floor, side by side (the same controller; this process publishes a raw sample "
+        "and waits for the answer before the next): answered from the answer's callback, one "
+        f'thread, {spread(floors)} round trips per second; from a thread of its own handed each '
+        f"answer by the executor's thread, as the node's sample loop is, {spread(handoffs)}."
     )
     report.add(f"The node's lock-step / the floor, run by run: {spread(ratios)}.")
     report.add('')
     costs = [step_costs() for _ in range(args.repeats)]
     report.add(
-        "Per step, µs, in one process: the node's own work (command into the hold, seal, one sample "
-        f'computed, CDR encoded) {spread([1e6 * c["node"] for c in costs])}; rclpy publishing one raw '
-        f'sample {spread([1e6 * c["publish"] for c in costs])}; rclpy taking one message '
-        f'{spread([1e6 * c["take"] for c in costs])}; the executor taking one message and calling its '
-        f'callback {spread([1e6 * c["dispatch"] for c in costs])}.'
+        "Per step, µs, in one process: the node's own work (command into the hold, seal, one "
+        f'sample computed, CDR encoded) {spread([1e6 * c["node"] for c in costs])}; rclpy '
+        f'publishing one raw sample {spread([1e6 * c["publish"] for c in costs])}; rclpy taking '
+        f'one message {spread([1e6 * c["take"] for c in costs])}; the executor taking one message '
+        f'and calling its callback {spread([1e6 * c["dispatch"] for c in costs])}.'
     )
     node_us = statistics.median(1e6 * c['node'] for c in costs)
-    round_trip, floor = (
-        1e6 / statistics.median(r['rate'] for r in runs),
-        1e6 / statistics.median(floors),
-    )
+    round_trip = 1e6 / statistics.median(r['rate'] for r in runs)
+    floor = 1e6 / statistics.median(floors)
     report.add('')
     report.add(
-        f"Where a round trip goes (medians): {round_trip:.0f} µs, of which rclpy's floor (both processes' "
-        f"executors, DDS both ways, the controller) {floor:.0f} µs and the node's own work {node_us:.0f} µs; "
-        f"the remaining {round_trip - floor - node_us:.0f} µs is the node's rclpy side beyond the floor's "
-        '(the command taken as a Python message, three more messages published per sample: /clock, '
-        "attitude, markers) and the machine's noise."
+        f"Where a round trip goes (medians): {round_trip:.0f} µs, of which rclpy's floor (both "
+        f"processes' executors, DDS both ways, the controller) {floor:.0f} µs and the node's own "
+        f'work {node_us:.0f} µs; the remaining {round_trip - floor - node_us:.0f} µs is the '
+        "node's rclpy side beyond the floor's (the command taken as a Python message, three more "
+        "messages published per sample: /clock, attitude, markers) and the machine's noise."
     )
     report.save(args.output)
     return 0

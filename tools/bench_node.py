@@ -14,8 +14,9 @@
 # limitations under the License.
 
 """
-Benchmark of the simulator node's ROS layer (a script, not a test): prints what it measured and
-the machine it ran on.
+Benchmark of the simulator node's ROS layer.
+
+A script, not a test: it prints what it measured and the machine it ran on.
 
 - real time: the share of late samples (published more than one period after they were due) at each
   publish_rate, with a subscriber in another process receiving both topics, beside the machine's
@@ -53,8 +54,12 @@ rclpy.init()
 node = rclpy.create_node("bench_subscriber")
 counts = [0, 0]
 qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
-node.create_subscription(Vector3Stamped, "angular_velocity", lambda m: counts.__setitem__(0, counts[0] + 1), qos)
-node.create_subscription(QuaternionStamped, "attitude", lambda m: counts.__setitem__(1, counts[1] + 1), qos)
+node.create_subscription(
+    Vector3Stamped, "angular_velocity", lambda m: counts.__setitem__(0, counts[0] + 1), qos
+)
+node.create_subscription(
+    QuaternionStamped, "attitude", lambda m: counts.__setitem__(1, counts[1] + 1), qos
+)
 print("ready", flush=True)
 try:
     rclpy.spin(node)
@@ -70,6 +75,7 @@ def _isolate_dds() -> None:
 
 
 class NodeUnderTest:
+
     def __init__(self, **parameters):
         import rclpy
         from rclpy.executors import SingleThreadedExecutor
@@ -142,9 +148,11 @@ def measure_run(seconds: float, **parameters) -> dict:
 
 def sleep_floor(rate: float, seconds: float) -> float:
     """
-    The share of ticks of a bare loop that wake more than one period after their deadline,
-    waiting as the node's sample loop waits (``threading.Event.wait`` until the deadline) and doing
-    nothing else: what the machine's scheduler alone costs at this rate.
+    Return the share of ticks of a bare loop that wake more than one period late.
+
+    The ticks that wake more than one period after their deadline, waiting as the node's sample
+    loop waits (``threading.Event.wait`` until the deadline) and doing nothing else: what the
+    machine's scheduler alone costs at this rate.
     """
     period, wake = 1.0 / rate, threading.Event()
     ticks = max(1, int(seconds * rate))
@@ -160,8 +168,9 @@ def sleep_floor(rate: float, seconds: float) -> float:
 
 def message_object_cost(samples: int = 20000) -> float:
     """
-    Seconds per sample of the path the node avoids: filling message objects and rclpy
-    publish(msg).
+    Return the seconds per sample of the path the node avoids.
+
+    That path: filling message objects and rclpy publish(msg).
     """
     from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
     import rclpy
@@ -197,7 +206,7 @@ def message_object_cost(samples: int = 20000) -> float:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    parser = argparse.ArgumentParser(description=__doc__.strip().split('\n\n')[0])
     parser.add_argument(
         '--seconds', type=float, default=5.0, help='duration of each run (default: 5)'
     )
@@ -214,21 +223,26 @@ def main(argv=None) -> int:
 
     report = Report('Simulator node cost', 'make bench-node')
     report.add(
-        f'{args.repeats} runs of {args.seconds:g} s each, median (min–max); ROS domain {os.environ["ROS_DOMAIN_ID"]}'
+        f'{args.repeats} runs of {args.seconds:g} s each, median (min–max); '
+        f'ROS domain {os.environ["ROS_DOMAIN_ID"]}'
     )
     report.add('')
     report.add(
-        'Real time (real_time_factor 1), both topics, a subscriber in another process. A sample is late when it'
+        'Real time (real_time_factor 1), both topics, a subscriber in another process. '
+        'A sample is late when it'
     )
     report.add(
-        'goes out more than one period after its stamp; the sleep floor is a bare loop that only waits for'
+        'goes out more than one period after its stamp; the sleep floor is a bare loop that '
+        'only waits for'
     )
     report.add(
-        'each deadline the same way, run right after at the same rate: lateness the node cannot go below.'
+        'each deadline the same way, run right after at the same rate: lateness the node '
+        'cannot go below.'
     )
     report.add('')
     report.add(
-        '| publish_rate (Hz) | late samples, % | sleep floor, late ticks % | node CPU, % of a core |'
+        '| publish_rate (Hz) | late samples, % | sleep floor, late ticks % | '
+        'node CPU, % of a core |'
     )
     report.add('|---|---|---|---|')
     for rate in args.rates:
@@ -246,8 +260,8 @@ def main(argv=None) -> int:
         throughput.append(r['published'] / r['wall'])
     report.add('')
     report.add(
-        f'As fast as possible (real_time_factor 0, /clock published, a subscriber in another process): '
-        f'{spread(throughput)} samples/s.'
+        'As fast as possible (real_time_factor 0, /clock published, a subscriber in another '
+        f'process): {spread(throughput)} samples/s.'
     )
 
     from torquefree_ros.bench.pipeline import sample_costs
@@ -256,11 +270,12 @@ def main(argv=None) -> int:
     costs = [sample_costs() for _ in range(args.repeats)]
     objects = [1e6 * message_object_cost() for _ in range(args.repeats)]
     report.add('')
+    total = spread([sum(c[stage] for stage in stages) for c in costs])
     report.add(
         'Cost per sample (µs of CPU), blocks of 256, no subscriber, one process: '
         + ', '.join(f'{stage} {spread([c[stage] for c in costs])}' for stage in stages)
-        + f'; total {spread([sum(c[stage] for stage in stages) for c in costs])}. For comparison, filling message '
-        f'objects and rclpy publish(msg): {spread(objects)}.'
+        + f'; total {total}. For comparison, filling message objects and rclpy publish(msg): '
+        f'{spread(objects)}.'
     )
     report.save(args.output)
     return 0

@@ -14,8 +14,9 @@
 # limitations under the License.
 
 """
-Benchmark of the plant (``torquefree_ros.Plant``; a script, not a test): prints what it measured
-and the machine.
+Benchmark of the plant (``torquefree_ros.Plant``).
+
+A script, not a test: it prints what it measured and the machine.
 
 - one ``step`` of a one-body plant with a damper and a commanded torque (10 Hz, an explorer1-like
   spin of 6 rad/s: a few DOP853 steps an interval, a new piece at every sample as the node's);
@@ -124,7 +125,7 @@ def measure_round(calls: int) -> dict:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--output', help='write the report here (Markdown)')
     parser.add_argument('--rounds', type=int, default=3)
     parser.add_argument('--calls', type=int, default=3)
@@ -136,13 +137,15 @@ def main(argv=None) -> int:
 
     report = Report('The plant: one body and batches, in process', 'make bench-plant')
     report.add(
-        f'- versions: numpy {numpy.__version__}, scipy {scipy.__version__}, numba {numba.__version__}'
+        f'- versions: numpy {numpy.__version__}, scipy {scipy.__version__}, '
+        f'numba {numba.__version__}'
     )
     report.add('')
     report.add(
         f'{args.rounds} rounds; each figure is median (min–max) over the rounds of the fastest of '
-        f'{args.calls} calls (wall time). Bodies: inertia (2.0, 4.6, 4.95) kg m² and ω0 (6, 0.05, 0) rad/s, '
-        'dispersed 2 % and 0.1 rad/s (seeded), a damper (J 0.05, c 0.01), DOP853 at 1e-10.'
+        f'{args.calls} calls (wall time). Bodies: inertia (2.0, 4.6, 4.95) kg m² and '
+        'ω0 (6, 0.05, 0) rad/s, dispersed 2 % and 0.1 rad/s (seeded), a damper (J 0.05, c 0.01), '
+        'DOP853 at 1e-10.'
     )
     report.add('')
     rounds = [measure_round(args.calls) for _ in range(args.rounds)]
@@ -156,21 +159,24 @@ def main(argv=None) -> int:
     step_batch = statistics.median(r['step_batch_us'] for r in rounds)
     ratio = statistics.median(r['explorer_ratio'] for r in rounds)
     report.add(
-        f'| one `step` of a one-body plant (damper + commanded torque, 10 Hz) | {column("step_one_us")} µs | '
-        f'≤ 20 µs | {"yes" if step_one <= 20 else "**no**"} |'
+        '| one `step` of a one-body plant (damper + commanded torque, 10 Hz) | '
+        f'{column("step_one_us")} µs | ≤ 20 µs | {"yes" if step_one <= 20 else "**no**"} |'
     )
     report.add(
         f'| a batched `step` of {BODIES:,} such bodies, per body | {column("step_batch_us")} µs '
-        f"({column('batch_over_one')} of one body's step) | ≤ 5 µs | {'yes' if step_batch <= 5 else '**no**'} |"
+        f"({column('batch_over_one')} of one body's step) | ≤ 5 µs | "
+        f'{"yes" if step_batch <= 5 else "**no**"} |'
     )
     report.add(
         f'| {BODIES:,} dispersed explorer1 bodies, 900 s at 1 Hz (`run`), per body | '
         f'{column("explorer_batch_ms")} ms, {column("explorer_ratio")} of a body alone '
-        f'({column("explorer_one_ms")} ms) | ≤ 1.5x one body | {"yes" if ratio <= 1.5 else "**no**"} |'
+        f'({column("explorer_one_ms")} ms) | ≤ 1.5x one body | '
+        f'{"yes" if ratio <= 1.5 else "**no**"} |'
     )
     report.add('')
     report.add(
-        "The node's lock-step against rclpy's ping-pong floor: `make bench-lockstep` (docs/bench/lockstep.md)."
+        "The node's lock-step against rclpy's ping-pong floor: `make bench-lockstep` "
+        '(docs/bench/lockstep.md).'
     )
     report.save(args.output)
     return 0

@@ -13,9 +13,11 @@
 # limitations under the License.
 
 """
-What every benchmark script prints and keeps: the lines it measured, under a header with the
-command that made them, the date and the machine, written to ``--output`` (committed under
-``docs/bench/``) so that every figure the README quotes has its source.
+What every benchmark script prints and keeps.
+
+The lines it measured, under a header with the command that made them, the date and the machine,
+written to ``--output`` (committed under ``docs/bench/``) so that every figure the README quotes
+has its source.
 """
 
 from __future__ import annotations
@@ -49,8 +51,9 @@ def machine() -> str:
 
 def fastest(function, calls: int, clock=time.perf_counter) -> float:
     """
-    The least disturbed of ``calls`` runs of ``function()`` on a shared machine, in seconds of
-    ``clock``.
+    Return the least disturbed time of ``calls`` runs of ``function()``.
+
+    The least disturbed of ``calls`` runs on a shared machine, in seconds of ``clock``.
     """
     best = float('inf')
     for _ in range(calls):
@@ -73,14 +76,14 @@ def _number(value: float) -> str:
 
 
 class Report:
+
     def __init__(self, title: str, command: str):
         self.lines: list[str] = []
         argv = ' '.join(shlex.quote(a) for a in sys.argv[1:])
         self.add(f'# {title}')
         self.add('')
-        self.add(
-            f'- command: `{command}` (`{Path(sys.argv[0]).as_posix()}{" " + argv if argv else ""}`)'
-        )
+        script = Path(sys.argv[0]).as_posix()
+        self.add(f'- command: `{command}` (`{script}{" " + argv if argv else ""}`)')
         self.add(f'- date: {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC')
         self.add(f'- machine: {machine()}')
         self.add('')

@@ -14,8 +14,9 @@
 # limitations under the License.
 
 """
-Benchmark of the test kit (``torquefree_ros.testing``; a script, not a test): prints what it
-measured and the machine.
+Benchmark of the test kit (``torquefree_ros.testing``).
+
+A script, not a test: it prints what it measured and the machine.
 
 - the fixture's set-up (``simulator(...)`` entered: a private context in a domain of its own, the
   node, the kit's recorder), its first ``advance(1)`` (which waits for discovery) and teardown
@@ -42,9 +43,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from bench_report import Report, spread  # noqa: E402
 
-SCENE = (
-    'dzhanibekov'  # the exact solution; angular_velocity, attitude, /clock and markers each sample
-)
+# the exact solution; angular_velocity, attitude, /clock and markers each sample
+SCENE = 'dzhanibekov'
 
 
 def set_up_and_teardown(count: int) -> tuple[list[float], list[float], list[float]]:
@@ -134,7 +134,7 @@ def round_trip(count: int) -> float:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--output', help='write the report here (Markdown)')
     parser.add_argument('--rounds', type=int, default=3)
     parser.add_argument('--fixtures', type=int, default=5, help='set-ups and teardowns per round')
@@ -146,18 +146,17 @@ def main(argv=None) -> int:
     import rclpy  # noqa: F401 - imports out of the timings
     from torquefree_ros.testing import Simulator
 
-    Simulator(
-        scene=SCENE
-    ).close()  # numba's kernels and the message types loaded once, out of the timings
+    # numba's kernels and the message types loaded once, out of the timings
+    Simulator(scene=SCENE).close()
     report = Report(
         "The test kit: fixture and advance(1), beside rclpy's round trip",
         '.venv/bin/python tools/bench_testing_kit.py',
     )
     report.add(
-        f'{args.rounds} rounds, median (min–max). Scene `{SCENE}` (the exact solution; each sample goes out '
-        'on angular_velocity, attitude, /clock and markers). Each round: '
-        f'{args.fixtures} set-ups and teardowns (their median), {args.samples} advance(1) calls and '
-        f'{args.samples} round trips (the mean of each).'
+        f'{args.rounds} rounds, median (min–max). Scene `{SCENE}` (the exact solution; each '
+        'sample goes out on angular_velocity, attitude, /clock and markers). Each round: '
+        f'{args.fixtures} set-ups and teardowns (their median), {args.samples} advance(1) calls '
+        f'and {args.samples} round trips (the mean of each).'
     )
     report.add('')
     rows = {'up': [], 'first': [], 'down': [], 'one': [], 'none': [], 'floor': []}
@@ -180,15 +179,16 @@ def main(argv=None) -> int:
     report.add('| measure | value |')
     report.add('|---|---|')
     report.add(
-        f"| fixture set-up (`simulator(...)` entered: context, domain, node, the kit's recorder) | "
-        f'{ms("up")} ms |'
+        "| fixture set-up (`simulator(...)` entered: context, domain, node, the kit's recorder) "
+        f'| {ms("up")} ms |'
     )
     report.add(
-        f"| its first `advance(1)` (waits for discovery: the node's publishers matching the recorder) | "
-        f'{ms("first")} ms |'
+        "| its first `advance(1)` (waits for discovery: the node's publishers matching the "
+        f'recorder) | {ms("first")} ms |'
     )
     report.add(
-        f'| fixture teardown (nodes destroyed, context shut down, domain released) | {ms("down")} ms |'
+        '| fixture teardown (nodes destroyed, context shut down, domain released) | '
+        f'{ms("down")} ms |'
     )
     report.add(f'| `advance(1)`, one subscriber node added | {us("one")} µs |')
     report.add(f"| `advance(1)`, no node added (the kit's recorder only) | {us('none')} µs |")
@@ -198,8 +198,9 @@ def main(argv=None) -> int:
     report.add(f'| `advance(1)` with one subscriber / the round trip | {ratio} |')
     report.add('')
     report.add(
-        "An advance(1) is one sample: the loop's thread woken to publish four messages, and the executor spun "
-        "in the test's thread until every watched callback (the subscriber's, the recorder's two) has run."
+        "An advance(1) is one sample: the loop's thread woken to publish four messages, and the "
+        "executor spun in the test's thread until every watched callback (the subscriber's, the "
+        "recorder's two) has run."
     )
     report.save(args.output)
     return 0

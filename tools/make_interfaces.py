@@ -14,9 +14,10 @@
 # limitations under the License.
 
 """
-Regenerates the vendored interface files under torquefree_ros/interfaces/ (the ``.idl`` and the
-type description ``.json`` with its RIHS01 hash) from their ``.msg``, with the rosidl tools in the
-environment and the installed dependencies. Prints the files it wrote; ``--check`` only
+Regenerate the vendored interface files under torquefree_ros/interfaces/ from their ``.msg``.
+
+The ``.idl`` and the type description ``.json`` with its RIHS01 hash, made with the rosidl tools
+in the environment and the installed dependencies. Prints the files it wrote; ``--check`` only
 compares.
 """
 
@@ -62,7 +63,7 @@ def generate(package: str, name: str, output: Path) -> dict[str, str]:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument(
         '--check',
         action='store_true',

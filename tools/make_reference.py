@@ -14,8 +14,10 @@
 # limitations under the License.
 
 """
-Regenerate torquefree_ros/bench/hard_cases.json: high-precision reference solutions of the
-torque-free rigid body for the hard cases, and the float64 floor of each sample.
+Regenerate torquefree_ros/bench/hard_cases.json, the reference solutions of the hard cases.
+
+High-precision reference solutions of the torque-free rigid body for the hard cases, and the
+float64 floor of each sample.
 
 Independence: the reference integrates Euler's equations in the principal frame and
 ``q' = 1/2 q ⊗ (w, 0)`` with a Taylor-series method in mpmath (45 significant digits, order 40,
@@ -129,7 +131,11 @@ class TaylorRigidBody:
         self.gains = ((I2 - I3) / I1, (I3 - I1) / I2, (I1 - I2) / I3)
 
     def coefficients(self, state):
-        """Taylor coefficients (lists of length ORDER + 1) of w1..w3, qx, qy, qz, qw about t0."""
+        """
+        Return the Taylor coefficients of w1..w3, qx, qy, qz, qw about t0.
+
+        One list of length ORDER + 1 per component.
+        """
         c = [[value] + [mp.mpf(0)] * ORDER for value in state]
         g1, g2, g3 = self.gains
         half = mp.mpf(1) / 2
@@ -169,7 +175,7 @@ class TaylorRigidBody:
         return min(estimates) if estimates else mp.inf
 
     def integrate(self, state, times):
-        """The state at each of the sorted ``times`` (mpf) from ``state`` at t = 0."""
+        """Return the state at each of the sorted ``times`` (mpf) from ``state`` at t = 0."""
         t = mp.mpf(0)
         out = []
         for target in times:
@@ -183,12 +189,12 @@ class TaylorRigidBody:
 
 
 def _check_invariants(inertia, states, name):
-    """The integration is trusted only if T, |H| and |q| hold to 1e-25 relative."""
-    I = [mp.mpf(x) for x in inertia]
+    """Raise unless T, |H| and |q| hold to 1e-25 relative: only then is the integration trusted."""
+    moments = [mp.mpf(x) for x in inertia]
 
     def invariants(s):
-        energy = mp.fsum(I[i] * s[i] ** 2 for i in range(3))
-        momentum = mp.fsum((I[i] * s[i]) ** 2 for i in range(3))
+        energy = mp.fsum(moments[i] * s[i] ** 2 for i in range(3))
+        momentum = mp.fsum((moments[i] * s[i]) ** 2 for i in range(3))
         return energy, momentum, mp.fsum(x * x for x in s[3:])
 
     first = invariants(states[0])
@@ -214,14 +220,14 @@ def reference_case(name):
     _check_invariants(inertia, nominal, name)
     responses = []  # per perturbed input: list over samples of (rate change, attitude change)
     for index in range(6):
-        I = [mp.mpf(x) for x in inertia]
+        moments = [mp.mpf(x) for x in inertia]
         w = [mp.mpf(x) for x in omega]
-        target = I if index < 3 else w
+        target = moments if index < 3 else w
         j = index % 3
         if target[j] == 0:
             continue  # zero is exact in float64
         target[j] *= 1 + mp.mpf(ROUNDING_UNIT)
-        perturbed = TaylorRigidBody(I).integrate(w + q0_mp, t_mp)
+        perturbed = TaylorRigidBody(moments).integrate(w + q0_mp, t_mp)
         changes = []
         for a, b in zip(nominal, perturbed):
             dw = mp.sqrt(mp.fsum((a[i] - b[i]) ** 2 for i in range(3)))
@@ -272,7 +278,7 @@ def reference_case(name):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--jobs', type=int, default=2)
     parser.add_argument('--only', nargs='*', help='case names to recompute (others are kept)')
     args = parser.parse_args(argv)
@@ -292,9 +298,14 @@ def main(argv=None):
     document = {
         'provenance': {
             'generator': 'tools/make_reference.py',
-            'method': f'mpmath Taylor series, {DIGITS} digits, order {ORDER}, step {STEP_FRACTION} x radius',
-            'floor': 'quadrature sum of responses to 2**-53 relative perturbations of each moment and rate, '
-            'plus sample-time and q0 rounding',
+            'method': (
+                f'mpmath Taylor series, {DIGITS} digits, order {ORDER}, '
+                f'step {STEP_FRACTION} x radius'
+            ),
+            'floor': (
+                'quadrature sum of responses to 2**-53 relative perturbations of each moment and '
+                'rate, plus sample-time and q0 rounding'
+            ),
             'mpmath': mp.__version__,
             'python': sys.version.split()[0],
             'machine': platform.platform(),

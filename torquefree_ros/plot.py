@@ -62,8 +62,10 @@ def _pyplot():
 
 def runs_from_scene(scene, duration: float | None, rate: float):
     """
-    ``(label, times, omega_B)`` per member. The default duration is the scene's ``watch`` (how
-    long its story takes, e.g. a damper's), else two polhode periods.
+    Simulate a scene's members: ``(label, times, omega_B)`` per member.
+
+    The default duration is the scene's ``watch`` (how long its story takes, e.g. a damper's), else
+    two polhode periods.
     """
     runs = []
     for index, member in enumerate(scene.members()):
@@ -84,7 +86,8 @@ def runs_from_bag(path: Path):
     topics = [
         t.name
         for t in reader.topics
-        if t.name.endswith('angular_velocity') and t.type == 'geometry_msgs/msg/Vector3Stamped'
+        if t.name.endswith('angular_velocity')
+        and t.type_name == 'geometry_msgs/msg/Vector3Stamped'
     ]
     if not topics:
         raise PlotError(
@@ -104,15 +107,17 @@ def runs_from_bag(path: Path):
 
 
 def bag_inertia(path: Path):
-    """The inertia ``torquefree_bag`` stores in the bag, or None."""
+    """Return the inertia ``torquefree_bag`` stores in the bag, or None."""
     text = (bag_information(path).get('custom_data') or {}).get(INERTIA_KEY)
     return None if text is None else [float(x) for x in text.split()]
 
 
 def draw(runs, body: RigidBody, name: str, output_dir: Path) -> list[Path]:
     """
-    One run: its three rates, its path with its energy ellipsoid. A family (an energy sweep):
-    one colour per member by its energy ``2T``, with a colour bar instead of a legend.
+    Draw the rates, polhode and phase-plane PNG files of the runs; return their paths.
+
+    One run: its three rates, its path with its energy ellipsoid. A family (an energy sweep): one
+    colour per member by its energy ``2T``, with a colour bar instead of a legend.
     """
     plt = _pyplot()
     output_dir.mkdir(parents=True, exist_ok=True)
@@ -163,11 +168,8 @@ def draw(runs, body: RigidBody, name: str, output_dir: Path) -> list[Path]:
         handles.append(plt.Line2D([], [], color='tab:blue', lw=1.6, label='path of H (polhode)'))
     else:
         figure.colorbar(colour, ax=axes, shrink=0.6, label='2T (J) of each path of H')
-    for set_limits in (
-        axes.set_xlim,
-        axes.set_ylim,
-        axes.set_zlim,
-    ):  # equal scales: a sphere looks round
+    # equal scales: a sphere looks round
+    for set_limits in (axes.set_xlim, axes.set_ylim, axes.set_zlim):
         set_limits(-reach, reach)
     axes.set_box_aspect((1, 1, 1))
     axes.set(

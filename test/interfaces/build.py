@@ -13,9 +13,10 @@
 # limitations under the License.
 
 """
-Builds an interface package under test/interfaces/ (tf2_msgs: not among the PyPI wheels) with
-the rosidl/ament_cmake toolchain installed from PyPI in this Python's environment, for the tests
-only.
+Build an interface package under test/interfaces/ for the tests only.
+
+The package (tf2_msgs: not among the PyPI wheels) is built with the rosidl/ament_cmake toolchain
+installed from PyPI in this Python's environment.
 
 ``build(package, prefix)`` configures, compiles and installs it into ``prefix`` and returns what a
 process started afterwards needs in its environment to use it: PYTHONPATH for the module,

@@ -13,8 +13,7 @@
 # limitations under the License.
 
 """
-rosbag2 (Jazzy) bags with MCAP storage: writing, reading, and the definitions and QoS they
-carry.
+rosbag2 (Jazzy) bags with MCAP storage: writing, reading, and the definitions and QoS they carry.
 
 No rclpy import: the offline tools write bags without DDS.
 """

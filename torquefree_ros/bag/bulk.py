@@ -13,8 +13,10 @@
 # limitations under the License.
 
 """
-Many messages into an ``mcap.writer.Writer`` at once, byte for byte what ``add_message`` one by
-one writes, at a fraction of its per-message Python cost.
+Many messages into an ``mcap.writer.Writer`` at once, byte for byte what ``add_message`` writes.
+
+The bytes are what ``add_message`` one by one writes, at a fraction of its per-message Python
+cost.
 
 ``add_message`` builds a record object, packs five fields and updates the chunk's index for every
 message (about 5 µs each). Here the message records of a whole block are assembled with numpy
@@ -38,8 +40,8 @@ import numpy as np
 from .cdr import MessageBlock
 
 MESSAGE_OPCODE, MESSAGE_INDEX_OPCODE = 0x05, 0x07
-# a Message record before its data: opcode, record length, channel id, sequence, log and publish
-# time
+# a Message record before its data:
+# opcode, record length, channel id, sequence, log and publish time
 _HEADER = np.dtype(
     [
         ('opcode', 'u1'),
@@ -67,8 +69,9 @@ def supported(writer: Writer) -> bool:
 
 class _ArrayIndex:
     """
-    A chunk's message index of one channel, kept as arrays; ``records`` still takes the tuples
-    ``add_message`` appends, so both paths can share a chunk.
+    A chunk's message index of one channel, kept as arrays.
+
+    ``records`` still takes the tuples ``add_message`` appends, so both paths can share a chunk.
     """
 
     def __init__(self, channel_id: int, records=()):
@@ -97,8 +100,9 @@ class _ArrayIndex:
 
 def add_rows(writer: Writer, channel_ids, log_times, columns, publish_times=None) -> None:
     """
-    Row ``i`` adds ``columns[j][i]`` on ``channel_ids[j]`` (none where it is None), in row
-    order, as ``add_message`` would one by one.
+    Add a block of rows of messages to the writer, as ``add_message`` would one by one.
+
+    Row ``i`` adds ``columns[j][i]`` on ``channel_ids[j]`` (none where it is None), in row order.
     """
     log_times = np.asarray(log_times, dtype=np.int64)
     published = log_times if publish_times is None else np.asarray(publish_times, dtype=np.int64)
@@ -133,8 +137,9 @@ def _headers(channels, times, published, sizes) -> np.ndarray:
 
 def _fixed_rows(channel_ids, log_times, published, columns):
     """
-    Every column a MessageBlock with a message on every row: one table, a row per sample, no
-    per-message Python.
+    Assemble the records when every column is a MessageBlock with a message on every row.
+
+    One table, a row per sample, no per-message Python.
     """
     rows = log_times.size
     widths = [_HEADER_SIZE + column.size for column in columns]
@@ -152,7 +157,7 @@ def _fixed_rows(channel_ids, log_times, published, columns):
 
 
 def _any_rows(channel_ids, log_times, published, columns):
-    """Messages of any size, with gaps (None)."""
+    """Assemble the records of messages of any size, with gaps (None)."""
     per_row = len(columns)
     channels = np.tile(np.asarray(channel_ids, dtype=np.int64), log_times.size)
     times, publish = np.repeat(log_times, per_row), np.repeat(published, per_row)
@@ -177,17 +182,18 @@ def _any_rows(channel_ids, log_times, published, columns):
 
 def _into_chunks(writer: Writer, records, starts, ends, channels, times) -> None:
     """
-    Append records to the open chunk, finishing a chunk right after the record that takes it
-    past the writer's chunk size (``add_message``'s rule).
+    Append records to the open chunk, finishing chunks where ``add_message`` would.
+
+    A chunk is finished right after the record that takes it past the writer's chunk size
+    (``add_message``'s rule).
     """
     builder, chunk_size = writer._Writer__chunk_builder, writer._Writer__chunk_size
     first = 0
     while first < len(starts):
         base = builder.count - int(starts[first])  # chunk offset of a record = base + its start
         over = np.flatnonzero(base + ends[first:] > chunk_size)
-        last = (
-            first + int(over[0]) if over.size else len(starts) - 1
-        )  # the last record into this chunk
+        # the last record into this chunk
+        last = first + int(over[0]) if over.size else len(starts) - 1
         span = slice(first, last + 1)
         block_times = times[span]
         if builder.num_messages == 0:
@@ -198,9 +204,8 @@ def _into_chunks(writer: Writer, records, starts, ends, channels, times) -> None
         offsets = base + starts[span]
         span_channels = channels[span]
         _, first_seen = np.unique(span_channels, return_index=True)
-        for channel in span_channels[
-            np.sort(first_seen)
-        ].tolist():  # indexes in order of first message
+        # indexes in order of first message
+        for channel in span_channels[np.sort(first_seen)].tolist():
             picked = span_channels == channel
             index = builder.message_indices.get(channel)
             if not isinstance(index, _ArrayIndex):

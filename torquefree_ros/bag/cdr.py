@@ -47,9 +47,10 @@ def _stamp_fields(stamps_ns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 class MessageBlock(Sequence):
     """
-    Messages of one size in one buffer, as the vectorised encoders make them: ``block[i]`` is
-    message ``i``'s bytes (made when asked: the node publishes one at a time), while the bag writer
-    takes the whole buffer at once (``bag.bulk``).
+    Messages of one size in one buffer, as the vectorised encoders make them.
+
+    ``block[i]`` is message ``i``'s bytes (made when asked: the node publishes one at a time),
+    while the bag writer takes the whole buffer at once (``bag.bulk``).
     """
 
     __slots__ = ('buffer', 'size')
@@ -81,8 +82,7 @@ def _split(records: np.ndarray) -> MessageBlock:
 
 def encode_stamped_doubles(stamps_ns, frame_id: str, values) -> MessageBlock:
     """
-    One message per row: a Header with ``frame_id`` and ``stamps_ns[i]``, then the row's
-    float64s.
+    Encode a message per row: a Header (``frame_id``, ``stamps_ns[i]``), then the row's float64s.
 
     Rows of 3 give ``geometry_msgs/Vector3Stamped``, rows of 4 ``geometry_msgs/QuaternionStamped``
     (``x, y, z, w``).
@@ -124,9 +124,11 @@ def encode_stamped_doubles(stamps_ns, frame_id: str, values) -> MessageBlock:
 
 def encode_transforms(stamps_ns, frame_id: str, child_frame_id: str, values) -> MessageBlock:
     """
-    ``tf2_msgs/TFMessage`` holding one ``geometry_msgs/TransformStamped`` per row: a sequence
-    length (1), the Header with ``frame_id`` and ``stamps_ns[i]``, ``child_frame_id``, then the
-    row's 7 float64s (translation ``x, y, z``, rotation ``x, y, z, w``).
+    Encode a ``tf2_msgs/TFMessage`` holding one ``geometry_msgs/TransformStamped`` per row.
+
+    Each holds a sequence length (1), the Header with ``frame_id`` and ``stamps_ns[i]``,
+    ``child_frame_id``, then the row's 7 float64s (translation ``x, y, z``, rotation
+    ``x, y, z, w``).
     """
     return _encode_header_child_doubles(
         stamps_ns, frame_id, child_frame_id, values, sequence_count=1
@@ -141,14 +143,16 @@ _POSE_AT, _TWIST_AT = 0, 43
 
 def encode_odometry(stamps_ns, frame_id: str, child_frame_id: str, values) -> MessageBlock:
     """
-    ``nav_msgs/Odometry`` per row of 13 float64s: ``pose.pose`` (position ``x, y, z``,
-    orientation ``x, y, z, w``), then ``twist.twist`` (linear, angular); both covariances zero
-    (exact values).
+    Encode a ``nav_msgs/Odometry`` per row of 13 float64s.
+
+    A row is ``pose.pose`` (position ``x, y, z``, orientation ``x, y, z, w``), then ``twist.twist``
+    (linear, angular); both covariances are zero (exact values).
     """
     values = np.asarray(values, dtype=np.float64)
     if values.ndim != 2 or values.shape[1] != 13:
         raise ValueError(
-            f'odometry rows: expected 13 float64s per row (pose 7, twist 6), got shape {values.shape}'
+            'odometry rows: expected 13 float64s per row (pose 7, twist 6), '
+            f'got shape {values.shape}'
         )
     doubles = np.zeros((values.shape[0], ODOMETRY_DOUBLES))
     doubles[:, _POSE_AT: _POSE_AT + 7] = values[:, 0:7]
@@ -160,8 +164,10 @@ def _encode_header_child_doubles(
     stamps_ns, frame_id: str, child_frame_id: str, values, sequence_count: int | None = None
 ) -> MessageBlock:
     """
-    [a sequence length], a Header with ``frame_id`` and the stamp, a ``child_frame_id`` string,
-    then the row's float64s: TransformStamped in a TFMessage, Odometry.
+    Encode a message per row with a Header, a ``child_frame_id`` string and the row's float64s.
+
+    The layout: [a sequence length], a Header with ``frame_id`` and the stamp, a ``child_frame_id``
+    string, then the row's float64s: TransformStamped in a TFMessage, Odometry.
     """
     values = np.asarray(values, dtype=np.float64)
     frame, child = (
@@ -171,8 +177,7 @@ def _encode_header_child_doubles(
     sec, nanosec = _stamp_fields(stamps_ns)
     width = values.shape[1]
     # offsets from the end of the encapsulation header: [count], sec, nanosec, length, frame_id,
-    # then child_frame_id's length on a 4-byte boundary, its bytes, the doubles on an 8-byte
-    # boundary
+    # then child_frame_id's length on a 4-byte boundary, its bytes, the doubles on an 8-byte one
     header_at = 0 if sequence_count is None else 4
     child_length_at = -(-(header_at + 12 + len(frame) + 1) // 4) * 4
     data_at = -(-(child_length_at + 4 + len(child) + 1) // 8) * 8
@@ -259,9 +264,11 @@ def encode_times(stamps_ns) -> MessageBlock:
 
 class CdrTemplate:
     """
-    A message of a fixed layout written once, numbers as placeholders; a block of messages is
-    that many copies with the numbers put in at the offsets recorded while writing. Messages of one
-    template share their strings and sequence lengths, hence their padding and offsets.
+    A message of a fixed layout written once, numbers as placeholders.
+
+    A block of messages is that many copies with the numbers put in at the offsets recorded while
+    writing. Messages of one template share their strings and sequence lengths, hence their padding
+    and offsets.
     """
 
     def __init__(self):
@@ -273,9 +280,8 @@ class CdrTemplate:
     def _put(self, dtype: str, values, name: str | None = None) -> None:
         dtype = np.dtype(dtype)
         values = np.atleast_1d(np.asarray(values, dtype=dtype))
-        self._buffer += bytes(
-            -(len(self._buffer) - 4) % dtype.itemsize
-        )  # aligned from the header's end
+        # aligned from the header's end
+        self._buffer += bytes(-(len(self._buffer) - 4) % dtype.itemsize)
         if name is not None:
             if name in self._fields:
                 raise ValueError(f"template field '{name}' written twice")
@@ -303,16 +309,17 @@ class CdrTemplate:
         self._buffer += data + b'\x00'
 
     def stamp(self, name: str) -> None:
-        """A ``builtin_interfaces/Time`` that :meth:`fill` sets to each message's stamp."""
+        """Write a ``builtin_interfaces/Time`` that :meth:`fill` sets to each message's stamp."""
         self.int32(0, f'{name}.sec')
         self.uint32(0, f'{name}.nanosec')
         self._stamps.append((f'{name}.sec', f'{name}.nanosec'))
 
     def fill(self, stamps_ns, columns: dict) -> MessageBlock:
         """
-        One message per stamp: every stamp field set to it, ``columns[name][i]`` into field
-        ``name`` of message ``i`` (or one value for all); fields not given keep the template's
-        values.
+        Make one message per stamp, with every stamp field set to it and the columns put in.
+
+        ``columns[name][i]`` goes into field ``name`` of message ``i`` (or one value for all);
+        fields not given keep the template's values.
         """
         sec, nanosec = _stamp_fields(stamps_ns)
         count = sec.shape[0]
@@ -326,8 +333,8 @@ class CdrTemplate:
             values[sec_name], values[nanosec_name] = sec, nanosec
         for name, column in values.items():
             offset, dtype, width = self._fields[name]
-            # the field in every message, as a (count, width) array of its type (unaligned: numpy
-            # copes)
+            # the field in every message, as a (count, width) array of its type
+            # (unaligned: numpy copes)
             field = messages[:, offset: offset + dtype.itemsize * width].view(dtype)
             field[...] = np.asarray(column).reshape(-1, width) if np.ndim(column) else column
         return MessageBlock(messages.tobytes(), messages.shape[1])
@@ -335,9 +342,10 @@ class CdrTemplate:
     @property
     def _packs(self) -> dict | None:
         """
-        name -> (offset, struct format) of every field, for one message at a time (a closed
-        loop's samples); None when a field is float32 (struct refuses what numpy rounds to
-        infinity).
+        Return every field's struct packing, for one message at a time: name -> (offset, format).
+
+        For a closed loop's samples; None when a field is float32 (struct refuses what numpy rounds
+        to infinity).
         """
         if self._pack_cache is None or self._pack_cache[0] != len(self._buffer):
             codes = {'<f8': 'd', '<i4': 'i', '<u4': 'I'}
@@ -371,8 +379,9 @@ class CdrTemplate:
 
 def decode_stamped_doubles(message: bytes, width: int) -> tuple[int, str, np.ndarray]:
     """
-    ``(stamp_ns, frame_id, values)`` of a message laid out as :func:`encode_stamped_doubles`
-    writes it (a Header, then ``width`` float64s): the inverse, for tools that read bags without
+    Decode ``(stamp_ns, frame_id, values)`` from a message :func:`encode_stamped_doubles` wrote.
+
+    The message is a Header, then ``width`` float64s: the inverse, for tools that read bags without
     rclpy.
     """
     if message[:4] != CDR_LE:

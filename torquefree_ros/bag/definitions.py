@@ -93,14 +93,13 @@ def share_directory(package: str) -> Path:
         return Path(get_package_share_directory(package))
     except (PackageNotFoundError, ValueError, OSError):
         pass
-    # The PyPI wheels install the interfaces under <prefix>/share without setting
-    # AMENT_PREFIX_PATH.
+    # The PyPI wheels install the interfaces under <prefix>/share
+    # without setting AMENT_PREFIX_PATH.
     share = Path(sys.prefix) / 'share' / package
     if share.is_dir():
         return share
-    vendored = (
-        VENDORED_INTERFACES / package
-    )  # what a ROS install has and the wheels lack (tf2_msgs)
+    # what a ROS install has and the wheels lack (tf2_msgs)
+    vendored = VENDORED_INTERFACES / package
     if vendored.is_dir():
         return vendored
     raise DefinitionError(
@@ -164,7 +163,7 @@ def _type_hash(type_name: str) -> str:
 
 @functools.lru_cache(maxsize=None)
 def message_definition(type_name: str) -> MessageDefinition:
-    """The schema rosbag2 would write for ``type_name`` (``pkg/msg/Type``)."""
+    """Return the schema rosbag2 would write for ``type_name`` (``pkg/msg/Type``)."""
     package, namespace, name = _split(type_name)
     canonical = f'{package}/{namespace}/{name}'
     try:

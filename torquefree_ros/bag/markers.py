@@ -13,13 +13,15 @@
 # limitations under the License.
 
 """
-The ``markers`` output's ``visualization_msgs/MarkerArray``, encoded a block at a time from its
-rows (``core.effects.outputs.MARKER_ROW``): the box (a CUBE), then ARROWs from the box's centre
-along ``w`` and ``H``, all in the inertial frame and all in every message, so that the latest
-message alone (what a viewer shows after a seek or a late join) is the whole picture. Each marker
-has its own namespace and id 0, so every message replaces the last; lifetime 0. Arrows are given by
-start and end points (scale: shaft and head diameters; head length 0, so viewers size the head from
-the length), which RViz, Foxglove and Lichtblick all draw. numpy only, like :mod:`.cdr`.
+The ``markers`` output's ``visualization_msgs/MarkerArray``, encoded a block at a time.
+
+Each message is encoded from its row (``core.effects.outputs.MARKER_ROW``): the box (a CUBE), then
+ARROWs from the box's centre along ``w`` and ``H``, all in the inertial frame and all in every
+message, so that the latest message alone (what a viewer shows after a seek or a late join) is the
+whole picture. Each marker has its own namespace and id 0, so every message replaces the last;
+lifetime 0. Arrows are given by start and end points (scale: shaft and head diameters; head length
+0, so viewers size the head from the length), which RViz, Foxglove and Lichtblick all draw. numpy
+only, like :mod:`.cdr`.
 """
 
 from __future__ import annotations
@@ -45,9 +47,8 @@ def _marker(template: CdrTemplate, frame_id: str, style) -> None:
     template.int32(0)  # id
     template.int32(marker_type)
     template.int32(ADD)
-    template.float64(
-        [0.0, 0.0, 0.0], f'{namespace}.position'
-    )  # pose.position (the box; arrows use points)
+    # pose.position (the box; arrows use points)
+    template.float64([0.0, 0.0, 0.0], f'{namespace}.position')
     template.float64([0.0, 0.0, 0.0, 1.0], f'{namespace}.orientation')
     template.float64([0.0, 0.0, 0.0], f'{namespace}.scale')
     template.float32(color)
@@ -102,9 +103,9 @@ def _columns(rows: np.ndarray, position) -> dict:
 
 def encode_markers(stamps_ns, frame_id: str, rows, position=None) -> MessageBlock:
     """
-    One MarkerArray per row, each with the box, the ``w`` arrow and the ``H`` arrow;
-    ``position`` (x, y, z in ``frame_id``, m): where the body's centre is drawn (None: the
-    origin).
+    Encode one MarkerArray per row, each with the box, the ``w`` arrow and the ``H`` arrow.
+
+    ``position`` (x, y, z in ``frame_id``, m): where the body's centre is drawn (None: the origin).
     """
     rows = np.asarray(rows, dtype=np.float64)
     stamps_ns = np.asarray(stamps_ns, dtype=np.int64)
@@ -115,8 +116,10 @@ def encode_markers(stamps_ns, frame_id: str, rows, position=None) -> MessageBloc
 
 def body_offset(position) -> np.ndarray | None:
     """
-    ``position`` as an array, or None at the origin (so that the origin's bytes stay those of no
-    offset: ``-0.0 + 0.0`` would turn a tip's negative zero positive).
+    Return ``position`` as an array, or None at the origin.
+
+    None at the origin so that the origin's bytes stay those of no offset: ``-0.0 + 0.0`` would
+    turn a tip's negative zero positive.
     """
     if position is None:
         return None

@@ -13,9 +13,11 @@
 # limitations under the License.
 
 """
-rosbag2's bag metadata, version 9 (Jazzy): ``metadata.yaml`` beside the ``.mcap`` file and the
-same mapping in the MCAP ``rosbag2`` metadata record (key ``serialized_metadata``). Keys and order
-follow ``rosbag2_storage/yaml.hpp``; lists are indented under their key as yaml-cpp writes them.
+rosbag2's bag metadata, version 9 (Jazzy).
+
+It is ``metadata.yaml`` beside the ``.mcap`` file and the same mapping in the MCAP ``rosbag2``
+metadata record (key ``serialized_metadata``). Keys and order follow ``rosbag2_storage/yaml.hpp``;
+lists are indented under their key as yaml-cpp writes them.
 """
 
 from __future__ import annotations
@@ -38,7 +40,7 @@ NO_MESSAGE_TIME = 2**63 - 1
 @dataclass
 class TopicRecord:
     name: str
-    type: str
+    type_name: str
     offered_qos_profiles: tuple[BagQos, ...] = ()
     type_description_hash: str = ''
     serialization_format: str = 'cdr'
@@ -48,7 +50,7 @@ class TopicRecord:
         return {
             'topic_metadata': {
                 'name': self.name,
-                'type': self.type,
+                'type': self.type_name,
                 'serialization_format': self.serialization_format,
                 'offered_qos_profiles': [qos.to_yaml() for qos in self.offered_qos_profiles],
                 'type_description_hash': self.type_description_hash,
@@ -70,7 +72,7 @@ class BagMetadata:
         return sum(topic.message_count for topic in self.topics)
 
     def to_yaml(self) -> dict:
-        """The ``BagMetadata`` mapping (what ``YAML::convert<BagMetadata>::encode`` produces)."""
+        """Return the mapping ``YAML::convert<BagMetadata>::encode`` produces."""
         if self.first_time_ns is None:
             starting, duration = NO_MESSAGE_TIME, 0
         else:

@@ -60,13 +60,12 @@ class RecordedCommand(NamedTuple):
 
 
 def read_commands(bag, topic: str) -> list[RecordedCommand]:
-    """The ``geometry_msgs/WrenchStamped`` messages of ``topic`` in a bag, in log-time order."""
+    """Read a bag's ``geometry_msgs/WrenchStamped`` messages of ``topic``, in log-time order."""
     reader = bag if isinstance(bag, BagReader) else BagReader(bag)
-    types = {t.name: t.type for t in reader.topics}
+    types = {t.name: t.type_name for t in reader.topics}
     if topic not in types:
-        raise BagError(
-            f"bag '{reader.path}': no topic '{topic}' (topics: {', '.join(sorted(types)) or 'none'})"
-        )
+        known = ', '.join(sorted(types)) or 'none'
+        raise BagError(f"bag '{reader.path}': no topic '{topic}' (topics: {known})")
     if types[topic] != WRENCH_STAMPED:
         raise BagError(
             f"bag '{reader.path}': topic '{topic}' is {types[topic]}, not {WRENCH_STAMPED}"
@@ -77,8 +76,8 @@ def read_commands(bag, topic: str) -> list[RecordedCommand]:
             stamp, frame, values = decode_stamped_doubles(message.data, 6)
         except (ValueError, UnicodeDecodeError) as error:
             raise BagError(
-                f"bag '{reader.path}': a message on '{topic}' at {message.log_time_ns} ns is not a "
-                f'WrenchStamped ({error})'
+                f"bag '{reader.path}': a message on '{topic}' at {message.log_time_ns} ns "
+                f'is not a WrenchStamped ({error})'
             ) from None
         commands.append(RecordedCommand(message.log_time_ns, stamp, frame, values[:3], values[3:]))
     return commands
@@ -87,9 +86,8 @@ def read_commands(bag, topic: str) -> list[RecordedCommand]:
 # samples computed, encoded and written per step at most: memory stays flat at any duration
 BLOCK = 4096
 FIRST_BLOCK = 1  # the first block's samples; blocks double while one takes under BLOCK_SECONDS
-BLOCK_SECONDS = (
-    0.1  # so a stop (SIGINT, SIGTERM) is seen within about this, however slow a sample is
-)
+# so a stop (SIGINT, SIGTERM) is seen within about this, however slow a sample is
+BLOCK_SECONDS = 0.1
 MAX_SAMPLES = 10**10  # per stream: ~1 TB of bag; more is a typo (1e9 s at 1 MHz), refused up front
 
 
@@ -117,26 +115,29 @@ def write_scene_bag(
     position=None,
 ):
     """
-    Writes samples ``0 … floor(duration·rate)`` of ``scene`` (of each member of a sweep);
-    returns the bag's metadata. Everything is checked, and the output created, before the first
-    sample is computed. ``progress(samples_done, samples_total)`` is called after each block; when
-    ``stop()`` turns true the bag is closed there, complete, with the samples written so far.
-    ``commands_bag``: the commands it recorded on each ``torque_command`` effect's topic (in
-    ``namespace``) drive the scene; those logged before ``epoch_ns`` belong to an earlier run and
-    are left out. The commands that hold go into the bag too. ``position``: where the outputs place
-    the body's centre (x, y, z, m, in the inertial frame; see ``encode_block``).
+    Write samples ``0 … floor(duration·rate)`` of ``scene`` into a bag; return its metadata.
+
+    For a sweep, the samples of each member are written. Everything is checked, and the output
+    created, before the first sample is computed. ``progress(samples_done, samples_total)`` is
+    called after each block; when ``stop()`` turns true the bag is closed there, complete, with the
+    samples written so far. ``commands_bag``: the commands it recorded on each ``torque_command``
+    effect's topic (in ``namespace``) drive the scene; those logged before ``epoch_ns`` belong to
+    an earlier run and are left out. The commands that hold go into the bag too. ``position``:
+    where the outputs place the body's centre (x, y, z, m, in the inertial frame; see
+    ``encode_block``).
     """
     if position is not None:
         position = finite_vector(position, 'position', (3,))
     count = sample_count(duration, rate)
     if count > MAX_SAMPLES:
         raise ValueError(
-            f'duration: {duration:g} s at {rate:g} Hz is {count:.3g} samples; at most {MAX_SAMPLES:.0e} '
-            '(about a terabyte) are written'
+            f'duration: {duration:g} s at {rate:g} Hz is {count:.3g} samples; '
+            f'at most {MAX_SAMPLES:.0e} (about a terabyte) are written'
         )
-    if epoch_ns / 1e9 + (count - 1) / rate >= MAX_STAMP_S:
+    last_stamp_s = epoch_ns / 1e9 + (count - 1) / rate
+    if last_stamp_s >= MAX_STAMP_S:
         raise ValueError(
-            f'duration: the last stamp would be {epoch_ns / 1e9 + (count - 1) / rate:.6g} s, past what '
+            f'duration: the last stamp would be {last_stamp_s:.6g} s, past what '
             f'builtin_interfaces/Time holds (2^31 s)'
         )
     members = scene.members()

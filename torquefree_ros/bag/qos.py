@@ -13,9 +13,10 @@
 # limitations under the License.
 
 """
-QoS profiles as rosbag2 (metadata version 9) writes them: policies as rmw's strings, durations
-as ``{sec, nsec}`` with rmw's infinite ``{9223372036, 854775807}``. No rclpy import (see
-``ros_qos``).
+QoS profiles as rosbag2 (metadata version 9) writes them.
+
+Policies are rmw's strings, durations ``{sec, nsec}`` with rmw's infinite
+``{9223372036, 854775807}``. No rclpy import (see ``ros_qos``).
 """
 
 from __future__ import annotations
@@ -59,7 +60,7 @@ class BagQos:
                 )
 
     def to_yaml(self) -> dict:
-        """The mapping rosbag2 writes (same keys, same order)."""
+        """Return the mapping rosbag2 writes (same keys, same order)."""
         data = asdict(self)
         for name in _DURATIONS:
             sec, nsec = divmod(data[name], 1_000_000_000)
@@ -68,7 +69,7 @@ class BagQos:
 
     @classmethod
     def from_yaml(cls, data: dict) -> 'BagQos':
-        """Reads version 9 (strings) and older integer policies, as rosbag2 does."""
+        """Read version 9 (strings) and older integer policies, as rosbag2 does."""
         values = dict(data)
         for policy, allowed in _POLICIES.items():
             value = values.get(policy, 'unknown')

@@ -51,7 +51,7 @@ from ..core.safe_files import check_regular_file, clip, load_yaml, read_regular_
 @dataclass
 class BagTopic:
     name: str
-    type: str
+    type_name: str
     offered_qos_profiles: tuple[BagQos, ...]
     type_description_hash: str
     message_count: int
@@ -79,9 +79,8 @@ def _qos_profiles(channel: Channel, where: str) -> tuple[BagQos, ...]:
         ) from None
 
 
-MAX_METADATA_BYTES = (
-    16 << 20
-)  # rosbag2's metadata.yaml of a bag with thousands of topics and files still fits
+# rosbag2's metadata.yaml of a bag with thousands of topics and files still fits
+MAX_METADATA_BYTES = 16 << 20
 # OSError: a damaged offset seeks before the file's start
 _READ_ERRORS = (
     McapError,
@@ -95,9 +94,8 @@ _READ_ERRORS = (
     OSError,
 )
 _MAGIC_BYTES = 8
-_FOOTER = struct.Struct(
-    '<BQQQI'
-)  # opcode, record length, summary_start, summary_offset_start, summary_crc
+# opcode, record length, summary_start, summary_offset_start, summary_crc
+_FOOTER = struct.Struct('<BQQQI')
 _DATA_END = struct.Struct('<BQI')  # opcode, record length, data_section_crc
 _CRC_BLOCK = 1 << 20
 
@@ -106,8 +104,10 @@ _OUTSIDE_DAMAGE = 'bytes between its chunks are damaged (the data section CRC do
 
 class _BoundedReads:
     """
-    A bag file whose reads never ask for more than is left in it: a damaged length field then
-    reads short (mcap says EndOfFile) instead of allocating the gigabytes it claims.
+    A bag file whose reads never ask for more than is left in it.
+
+    A damaged length field then reads short (mcap says EndOfFile) instead of allocating the
+    gigabytes it claims.
     """
 
     def __init__(self, file):
@@ -149,8 +149,9 @@ class _BoundedReads:
 
     def footer(self) -> tuple[int, int] | None:
         """
-        (summary_start, summary_crc) of the footer and magic that end the file, None if they do
-        not.
+        Return (summary_start, summary_crc) of the footer and magic that end the file.
+
+        None if the file does not end with them.
         """
         if self.size < 2 * _MAGIC_BYTES + _FOOTER.size:
             return None
@@ -167,8 +168,9 @@ def _open(path: Path) -> _BoundedReads:
 
 def bag_information(path) -> dict:
     """
-    The ``rosbag2_bagfile_information`` mapping of a bag directory's ``metadata.yaml``, read
-    with bounds (a regular file of at most 16 MiB, bounded YAML: ``core.safe_files``).
+    Read the ``rosbag2_bagfile_information`` mapping of a bag directory's ``metadata.yaml``.
+
+    It is read with bounds (a regular file of at most 16 MiB, bounded YAML: ``core.safe_files``).
     """
     metadata = Path(path) / METADATA_FILE
     try:
@@ -191,8 +193,9 @@ def bag_information(path) -> dict:
 
 def storage_file(path) -> Path:
     """
-    The ``.mcap`` file of a bag directory (from its metadata, else the only one), or the file
-    itself.
+    Return the ``.mcap`` file of a bag directory, or the file itself.
+
+    A directory's file is the one its metadata names, else the only one.
     """
     path = Path(path)
     if path.exists() and not path.is_dir():
@@ -225,10 +228,7 @@ def storage_file(path) -> Path:
 
 
 def _check_regular(bag: Path, file: Path) -> None:
-    """
-    Special files are refused before anyone opens them (a FIFO would block the reader for
-    good).
-    """
+    """Refuse special files before anyone opens them (a FIFO would block the reader for good)."""
     try:
         check_regular_file(file)
     except OSError as error:
@@ -242,6 +242,8 @@ class BagReader:
 
     def __init__(self, path, scan: bool = False):
         """
+        Open a bag (a directory or its ``.mcap`` file) and read its topics.
+
         ``scan``: read record by record even if the file has its summary (to recover a damaged
         one).
         """
@@ -249,11 +251,11 @@ class BagReader:
         self.file_path = storage_file(self.path)
         self._topics: dict[int, BagTopic] = {}
         self.span_ns: tuple[int, int] | None = None  # first and last log time
-        # where and why a scan of a file without its end stopped before the file's end ("" if it
-        # did not)
+        # where and why a scan of a file without its end stopped before the file's end
+        # ("" if it did not)
         self.damage = ''
-        # damage that lost no message (the summary, the bytes between the chunks); reindex repairs
-        # it
+        # damage that lost no message (the summary, the bytes between the chunks);
+        # reindex repairs it
         self.repairable = ''
         try:
             with _open(self.file_path) as stream:
@@ -279,9 +281,10 @@ class BagReader:
 
     def messages(self, topics=None) -> Iterator[BagMessage]:
         """
-        Messages in log-time order (file order for a file without its end), optionally of some
-        topics. Damage found on the way (a CRC mismatch, a broken record) raises ``BagError``
-        saying how many messages came before it.
+        Yield the messages, optionally of some topics, in log-time order.
+
+        A file without its end is read in file order. Damage found on the way (a CRC mismatch, a
+        broken record) raises ``BagError`` saying how many messages came before it.
         """
         wanted = None if topics is None else set(topics)
         count = 0
@@ -309,9 +312,10 @@ class BagReader:
 
     def check_data_section(self) -> str:
         """
-        The data section CRC of a complete file, which also covers the bytes no chunk CRC does
-        (message indexes, header, metadata records): what did not match, or "" (also when the
-        writer left it 0). Reads the file once.
+        Check the data section CRC of a complete file; return what did not match, or "".
+
+        The CRC also covers the bytes no chunk CRC does (message indexes, header, metadata
+        records); "" also when the writer left it 0. Reads the file once.
         """
         with _open(self.file_path) as stream:
             footer = stream.footer()
@@ -328,8 +332,7 @@ class BagReader:
                 return ''
         return _OUTSIDE_DAMAGE
 
-    # -- reading
-    # -----------------------------------------------------------------------------------
+    # -- reading ----------------------------------------------------------------------------------
     def _check_header(self, stream) -> None:
         try:
             next(iter(StreamReader(stream, skip_magic=False).records))
@@ -430,10 +433,12 @@ class Reindexed(NamedTuple):
 
 def reindex(path) -> Reindexed:
     """
-    Makes a bag whose recorder died (no summary, maybe a cut-off chunk) or whose file was
-    damaged complete again: the readable messages are copied, with their schemas, QoS and times,
-    into a complete MCAP file that replaces the old one, and ``metadata.yaml`` is written. A
-    complete, undamaged bag (every CRC is checked) only gets ``metadata.yaml``.
+    Make a bag whose recorder died or whose file was damaged complete again.
+
+    A recorder that died leaves no summary, maybe a cut-off chunk. The readable messages are
+    copied, with their schemas, QoS and times, into a complete MCAP file that replaces the old one,
+    and ``metadata.yaml`` is written. A complete, undamaged bag (every CRC is checked) only gets
+    ``metadata.yaml``.
     """
     bag = Path(path)
     reader = BagReader(bag)
@@ -453,7 +458,7 @@ def reindex(path) -> Reindexed:
             metadata.topics.append(
                 TopicRecord(
                     topic.name,
-                    topic.type,
+                    topic.type_name,
                     topic.offered_qos_profiles,
                     topic.type_description_hash,
                     message_count=topic.message_count,
@@ -472,7 +477,7 @@ def reindex(path) -> Reindexed:
         with BagWriter(staging, overwrite=True, file_name=reader.file_path.name) as writer:
             channels = {
                 topic.name: writer.add_topic(
-                    topic.name, topic.type, topic.offered_qos_profiles, topic.definition
+                    topic.name, topic.type_name, topic.offered_qos_profiles, topic.definition
                 )
                 for topic in reader.topics
             }
@@ -491,7 +496,7 @@ def reindex(path) -> Reindexed:
     staging.rmdir()
     if reader.damage:
         damage = (
-            f'damaged ({reader.damage}): {writer.metadata.message_count} messages before it were kept, '
-            'everything after it is lost'
+            f'damaged ({reader.damage}): {writer.metadata.message_count} messages before it '
+            'were kept, everything after it is lost'
         )
     return Reindexed(writer.metadata, damage, '' if damage else repaired or reader.repairable)

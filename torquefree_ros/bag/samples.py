@@ -13,9 +13,10 @@
 # limitations under the License.
 
 """
-The simulator's samples as messages: which topics a sample goes out on, their CDR bytes, and
-writing them to a bag. One source for the node (which publishes and records them) and the offline
-``torquefree_bag``: the same topics, types, QoS, stamps and bytes.
+The simulator's samples as messages: their topics, their CDR bytes, and writing them to a bag.
+
+One source for the node (which publishes and records them) and the offline ``torquefree_bag``: the
+same topics, types, QoS, stamps and bytes.
 
 A sample is ``/clock`` (on a clock of our own), ``angular_velocity``, ``attitude``, then the
 scene's outputs (``imu``, ``pose``, ``odometry``, ``markers``, ...) in the order the scene names
@@ -45,13 +46,16 @@ INERTIA_KEY = 'torquefree_ros.inertia'
 class SampleColumn(NamedTuple):
     topic: str  # as the node names it: relative, or absolute for /clock
     type_name: str
-    messages: (
-        list  # CDR bytes, one per sample of the block (None: this sample does not go out on it)
-    )
+    # CDR bytes, one per sample of the block (None: this sample does not go out on it)
+    messages: list
 
 
 def sample_qos(depth: int = 10) -> BagQos:
-    """What the node's publishers offer: reliable, keep-last ``depth``, volatile, no deadline."""
+    """
+    Return the QoS the node's publishers offer.
+
+    Reliable, keep-last ``depth``, volatile, no deadline.
+    """
     return BagQos(history='keep_last', depth=depth, reliability='reliable', durability='volatile')
 
 
@@ -65,12 +69,13 @@ def encode_block(
     block, body_frame: str, inertial_frame: str, outputs=(), clock: bool = False, position=None
 ) -> tuple:
     """
-    The messages of a :class:`~torquefree_ros.core.simulation.SampleBlock`, one column per
-    topic, in publishing order. ``outputs``: the simulation's output effects (their rows are in the
-    block). ``position`` (x, y, z, m, in the inertial frame; None: the origin): where the outputs
-    that place the body (``tf``, ``pose``, ``odometry``, ``markers``) put its centre, so that
-    several bodies sharing one inertial frame show side by side; the simulator moves attitude only,
-    so it is constant.
+    Encode a :class:`~torquefree_ros.core.simulation.SampleBlock`'s messages, a column per topic.
+
+    The columns are in publishing order. ``outputs``: the simulation's output effects (their rows
+    are in the block). ``position`` (x, y, z, m, in the inertial frame; None: the origin): where
+    the outputs that place the body (``tf``, ``pose``, ``odometry``, ``markers``) put its centre,
+    so that several bodies sharing one inertial frame show side by side; the simulator moves
+    attitude only, so it is constant.
     """
     place = body_offset(position)
     stamps = block.stamps_ns
@@ -103,14 +108,12 @@ def _encode_output(
     frame = body_frame if output.frame == 'body' else inertial_frame
     if place is not None and output.layout in PLACED:
         rows = rows.copy()
-        rows[:, 0:3] = (
-            place  # these rows start with the body's position (zero: the core moves no body)
-        )
+        # these rows start with the body's position (zero: the core moves no body)
+        rows[:, 0:3] = place
     if output.layout == 'transform':  # parent: the output's frame; child: the body
         return encode_transforms(stamps, frame, body_frame, rows)
-    if (
-        output.layout == 'odometry'
-    ):  # header.frame_id: the output's frame; child_frame_id: the body
+    # header.frame_id: the output's frame; child_frame_id: the body
+    if output.layout == 'odometry':
         return encode_odometry(stamps, frame, body_frame, rows)
     if output.layout == 'markers':
         return encode_markers(stamps, frame, rows, place)
@@ -119,8 +122,9 @@ def _encode_output(
 
 def encode_command(command) -> bytes:
     """
-    A received torque command as ``geometry_msgs/WrenchStamped`` (its own stamp, frame, force
-    and torque), for the bag.
+    Encode a received torque command as ``geometry_msgs/WrenchStamped``, for the bag.
+
+    The message has the command's own stamp, frame, force and torque.
     """
     values = np.concatenate([command.force, command.torque])[np.newaxis]
     return encode_stamped_doubles([command.stamp_ns], command.frame_id, values)[0]
@@ -128,8 +132,7 @@ def encode_command(command) -> bytes:
 
 class SampleRecorder:
     """
-    Writes sample columns on ``writer``; a topic's channel is added the first time it is
-    written.
+    Writes sample columns on ``writer``; a topic's channel is added the first time it is written.
 
     ``resolve`` maps a column's topic to the name it goes out on (the node passes its publishers'
     resolved, possibly remapped names; offline, relative names go into ``namespace``).
@@ -160,8 +163,9 @@ class SampleRecorder:
 
     def write_block(self, stamps_ns, columns) -> None:
         """
-        Sample ``i``: every column's message ``i``, in column order, logged at the sample's
-        stamp.
+        Write every sample of a block: for sample ``i``, every column's message ``i``.
+
+        The messages of sample ``i`` go in column order, logged at the sample's stamp.
         """
         self.writer.write_rows(
             [self._channel(column) for column in columns],
@@ -171,21 +175,23 @@ class SampleRecorder:
 
     def declare(self, topic: str, type_name: str) -> None:
         """
-        A topic that is not a sample column (a command input): in the bag from the start of the
-        run that has it, with or without messages.
+        Add a topic that is not a sample column (a command input) to the bag.
+
+        It is in the bag from the start of the run that has it, with or without messages.
         """
         self._channel(SampleColumn(topic, type_name, []))
 
     def write_message(self, topic: str, type_name: str, log_stamp_ns: int, data: bytes) -> None:
-        """One message of a topic that is not a sample column (a received command)."""
+        """Write one message of a topic that is not a sample column (a received command)."""
         self.writer.write_rows(
             [self._channel(SampleColumn(topic, type_name, []))], (log_stamp_ns,), [(data,)]
         )
 
     def write_sample(self, stamp_ns: int, columns, index: int) -> None:
         """
-        Sample ``index`` of the block ``columns`` belong to (the node records as it
-        publishes).
+        Write sample ``index`` of the block ``columns`` belong to.
+
+        The node records as it publishes, a sample at a time.
         """
         self.writer.write_rows(
             [self._channel(column) for column in columns],

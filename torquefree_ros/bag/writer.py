@@ -63,7 +63,7 @@ def mcap_file_name(bag_dir: Path) -> str:
 
 def prepare_bag_directory(path, overwrite: bool = False) -> Path:
     """
-    Checks that a bag can be created at ``path`` and creates its (empty) directory.
+    Check that a bag can be created at ``path`` and create its (empty) directory.
 
     An existing path is refused unless ``overwrite``; even then only a bag directory
     (``metadata.yaml`` and ``.mcap`` files) is replaced, never another directory or a file.
@@ -112,8 +112,7 @@ def _is_bag_directory(path: Path) -> bool:
 
 class BagWriter:
     """
-    A rosbag2 MCAP bag being written; a context manager that closes the bag however the block
-    ends.
+    A rosbag2 MCAP bag being written; a context manager that closes the bag however the block ends.
 
     Not thread-safe: write and close from one thread at a time.
     """
@@ -146,8 +145,8 @@ class BagWriter:
         try:
             self._stream = open(self.file_path, 'xb')
             # the data section CRC (rosbag2's `enableDataCRC`) also covers the message indexes
-            # between the chunks, which no chunk CRC does: reindex can then tell that nothing was
-            # changed
+            # between the chunks, which no chunk CRC does:
+            # reindex can then tell that nothing was changed
             self._mcap = Writer(
                 self._stream,
                 chunk_size=chunk_bytes,
@@ -159,8 +158,7 @@ class BagWriter:
         except OSError as error:
             raise self._io_error(error) from None
 
-    # -- topics
-    # ------------------------------------------------------------------------------------
+    # -- topics -----------------------------------------------------------------------------------
     def add_topic(
         self,
         name: str,
@@ -169,9 +167,11 @@ class BagWriter:
         definition: MessageDefinition | None = None,
     ) -> int:
         """
-        Registers ``name`` (an absolute topic name) with its type and the publishers' QoS
-        profiles; returns the channel id to write with. Adding a topic again returns its channel.
-        ``definition`` defaults to the installed one (copying a bag passes the bag's own).
+        Register a topic with its type and QoS profiles; return the channel id to write with.
+
+        ``name`` is an absolute topic name; ``offered_qos`` the publishers' QoS profiles. Adding a
+        topic again returns its channel. ``definition`` defaults to the installed one (copying a
+        bag passes the bag's own).
         """
         if not name.startswith('/'):
             raise BagError(
@@ -206,12 +206,11 @@ class BagWriter:
         self._metadata.topics.append(record)
         return channel_id
 
-    # -- messages
-    # ----------------------------------------------------------------------------------
+    # -- messages ---------------------------------------------------------------------------------
     def write(
         self, channel_id: int, log_time_ns: int, data: bytes, publish_time_ns: int | None = None
     ) -> None:
-        """One serialized (CDR) message; ``publish_time`` defaults to ``log_time``."""
+        """Write one serialized (CDR) message; ``publish_time`` defaults to ``log_time``."""
         self.write_rows(
             (channel_id,),
             (log_time_ns,),
@@ -221,9 +220,10 @@ class BagWriter:
 
     def write_rows(self, channel_ids, log_times_ns, columns, publish_times_ns=None) -> None:
         """
-        Row ``i`` writes ``columns[j][i]`` on ``channel_ids[j]`` for every ``j`` (none where it
-        is None), all with ``log_times_ns[i]``: the messages of one sample stay together and in
-        time order.
+        Write rows of messages: the messages of one sample stay together and in time order.
+
+        Row ``i`` writes ``columns[j][i]`` on ``channel_ids[j]`` for every ``j`` (none where it is
+        None), all with ``log_times_ns[i]``.
         """
         self._check_open()
         rows = len(log_times_ns)
@@ -236,7 +236,8 @@ class BagWriter:
                 )
             if len(payloads) != rows:
                 raise BagError(
-                    f"bag '{self.path}': channel {channel_id}: {len(payloads)} messages for {rows} times"
+                    f"bag '{self.path}': channel {channel_id}: "
+                    f'{len(payloads)} messages for {rows} times'
                 )
         try:
             if self._bulk and rows * len(columns) >= BULK_MESSAGES:
@@ -272,7 +273,7 @@ class BagWriter:
             self.flush()
 
     def flush(self) -> None:
-        """Writes out the open chunk and flushes the file (readable after a crash from here on)."""
+        """Write out the open chunk and flush the file (readable after a crash from here on)."""
         self._check_open()
         try:
             self._mcap.flush()
@@ -282,8 +283,9 @@ class BagWriter:
 
     def flush_if_due(self) -> None:
         """
-        Writes out the open chunk if it has been open ``chunk_seconds`` (call it from a timer
-        when messages are sparse).
+        Write out the open chunk if it has been open ``chunk_seconds``.
+
+        Call it from a timer when messages are sparse.
         """
         if (
             self._chunk_opened is not None
@@ -299,13 +301,12 @@ class BagWriter:
     def metadata(self) -> BagMetadata:
         return self._metadata
 
-    # -- closing
-    # -----------------------------------------------------------------------------------
+    # -- closing ----------------------------------------------------------------------------------
     def close(self) -> None:
         """
-        Finishes the MCAP file (rosbag2 record, summary, footer) and writes ``metadata.yaml``.
-        After a write error, makes what is in the file a complete bag again (when the disk
-        allows).
+        Finish the MCAP file (rosbag2 record, summary, footer) and write ``metadata.yaml``.
+
+        After a write error, make what is in the file a complete bag again (when the disk allows).
         """
         if self._closed:
             return
@@ -325,8 +326,9 @@ class BagWriter:
                     write_atomically(self.path / METADATA_FILE, metadata_file_text(self._metadata))
                 except OSError as error:  # the .mcap is whole; only the small YAML file is missing
                     raise BagError(
-                        f"bag '{self.path}': '{self.file_path.name}' is complete, but {METADATA_FILE} "
-                        f'could not be written ({error.strerror or error}); {_REPAIR.format(self.path)}'
+                        f"bag '{self.path}': '{self.file_path.name}' is complete, "
+                        f'but {METADATA_FILE} could not be written ({error.strerror or error}); '
+                        f'{_REPAIR.format(self.path)}'
                     ) from None
                 return
         try:
@@ -337,10 +339,8 @@ class BagWriter:
 
         try:
             reindex(self.path)
-        except (
-            BagError,
-            OSError,
-        ) as error:  # e.g. no room for the rebuilt copy on the same full disk
+        except (BagError, OSError) as error:
+            # e.g. no room for the rebuilt copy on the same full disk
             detail = (
                 error.strerror if isinstance(error, OSError) and error.strerror else str(error)
             )
@@ -362,8 +362,7 @@ class BagWriter:
         except BagError:
             pass  # the original error is the one to report
 
-    # -- helpers
-    # -----------------------------------------------------------------------------------
+    # -- helpers ----------------------------------------------------------------------------------
     def _check_open(self) -> None:
         if self._failure is not None:
             raise BagError(self._failure)

@@ -13,8 +13,10 @@
 # limitations under the License.
 
 """
-The published bench cases: hard cases of the dynamics tests with their high-precision reference
-(``hard_cases.json``, made by ``tools/make_reference.py``: mpmath Taylor series at 45 digits).
+The published bench cases: hard cases of the dynamics tests with their high-precision reference.
+
+The reference is ``hard_cases.json``, made by ``tools/make_reference.py``: mpmath Taylor series at
+45 digits.
 """
 
 from __future__ import annotations

@@ -13,8 +13,9 @@
 # limitations under the License.
 
 """
-What each effect adds to a step, and what each output adds to a sample: the price of the third
-promise (a scene computes only the effects it names).
+What each effect adds to a step, and what each output adds to a sample.
+
+The price of the third promise (a scene computes only the effects it names).
 """
 
 from __future__ import annotations
@@ -50,8 +51,10 @@ def _best_us(call, number: int) -> float:
 
 def motion_effect_costs(number: int = 2000) -> list[dict]:
     """
-    Per effect: µs per right-hand-side evaluation and per RK4 step (4 evaluations), and what
-    each adds to the torque-free baseline (first row).
+    Measure each motion effect's cost: µs per right-hand-side evaluation and per RK4 step.
+
+    Per effect: µs per right-hand-side evaluation and per RK4 step (4 evaluations), and what each
+    adds to the torque-free baseline (first row).
     """
     rows = []
     base = None
@@ -84,9 +87,8 @@ def output_costs(number: int = 20) -> list[dict]:
     rows = []
     for label, entry in OUTPUTS.items():
         stream = parse_effect(entry, 'effects[0]').stream(100.0, propagator)
-        first = iter(
-            range(0, 10**9, _BLOCK)
-        )  # fresh sample indices: a stream consumes its noise in order
+        # fresh sample indices: a stream consumes its noise in order
+        first = iter(range(0, 10**9, _BLOCK))
         cost = (
             _best_us(lambda: stream.rows(next(first), times, omega, q, internal), number) / _BLOCK
         )

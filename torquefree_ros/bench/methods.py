@@ -13,9 +13,10 @@
 # limitations under the License.
 
 """
-Every method the report measures, behind one small interface: each registered propagator,
-scipy's ``solve_ivp`` (RK45, DOP853, Radau, LSODA) and, when ``mujoco`` is importable, MuJoCo's RK4
-free body.
+Every method the report measures, behind one small interface.
+
+They are each registered propagator, scipy's ``solve_ivp`` (RK45, DOP853, Radau, LSODA) and, when
+``mujoco`` is importable, MuJoCo's RK4 free body.
 
 A method has one setting it sweeps (a fixed step, a tolerance or nothing) and runs a case from its
 initial state to a sorted array of output times, returning ``(omega_B, q_NB)``.
@@ -39,8 +40,8 @@ from ..core.rigid_body import RigidBody
 TOLERANCES = (1e-4, 1e-6, 1e-8, 1e-10, 1e-12, 1e-13)
 #: fixed steps, as steps per rotation (``step = 2 pi / |w0| / N``)
 STEPS_PER_ROTATION = (8, 16, 32, 64, 128, 256, 512, 1024, 2048)
-#: MuJoCo time steps: the 100 Hz output period (or the reference spacing, if finer) divided by
-#: these
+#: MuJoCo time steps: the 100 Hz output period (or the reference spacing, if finer)
+#: divided by these
 MUJOCO_SUBSTEPS = (1, 2, 4, 8, 16, 32, 64)
 SMOKE_TOLERANCES = (1e-5, 1e-9)
 SMOKE_STEPS_PER_ROTATION = (32, 256)
@@ -107,8 +108,8 @@ def _tolerances(case, smoke):
 
 def _scipy(solver: str) -> Method:
     def run(case, rtol, times):
-        # the same right-hand side as the numerical propagators, so the comparison is of the
-        # drivers
+        # the same right-hand side as the numerical propagators,
+        # so the comparison is of the drivers
         dynamics = Dynamics(RigidBody.from_inertia(case.inertia))
         y0 = np.concatenate(
             [case.angular_velocity, case.orientation / np.linalg.norm(case.orientation)]
@@ -130,12 +131,15 @@ def _scipy(solver: str) -> Method:
     return Method(f'scipy {solver}', 'scipy solve_ivp', 'rtol', _tolerances, run)
 
 
-_MJCF = """<mujoco>
-  <option timestep="{dt!r}" integrator="RK4" gravity="0 0 0">
-    <flag contact="disable" constraint="disable"/>
-  </option>
-  <worldbody><body><freejoint/><inertial pos="0 0 0" mass="1" diaginertia="{inertia}"/></body></worldbody>
-</mujoco>"""
+_MJCF = (
+    '<mujoco>\n'
+    '  <option timestep="{dt!r}" integrator="RK4" gravity="0 0 0">\n'
+    '    <flag contact="disable" constraint="disable"/>\n'
+    '  </option>\n'
+    '  <worldbody><body><freejoint/><inertial pos="0 0 0" mass="1" diaginertia="{inertia}"/>'
+    '</body></worldbody>\n'
+    '</mujoco>'
+)
 _MUJOCO_CHUNK = 100_000  # steps per compiled rollout call
 
 
@@ -160,9 +164,10 @@ def _mujoco_settings(case, smoke):
 
 def _mujoco_run(case, dt, times):
     """
-    A free body in MuJoCo (no gravity, no contacts), integrated by its RK4 with compiled
-    rollouts; its free joint's angular velocity is in body coordinates and its quaternion is ``(w,
-    x, y, z)``.
+    Run a free body in MuJoCo (no gravity, no contacts) by its RK4 with compiled rollouts.
+
+    Its free joint's angular velocity is in body coordinates and its quaternion is
+    ``(w, x, y, z)``.
     """
     import mujoco
     import mujoco.rollout

@@ -13,9 +13,10 @@
 # limitations under the License.
 
 """
-The whole cost of one sample after the propagator: CDR encoding, the node's publishes, bag
-writing (offline, in blocks; the node's recorder, one sample at a time), and the offline bag
-throughput, all for the default scene at 100 Hz, measured in one process.
+The whole cost of one sample after the propagator, for the default scene at 100 Hz.
+
+CDR encoding, the node's publishes, bag writing (offline, in blocks; the node's recorder, one
+sample at a time), and the offline bag throughput, all measured in one process.
 """
 
 from __future__ import annotations

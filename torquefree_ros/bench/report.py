@@ -13,9 +13,10 @@
 # limitations under the License.
 
 """
-The report's outputs from the measurements: the CSV, the per-case tables ("to reach 1e-6 / 1e-9
-/ 1e-12 rad, method X costs Y µs per simulated second"), the targets as ratios measured in the same
-run, and the work-precision plot.
+The report's outputs from the measurements: the CSV, the tables, the targets and the plot.
+
+The CSV, the per-case tables ("to reach 1e-6 / 1e-9 / 1e-12 rad, method X costs Y µs per simulated
+second"), the targets as ratios measured in the same run, and the work-precision plot.
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ _CROSSOVER_TARGETS = tuple(10.0**-k for k in range(2, 14))
 
 
 def environment() -> dict:
-    """The machine and the versions the numbers belong to."""
+    """Return the machine and the versions the numbers belong to."""
     versions = {}
     for package in ('numpy', 'scipy', 'mujoco', 'matplotlib', 'torquefree_ros'):
         try:
@@ -58,7 +59,11 @@ def environment() -> dict:
 
 
 def write_csv(path, measurements, env: dict) -> None:
-    """One row per measurement, after ``# key: value`` lines naming the machine and versions."""
+    """
+    Write the measurements as CSV, one row per measurement.
+
+    The rows come after ``# key: value`` lines naming the machine and versions.
+    """
     from .sweep import Measurement
 
     with open(path, 'w', newline='') as stream:
@@ -81,12 +86,13 @@ def _csv_value(value):
     return '' if value is None else value
 
 
-# -- reading the measurements
-# -----------------------------------------------------------------------
+# -- reading the measurements ---------------------------------------------------------------------
 def cheapest(measurements, case: str, methods, target: float, cost: str = 'cpu_us_per_sim_s'):
     """
-    The cheapest measurement (by ``cost``) of any of ``methods`` on ``case`` whose attitude
-    error is within ``target`` rad (``None``: not reached).
+    Find the cheapest measurement (by ``cost``) of ``methods`` on ``case`` that reaches ``target``.
+
+    The measurement of any of ``methods`` whose attitude error is within ``target`` rad (``None``:
+    not reached).
     """
     names = {methods} if isinstance(methods, str) else set(methods)
     reaching = [
@@ -146,8 +152,9 @@ def case_table(measurements, case: str) -> str:
 
 def targets(measurements) -> list[str]:
     """
-    The issue's targets, each a ratio measured in this run, one line per case; a section is left
-    out when its methods were not run.
+    Report the issue's targets, each a ratio measured in this run, one line per case.
+
+    A section is left out when its methods were not run.
     """
     exact = {m.case: m for m in measurements if m.method == 'analytic' and m.ok}
     methods = _method_order(measurements)
@@ -178,10 +185,10 @@ def _best_error(measurements, case: str, method: str) -> float:
 
 def _exact_vs_dop853(measurements, exact: dict, dop853s: list) -> list[str]:
     lines = [
-        '**Exact vs DOP853 at 1e-9 rad** (cost of the cheapest DOP853 setting that reaches 1e-9 rad over '
-        "the exact propagator's: for a 100 Hz stream / to the horizon's reference samples; then the horizon "
-        'from which DOP853 costs 100× the exact propagator, its cost to the horizon extrapolated linearly in '
-        "the horizon, the exact one's constant):"
+        '**Exact vs DOP853 at 1e-9 rad** (cost of the cheapest DOP853 setting that reaches 1e-9 '
+        "rad over the exact propagator's: for a 100 Hz stream / to the horizon's reference "
+        'samples; then the horizon from which DOP853 costs 100× the exact propagator, its cost to '
+        "the horizon extrapolated linearly in the horizon, the exact one's constant):"
     ]
     for case in _case_order(measurements):
         a = exact.get(case)
@@ -197,12 +204,12 @@ def _exact_vs_dop853(measurements, exact: dict, dop853s: list) -> list[str]:
                 )
                 parts.append(
                     f'{name} {stream.cpu_us_per_sim_s / a.cpu_us_per_sim_s:.1f}× / '
-                    f'{jump.cpu_ms_to_horizon / a.cpu_ms_to_horizon:.0f}× (100× from {_cost(hundredfold)} s)'
+                    f'{jump.cpu_ms_to_horizon / a.cpu_ms_to_horizon:.0f}× '
+                    f'(100× from {_cost(hundredfold)} s)'
                 )
             else:
-                parts.append(
-                    f'{name} never reaches it (best {_best_error(measurements, case, name):.1e} rad)'
-                )
+                best = _best_error(measurements, case, name)
+                parts.append(f'{name} never reaches it (best {best:.1e} rad)')
         lines.append(f'- {case} (exact: {a.attitude_error_rad:.1e} rad): ' + '; '.join(parts))
     return lines
 
@@ -216,16 +223,17 @@ def _exact_vs_mujoco(measurements, exact: dict) -> list[str]:
     if not mujoco:
         return []
     lines = [
-        '**Exact at 100 Hz vs MuJoCo RK4 at dt = 0.01 s** (time per simulated second, exact / MuJoCo; '
-        'target ≤ 0.5):'
+        '**Exact at 100 Hz vs MuJoCo RK4 at dt = 0.01 s** (time per simulated second, exact / '
+        'MuJoCo; target ≤ 0.5):'
     ]
     for m in mujoco:
         a = exact.get(m.case)
         if a:
             lines.append(
                 f'- {m.case}: {a.cpu_us_per_sim_s:.0f} / {m.cpu_us_per_sim_s:.0f} µs = '
-                f'{a.cpu_us_per_sim_s / m.cpu_us_per_sim_s:.2f} (MuJoCo {m.cpu_us_per_sim_s / 100:.1f} µs '
-                f'per step; its attitude error {m.attitude_error_rad:.1e} rad)'
+                f'{a.cpu_us_per_sim_s / m.cpu_us_per_sim_s:.2f} '
+                f'(MuJoCo {m.cpu_us_per_sim_s / 100:.1f} µs per step; '
+                f'its attitude error {m.attitude_error_rad:.1e} rad)'
             )
     return lines
 
@@ -251,9 +259,8 @@ def _ours_vs_scipy_dop853(measurements, methods: list) -> list[str]:
                 cheapest(measurements, case, 'scipy DOP853', target),
             )
             if mine and theirs:
-                parts.append(
-                    f'{target:.0e}: {mine.cpu_us_per_sim_s / theirs.cpu_us_per_sim_s:.2f} ({mine.method})'
-                )
+                ratio = mine.cpu_us_per_sim_s / theirs.cpu_us_per_sim_s
+                parts.append(f'{target:.0e}: {ratio:.2f} ({mine.method})')
             elif mine:
                 parts.append(f'{target:.0e}: only ours ({mine.method})')
             elif theirs:
@@ -293,8 +300,9 @@ def _where_rk4_stops(measurements, methods: list) -> list[str]:
 
 def plot(path, measurements) -> bool:
     """
-    Log-log attitude error vs cost, one panel per case, one line per method; ``False`` when
-    matplotlib (the ``plot`` extra) is missing.
+    Plot log-log attitude error vs cost, one panel per case, one line per method.
+
+    Return ``False`` when matplotlib (the ``plot`` extra) is missing.
     """
     try:
         import matplotlib

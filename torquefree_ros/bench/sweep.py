@@ -40,8 +40,8 @@ from ..core.propagators import make_propagator
 WINDOW_LIMITS = (1.0, 100.0)  # s
 #: a sweep stops tightening a method on a case once a run takes longer than this (CPU s)
 RUN_LIMIT = {False: 10.0, True: 2.0}  # by smoke
-#: fixed-step methods skip a setting that needs more steps than this: ours (Python), MuJoCo
-#: (compiled)
+#: fixed-step methods skip a setting that needs more steps than this:
+#: ours (Python), MuJoCo (compiled)
 STEP_LIMIT = {'torquefree_ros': 1e6, 'mujoco': 5e6}
 _REPEAT_BELOW = 0.1  # s
 _REPEAT_TOTAL = 0.5  # s
@@ -100,16 +100,16 @@ def measure(method: Method, case: Case, setting) -> tuple[Measurement, float]:
     """One measurement and the CPU seconds it took (all runs)."""
     window = cost_window(case)
     grid = np.arange(int(round(window / OUTPUT_PERIOD)) + 1) * OUTPUT_PERIOD
-    record = dict(
-        case=case.name,
-        method=method.label,
-        family=method.family,
-        setting_name=method.setting_name,
-        setting=setting,
-        attitude_floor_rad=float(case.attitude_floor.max()),
-        window_s=window,
-        horizon_s=case.horizon,
-    )
+    record = {
+        'case': case.name,
+        'method': method.label,
+        'family': method.family,
+        'setting_name': method.setting_name,
+        'setting': setting,
+        'attitude_floor_rad': float(case.attitude_floor.max()),
+        'window_s': window,
+        'horizon_s': case.horizon,
+    }
     spent = 0.0
     try:
         stream_cpu, _ = cpu_seconds(lambda: method.run(case, setting, grid))
@@ -144,8 +144,10 @@ def measure(method: Method, case: Case, setting) -> tuple[Measurement, float]:
 
 def sweep(methods, cases, smoke: bool = False, progress=None) -> list[Measurement]:
     """
-    Every method x case x setting, settings from cheap to expensive; a method stops on a case at
-    the first setting over budget (recorded as skipped, like the tighter ones after it).
+    Measure every method x case x setting, settings from cheap to expensive.
+
+    A method stops on a case at the first setting over budget (recorded as skipped, like the
+    tighter ones after it).
     """
     _warm_up()
     results = []
@@ -156,8 +158,9 @@ def sweep(methods, cases, smoke: bool = False, progress=None) -> list[Measuremen
             for setting in method.settings(case, smoke):
                 if over_budget is None and method.steps is not None:
                     steps = method.steps(case, setting, span)
-                    if steps > STEP_LIMIT[method.family]:
-                        over_budget = f'skipped: {steps:.1e} steps over the limit {STEP_LIMIT[method.family]:.0e}'
+                    limit = STEP_LIMIT[method.family]
+                    if steps > limit:
+                        over_budget = f'skipped: {steps:.1e} steps over the limit {limit:.0e}'
                 if over_budget:
                     results.append(_skipped(method, case, setting, over_budget))
                     continue
@@ -172,15 +175,17 @@ def sweep(methods, cases, smoke: bool = False, progress=None) -> list[Measuremen
 
 def _warm_up() -> None:
     """
-    Evaluate each kind of exact motion once before anything is timed: a process loads the
-    compiled kernels once (or compiles them, the first time after an install), which is not a
-    propagator's cost.
+    Evaluate each kind of exact motion once before anything is timed.
+
+    A process loads the compiled kernels once (or compiles them, the first time after an install),
+    which is not a propagator's cost.
     """
+    # m <= 1/2, m > 1/2, the separatrix
     for inertia, rate in (
         ([1.0, 2.0, 3.0], [0.3, 0.2, 1.0]),
         ([2.0, 3.0, 4.0], [0.7, 0.5, 0.6]),
         ([3.0, 4.0, 6.0], [2.0, 0.5, 1.0]),
-    ):  # m <= 1/2, m > 1/2, the separatrix
+    ):
         make_propagator(inertia, rate, [0.0, 0.0, 0.0, 1.0])([0.0, 1.0])
 
 

@@ -65,8 +65,9 @@ def run_campaign(
     progress=None,
 ):
     """
-    Run a campaign (a file, a library campaign's name, a mapping or a :class:`Campaign`) and
-    return its table (``pyarrow.Table``, see :mod:`.results`).
+    Run a campaign and return its table (``pyarrow.Table``, see :mod:`.results`).
+
+    The campaign is a file, a library campaign's name, a mapping or a :class:`Campaign`.
 
     ``scheduler``: ``None`` (a local cluster, or this process for a campaign of one chunk),
     ``"in-process"``, ``"local"``, a Dask scheduler's address or a ``distributed.Client``;
@@ -99,7 +100,7 @@ def run_campaign(
             computed = replace(campaign, trajectory_every=None)
         store, ranges, parts = None, chunks(campaign, size), {}
     else:
-        store = CampaignDirectory.open(output, campaign, overwrite=overwrite, resume=resume)
+        store = CampaignDirectory.prepare(output, campaign, overwrite=overwrite, resume=resume)
         if store.finished_table is not None:
             if progress:
                 progress(campaign.runs, campaign.runs)
@@ -113,9 +114,8 @@ def run_campaign(
         nonlocal done
         trajectories = columns.pop(TRAJECTORIES, None)
         if store:
-            if (
-                trajectories is not None
-            ):  # first: a results part on disk has its trajectory part beside it
+            # first: a results part on disk has its trajectory part beside it
+            if trajectories is not None:
                 store.write_trajectories(start, stop, trajectories)
             store.write_part(start, stop, columns)
         parts[start] = columns

@@ -13,22 +13,21 @@
 # limitations under the License.
 
 """
-Dispersions: how each run's inputs are drawn from the nominal scene (Basilisk's vocabulary: a
-dispersion is a small object that draws one input from the run's own generator).
+Dispersions: how each run's inputs are drawn from the nominal scene.
+
+In Basilisk's vocabulary, a dispersion is a small object that draws one input from the run's own
+generator.
 
 A campaign file maps a **target** (a path into the scene) to a **dispersion**::
 
     dispersions:
-      body.moments: {relative: {normal: {sigma: 0.02}}}          # each principal moment,
-      independently initial.angular_velocity:                                   # one per axis
-      (null: that axis fixed)
+      body.moments: {relative: {normal: {sigma: 0.02}}}     # each principal moment, independently
+      initial.angular_velocity:                             # one per axis (null: that axis fixed)
         - {absolute: {uniform: {low: -0.01, high: 0.01}}}
-        - {replace: {values: [4.0, 5.0, 6.0]}}                    # a sweep: run i takes values[i %
-          3]
+        - {replace: {values: [4.0, 5.0, 6.0]}}              # a sweep: run i takes values[i % 3]
         - null
-      initial.orientation: {small_rotation: {sigma: 0.01}}        # or {uniform: {}}: uniform on
-      SO(3) effects[0].damper.damping: {relative: {truncated_normal: {sigma: 0.2, low: -0.5, high:
-      0.5}}}
+      initial.orientation: {small_rotation: {sigma: 0.01}}  # or {uniform: {}}: uniform on SO(3)
+      effects[0].damper.damping: {relative: {truncated_normal: {sigma: 0.2, low: -0.5, high: 0.5}}}
 
 Targets: ``body.moments`` (principal moments; a scene given as a tensor keeps its principal axes),
 ``body.inertia`` (the scene's own 3 or 6 inertia numbers, each dispersed),
@@ -38,12 +37,13 @@ Targets: ``body.moments`` (principal moments; a scene given as a tensor keeps it
 per component.
 
 Modes: ``relative`` (``x0 (1 + d)``), ``absolute`` (``x0 + d``), ``replace`` (``d``). Distributions
-of ``d``: ``normal {sigma, mean: 0}``, ``uniform {low, high}``, ``truncated_normal {sigma, low,
-high, mean: 0}`` (by the inverse normal CDF: one uniform number a draw), ``values [...]`` (not
-random: run ``i`` takes ``values[i % len(values)]``). Orientation: ``uniform`` (uniform on SO(3): a
-normalised 4-D normal vector) or ``small_rotation {sigma}``: ``q = exp(v / 2) ⊗ q0`` with ``v ~
-N(0, sigma^2 I)`` (rad), a rotation of the nominal attitude about inertial-frame axes, so that in a
-torque-free scene the attitude stays exactly that rotation away from the nominal run's.
+of ``d``: ``normal {sigma, mean: 0}``, ``uniform {low, high}``,
+``truncated_normal {sigma, low, high, mean: 0}`` (by the inverse normal CDF: one uniform number a
+draw), ``values [...]`` (not random: run ``i`` takes ``values[i % len(values)]``). Orientation:
+``uniform`` (uniform on SO(3): a normalised 4-D normal vector) or ``small_rotation {sigma}``:
+``q = exp(v / 2) ⊗ q0`` with ``v ~ N(0, sigma^2 I)`` (rad), a rotation of the nominal attitude
+about inertial-frame axes, so that in a torque-free scene the attitude stays exactly that rotation
+away from the nominal run's.
 
 **Seeds.** Run ``i`` draws from ``Generator(PCG64(SeedSequence(seed, spawn_key=(i,))))``, which is
 ``SeedSequence(seed).spawn(runs)[i]``: a run's inputs depend only on ``(seed, i)``, never on chunks
@@ -67,8 +67,7 @@ from ..core.schema import child, FieldError, fields, number, one_key, Param, sho
 MODES = ('relative', 'absolute', 'replace')
 
 
-# -- distributions of one number
-# ------------------------------------------------------------------------
+# -- distributions of one number ------------------------------------------------------------------
 class Distribution(abc.ABC):
     name = ''
     parameters: dict = {}
@@ -112,9 +111,8 @@ class TruncatedNormal(Distribution):
         a = special.ndtr((self.low - self.mean) / self.sigma)
         b = special.ndtr((self.high - self.mean) / self.sigma)
         value = self.mean + self.sigma * float(special.ndtri(a + (b - a) * float(rng.random())))
-        return min(
-            max(value, self.low), self.high
-        )  # the inverse CDF's rounding never leaves [low, high]
+        # the inverse CDF's rounding never leaves [low, high]
+        return min(max(value, self.low), self.high)
 
 
 @dataclass(frozen=True)
@@ -126,9 +124,8 @@ class Values(Distribution):
         return self.values[run % len(self.values)]
 
 
-MIN_TRUNCATED_MASS = (
-    1e-12  # a truncated normal's interval must hold this much of the normal's probability
-)
+# a truncated normal's interval must hold this much of the normal's probability
+MIN_TRUNCATED_MASS = 1e-12
 
 
 def _normal(values, path):
@@ -159,22 +156,25 @@ def _truncated(values, path):
 
 _SIGMA = Param(
     number(minimum=0.0),
-    help="standard deviation, >= 0 (in the target's units, or a fraction when relative)",
+    description="standard deviation, >= 0 (in the target's units, or a fraction when relative)",
 )
 _DISTRIBUTIONS = {
     'normal': ({'sigma': _SIGMA, 'mean': Param(number(), 0.0)}, _normal),
     'uniform': (
-        {'low': Param(number(), help='lower bound'), 'high': Param(number(), help='upper bound')},
+        {
+            'low': Param(number(), description='lower bound'),
+            'high': Param(number(), description='upper bound'),
+        },
         _uniform,
     ),
     'truncated_normal': (
         {
             'sigma': Param(
-                number(positive=True), help='standard deviation before truncation, > 0'
+                number(positive=True), description='standard deviation before truncation, > 0'
             ),
             'mean': Param(number(), 0.0),
-            'low': Param(number(), help='lower bound'),
-            'high': Param(number(), help='upper bound'),
+            'low': Param(number(), description='lower bound'),
+            'high': Param(number(), description='upper bound'),
         },
         _truncated,
     ),
@@ -220,8 +220,7 @@ def parse_dispersion(value, path, *, nominal_known: bool = True) -> Dispersion:
     return Dispersion(mode, parse_distribution(distribution, child(path, mode)))
 
 
-# -- targets
-# --------------------------------------------------------------------------------------------
+# -- targets --------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class VectorTarget:
     """A vector of numbers, each component with its own dispersion or none."""
@@ -299,7 +298,7 @@ TARGETS = (
 def parse_target(
     key, value, path: str, scene, document
 ) -> VectorTarget | OrientationTarget | EffectTarget:
-    """The dispersion of ``key`` in ``scene`` (its raw ``document`` names the effects)."""
+    """Parse the dispersion of ``key`` in ``scene`` (its raw ``document`` names the effects)."""
     from ..core.effects import EFFECTS
     from ..core.rigid_body import RigidBody
 
@@ -328,7 +327,7 @@ def parse_target(
             {
                 'sigma': Param(
                     number(minimum=0.0, unit='rad'),
-                    help='standard deviation of each rotation-vector component, rad',
+                    description='standard deviation of each rotation-vector component, rad',
                 )
             },
         )

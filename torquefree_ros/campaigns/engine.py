@@ -36,12 +36,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 import os
-import time
 import uuid
 
 import numpy as np
 
-from .dispersions import EffectTarget, OrientationTarget, run_generator
+from .dispersions import EffectTarget, run_generator
 from .metrics import Samples
 from ..core import propagate_batch
 from ..core.rigid_body import RigidBody
@@ -63,13 +62,13 @@ MALLOC_ENVIRONMENT = {
     'MALLOC_TRIM_THRESHOLD_': str(128 * 2**20),
 }
 OK, INVALID_BODY, INVALID_SCENE, FAILED = 'ok', 'invalid_body', 'invalid_scene', 'failed'
-# a chunk's entry (not a column of the table) holding its runs' decimated samples, when the
-# campaign keeps them
+# a chunk's entry (not a column of the table) holding its runs' decimated samples,
+# when the campaign keeps them
 TRAJECTORIES = '__trajectories__'
 
 
 def block_runs(campaign) -> int:
-    """Runs propagated and measured together inside a chunk."""
+    """Return how many runs are propagated and measured together inside a chunk."""
     return max(1, BLOCK_SAMPLES // campaign.samples)
 
 
@@ -86,8 +85,7 @@ def chunks(campaign, size: int) -> list[tuple[int, int]]:
     return [(start, min(start + size, campaign.runs)) for start in range(0, campaign.runs, size)]
 
 
-# -- one run's inputs
-# -----------------------------------------------------------------------------------
+# -- one run's inputs -----------------------------------------------------------------------------
 @dataclass
 class Draw:
     run: int
@@ -102,13 +100,12 @@ class Draw:
 
 
 def body_from_draw(campaign, values: np.ndarray) -> np.ndarray:
-    """The scene's inertia numbers for drawn ``values`` of the body target."""
+    """Return the scene's inertia numbers for drawn ``values`` of the body target."""
     target = campaign.body_target
     if target.path == 'body.inertia' or len(campaign.scene.inertia) == 3:
         return values
-    axes = RigidBody.from_inertia(
-        campaign.scene.inertia
-    ).principal_axes  # a tensor scene keeps its axes
+    # a tensor scene keeps its axes
+    axes = RigidBody.from_inertia(campaign.scene.inertia).principal_axes
     tensor = (axes * values) @ axes.T
     return np.array(
         [tensor[0, 0], tensor[1, 1], tensor[2, 2], tensor[0, 1], tensor[0, 2], tensor[1, 2]]
@@ -148,8 +145,9 @@ def draw_run(campaign, run: int) -> Draw:
 
 def _scene_of(campaign, draw: Draw):
     """
-    The run's scene (for a scene with effects): the scene file's mapping with the drawn
-    values.
+    Build the run's scene, for a scene with effects.
+
+    It is the scene file's mapping with the drawn values.
     """
     document = {
         key: value for key, value in campaign.scene_document.items() if key not in ('sweep',)
@@ -169,17 +167,16 @@ def _scene_of(campaign, draw: Draw):
     return scene_from_mapping(document, source=f'run {draw.run}')
 
 
-# -- a chunk
-# --------------------------------------------------------------------------------------------
+# -- a chunk --------------------------------------------------------------------------------------
 def run_chunk(campaign, start: int, stop: int) -> dict:
     """
-    Runs ``start .. stop - 1``: a dict of columns (numpy arrays; ``status`` and ``reason``
-    lists), and under :data:`TRAJECTORIES` the finished runs' kept samples (a dict of columns) when
-    the campaign keeps them.
+    Run ``start .. stop - 1``; return a dict of columns.
+
+    The columns are numpy arrays (``status`` and ``reason`` lists), and under :data:`TRAJECTORIES`
+    the finished runs' kept samples (a dict of columns) when the campaign keeps them.
     """
-    with np.errstate(
-        divide='ignore', invalid='ignore', over='ignore', under='ignore'
-    ):  # the same on every worker
+    # the same on every worker
+    with np.errstate(divide='ignore', invalid='ignore', over='ignore', under='ignore'):
         return _run_chunk(campaign, start, stop)
 
 
@@ -197,9 +194,8 @@ def _run_chunk(campaign, start: int, stop: int) -> dict:
     ready = [draw for draw in draws if draw.status == OK]
     nominal = _nominal(campaign, times) if campaign.needs_nominal and ready else None
     ok, blocks, size = [], [], block_runs(campaign)
-    kept = (
-        [] if campaign.trajectory_every else None
-    )  # the decimated samples of the finished runs, by block
+    # the decimated samples of the finished runs, by block
+    kept = [] if campaign.trajectory_every else None
     for low in range(0, len(ready), size):  # a block at a time: see BLOCK_SAMPLES
         block = ready[low: low + size]
         trajectories = _propagate(campaign, block, scenes, times)
@@ -247,8 +243,9 @@ def _run_chunk(campaign, start: int, stop: int) -> dict:
 
 def _trajectory_columns(campaign, kept: list) -> dict:
     """
-    The chunk's kept samples as columns (:attr:`Campaign.trajectory_columns`), by run then
-    time.
+    Return the chunk's kept samples as columns, by run then time.
+
+    The columns are :attr:`Campaign.trajectory_columns`.
     """
     t = campaign.trajectory_times
     names = campaign.trajectory_columns
@@ -266,8 +263,9 @@ def _trajectory_columns(campaign, kept: list) -> dict:
 
 def _propagate(campaign, ok: list, scenes: dict, times: np.ndarray) -> dict:
     """
-    run -> (omega (M, 3), q (M, 4), internal (M, s)); a run that fails gets its status and
-    reason.
+    Propagate the runs: run -> (omega (M, 3), q (M, 4), internal (M, s)).
+
+    A run that fails gets its status and reason.
     """
     if not ok:
         return {}
@@ -361,17 +359,17 @@ def _metric_one_by_one(use, ok, stacked, times, nominal) -> dict:
     return columns
 
 
-# -- engines
-# --------------------------------------------------------------------------------------------
+# -- engines --------------------------------------------------------------------------------------
 def execute(
     campaign, ranges=None, scheduler=None, workers: int | None = None, on_chunk=None
 ) -> list[dict]:
     """
-    Every chunk's columns, in the order of ``ranges`` (``(start, stop)`` pairs; default: the
-    whole campaign in chunks of :func:`chunk_runs`). ``on_chunk(start, stop, columns)`` is called
-    in this process as each chunk completes (in completion order), once per chunk, even when Dask
-    runs a chunk again because its worker was lost (a chunk's columns depend only on the campaign
-    and its runs).
+    Run the chunks; return every chunk's columns, in the order of ``ranges``.
+
+    ``ranges`` holds ``(start, stop)`` pairs; default: the whole campaign in chunks of
+    :func:`chunk_runs`. ``on_chunk(start, stop, columns)`` is called in this process as each chunk
+    completes (in completion order), once per chunk, even when Dask runs a chunk again because its
+    worker was lost (a chunk's columns depend only on the campaign and its runs).
     """
     parts = chunks(campaign, chunk_runs(campaign)) if ranges is None else list(ranges)
     if scheduler is None:
@@ -392,10 +390,12 @@ def execute(
 
 def local_cluster(workers: int):
     """
-    Worker processes on this machine, one thread each, everything on loopback: the scheduler's
-    HTTP server (health routes; no dashboard) on a free port of 127.0.0.1, not on 8787 of every
-    interface. A script that starts one must be guarded by ``if __name__ == "__main__":`` (workers
-    are spawned processes that import the script's main module).
+    Start a ``distributed.LocalCluster`` of worker processes on this machine, one thread each.
+
+    Everything is on loopback: the scheduler's HTTP server (health routes; no dashboard) on a free
+    port of 127.0.0.1, not on 8787 of every interface. A script that starts one must be guarded by
+    ``if __name__ == "__main__":`` (workers are spawned processes that import the script's main
+    module).
     """
     import dask
     from distributed import LocalCluster
@@ -438,8 +438,8 @@ def _on_dask(campaign, parts, scheduler, workers, on_chunk) -> list[dict]:
         client, own_client = Client(scheduler, timeout='30s'), True
     else:
         raise ValueError(
-            f"scheduler: expected None, 'in-process', 'local', an address or a distributed.Client, "
-            f'got {scheduler!r}'
+            "scheduler: expected None, 'in-process', 'local', an address or a "
+            f'distributed.Client, got {scheduler!r}'
         )
     try:
         token = uuid.uuid4().hex[:12]

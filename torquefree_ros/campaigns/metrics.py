@@ -13,8 +13,10 @@
 # limitations under the License.
 
 """
-Metrics: what a campaign keeps of each run, one or more numbers a run (Basilisk's retained
-variables, reduced to a row). One registry, :data:`METRICS`; a metric is a Python function.
+Metrics: what a campaign keeps of each run, one or more numbers a run.
+
+They are Basilisk's retained variables, reduced to a row. One registry, :data:`METRICS`; a metric
+is a Python function.
 
 Adding a metric::
 
@@ -28,15 +30,15 @@ Adding a metric::
         return scale * samples.rate_norm().max(axis=1)
 
 and name it in a campaign file (``metrics: [peak_rate, {peak_rate: {scale: 2}}]`` — each name
-once). The function gets a :class:`Samples` of ``n`` runs (``omega_B (n, M, 3)``, ``q_NB (n, M,
-4)``, ``internal (n, M, s)``, the bodies, the ``times (M,)`` of samples ``0 .. M-1`` including the
-initial state) and the checked parameters, and returns an ``(n,)`` array (one column, named after
-the metric) or a dict ``column -> (n,)`` array whose keys are the ``columns`` declared. It must
-treat each run on its own (a row may not depend on the other runs of its chunk: the table does not
-depend on chunking). In a table, a metric is null for a run that failed and NaN where it is
-undefined for a run that did not (``settle_time`` of a run that never settles). Metrics run on Dask
-workers: define them in an importable module (or in ``__main__``, which Dask ships by value) and
-import it before the campaign is loaded.
+once). The function gets a :class:`Samples` of ``n`` runs (``omega_B (n, M, 3)``,
+``q_NB (n, M, 4)``, ``internal (n, M, s)``, the bodies, the ``times (M,)`` of samples ``0 .. M-1``
+including the initial state) and the checked parameters, and returns an ``(n,)`` array (one column,
+named after the metric) or a dict ``column -> (n,)`` array whose keys are the ``columns`` declared.
+It must treat each run on its own (a row may not depend on the other runs of its chunk: the table
+does not depend on chunking). In a table, a metric is null for a run that failed and NaN where it
+is undefined for a run that did not (``settle_time`` of a run that never settles). Metrics run on
+Dask workers: define them in an importable module (or in ``__main__``, which Dask ships by value)
+and import it before the campaign is loaded.
 """
 
 from __future__ import annotations
@@ -77,8 +79,9 @@ def metric(
     needs_nominal: bool = False,
 ):
     """
-    Register ``function(samples, **parameters)`` as the metric ``name`` (see the module
-    docstring).
+    Register ``function(samples, **parameters)`` as the metric ``name``.
+
+    See the module docstring.
     """
     if dtype not in ('float64', 'int64'):
         raise ValueError(f'metric {name}: dtype must be float64 or int64, got {dtype!r}')
@@ -122,7 +125,8 @@ class MetricUse:
             array = np.asarray(result[column], dtype=self.metric.dtype)
             if array.shape != (n,):
                 raise ValueError(
-                    f'metric {self.metric.name}: column {column} has shape {array.shape}, expected ({n},)'
+                    f'metric {self.metric.name}: column {column} has shape {array.shape}, '
+                    f'expected ({n},)'
                 )
             out[column] = array
         return out
@@ -156,13 +160,14 @@ def parse_metrics(value, path: str) -> tuple:
     return tuple(uses)
 
 
-# -- what a metric sees
-# ---------------------------------------------------------------------------------
+# -- what a metric sees ---------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Samples:
     """
-    ``n`` runs on one time grid. Every derived quantity is written out component by component,
-    so a run's numbers are the same whichever runs share its chunk.
+    ``n`` runs on one time grid.
+
+    Every derived quantity is written out component by component, so a run's numbers are the same
+    whichever runs share its chunk.
     """
 
     times: np.ndarray  # (M,) s, sample 0 is the initial state
@@ -212,8 +217,9 @@ def norm(a):
 
 def rotate(q, v):
     """
-    ``R(q) v`` elementwise over the leading axes (quaternion.rotate_values on the components: no
-    3x3 matrix per sample).
+    Return ``R(q) v`` elementwise over the leading axes.
+
+    It is quaternion.rotate_values on the components: no 3x3 matrix per sample.
     """
     return np.stack(
         quaternion.rotate_values(np.moveaxis(q, -1, 0), np.moveaxis(v, -1, 0)), axis=-1
@@ -227,11 +233,10 @@ def _ratio(numerator, denominator):
     return out
 
 
-# -- built-in metrics
-# -----------------------------------------------------------------------------------
+# -- built-in metrics -----------------------------------------------------------------------------
 @metric('final_rates', columns=('final_wx', 'final_wy', 'final_wz'), unit='rad/s')
 def final_rates(samples):
-    """The body rates at the last sample, body frame."""
+    """Return the body rates at the last sample, body frame."""
     last = samples.omega_B[:, -1, :]
     return {'final_wx': last[:, 0], 'final_wy': last[:, 1], 'final_wz': last[:, 2]}
 
@@ -241,14 +246,15 @@ def final_rates(samples):
     unit='s',
     parameters={
         'threshold': Param(
-            number(positive=True, unit='rad/s'), help='the |w| a run must stay under, rad/s'
+            number(positive=True, unit='rad/s'), description='the |w| a run must stay under, rad/s'
         )
     },
 )
 def settle_time(samples, threshold):
     """
-    The time of the first sample from which ``|w| < threshold`` at every later sample (0 if
-    always); NaN if ``|w|`` is not under it at the last sample.
+    Return the time of the first sample from which ``|w| < threshold`` at every later sample.
+
+    0 if always; NaN if ``|w|`` is not under it at the last sample.
     """
     over = samples.rate_norm() >= threshold
     M = over.shape[1]
@@ -272,17 +278,18 @@ def _axis(value, path):
 
 def body_axis(samples: Samples, axis) -> np.ndarray:
     """
-    ``(n, 3)`` unit axes in B: a principal axis (signed so that ``H_B(0)`` is on its positive
-    side), a body axis ``x | y | z``, or a given direction.
+    Return the ``(n, 3)`` unit axes in B a metric's ``axis`` names.
+
+    A principal axis (signed so that ``H_B(0)`` is on its positive side), a body axis
+    ``x | y | z``, or a given direction.
     """
     n = samples.count
     if not isinstance(axis, str):
         return np.tile(np.asarray(axis, dtype=float), (n, 1))
     if axis in ('x', 'y', 'z'):
         return np.tile(np.eye(3)[('x', 'y', 'z').index(axis)], (n, 1))
-    order = np.argsort(
-        samples.moments, axis=1, kind='stable'
-    )  # ascending: minor, intermediate, major
+    # ascending: minor, intermediate, major
+    order = np.argsort(samples.moments, axis=1, kind='stable')
     column = order[:, {'minor': 0, 'intermediate': 1, 'major': 2}[axis]]
     axes = samples.principal_axes[np.arange(n), :, column]
     sign = np.where(dot(axes, samples.momentum_B()[:, 0, :]) < 0.0, -1.0, 1.0)
@@ -300,8 +307,9 @@ def body_axis(samples: Samples, axis) -> np.ndarray:
 )
 def cone_angle(samples, axis):
     """
-    The largest angle between ``H`` and a body axis over the run (nutation / cone angle), in
-    [0, pi]: ``atan2(|a x H_B|, a . H_B)``. A principal axis is signed so that the angle starts
+    Return the largest angle between ``H`` and a body axis over the run (nutation / cone angle).
+
+    In [0, pi]: ``atan2(|a x H_B|, a . H_B)``. A principal axis is signed so that the angle starts
     below pi/2. NaN for a body at rest.
     """
     a = body_axis(samples, axis)[:, None, :]
@@ -325,17 +333,19 @@ def cone_angle(samples, axis):
         'margin': Param(
             number(minimum=0.0, maximum=89.0, unit='deg'),
             30.0,
-            'hysteresis: a flip must carry h_int from above sin(margin) to below -sin(margin), deg',
+            'hysteresis: a flip must carry h_int from above sin(margin) to below -sin(margin), '
+            'deg',
         )
     },
 )
 def flips(samples, margin):
     """
-    How many times the intermediate principal axis turns over relative to ``H`` (Dzhanibekov
-    flips): ``h = H_B . e_int / |H|`` moving from above ``+sin(margin)`` to below ``-sin(margin)``
-    or back (the band between is hysteresis, so a spin about a stable axis, whose ``h`` wobbles
-    about 0, counts none). ``e_int`` is the principal axis of the middle moment (for an
-    axisymmetric body, the second of the equal pair). 0 for a body at rest.
+    Count the times the intermediate principal axis turns over relative to ``H``.
+
+    These are Dzhanibekov flips: ``h = H_B . e_int / |H|`` moving from above ``+sin(margin)`` to
+    below ``-sin(margin)`` or back (the band between is hysteresis, so a spin about a stable axis,
+    whose ``h`` wobbles about 0, counts none). ``e_int`` is the principal axis of the middle moment
+    (for an axisymmetric body, the second of the equal pair). 0 for a body at rest.
     """
     n = samples.count
     order = np.argsort(samples.moments, axis=1, kind='stable')
@@ -345,9 +355,8 @@ def flips(samples, margin):
     band = math.sin(math.radians(margin))
     state = np.where(h > band, 1, np.where(h < -band, -1, 0))
     M = state.shape[1]
-    last = np.maximum.accumulate(
-        np.where(state != 0, np.arange(M), 0), axis=1
-    )  # latest side taken so far
+    # latest side taken so far
+    last = np.maximum.accumulate(np.where(state != 0, np.arange(M), 0), axis=1)
     held = np.take_along_axis(state, last, axis=1)
     return np.count_nonzero(held[:, 1:] * held[:, :-1] < 0, axis=1)
 
@@ -355,8 +364,10 @@ def flips(samples, margin):
 @metric('energy_drift')
 def energy_drift(samples):
     """
-    ``max_k |T_k - T_0| / T_0``: the rigid body's kinetic energy, relative (a conservation check
-    for a torque-free scene; the energy an effect takes out otherwise). NaN for a body at rest.
+    Return the rigid body's kinetic energy drift, relative: ``max_k |T_k - T_0| / T_0``.
+
+    A conservation check for a torque-free scene; the energy an effect takes out otherwise. NaN for
+    a body at rest.
     """
     T = samples.energy()
     return _ratio(np.abs(T - T[:, :1]).max(axis=1), T[:, 0])
@@ -365,9 +376,10 @@ def energy_drift(samples):
 @metric('momentum_drift')
 def momentum_drift(samples):
     """
-    ``max_k |H_N(t_k) - H_N(0)| / |H_N(0)|``: the rigid body's inertial angular momentum,
-    relative (checks the rates and the attitude together; an effect's own momentum, a damper's or a
-    rotor's, is not included). NaN for a body at rest.
+    Return the drift of the rigid body's inertial angular momentum, relative.
+
+    ``max_k |H_N(t_k) - H_N(0)| / |H_N(0)|``: it checks the rates and the attitude together; an
+    effect's own momentum, a damper's or a rotor's, is not included. NaN for a body at rest.
     """
     H = samples.momentum_N()
     return _ratio(norm(H - H[:, :1, :]).max(axis=1), norm(H[:, 0, :]))
@@ -376,9 +388,10 @@ def momentum_drift(samples):
 @metric('nominal_attitude_error', unit='rad', needs_nominal=True)
 def nominal_attitude_error(samples):
     """
-    The largest attitude difference from the nominal (undispersed) run over the samples, rad:
-    the angle of ``q_nom* ⊗ q``.
+    Return the largest attitude difference from the nominal (undispersed) run, rad.
+
+    Over the samples: the angle of ``q_nom* ⊗ q``.
     """
-    # (1, M, 4) against (n, M, 4): quaternion's element-wise product, so no run depends on its
-    # chunk
+    # (1, M, 4) against (n, M, 4): quaternion's element-wise product,
+    # so no run depends on its chunk
     return quaternion.angle_between(samples.nominal.q_NB, samples.q_NB).max(axis=1)

@@ -13,8 +13,9 @@
 # limitations under the License.
 
 """
-The report of a finished campaign (``torquefree_campaign report DIR``): read
-``DIR/runs.parquet``, write into ``DIR/report/`` (or ``--output``):
+The report of a finished campaign (``torquefree_campaign report DIR``).
+
+It reads ``DIR/runs.parquet`` and writes into ``DIR/report/`` (or ``--output``):
 
 * ``summary.md`` — the campaign (file, scene, runs, seed, time grid, versions); the runs by status,
   with the reasons of the failed ones and how often each was given; each metric column's min,
@@ -61,12 +62,13 @@ class ReportError(ValueError):
     """A directory that holds no campaign table to report on (the message names it)."""
 
 
-# -- reading
-# --------------------------------------------------------------------------------------------
+# -- reading --------------------------------------------------------------------------------------
 def read_campaign_table(directory) -> tuple:
     """
-    ``(table, summary)`` of the campaign in ``directory``: its ``runs.parquet`` and the campaign
-    summary in its metadata; a :class:`ReportError` naming the directory or file otherwise.
+    Read ``(table, summary)`` of the campaign in ``directory``.
+
+    The table is its ``runs.parquet``, the summary the campaign summary in its metadata; a
+    :class:`ReportError` naming the directory or file otherwise.
     """
     import pyarrow.parquet as pq
 
@@ -79,9 +81,9 @@ def read_campaign_table(directory) -> tuple:
     if not path.is_file():
         if (directory / PARTS_DIRECTORY / MANIFEST_FILE).is_file():
             raise ReportError(
-                f'{directory}: the campaign is not finished (no {RESULTS_FILE} yet, its finished chunks '
-                f'are in {PARTS_DIRECTORY}/): torquefree_campaign run FILE --output {directory} '
-                '--resume finishes it'
+                f'{directory}: the campaign is not finished (no {RESULTS_FILE} yet, its finished '
+                f'chunks are in {PARTS_DIRECTORY}/): torquefree_campaign run FILE --output '
+                f'{directory} --resume finishes it'
             )
         raise ReportError(f"{directory}: no {RESULTS_FILE} (not a campaign's output directory)")
     try:
@@ -104,7 +106,7 @@ def read_campaign_table(directory) -> tuple:
 
 
 def metric_units(table, summary: dict) -> dict:
-    """metric column -> unit, in the table's order."""
+    """Map each metric column to its unit, in the table's order."""
     units = {
         column: entry.get('unit', '')
         for entry in summary['metrics'].values()
@@ -119,26 +121,27 @@ def input_columns(table, summary: dict) -> list[str]:
 
 
 def column_values(table, column: str) -> np.ndarray:
-    """A metric column as float64, null (a run that did not finish) as NaN."""
+    """Return a metric column as float64, null (a run that did not finish) as NaN."""
     return (
         table.column(column).cast('float64').fill_null(float('nan')).to_numpy(zero_copy_only=False)
     )
 
 
-# -- what the summary says
-# --------------------------------------------------------------------------------
+# -- what the summary says ------------------------------------------------------------------------
 def reason_kind(reason: str) -> str:
     """
-    A reason with its drawn numbers (decimals) as ``…``: the runs that failed the same way share
-    it.
+    Return a reason with its drawn numbers (decimals) as ``…``.
+
+    The runs that failed the same way share it.
     """
     return _DECIMAL.sub('…', reason)
 
 
 def statuses(table) -> list[tuple]:
     """
-    ``(status, runs, [(reason kind, runs, first run), ...])``: ``ok`` first, then by runs; the
-    kinds by runs, then by first run.
+    Count the runs by status: ``(status, runs, [(reason kind, runs, first run), ...])``.
+
+    ``ok`` first, then by runs; the kinds by runs, then by first run.
     """
     runs, status = table.column('run').to_pylist(), table.column('status').to_pylist()
     reason = table.column('reason').to_pylist()
@@ -166,6 +169,8 @@ def statuses(table) -> list[tuple]:
 
 def metric_statistics(table, summary: dict) -> list[dict]:
     """
+    Compute each metric column's statistics over the finished runs.
+
     Per metric column: ``count`` (finite values), ``undefined`` (finished runs without one),
     ``min``, ``median``, ``p95``, ``max`` (None when there is no finite value).
     """
@@ -193,8 +198,10 @@ def metric_statistics(table, summary: dict) -> list[dict]:
 
 def worst_runs(table, summary: dict) -> list[dict]:
     """
-    Per metric column, the run of the largest finite ``|value|``: ``column``, ``run``,
-    ``value``, ``inputs`` (target path -> drawn value or list of values).
+    Find, per metric column, the run of the largest finite ``|value|``.
+
+    Each row: ``column``, ``run``, ``value``, ``inputs`` (target path -> drawn value or list of
+    values).
     """
     runs = table.column('run').to_numpy()
     inputs = input_columns(table, summary)
@@ -218,8 +225,9 @@ def worst_runs(table, summary: dict) -> list[dict]:
 
 def _grouped(values: dict) -> dict:
     """
-    ``{"body.moments[0]": a, "body.moments[1]": b, ...}`` -> ``{"body.moments": [a, b,
-    ...]}``.
+    Group the components of a vector target into a list.
+
+    ``{"body.moments[0]": a, "body.moments[1]": b, ...}`` -> ``{"body.moments": [a, b, ...]}``.
     """
     grouped: dict = {}
     for name, value in values.items():
@@ -233,11 +241,12 @@ def _grouped(values: dict) -> dict:
 
 def rate_envelopes(directory, table=None, summary=None, worst: str | None = None) -> dict | None:
     """
-    The percentile envelopes of ``|w|`` over time from ``directory``'s trajectories, or None
-    when the campaign kept none: ``times`` (K,), ``runs`` (R,) the runs with a trajectory,
-    ``magnitude`` (R, K) their ``|w| = sqrt(w_x² + w_y² + w_z²)``, ``percentiles`` {5, 50, 95:
-    (K,)} across the runs (``np.percentile``, linear interpolation), ``worst_run`` (None without
-    runs) and ``worst_by`` (what made it the worst: ``"final |w|"`` or the metric column
+    Compute the percentile envelopes of ``|w|`` over time from ``directory``'s trajectories.
+
+    None when the campaign kept none. Otherwise: ``times`` (K,), ``runs`` (R,) the runs with a
+    trajectory, ``magnitude`` (R, K) their ``|w| = sqrt(w_x² + w_y² + w_z²)``, ``percentiles`` {5,
+    50, 95: (K,)} across the runs (``np.percentile``, linear interpolation), ``worst_run`` (None
+    without runs) and ``worst_by`` (what made it the worst: ``"final |w|"`` or the metric column
     ``worst``).
     """
     if table is None or summary is None:
@@ -289,9 +298,8 @@ def rate_envelopes(directory, table=None, summary=None, worst: str | None = None
         found = [row for row in worst_runs(table, summary) if row['column'] == worst]
         worst_run = found[0]['run'] if found else None
     elif runs.size:
-        worst_run = int(
-            runs[int(np.argmax(magnitude[:, -1]))]
-        )  # the first of equal sizes: the lowest run
+        # the first of equal sizes: the lowest run
+        worst_run = int(runs[int(np.argmax(magnitude[:, -1]))])
     return {
         'times': times,
         'runs': runs,
@@ -305,14 +313,14 @@ def rate_envelopes(directory, table=None, summary=None, worst: str | None = None
     }
 
 
-# -- writing
-# --------------------------------------------------------------------------------------------
+# -- writing --------------------------------------------------------------------------------------
 def write_report(directory, output=None, worst: str | None = None) -> list[Path]:
     """
-    ``summary.md``, ``histograms.png`` and, when the campaign kept trajectories,
-    ``envelopes.png`` of the campaign in ``directory``, into ``output`` (default
-    ``directory/report``); ``worst``: the metric column whose worst run the envelopes show
-    (default: the run of the largest final ``|w|``); returns the files written.
+    Write the report of the campaign in ``directory``; return the files written.
+
+    The files are ``summary.md``, ``histograms.png`` and, when the campaign kept trajectories,
+    ``envelopes.png``, into ``output`` (default ``directory/report``); ``worst``: the metric column
+    whose worst run the envelopes show (default: the run of the largest final ``|w|``).
     """
     table, summary = read_campaign_table(directory)
     envelopes = rate_envelopes(directory, table, summary, worst)
@@ -343,9 +351,8 @@ def write_report(directory, output=None, worst: str | None = None) -> list[Path]
 
 def _figure_class():
     try:
-        from matplotlib.figure import (  # a Figure of its own renders with Agg, no pyplot state
-            Figure,
-        )
+        # a Figure of its own renders with Agg, no pyplot state
+        from matplotlib.figure import Figure
     except ImportError:
         raise ReportError(
             "the report's plots need matplotlib, an optional extra: "
@@ -418,7 +425,8 @@ def summary_markdown(
     lines += ['', '## Runs', '']
     if any(reasons for _, _, reasons in found):
         lines += [
-            'Reasons with their drawn numbers as …, each with how many runs gave it and the first of them.',
+            'Reasons with their drawn numbers as …, each with how many runs gave it and the first '
+            'of them.',
             '',
         ]
     lines += ['| status | runs | share | reasons |', '|---|---:|---:|---|']
@@ -433,16 +441,17 @@ def summary_markdown(
         '',
         '## Metrics',
         '',
-        'Over the runs that finished (`ok`) with a finite value; *undefined*: finished runs whose value is NaN '
-        '(a metric that does not apply to the run, such as the settle time of a run that never settles). '
-        'p95: the 95th percentile (linear interpolation).',
+        'Over the runs that finished (`ok`) with a finite value; *undefined*: finished runs whose '
+        'value is NaN (a metric that does not apply to the run, such as the settle time of a run '
+        'that never settles). p95: the 95th percentile (linear interpolation).',
         '',
         '| metric | unit | runs | undefined | min | median | p95 | max |',
         '|---|---|---:|---:|---:|---:|---:|---:|',
     ]
     for row in metric_statistics(table, summary):
         lines.append(
-            f'| {row["column"]} | {row["unit"] or "–"} | {row["count"]:,} | {row["undefined"]:,} | '
+            f'| {row["column"]} | {row["unit"] or "–"} | {row["count"]:,} '
+            f'| {row["undefined"]:,} | '
             + ' | '.join(_number(row[key]) for key in ('min', 'median', 'p95', 'max'))
             + ' |'
         )
@@ -452,28 +461,32 @@ def summary_markdown(
         '',
         '## Worst runs',
         '',
-        "The run with the largest |value| of each metric, with its drawn inputs (the table's input columns).",
+        "The run with the largest |value| of each metric, with its drawn inputs (the table's "
+        'input columns).',
         '',
         '| metric | run | value | drawn inputs |',
         '|---|---:|---:|---|',
     ]
     for row in worst_runs(table, summary):
         lines.append(
-            f'| {row["column"]} | {row["run"]} | {_number(row["value"])} | {_inputs(row["inputs"])} |'
+            f'| {row["column"]} | {row["run"]} | {_number(row["value"])} '
+            f'| {_inputs(row["inputs"])} |'
         )
     lines += ['', '## Rates over time', '']
     if envelopes is None:
         lines += [
-            'No trajectories kept (the campaign file has no `trajectories` option), so no percentile envelopes '
-            'of the rates over time: the table holds no rates but the final ones.',
+            'No trajectories kept (the campaign file has no `trajectories` option), so no '
+            'percentile envelopes of the rates over time: the table holds no rates but the final '
+            'ones.',
             '',
         ]
         return '\n'.join(lines)
     every = envelopes['every']
     lines += [
         f'Trajectories kept: every {"sample" if every == 1 else f"{every}th sample"} '
-        f'({envelopes["rate"]:g} Hz, {envelopes["times"].size:,} samples a run) of each finished run '
-        f'({envelopes["runs"].size:,} runs), in `{envelopes["directory"]}` (Parquet parts: '
+        f'({envelopes["rate"]:g} Hz, {envelopes["times"].size:,} samples a run) '
+        f'of each finished run ({envelopes["runs"].size:,} runs), '
+        f'in `{envelopes["directory"]}` (Parquet parts: '
         '`pyarrow.dataset.dataset(...)` opens them lazily).',
         '',
     ]

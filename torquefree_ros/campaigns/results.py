@@ -55,9 +55,10 @@ def versions() -> dict:
 
 def provenance(campaign) -> dict:
     """
-    What a campaign's runs are made of: its file's text, its scene (the scene file's mapping, so
-    that an edited scene file is noticed) and the versions. Runs of equal provenance are equal bit
-    for bit.
+    Return what a campaign's runs are made of: its file's text, its scene and the versions.
+
+    The scene is the scene file's mapping, so that an edited scene file is noticed. Runs of equal
+    provenance are equal bit for bit.
     """
     scene = json.loads(json.dumps(campaign.scene_document, sort_keys=True, default=str))
     return {'campaign': campaign.text, 'scene': scene, 'versions': versions()}

@@ -13,37 +13,41 @@
 # limitations under the License.
 
 """
-The campaign file: a base scene, its dispersions, the number of runs, the seed, the time grid
-and the metrics, checked like a scene (every error names the file and the field path)::
+The campaign file, checked like a scene (every error names the file and the field path).
+
+It holds a base scene, its dispersions, the number of runs, the seed, the time grid and the
+metrics::
 
     description: one line                    # optional
-    scene: dzhanibekov                       # a library scene's name, or a scene file (relative to
-    this file) runs: 1000
+    scene: dzhanibekov                       # a library scene's name, or a scene file
+                                             # (relative to this file)
+    runs: 1000
     seed: 2026                               # run i draws from SeedSequence(seed).spawn(runs)[i]
-    duration: 60                             # s; samples k = 0 .. floor(duration * rate), both
-    ends kept rate: 10                                 # Hz
+    duration: 60                             # s; samples k = 0 .. floor(duration * rate),
+                                             # both ends kept
+    rate: 10                                 # Hz
     invalid_body: redraw                     # redraw (default) | fail
     max_redraws: 100                         # redraw: how many more bodies a run may draw
     dispersions: {TARGET: DISPERSION, ...}   # see campaigns.dispersions
     metrics: [final_rates, {settle_time: {threshold: 0.01}}, ...]   # see campaigns.metrics
     trajectories: {every: 10}                # optional: keep every 10th sample of each run, or
-                                             # {rate: 1}: a rate (Hz) that divides `rate` (see
-                                             below)
+                                             # {rate: 1}: a rate (Hz) that divides `rate`
+                                             # (see below)
 
 **Trajectories** (optional; none by default). ``{every: N}`` keeps samples k = 0, N, 2N, ... up to
 ``samples - 1`` (``N`` in ``[1, samples - 1]``: at least two samples a run); ``{rate: HZ}`` says
 the same as a rate: positive, at most ``rate``, and ``rate / HZ`` a whole number (it is ``N``).
-With an output directory, each chunk writes its finished runs' kept samples (``run, t, w_x, w_y,
-w_z, q_x, q_y, q_z, q_w`` and the effects' states) to ``DIR/trajectories/`` (see campaigns.store);
-a failed run has none.
+With an output directory, each chunk writes its finished runs' kept samples
+(``run, t, w_x, w_y, w_z, q_x, q_y, q_z, q_w`` and the effects' states) to ``DIR/trajectories/``
+(see campaigns.store); a failed run has none.
 
 **Impossible bodies.** A drawn body is checked as a scene's is (``RigidBody.from_inertia``:
 positive moments, triangle inequality). ``redraw``: the run draws its body again, up to
 ``max_redraws`` times, then fails with the last reason; the ``redraws`` column counts them.
 ``fail``: the run fails at once (Basilisk's behaviour). Either way a failed run is a row with its
-status and reason, never the end of the campaign. A nominal body on the triangle limit (``[3, 2,
-1]``, or the library's Dzhanibekov ``[1, 2, 3]``) makes about half of the draws of a relative
-dispersion of its moments impossible: with ``redraw`` the kept bodies are the dispersion
+status and reason, never the end of the campaign. A nominal body on the triangle limit
+(``[3, 2, 1]``, or the library's Dzhanibekov ``[1, 2, 3]``) makes about half of the draws of a
+relative dispersion of its moments impossible: with ``redraw`` the kept bodies are the dispersion
 *conditioned* on being physical (a one-sided distribution about the limit), with ``fail`` about
 half the runs fail; the campaign measures the share of physical bodies over its first runs when it
 is loaded (``body_acceptance``, kept in the table's metadata), and refuses a dispersion that gives
@@ -60,7 +64,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from .dispersions import EffectTarget, OrientationTarget, parse_target, run_generator, VectorTarget
+from .dispersions import parse_target, run_generator, VectorTarget
 from .metrics import DEFAULT_METRICS, parse_metrics
 from ..core import library
 from ..core.rigid_body import RigidBody
@@ -106,12 +110,10 @@ class Campaign:
     targets: tuple  # non-body targets, in draw order
     body_target: VectorTarget | None
     metrics: tuple  # MetricUse
-    body_acceptance: float | None = (
-        None  # share of physical bodies over the first runs' first draws
-    )
-    trajectory_every: int | None = (
-        None  # trajectories: keep samples k = 0, N, 2N, ... (None: none kept)
-    )
+    # share of physical bodies over the first runs' first draws
+    body_acceptance: float | None = None
+    # trajectories: keep samples k = 0, N, 2N, ... (None: none kept)
+    trajectory_every: int | None = None
 
     @property
     def samples(self) -> int:
@@ -120,17 +122,19 @@ class Campaign:
     @property
     def trajectory_times(self) -> np.ndarray:
         """
-        The times of the kept samples (the campaign's own times ``k / rate``, k = 0, N, 2N,
-        ...).
+        Return the times of the kept samples.
+
+        They are the campaign's own times ``k / rate``, k = 0, N, 2N, ...
         """
         return (np.arange(self.samples) / self.rate)[:: self.trajectory_every or 1]
 
     @property
     def trajectory_columns(self) -> tuple:
         """
-        A trajectory part's columns: ``run, t``, the rates, the attitude, then the effects'
-        states (``EFFECT[j]``, ``EFFECT#m[j]`` when two motion effects share a name; ``m`` counts
-        motion effects).
+        Return a trajectory part's columns.
+
+        ``run, t``, the rates, the attitude, then the effects' states (``EFFECT[j]``,
+        ``EFFECT#m[j]`` when two motion effects share a name; ``m`` counts motion effects).
         """
         effects = self.scene.effects
         names = [effect.name for effect in effects]
@@ -160,8 +164,9 @@ def library_campaigns() -> dict[str, Path]:
 
 def load_campaign(path_or_name_or_mapping) -> Campaign:
     """
-    A campaign file, a library campaign's name, or a mapping (its scene path relative to the
-    working directory).
+    Load a campaign: a campaign file, a library campaign's name, or a mapping.
+
+    A mapping's scene path is relative to the working directory.
     """
     if isinstance(path_or_name_or_mapping, Campaign):
         return path_or_name_or_mapping
@@ -193,15 +198,16 @@ def _exists(path: Path) -> bool:
 
 _TOP = {
     'description': Param(text(allow_empty=True), ''),
-    'scene': Param(text(), help="a library scene's name or a scene file"),
-    'runs': Param(integer(1, MAX_RUNS), help='how many runs'),
+    'scene': Param(text(), description="a library scene's name or a scene file"),
+    'runs': Param(integer(1, MAX_RUNS), description='how many runs'),
     'seed': Param(
         integer(0, 2**63 - 1),
-        help="the campaign's seed (run i: SeedSequence(seed).spawn(runs)[i])",
+        description="the campaign's seed (run i: SeedSequence(seed).spawn(runs)[i])",
     ),
-    'duration': Param(number(minimum=0.0, unit='s'), help='simulated time of each run, s'),
+    'duration': Param(number(minimum=0.0, unit='s'), description='simulated time of each run, s'),
     'rate': Param(
-        number(positive=True, maximum=MAX_RATE, unit='Hz'), help='samples per simulated second, Hz'
+        number(positive=True, maximum=MAX_RATE, unit='Hz'),
+        description='samples per simulated second, Hz',
     ),
     'invalid_body': Param(choice('redraw', 'fail'), 'redraw'),
     'max_redraws': Param(integer(0, 10_000), 100),
@@ -336,8 +342,9 @@ def _dispersions(value, scene: Scene, document: dict):
 
 def _with_acceptance(campaign: Campaign) -> Campaign:
     """
-    Draw the first runs' first bodies: refuse a dispersion that gives no physical body, and keep
-    the share that are.
+    Draw the first runs' first bodies and keep the share that are physical.
+
+    A dispersion that gives no physical body is refused.
     """
     from .engine import body_from_draw
 
@@ -357,8 +364,8 @@ def _with_acceptance(campaign: Campaign) -> Campaign:
     if valid == 0:
         raise FieldError(
             f'dispersions.{campaign.body_target.path}',
-            f'gives no physical body: the first draw of each of the first {probe} runs is impossible '
-            f'(run 0: {first_reason})',
+            f'gives no physical body: the first draw of each of the first {probe} runs is '
+            f'impossible (run 0: {first_reason})',
         )
     from dataclasses import replace
 
@@ -366,7 +373,7 @@ def _with_acceptance(campaign: Campaign) -> Campaign:
 
 
 def _check_plant(campaign: Campaign) -> None:
-    """A scene with effects must be one the batched plant can run."""
+    """Check that a scene with effects is one the batched plant can run."""
     if campaign.scene.torque_free:
         return
     from ..plant import Plant

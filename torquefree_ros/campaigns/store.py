@@ -13,24 +13,22 @@
 # limitations under the License.
 
 """
-A campaign's output directory, written as the campaign goes, so that an interrupted one
-resumes::
+A campaign's output directory, written as the campaign goes, so that an interrupted one resumes.
+
+Its files::
 
     DIR/campaign.yaml                     the campaign file's text (written when the campaign
-    starts) DIR/parts/manifest.json               what the parts were made of: the campaign file's
-    text, the
-                                          scene and the versions (see results.provenance)
+                                          starts)
+    DIR/parts/manifest.json               what the parts were made of: the campaign file's text,
+                                          the scene and the versions (see results.provenance)
     DIR/parts/runs-START-STOP.parquet     one finished chunk, runs START .. STOP-1, its columns as
-    the
-                                          engine gave them (float64 bit for bit; no nulls yet)
+                                          the engine gave them (float64 bit for bit; no nulls yet)
     DIR/runs.parquet                      the table (results.build_table), assembled when every run
-    is
-                                          in a part; parts/ is removed after it
+                                          is in a part; parts/ is removed after it
     DIR/trajectories/runs-START-STOP.parquet   when the campaign file asks for trajectories: one
-    chunk's
-                                          finished runs' kept samples, a row per run and time
-                                          (columns Campaign.trajectory_columns, float64 plain, by
-                                          run then t); they stay:
+                                          chunk's finished runs' kept samples, a row per run and
+                                          time (columns Campaign.trajectory_columns, float64 plain,
+                                          by run then t); they stay:
                                           ``pyarrow.dataset.dataset(DIR/"trajectories")`` opens
                                           them lazily (or dask.dataframe, with pandas)
 
@@ -38,7 +36,7 @@ Every file is written whole: to a temporary name in its directory, then ``os.rep
 sees the old file or the new one, never half of one). A part is written by the driver as its chunk
 completes, so a part on disk is a chunk that finished, whatever happened to the process after.
 
-**Resuming** (:meth:`CampaignDirectory.open` with ``resume=True``): the manifest (or a finished
+**Resuming** (:meth:`CampaignDirectory.prepare` with ``resume=True``): the manifest (or a finished
 table's metadata) must name the same campaign file text, the same scene and the same versions, or
 the directory is refused with what differs (runs made by other versions need not be bit for bit
 this run's). The runs no part holds are then computed, in chunks of the requested size, and the
@@ -76,7 +74,7 @@ def part_name(start: int, stop: int) -> str:
 
 
 def write_whole(path: Path, write) -> None:
-    """``write(temporary_path)``, then renamed onto ``path``."""
+    """Call ``write(temporary_path)``, then rename the file onto ``path``."""
     temporary = path.with_name(f'.{path.name}.{os.getpid()}.tmp')
     try:
         write(temporary)
@@ -88,16 +86,17 @@ def write_whole(path: Path, write) -> None:
 
 class CampaignDirectory:
     """
-    The output directory of one campaign: :meth:`open` it, :meth:`missing` says what to compute,
-    :meth:`write_part` keeps each finished chunk, :meth:`finish` writes the table.
+    The output directory of one campaign.
+
+    :meth:`prepare` it, :meth:`missing` says what to compute, :meth:`write_part` keeps each
+    finished chunk, :meth:`finish` writes the table.
     """
 
     def __init__(self, directory: Path, campaign, finished_table=None, parts: dict | None = None):
         self.directory = directory
         self.campaign = campaign
-        self.finished_table = (
-            finished_table  # the table, when the directory already holds it whole
-        )
+        # the table, when the directory already holds it whole
+        self.finished_table = finished_table
         self.parts = parts or {}  # start -> stop of the parts on disk
 
     @property
@@ -116,15 +115,16 @@ class CampaignDirectory:
     def done_runs(self) -> int:
         return sum(stop - start for start, stop in self.parts.items())
 
-    # -- opening
-    # ------------------------------------------------------------------------------------------
+    # -- opening ----------------------------------------------------------------------------------
     @classmethod
-    def open(
+    def prepare(
         cls, directory, campaign, *, overwrite: bool = False, resume: bool = False
     ) -> 'CampaignDirectory':
         """
-        The directory made ready for ``campaign``: emptied of a campaign's files with
-        ``overwrite``, checked and read with ``resume``; otherwise it must hold no campaign yet.
+        Make the directory ready for ``campaign``.
+
+        With ``overwrite`` it is emptied of a campaign's files, with ``resume`` checked and read;
+        otherwise it must hold no campaign yet.
         """
         if overwrite and resume:
             raise ValueError(
@@ -160,8 +160,8 @@ class CampaignDirectory:
         elif store._trajectory_files():
             raise FileExistsError(
                 f'{store.trajectories_directory} holds trajectory files but there is no campaign '
-                f'({RESULTS_FILE} or {PARTS_DIRECTORY}/{MANIFEST_FILE}) that made them: --overwrite '
-                'starts over'
+                f'({RESULTS_FILE} or {PARTS_DIRECTORY}/{MANIFEST_FILE}) that made them: '
+                '--overwrite starts over'
             )
         store._start()
         return store
@@ -211,8 +211,7 @@ class CampaignDirectory:
             differences.append(
                 'it was made with '
                 + ', '.join(changed)
-                + ', and runs made by other versions need '
-                "not be bit for bit this run's"
+                + ", and runs made by other versions need not be bit for bit this run's"
             )
         if differences:
             raise ResumeError(
@@ -228,8 +227,8 @@ class CampaignDirectory:
             table = pq.read_table(self.results_path)
         except (OSError, ValueError) as error:  # pyarrow's ArrowInvalid is a ValueError
             raise ResumeError(
-                f"{self.results_path}: cannot be read as a campaign's table ({error}); --overwrite "
-                'runs the campaign again'
+                f"{self.results_path}: cannot be read as a campaign's table ({error}); "
+                '--overwrite runs the campaign again'
             ) from None
         self._check(provenance_of(table, self.results_path), self.results_path)
         return table
@@ -242,14 +241,14 @@ class CampaignDirectory:
 
     def _scan_parts(self) -> dict:
         """
-        start -> stop of the parts that are whole; a torn one is removed (its runs are computed
-        again).
+        Find the parts that are whole: start -> stop; remove a torn one.
+
+        A torn part's runs are computed again.
         """
         import pyarrow.parquet as pq
 
-        for leftover in self.parts_directory.glob(
-            '.*.tmp'
-        ):  # a write interrupted before its rename
+        # a write interrupted before its rename
+        for leftover in self.parts_directory.glob('.*.tmp'):
             leftover.unlink()
         parts, previous = {}, None
         for start, stop, path in self._part_files():
@@ -274,19 +273,17 @@ class CampaignDirectory:
                     '--overwrite starts over'
                 )
             parts[start], previous = stop, (start, stop)
-        for (
-            start,
-            stop,
-            path,
-        ) in self._trajectory_files():  # written before a results part that never was
+        # a trajectory part written before a results part that never was
+        for start, stop, path in self._trajectory_files():
             if parts.get(start) != stop:
                 path.unlink()
         return parts
 
     def _trajectory_part_whole(self, start: int, stop: int, results_part: Path) -> bool:
         """
-        The chunk's trajectory part is there, readable, with this campaign's columns and a row
-        per finished run and kept time.
+        Tell whether the chunk's trajectory part is there, readable and whole.
+
+        Whole: with this campaign's columns and a row per finished run and kept time.
         """
         import pyarrow.parquet as pq
 
@@ -307,14 +304,13 @@ class CampaignDirectory:
 
     def _trajectory_files(self) -> list[tuple[int, int, Path]]:
         if self.trajectories_directory.is_dir():
-            for leftover in self.trajectories_directory.glob(
-                '.*.tmp'
-            ):  # a write interrupted before its rename
+            # a write interrupted before its rename
+            for leftover in self.trajectories_directory.glob('.*.tmp'):
                 leftover.unlink()
         return _parts_in(self.trajectories_directory)
 
     def _remove_campaign_files(self) -> None:
-        """Only the files a campaign writes: a directory's other contents stay."""
+        """Remove only the files a campaign writes: a directory's other contents stay."""
         for _, _, path in self._part_files():
             path.unlink()
         if self.parts_directory.is_dir():
@@ -334,10 +330,9 @@ class CampaignDirectory:
         except OSError:
             pass  # absent, or something else lives there
 
-    # -- the runs
-    # ----------------------------------------------------------------------------------------
+    # -- the runs ---------------------------------------------------------------------------------
     def missing(self, size: int) -> list[tuple[int, int]]:
-        """The chunks (of at most ``size`` runs) that no part holds, in run order."""
+        """Return the chunks (of at most ``size`` runs) that no part holds, in run order."""
         ranges, cursor = [], 0
         for start, stop in sorted(self.parts.items()) + [(self.campaign.runs, self.campaign.runs)]:
             for low in range(cursor, start, size):
@@ -355,8 +350,8 @@ class CampaignDirectory:
                 for name, values in columns.items()
             }
         )
-        # floats stored plain (no dictionary): every bit of a float, NaN payloads included, comes
-        # back
+        # floats stored plain (no dictionary):
+        # every bit of a float, NaN payloads included, comes back
         write_whole(
             self.parts_directory / part_name(start, stop),
             lambda path: pq.write_table(
@@ -367,8 +362,9 @@ class CampaignDirectory:
 
     def write_trajectories(self, start: int, stop: int, columns: dict) -> None:
         """
-        A chunk's kept samples as ``trajectories/runs-START-STOP.parquet`` (written whole;
-        before the chunk's results part, see :meth:`write_part`).
+        Write a chunk's kept samples as ``trajectories/runs-START-STOP.parquet``.
+
+        The file is written whole, before the chunk's results part (see :meth:`write_part`).
         """
         import pyarrow as pa
         import pyarrow.parquet as pq
@@ -387,8 +383,9 @@ class CampaignDirectory:
 
     def read_part(self, start: int) -> dict:
         """
-        A part's columns as the engine gave them (numpy arrays; ``status`` and ``reason``
-        lists).
+        Read a part's columns as the engine gave them.
+
+        They are numpy arrays; ``status`` and ``reason`` are lists.
         """
         import pyarrow.parquet as pq
 
@@ -409,7 +406,7 @@ class CampaignDirectory:
         }
 
     def finish(self, table) -> Path:
-        """``runs.parquet`` written whole, then the parts removed."""
+        """Write ``runs.parquet`` whole, then remove the parts."""
         import pyarrow.parquet as pq
 
         write_whole(
@@ -427,7 +424,7 @@ class CampaignDirectory:
 
 
 def provenance_of(table, where) -> dict:
-    """What made a finished table (its metadata), in the manifest's form."""
+    """Return what made a finished table (its metadata), in the manifest's form."""
     meta = table.schema.metadata or {}
     try:
         return {
@@ -454,8 +451,9 @@ def _first_difference(old, new) -> str:
 
 def _parts_in(directory: Path) -> list[tuple[int, int, Path]]:
     """
-    ``(start, stop, path)`` of the part files in ``directory`` (none when it does not exist), by
-    start.
+    List ``(start, stop, path)`` of the part files in ``directory``, by start.
+
+    None when the directory does not exist.
     """
     found = []
     if directory.is_dir():

@@ -13,6 +13,8 @@
 # limitations under the License.
 
 """
-The console scripts, one module each (``torquefree_sim``, ``torquefree_bag``, ...): argument
-parsing, help and process manners only; the work is done by ``core``, ``bag`` and ``ros``.
+The console scripts, one module each (``torquefree_sim``, ``torquefree_bag``, ...).
+
+They hold argument parsing, help and process manners only; the work is done by ``core``, ``bag``
+and ``ros``.
 """

@@ -13,8 +13,10 @@
 # limitations under the License.
 
 """
-``torquefree_bag``: simulates a scene offline, as fast as possible, into a rosbag2 MCAP bag
-(``bag.offline``); ``--reindex BAG`` makes a bag whose recorder died complete again.
+``torquefree_bag``: a scene simulated offline, as fast as possible, into a rosbag2 MCAP bag.
+
+The simulation is ``bag.offline``'s; ``--reindex BAG`` makes a bag whose recorder died complete
+again.
 """
 
 from __future__ import annotations
@@ -35,9 +37,8 @@ from ..core.scene import load_scene, SceneError
 
 
 def _seconds(text: str) -> Decimal:
-    if (
-        text == 'now'
-    ):  # the wall clock, to the nanosecond: viewers then show today rather than 1970
+    # the wall clock, to the nanosecond: viewers then show today rather than 1970
+    if text == 'now':
         return Decimal(time.time_ns()) / 10**9
     try:
         return Decimal(text)
@@ -52,10 +53,11 @@ def _parser() -> argparse.ArgumentParser:
         prog='torquefree_bag',
         usage='torquefree_bag SCENE --duration SECONDS --rate HZ --output BAG_DIR [options]\n'
         '       torquefree_bag --reindex BAG_DIR',
-        description='Simulate a scene offline, as fast as possible, into a rosbag2 (Jazzy) MCAP bag: '
-        'angular_velocity (Vector3Stamped), attitude (QuaternionStamped) and the outputs the scene names, '
-        'samples k = 0 ... floor(duration * rate), both ends included, the bytes the node would publish. '
-        'An energy sweep writes every member, member j under NAMESPACE/member_j.',
+        description='Simulate a scene offline, as fast as possible, into a rosbag2 (Jazzy) MCAP '
+        'bag: angular_velocity (Vector3Stamped), attitude (QuaternionStamped) and the outputs the '
+        'scene names, samples k = 0 ... floor(duration * rate), both ends included, the bytes the '
+        'node would publish. An energy sweep writes every member, member j under '
+        'NAMESPACE/member_j.',
         epilog='library scenes: ' + ', '.join(sorted(library_scenes())),
     )
     required = parser.add_argument_group('required (unless --reindex)')
@@ -123,10 +125,10 @@ def _parser() -> argparse.ArgumentParser:
     options.add_argument(
         '--commands',
         metavar='BAG_DIR',
-        help='re-simulate a scene with a torque_command effect under the commands this bag recorded '
-        "on its topic (in --namespace), each offered at its log time under the node's rules: with "
-        "the recording's --rate and --start-time (its first stamp), the samples equal the recorded "
-        'ones bit for bit; commands logged before --start-time are left out',
+        help='re-simulate a scene with a torque_command effect under the commands this bag '
+        "recorded on its topic (in --namespace), each offered at its log time under the node's "
+        "rules: with the recording's --rate and --start-time (its first stamp), the samples equal "
+        'the recorded ones bit for bit; commands logged before --start-time are left out',
     )
     options.add_argument(
         '--reindex',
@@ -202,11 +204,11 @@ def main(argv=None) -> int:
     except BagError as error:
         print(f'torquefree_bag: {error}', file=sys.stderr)
         return 1
-    except (
-        RuntimeError
-    ) as error:  # a sample the integrator refuses to reach (step budget, stiffness)
+    except RuntimeError as error:
+        # a sample the integrator refuses to reach (step budget, stiffness)
         print(
-            f'torquefree_bag: {error}\ntorquefree_bag: {args.output} is a complete bag of the samples before it',
+            f'torquefree_bag: {error}\n'
+            f'torquefree_bag: {args.output} is a complete bag of the samples before it',
             file=sys.stderr,
         )
         return 1
@@ -214,14 +216,14 @@ def main(argv=None) -> int:
     samples = metadata.topics[0].message_count if metadata.topics else 0
     if stop.signal is not None:
         print(
-            f'torquefree_bag: interrupted: {args.output} is a complete bag of the first {samples} samples '
-            f'({metadata.message_count} messages)',
+            f'torquefree_bag: interrupted: {args.output} is a complete bag of the first {samples} '
+            f'samples ({metadata.message_count} messages)',
             file=sys.stderr,
         )
         return INTERRUPTED
     print(
-        f'{args.output}: {samples} samples ({metadata.message_count} messages) in {elapsed:.2f} s, '
-        f'{samples / max(elapsed, 1e-9):.0f} samples/s'
+        f'{args.output}: {samples} samples ({metadata.message_count} messages) in '
+        f'{elapsed:.2f} s, {samples / max(elapsed, 1e-9):.0f} samples/s'
     )
     return 0
 

@@ -13,11 +13,12 @@
 # limitations under the License.
 
 """
-``torquefree_bench``: the work-precision report. Writes ``work_precision.csv`` (every
-measurement, with the machine and versions), ``work_precision.png`` (with the ``plot`` extra) and
-``results.md`` (per-case tables, the targets as ratios from this run, the effects' and the ROS
-layer's cost per sample) to ``--output-dir``. ``--smoke`` is the test suite's quick run: two cases,
-two settings per method.
+``torquefree_bench``: the work-precision report.
+
+Writes ``work_precision.csv`` (every measurement, with the machine and versions),
+``work_precision.png`` (with the ``plot`` extra) and ``results.md`` (per-case tables, the targets
+as ratios from this run, the effects' and the ROS layer's cost per sample) to ``--output-dir``.
+``--smoke`` is the test suite's quick run: two cases, two settings per method.
 """
 
 from __future__ import annotations
@@ -43,9 +44,9 @@ DEFAULT_OUTPUT = Path('docs') / 'bench'
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(
         prog='torquefree_bench',
-        description='The work-precision report: every propagator, scipy solve_ivp and MuJoCo RK4 on the hard '
-        'cases; writes work_precision.csv, work_precision.png and results.md (about 11 minutes; '
-        '--smoke: a minute).',
+        description='The work-precision report: every propagator, scipy solve_ivp and MuJoCo RK4 '
+        'on the hard cases; writes work_precision.csv, work_precision.png and results.md (about '
+        '11 minutes; --smoke: a minute).',
     )
     parser.add_argument(
         '--output-dir',
@@ -108,8 +109,9 @@ def main(argv=None) -> int:
     command = 'torquefree_bench ' + ' '.join(
         shlex.quote(a) for a in (sys.argv[1:] if argv is None else argv)
     )
+    today = datetime.datetime.now(datetime.timezone.utc)
     made = (
-        f'Made by `{command.strip()}` (`make bench`) on {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d} '
+        f'Made by `{command.strip()}` (`make bench`) on {today:%Y-%m-%d} '
         f'in {(time.monotonic() - started) / 60:.0f} minutes.\n\n'
     )
     header, _, rest = sections[0].partition('\n\n')
@@ -141,12 +143,13 @@ def _markdown(measurements, cases, env, plotted: bool) -> str:
         '',
         'Machine and versions: ' + '; '.join(f'{k} {v}' for k, v in env.items()) + '.',
         '',
-        "Error: the largest attitude error (rad) over each case's reference samples (mpmath, 45 digits), "
-        'from a run to those samples alone (its CPU time is the cost to the horizon in the CSV). '
-        'Cost: CPU time (construction included) to produce a 100 Hz output, per simulated second. '
-        'Adaptive methods use `atol = rtol / 100`; fixed steps are given in seconds '
-        "(swept as 8 … 2048 steps per rotation, 2π/|ω0|). scipy's `solve_ivp` gets the same right-hand "
-        'side as our numerical propagators, so the comparison is of the integrators.',
+        "Error: the largest attitude error (rad) over each case's reference samples (mpmath, 45 "
+        'digits), from a run to those samples alone (its CPU time is the cost to the horizon in '
+        'the CSV). Cost: CPU time (construction included) to produce a 100 Hz output, per '
+        'simulated second. Adaptive methods use `atol = rtol / 100`; fixed steps are given in '
+        "seconds (swept as 8 … 2048 steps per rotation, 2π/|ω0|). scipy's `solve_ivp` gets the "
+        'same right-hand side as our numerical propagators, so the comparison is of the '
+        'integrators.',
         '',
     ]
     if plotted:
@@ -160,10 +163,11 @@ def _markdown(measurements, cases, env, plotted: bool) -> str:
         '',
     ]
     for case in cases:
+        omega = [float(f'{w:.6g}') for w in case.angular_velocity]
         lines += [
             f'### {case.name}',
             '',
-            f'Inertia {case.inertia.tolist()}, ω0 {[float(f"{w:.6g}") for w in case.angular_velocity]} rad/s, '
+            f'Inertia {case.inertia.tolist()}, ω0 {omega} rad/s, '
             f'horizon {case.horizon:g} s, float64 floor {case.attitude_floor.max():.1e} rad.',
             '',
             case_table(measurements, case.name),
@@ -184,15 +188,16 @@ def _costs_markdown(smoke: bool) -> str:
     lines = [
         '## What each effect adds',
         '',
-        'A scene computes only the effects it names. Per effect (body of the `imu` scene, RK4 step 10 ms):',
+        'A scene computes only the effects it names. Per effect (body of the `imu` scene, RK4 '
+        'step 10 ms):',
         '',
         '| effect | right-hand side (µs) | added (µs) | RK4 step (µs) | added per step (µs) |',
         '|---|---|---|---|---|',
     ]
     for row in motion_effect_costs(number=200 if smoke else 2000):
         lines.append(
-            f'| {row["effect"]} | {row["rhs_us"]:.2f} | {row["added_rhs_us"]:+.2f} | {row["rk4_step_us"]:.2f} '
-            f'| {row["added_step_us"]:+.2f} |'
+            f'| {row["effect"]} | {row["rhs_us"]:.2f} | {row["added_rhs_us"]:+.2f} '
+            f'| {row["rk4_step_us"]:.2f} | {row["added_step_us"]:+.2f} |'
         )
     lines += ['', '| output | µs per sample (blocks of 256) |', '|---|---|']
     lines += [
@@ -212,8 +217,8 @@ def _costs_markdown(smoke: bool) -> str:
     ]
     lines += [
         '',
-        "The node's real-time figures and the bag writer's throughput are measured by `make bench-node` "
-        'and `make bench-bag` ([node.md](node.md), [bag.md](bag.md)).',
+        "The node's real-time figures and the bag writer's throughput are measured by "
+        '`make bench-node` and `make bench-bag` ([node.md](node.md), [bag.md](bag.md)).',
         '',
     ]
     return '\n'.join(lines)

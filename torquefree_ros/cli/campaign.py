@@ -43,15 +43,17 @@ BAD_INPUT = 2  # argparse's own status for a bad command line
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog='torquefree_campaign',
-        description='Monte Carlo campaigns: one scene dispersed over many runs, a row of metrics per run.',
+        description='Monte Carlo campaigns: one scene dispersed over many runs, a row of metrics '
+        'per run.',
         epilog='library campaigns: ' + (', '.join(sorted(library_campaigns())) or 'none'),
     )
     commands = parser.add_subparsers(dest='command', metavar='COMMAND', required=True)
     run = commands.add_parser(
         'run',
         help='run a campaign into DIR/runs.parquet',
-        description='Run a campaign file (or a library campaign) and write DIR/runs.parquet, a row per run '
-        '(its drawn inputs, metrics, status and reason), with the campaign file and the versions in its metadata.',
+        description='Run a campaign file (or a library campaign) and write DIR/runs.parquet, a '
+        'row per run (its drawn inputs, metrics, status and reason), with the campaign file and '
+        'the versions in its metadata.',
     )
     run.add_argument(
         'campaign', metavar='FILE', help="a campaign file (YAML) or a library campaign's name"
@@ -60,7 +62,8 @@ def _parser() -> argparse.ArgumentParser:
         '--output',
         required=True,
         metavar='DIR',
-        help='directory to write runs.parquet into (each finished chunk is kept in DIR/parts/ until then)',
+        help='directory to write runs.parquet into (each finished chunk is kept in DIR/parts/ '
+        'until then)',
     )
     run.add_argument(
         '--scheduler',
@@ -84,8 +87,9 @@ def _parser() -> argparse.ArgumentParser:
     again.add_argument(
         '--resume',
         action='store_true',
-        help='continue the campaign DIR holds: compute only the runs its finished chunks lack (the '
-        'campaign file, its scene and the versions must be the same); a finished one is left as is',
+        help='continue the campaign DIR holds: compute only the runs its finished chunks lack '
+        '(the campaign file, its scene and the versions must be the same); a finished one is left '
+        'as is',
     )
     again.add_argument(
         '--overwrite', action='store_true', help='start over: remove the campaign DIR holds'
@@ -99,10 +103,11 @@ def _parser() -> argparse.ArgumentParser:
     report = commands.add_parser(
         'report',
         help="plots and a Markdown summary of a campaign's table",
-        description="Read DIR/runs.parquet and write summary.md (runs, statuses with their reasons, each metric's "
-        'min/median/p95/max, the worst runs with their drawn inputs), histograms.png (each metric, its worst '
-        'run marked) and, when the campaign kept trajectories, envelopes.png (the 5/50/95 %% percentiles of |w| '
-        "over time across the runs, and the worst run). Needs matplotlib: pip install '.[plot]'.",
+        description='Read DIR/runs.parquet and write summary.md (runs, statuses with their '
+        "reasons, each metric's min/median/p95/max, the worst runs with their drawn inputs), "
+        'histograms.png (each metric, its worst run marked) and, when the campaign kept '
+        'trajectories, envelopes.png (the 5/50/95 %% percentiles of |w| over time across the '
+        "runs, and the worst run). Needs matplotlib: pip install '.[plot]'.",
     )
     report.add_argument(
         'directory', metavar='DIR', help="a campaign's output directory (holding runs.parquet)"
@@ -113,8 +118,8 @@ def _parser() -> argparse.ArgumentParser:
     report.add_argument(
         '--worst',
         metavar='COLUMN',
-        help='envelopes.png: show the worst run of this metric column (largest |value|) instead of '
-        'the run of the largest final |w|',
+        help='envelopes.png: show the worst run of this metric column (largest |value|) instead '
+        'of the run of the largest final |w|',
     )
     return parser
 
@@ -131,10 +136,12 @@ def _positive(text: str) -> int:
 
 class RunProgress:
     """
-    ``progress(done_runs, total_runs)`` for :func:`run_campaign`: one line on stderr (runs done,
-    runs/s, ETA), rewritten at most every ``period`` s, only on a terminal unless ``enabled`` is
-    forced. The first call gives the runs already done (a resumed campaign's). The speed is taken
-    from the first chunk in on, so that a cluster's start-up does not weigh on the ETA.
+    A campaign's progress line on stderr: runs done, runs/s, ETA.
+
+    The ``progress(done_runs, total_runs)`` for :func:`run_campaign`: one line on stderr,
+    rewritten at most every ``period`` s, only on a terminal unless ``enabled`` is forced. The
+    first call gives the runs already done (a resumed campaign's). The speed is taken from the
+    first chunk in on, so that a cluster's start-up does not weigh on the ETA.
     """
 
     def __init__(
@@ -175,8 +182,9 @@ class RunProgress:
 
 def progress_line(done: int, total: int, speed: float, resumed: int = 0) -> str:
     """
-    ``done`` of ``total`` runs (``resumed`` of them kept from an earlier run), ``speed``
-    runs/s.
+    Format the progress line's text: ``done`` of ``total`` runs at ``speed`` runs/s, and the ETA.
+
+    ``resumed`` of the runs done were kept from an earlier run.
     """
     eta = _duration((total - done) / speed if speed > 0 else math.inf)
     percent = 100.0 * done / total if total else 100.0
@@ -209,13 +217,14 @@ def _run(args) -> int:
         return BAD_INPUT
     if campaign.body_acceptance is not None and campaign.body_acceptance < 0.9:
         what = (
-            'each run redraws until its body is physical: the kept bodies are the dispersion conditioned on it'
+            'each run redraws until its body is physical: the kept bodies are the dispersion '
+            'conditioned on it'
             if campaign.invalid_body == 'redraw'
             else 'those runs fail (status invalid_body)'
         )
         print(
-            f'torquefree_campaign: note: {campaign.body_acceptance:.0%} of the first draws give a physical body; '
-            f'{what}',
+            f'torquefree_campaign: note: {campaign.body_acceptance:.0%} of the first draws give a '
+            f'physical body; {what}',
             file=sys.stderr,
         )
     progress = RunProgress(enabled={'auto': None, 'always': True, 'never': False}[args.progress])
@@ -234,17 +243,16 @@ def _run(args) -> int:
     except (FileExistsError, NotADirectoryError, ResumeError) as error:
         print(f'torquefree_campaign: {error}', file=sys.stderr)
         return BAD_INPUT
-    except (
-        OSError,
-        TimeoutError,
-    ) as error:  # the output directory, or a scheduler that does not answer
+    except (OSError, TimeoutError) as error:
+        # the output directory, or a scheduler that does not answer
         print(f'torquefree_campaign: {error}', file=sys.stderr)
         return 1
     except KeyboardInterrupt:
         progress.close()
         print(
-            f'torquefree_campaign: the finished chunks are kept in {args.output}/{PARTS_DIRECTORY}; the same '
-            'command with --resume computes only the rest',
+            'torquefree_campaign: the finished chunks are kept in '
+            f'{args.output}/{PARTS_DIRECTORY}; the same command with --resume computes '
+            'only the rest',
             file=sys.stderr,
         )
         raise
@@ -260,8 +268,8 @@ def _run(args) -> int:
         else 'finished before, nothing computed'
     )
     print(
-        f'{args.output}/{RESULTS_FILE}: {table.num_rows} runs ({ok} ok, {table.num_rows - ok} failed'
-        f'{f", {resumed:,} resumed" if resumed else ""}); {what}'
+        f'{args.output}/{RESULTS_FILE}: {table.num_rows} runs ({ok} ok, '
+        f'{table.num_rows - ok} failed{f", {resumed:,} resumed" if resumed else ""}); {what}'
     )
     if campaign.trajectory_every:
         every = (
@@ -269,8 +277,9 @@ def _run(args) -> int:
             if campaign.trajectory_every == 1
             else f'every {campaign.trajectory_every}th sample'
         )
+        rate = campaign.rate / campaign.trajectory_every
         print(
-            f'{args.output}/{TRAJECTORIES_DIRECTORY}: {every} ({campaign.rate / campaign.trajectory_every:g} Hz) '
+            f'{args.output}/{TRAJECTORIES_DIRECTORY}: {every} ({rate:g} Hz) '
             f'of the {ok} finished runs'
         )
     return 0

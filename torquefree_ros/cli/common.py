@@ -13,8 +13,10 @@
 # limitations under the License.
 
 """
-What every console script does the same way: Ctrl-C / SIGTERM and a closed pipe end the process
-quietly (no traceback), and long work reports progress on a terminal only.
+What every console script does the same way: interrupts, closed pipes and progress.
+
+Ctrl-C / SIGTERM and a closed pipe end the process quietly (no traceback), and long work reports
+progress on a terminal only.
 """
 
 from __future__ import annotations
@@ -33,9 +35,11 @@ BROKEN_PIPE = 141  # 128 + SIGPIPE, what `yes | head` reports for `yes`
 
 def console_command(prog: str):
     """
-    Wraps a ``main(argv) -> int``: SIGTERM is treated like Ctrl-C, an interrupt exits with 130
-    and one line on stderr, a reader that closed our stdout (``| head``) exits with 141 silently.
-    A ROS script's own handlers (``rclpy.init``) take over the signals once it has started.
+    Decorate a console script's ``main(argv) -> int``: quiet interrupts and closed pipes.
+
+    SIGTERM is treated like Ctrl-C, an interrupt exits with 130 and one line on stderr, a reader
+    that closed our stdout (``| head``) exits with 141 silently. A ROS script's own handlers
+    (``rclpy.init``) take over the signals once it has started.
     """
 
     def wrap(main):
@@ -51,8 +55,8 @@ def console_command(prog: str):
                 print(f'{prog}: interrupted', file=sys.stderr)
                 return INTERRUPTED
             except BrokenPipeError:
-                # stdout's buffer cannot be flushed at exit either: point it at /dev/null (Python
-                # docs)
+                # stdout's buffer cannot be flushed at exit either:
+                # point it at /dev/null (Python docs)
                 devnull = os.open(os.devnull, os.O_WRONLY)
                 os.dup2(devnull, sys.stdout.fileno())
                 return BROKEN_PIPE
@@ -68,8 +72,10 @@ def _interrupt(signum, frame):
 
 class GracefulStop:
     """
-    While active, SIGINT and SIGTERM ask the work to stop at its next safe point (``stop()``
-    turns true) instead of interrupting it anywhere: a file being written is closed whole. A second
+    A context in which SIGINT and SIGTERM stop the work at its next safe point.
+
+    While active, SIGINT and SIGTERM ask the work to stop at its next safe point (``stop()`` turns
+    true) instead of interrupting it anywhere: a file being written is closed whole. A second
     signal interrupts at once. Outside the main thread it does nothing (signals are delivered
     there).
     """
@@ -99,10 +105,11 @@ class GracefulStop:
 
 class Progress:
     """
-    One status line on stderr (samples/s, simulated time, ETA), rewritten at most twice a
-    second, and only when stderr is a terminal: piped or logged output stays clean. ``rate_hz``
-    converts samples to simulated time; ``streams`` samples are computed per simulated instant
-    (sweeps).
+    One status line on stderr (samples/s, simulated time, ETA), on a terminal only.
+
+    It is rewritten at most twice a second, and only when stderr is a terminal: piped or logged
+    output stays clean. ``rate_hz`` converts samples to simulated time; ``streams`` samples are
+    computed per simulated instant (sweeps).
     """
 
     def __init__(self, rate_hz: float, streams: int = 1, stream=None, period: float = 0.5):

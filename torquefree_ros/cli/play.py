@@ -13,8 +13,9 @@
 # limitations under the License.
 
 """
-``torquefree_play``: replays a bag onto its topics with the recorded timing, like ``ros2 bag
-play``.
+``torquefree_play``: a bag replayed onto its topics, like ``ros2 bag play``.
+
+Its messages go out with the recorded timing.
 """
 
 from __future__ import annotations
@@ -81,7 +82,8 @@ def main(argv=None) -> int:
         parser.error(f'--clock: must be a rate in Hz > 0, got {args.clock!r}')
     if not (math.isfinite(args.wait_for_subscribers) and args.wait_for_subscribers >= 0):
         parser.error(
-            f'--wait-for-subscribers: must be a number of seconds >= 0, got {args.wait_for_subscribers!r}'
+            '--wait-for-subscribers: must be a number of seconds >= 0, '
+            f'got {args.wait_for_subscribers!r}'
         )
     try:
         bag = BagReader(args.bag)
@@ -92,7 +94,8 @@ def main(argv=None) -> int:
         why = bag.damage or bag.repairable
         damage = f' ({why})' if why else ''
         print(
-            f"torquefree_play: bag '{args.bag}' is incomplete{damage}: {bag.message_count} readable messages; "
+            f"torquefree_play: bag '{args.bag}' is incomplete{damage}: "
+            f'{bag.message_count} readable messages; '
             f'`torquefree_bag --reindex {args.bag}` makes it complete',
             file=sys.stderr,
         )

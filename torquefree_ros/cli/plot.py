@@ -32,9 +32,9 @@ from ..core.scene import load_scene, SceneError
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(
         prog='torquefree_plot',
-        description='Draw a scene (simulated) or a bag (as recorded): NAME_rates.png (body rates), '
-        'NAME_polhode.png (H on the momentum sphere with the energy ellipsoid) and NAME_phase.png '
-        "(the Duffing phase planes). Needs matplotlib: pip install '.[plot]'.",
+        description='Draw a scene (simulated) or a bag (as recorded): NAME_rates.png (body '
+        'rates), NAME_polhode.png (H on the momentum sphere with the energy ellipsoid) and '
+        "NAME_phase.png (the Duffing phase planes). Needs matplotlib: pip install '.[plot]'.",
     )
     parser.add_argument(
         'source',
@@ -51,7 +51,8 @@ def main(argv=None) -> int:
         '--duration',
         type=float,
         metavar='SECONDS',
-        help="simulated time for a scene, s (default: the scene's watch, else two polhode periods)",
+        help="simulated time for a scene, s (default: the scene's watch, else two polhode "
+        'periods)',
     )
     parser.add_argument(
         '--rate',

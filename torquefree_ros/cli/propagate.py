@@ -32,8 +32,8 @@ BLOCK = 1024  # samples computed and printed at a time
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog='torquefree_propagate',
-        description='Print the torque-free motion of a rigid body as CSV: t, w_x, w_y, w_z (body, rad/s), '
-        'q_x, q_y, q_z, q_w (body in inertial).',
+        description='Print the torque-free motion of a rigid body as CSV: t, w_x, w_y, w_z (body, '
+        'rad/s), q_x, q_y, q_z, q_w (body in inertial).',
     )
     parser.add_argument(
         '--inertia',
@@ -41,7 +41,8 @@ def _parser() -> argparse.ArgumentParser:
         nargs='+',
         default=[3.0, 2.0, 1.0],
         metavar='I',
-        help='3 principal moments or 6 tensor elements Ixx Iyy Izz Ixy Ixz Iyz, kg m^2 (default: 3 2 1)',
+        help='3 principal moments or 6 tensor elements Ixx Iyy Izz Ixy Ixz Iyz, kg m^2 '
+        '(default: 3 2 1)',
     )
     parser.add_argument(
         '--angular-velocity',
@@ -57,7 +58,8 @@ def _parser() -> argparse.ArgumentParser:
         nargs='+',
         default=[0.0, 0.0, 0.0, 1.0],
         metavar='Q',
-        help='initial attitude q_NB as x y z w; normalised when |q|^2 is within 0.01 of 1 (default: 0 0 0 1)',
+        help='initial attitude q_NB as x y z w; normalised when |q|^2 is within 0.01 of 1 '
+        '(default: 0 0 0 1)',
     )
     parser.add_argument(
         '--duration',
@@ -98,9 +100,8 @@ def main(argv=None) -> int:
         parser.error(str(error))
     out = sys.stdout
     out.write('t,w_x,w_y,w_z,q_x,q_y,q_z,q_w\n')
-    for first in range(
-        0, count, BLOCK
-    ):  # streamed: memory stays flat and `| head` returns at once
+    # streamed: memory stays flat and `| head` returns at once
+    for first in range(0, count, BLOCK):
         block = simulation.samples(first, min(BLOCK, count - first))
         for row in np.column_stack([block.times, block.omega_B, block.q_NB]).tolist():
             out.write(','.join(map(repr, row)) + '\n')

@@ -39,8 +39,9 @@ MAX_DURATION = 1e9  # s (~32 years): larger values are a typo, not a plan
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog='torquefree_record',
-        description='Record topics into a rosbag2 (Jazzy) MCAP bag until Ctrl-C / SIGTERM (or --duration). '
-        "Each topic keeps its publishers' QoS; reliable delivery is asked for only when every publisher offers it.",
+        description='Record topics into a rosbag2 (Jazzy) MCAP bag until Ctrl-C / SIGTERM (or '
+        "--duration). Each topic keeps its publishers' QoS; reliable delivery is asked for only "
+        'when every publisher offers it.',
     )
     parser.add_argument(
         '--output',
@@ -92,7 +93,8 @@ def main(argv=None) -> int:
         math.isfinite(args.duration) and 0 < args.duration <= MAX_DURATION
     ):
         parser.error(
-            f'--duration: must be a number of seconds in (0, {MAX_DURATION:g}], got {args.duration!r}'
+            f'--duration: must be a number of seconds in (0, {MAX_DURATION:g}], '
+            f'got {args.duration!r}'
         )
     try:
         writer = BagWriter(args.output, overwrite=args.overwrite, compression=args.compression)

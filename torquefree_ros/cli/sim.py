@@ -48,9 +48,10 @@ def _parser() -> argparse.ArgumentParser:
     return argparse.ArgumentParser(
         prog='torquefree_sim',
         formatter_class=argparse.RawDescriptionHelpFormatter,
-        description="The torque-free attitude simulator node (default name 'torquefree'). It publishes "
-        'angular_velocity (Vector3Stamped, body frame) and attitude (QuaternionStamped, q_NB), serves ~/reset '
-        '(std_srvs/Trigger) and ~/pause (std_srvs/SetBool) and reports on /diagnostics. Ctrl-C or SIGTERM stop it with exit status 0.',
+        description="The torque-free attitude simulator node (default name 'torquefree'). It "
+        'publishes angular_velocity (Vector3Stamped, body frame) and attitude (QuaternionStamped, '
+        'q_NB), serves ~/reset (std_srvs/Trigger) and ~/pause (std_srvs/SetBool) and reports on '
+        '/diagnostics. Ctrl-C or SIGTERM stop it with exit status 0.',
         epilog=_parameter_help()
         + '\n\nexample: torquefree_sim --ros-args -p scene:=dzhanibekov -p publish_rate:=200.0',
     )
@@ -59,13 +60,14 @@ def _parser() -> argparse.ArgumentParser:
 @console_command('torquefree_sim')
 def main(argv=None) -> int:
     """
+    Run the simulator node until a signal stops it; return the exit status.
+
     Exit status 0 on SIGINT/SIGTERM, 1 when the parameters do not describe a usable simulation,
     2 on a bad command line.
     """
     argv = sys.argv if argv is None else argv
-    _parser().parse_args(
-        rclpy.utilities.remove_ros_args(argv)[1:]
-    )  # --help exits here, before any DDS
+    # --help exits here, before any DDS
+    _parser().parse_args(rclpy.utilities.remove_ros_args(argv)[1:])
     init(argv)
     node = executor = spinner = None
     try:

@@ -14,27 +14,23 @@
 
 """The dynamics core: numpy and scipy only, no ROS (a test enforces it)."""
 
+from .batch import propagate_batch
 from .propagators import make_propagator, Propagator, PROPAGATORS
 from .rigid_body import MotionRegime, RigidBody
 
 
 def propagate(inertia, angular_velocity, orientation, times, propagator='auto', **options):
     """
-    Torque-free ``(omega_B, q_NB)`` at the sorted ``times`` (s), shapes ``(N, 3)`` and ``(N,
-    4)``.
+    Return the torque-free ``(omega_B, q_NB)`` at the sorted ``times`` (s).
 
-    ``inertia``: principal moments ``[I1, I2, I3]``, a tensor ``[Ixx, Iyy, Izz, Ixy, Ixz, Iyz]`` or
-    a 3x3 matrix (kg m^2); ``angular_velocity``: body-frame rate (rad/s); ``orientation``: ``q_NB``
-    as ``(x, y, z, w)``; ``propagator``: ``auto`` or a name in :data:`PROPAGATORS`; ``options``:
-    the propagator's settings (``step`` for fixed-step methods, ``rtol``/``atol`` for adaptive
-    ones).
+    The shapes are ``(N, 3)`` and ``(N, 4)``. ``inertia``: principal moments ``[I1, I2, I3]``, a
+    tensor ``[Ixx, Iyy, Izz, Ixy, Ixz, Iyz]`` or a 3x3 matrix (kg m^2); ``angular_velocity``:
+    body-frame rate (rad/s); ``orientation``: ``q_NB`` as ``(x, y, z, w)``; ``propagator``:
+    ``auto`` or a name in :data:`PROPAGATORS`; ``options``: the propagator's settings (``step`` for
+    fixed-step methods, ``rtol``/``atol`` for adaptive ones).
     """
     return make_propagator(inertia, angular_velocity, orientation, propagator, **options)(times)
 
-
-from .batch import (  # noqa: E402  (after propagate, which it documents itself against)
-    propagate_batch,
-)
 
 __all__ = [
     'PROPAGATORS',

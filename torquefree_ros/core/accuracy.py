@@ -27,8 +27,10 @@ RTOL_FLOOR = 100 * float(np.finfo(float).eps)  # the smallest rtol scipy's Runge
 
 def trajectory_errors(omega, q, omega_ref, q_ref):
     """
-    Per sample: relative rate error ``|w - w_ref| / |w_ref|`` (absolute where ``w_ref = 0``) and
-    attitude error, the rotation angle (rad) between ``q`` and ``q_ref`` (sign-independent).
+    Return the per-sample rate error and attitude error of a trajectory against a reference.
+
+    The rate error is relative, ``|w - w_ref| / |w_ref|`` (absolute where ``w_ref = 0``); the
+    attitude error is the rotation angle (rad) between ``q`` and ``q_ref`` (sign-independent).
     """
     omega, omega_ref = np.asarray(omega, float), np.asarray(omega_ref, float)
     speed = np.linalg.norm(omega_ref, axis=-1)
@@ -51,8 +53,10 @@ ESTIMATE_STEPS_PER_SAMPLE = 50
 @dataclass(frozen=True)
 class AccuracyEstimate:
     """
-    What a propagator's settings deliver for one initial state: the largest attitude error (rad)
-    and relative rate error over ``horizon_s``, measured against ``reference``.
+    What a propagator's settings deliver for one initial state.
+
+    The largest attitude error (rad) and relative rate error over ``horizon_s``, measured against
+    ``reference``.
     """
 
     attitude_rad: float
@@ -67,7 +71,8 @@ class AccuracyEstimate:
         seconds = f'{self.horizon_s:.3g}' if self.horizon_s < 1000.0 else f'{self.horizon_s:.0f}'
         turns = f' ({self.turns:.2g} turns)' if self.turns else ''
         return (
-            f'attitude error ~{self.attitude_rad:.1e} rad, rate error ~{self.rate_rel:.1e} (relative) '
+            f'attitude error ~{self.attitude_rad:.1e} rad, '
+            f'rate error ~{self.rate_rel:.1e} (relative) '
             f'over the first {seconds} s{turns}, against {self.reference}'
         )
 
@@ -77,10 +82,11 @@ EXACT = 'the closed form'
 
 def estimate_accuracy(propagator) -> AccuracyEstimate:
     """
-    Measure what ``propagator``'s method and settings deliver from its initial state, on fresh
-    instances (the given one is not advanced): against the exact solution when no effect changes
-    the motion, else against the same method refined (half the step, with Richardson's factor for
-    its order; or tolerances / 100).
+    Measure what ``propagator``'s method and settings deliver from its initial state.
+
+    The measure runs on fresh instances (the given one is not advanced): against the exact solution
+    when no effect changes the motion, else against the same method refined (half the step, with
+    Richardson's factor for its order; or tolerances / 100).
     """
     from .propagators import propagator_class, StepBudgetExceeded
 

@@ -13,9 +13,10 @@
 # limitations under the License.
 
 """
-The exact solution compiled by numba, when it is installed (the ``fast`` extra): a body's
-constants from its initial state, and the attitude's per-sample evaluation, as scalar code that
-repeats what the Python/numpy path computes (:mod:`.polhode_constants` and
+The exact solution compiled by numba, when it is installed (the ``fast`` extra).
+
+A body's constants from its initial state, and the attitude's per-sample evaluation, as scalar code
+that repeats what the Python/numpy path computes (:mod:`.polhode_constants` and
 :class:`.elliptic.JacobiElliptic`'s constants in Python floats, :class:`.polhode.PolhodeAttitude`
 with numpy arrays) operation for operation, in the same order. That path stays the reference; the
 tests hold the two together (test_attitude_kernels.py).
@@ -67,16 +68,17 @@ TABLE_WIDTH = HYPERBOLIC_CUBICS + 4 * 8
 #: the kinds of motion with a kernel; build_row returns an index into these, or STATIONARY
 KINDS = ('trigonometric', 'hyperbolic', 'separatrix')
 STATIONARY = -1
-TRIGONOMETRIC_MC = (
-    0.5  # JacobiElliptic.TRIGONOMETRIC_MC (a literal: compiled code keeps what it read)
-)
+# JacobiElliptic.TRIGONOMETRIC_MC (a literal: compiled code keeps what it read)
+TRIGONOMETRIC_MC = 0.5
 
 
 def kernel(kind: str):
     """
-    The compiled kernel for ``kind``, ``"trigonometric"`` (``m <= 1/2``), ``"hyperbolic"`` or
-    ``"separatrix"`` (numba imported, and the functions below compiled on their first call, the
-    first time one is asked for).
+    Return the compiled kernel for ``kind``.
+
+    ``kind`` is ``"trigonometric"`` (``m <= 1/2``), ``"hyperbolic"`` or ``"separatrix"`` (numba
+    imported, and the functions below compiled on their first call, the first time one is asked
+    for).
     """
     _compile()
     return globals()[kind + '_kernel']
@@ -89,13 +91,14 @@ STATE_WIDTH = 19
 
 def build_tables(moments, principal_axes, omega_B, q_NB):
     """
-    Tables for bodies given by their principal ``moments (N, 3)``, ``principal_axes (N, 3, 3)``
+    Build the tables of bodies' constants: ``(kinds, table)``.
+
+    The bodies are given by their principal ``moments (N, 3)``, ``principal_axes (N, 3, 3)``
     (columns), rates ``omega_B (N, 3)`` and attitudes ``q_NB (N, 4)``, or one body's without the
-    leading axis (:func:`build_row`):
-    ``(kinds, table)``, ``kinds[i]`` an index into :data:`KINDS`, or -1 for a stationary motion
-    (whose row is not filled). The states go in as one new (N, STATE_WIDTH) array: one compiled
-    signature whatever the inputs' flags (a read-only array is another numba type, another
-    compilation).
+    leading axis (:func:`build_row`). ``kinds[i]`` is an index into :data:`KINDS`, or -1 for a
+    stationary motion (whose row is not filled). The states go in as one new (N, STATE_WIDTH)
+    array: one compiled signature whatever the inputs' flags (a read-only array is another numba
+    type, another compilation).
     """
     _compile()
     axes = principal_axes.reshape(principal_axes.shape[:-2] + (9,))
@@ -119,12 +122,14 @@ _compiled = False
 
 def _compile() -> None:
     """
-    Replace this module's functions by numba's compiled ones (once, before any is called: a
-    compiled function calls what the module's globals hold when it compiles on its first call).
-    Kept in numba's cache next to this file, or in the user's cache directory when the install is
-    read-only. The cache of a function is rebuilt when *its own file* changes, not when a file it
-    calls into does: hence every compiled function, and the table layout they share, in this one
-    file. error_model="numpy": a division by zero gives inf, as numpy's does.
+    Replace this module's functions by numba's compiled ones, once.
+
+    Once, before any is called: a compiled function calls what the module's globals hold when it
+    compiles on its first call. Kept in numba's cache next to this file, or in the user's cache
+    directory when the install is read-only. The cache of a function is rebuilt when *its own file*
+    changes, not when a file it calls into does: hence every compiled function, and the table
+    layout they share, in this one file. error_model="numpy": a division by zero gives inf, as
+    numpy's does.
     """
     global _compiled
     with _compiling:
@@ -206,7 +211,7 @@ def _phase_minus_angle(c, re, im, reduced_sn, reduced_cn, half_periods):
 
 
 def _finish(c, t, sn, cn, dn, difference, omega, q):
-    """What :meth:`.polhode.PolhodeAttitude._pass` does with the Jacobi values of one sample."""
+    """Do what :meth:`.polhode.PolhodeAttitude._pass` does with the Jacobi values of one sample."""
     half = (c[HALF_PSI_RATE] * t + c[HALF_DIRECTION] * difference) + c[HALF_PSI_OFFSET]
     for k in range(3):
         omega[k] = (cn * c[RATE_ROWS + k] + sn * c[RATE_ROWS + 3 + k]) + dn * c[RATE_ROWS + 6 + k]
@@ -223,8 +228,10 @@ def _finish(c, t, sn, cn, dn, difference, omega, q):
 
 def trigonometric_kernel(t, constants, omega, q):
     """
-    ``m <= 1/2``: :meth:`.elliptic.JacobiElliptic._whole_half_period` with the phase, then the
-    attitude; ``omega (bodies, samples, 3)`` and ``q (bodies, samples, 4)`` are filled.
+    Evaluate bodies of the trigonometric kind (``m <= 1/2``).
+
+    :meth:`.elliptic.JacobiElliptic._whole_half_period` with the phase, then the attitude;
+    ``omega (bodies, samples, 3)`` and ``q (bodies, samples, 4)`` are filled.
     """
     for body in range(constants.shape[0]):
         c = constants[body]
@@ -256,8 +263,9 @@ def trigonometric_kernel(t, constants, omega, q):
 
 def hyperbolic_kernel(t, constants, omega, q):
     """
-    ``m > 1/2``: :meth:`.elliptic.JacobiElliptic._two_halves` with the phase, then the
-    attitude.
+    Evaluate bodies of the hyperbolic kind (``m > 1/2``).
+
+    :meth:`.elliptic.JacobiElliptic._two_halves` with the phase, then the attitude.
     """
     for body in range(constants.shape[0]):
         c = constants[body]
@@ -309,8 +317,10 @@ def hyperbolic_kernel(t, constants, omega, q):
 
 def separatrix_kernel(t, constants, omega, q):
     """
-    ``m = 1``: :meth:`.elliptic.JacobiElliptic._separatrix` with the phase (``sn = tanh``,
-    ``cn = dn = sech``, the phase ``atan2(sqrt(-n) tanh, 1)``), then the attitude.
+    Evaluate bodies on the separatrix (``m = 1``).
+
+    :meth:`.elliptic.JacobiElliptic._separatrix` with the phase (``sn = tanh``, ``cn = dn = sech``,
+    the phase ``atan2(sqrt(-n) tanh, 1)``), then the attitude.
     """
     for body in range(constants.shape[0]):
         c = constants[body]
@@ -323,9 +333,8 @@ def separatrix_kernel(t, constants, omega, q):
             _finish(c, t[i], tanh, sech, sech, difference, omega[body, i], q[body, i])
 
 
-# -- one body's table from its initial state
-# ---------------------------------------------------------- scipy's C functions, set by _compile:
-# double f(double x, double y, double z[, double p], int)
+# -- one body's table from its initial state ------------------------------------------------------
+# scipy's C functions, set by _compile: double f(double x, double y, double z[, double p], int)
 carlson_rf = carlson_rj = None
 
 
@@ -339,8 +348,9 @@ def _rj(x, y, z, p):
 
 def _norm(values):
     """
-    Euclidean norm, scaled by the largest magnitude so that no square overflows or
-    underflows.
+    Return the Euclidean norm, computed so that no square overflows or underflows.
+
+    The values are scaled by the largest magnitude.
     """
     largest = 0.0
     for v in values:
@@ -356,8 +366,9 @@ def _norm(values):
 
 def build_row(state, row):
     """
-    Fill ``row`` (``TABLE_WIDTH`` floats) for the body whose initial ``state`` is laid out as
-    :data:`STATE_WIDTH` says; return its kind.
+    Fill ``row`` (``TABLE_WIDTH`` floats) for one body from its initial ``state``; return its kind.
+
+    ``state`` is laid out as :data:`STATE_WIDTH` says.
     """
     I, P, omega_B, q_NB = state[0:3], state[3:12].reshape((3, 3)), state[12:15], state[15:19]
     w = np.empty(3)  # the rate in principal axes (polhode_constants.to_principal)
@@ -370,8 +381,7 @@ def build_row(state, row):
     ):
         return STATIONARY
 
-    # -- polhode_constants.solver_frame
-    # --------------------------------------------------------------
+    # -- polhode_constants.solver_frame -----------------------------------------------------------
     lo, mid, hi = 0, 1, 2  # a stable argsort of three
     if I[mid] < I[lo]:
         lo, mid = mid, lo
@@ -404,8 +414,7 @@ def build_row(state, row):
     n = -J3 * d21 / (J1 * d32)
     rate = math.sqrt(d32 * P1 / (J1 * J2 * J3))
 
-    # -- elliptic.JacobiElliptic's constants (the theta series' and phase's into the row)
-    # -------------
+    # -- elliptic.JacobiElliptic's constants (the theta series' and phase's into the row) ---------
     if mc > 0.0:
         K = _rf(0.0, mc, 1.0)
         slope = (_rj(0.0, mc, 1.0, 1.0 - n) / 3.0) / K
@@ -419,11 +428,9 @@ def build_row(state, row):
         row[ROOT] = math.sqrt(-n)
         kind = 2
 
-    # -- polhode_constants.attitude_constants
-    # ---------------------------------------------------------
-    solver_from_frame = np.empty(
-        (3, 3)
-    )  # solver_from_body: row i is principal axis axes[i] times signs[i]
+    # -- polhode_constants.attitude_constants -----------------------------------------------------
+    # solver_from_body: row i is principal axis axes[i] times signs[i]
+    solver_from_frame = np.empty((3, 3))
     for i in range(3):
         for j in range(3):
             solver_from_frame[i, j] = signs[i] * P[j, axes[i]]
@@ -446,8 +453,7 @@ def build_row(state, row):
     psi_rate = momentum / J1 + (gain * rate) * slope
     psi_offset = direction * angle0 - gain * (sn2_integral0 - slope * u0)
 
-    # -- the row (the layout at the top)
-    # ---------------------------------------------------------------
+    # -- the row (the layout at the top) ----------------------------------------------------------
     row[RATE], row[INITIAL_PHASE], row[MOMENTUM], row[TWO_MOMENTUM] = (
         rate,
         u0,

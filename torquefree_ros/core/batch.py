@@ -48,18 +48,19 @@ from .propagators import make_propagator
 from .rigid_body import MAX_INERTIA, RigidBody, TRIANGLE_RTOL
 from .validation import initial_samples, sample_times, unit_quaternion, UNIT_QUATERNION_ROUNDING
 
-GROUP_BODIES = (
-    4096  # bodies whose constants are built together (then evaluated in passes of bounded size)
-)
+# bodies whose constants are built together (then evaluated in passes of bounded size)
+GROUP_BODIES = 4096
 _IDENTITY_ROWS = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
 
 
 def propagate_batch(inertia, angular_velocity, orientation, times, propagator='auto', **options):
     """
-    ``(omega_B, q_NB)`` of shapes ``(N, M, 3)`` and ``(N, M, 4)`` for ``N`` bodies at the ``M``
-    sorted ``times`` (s): ``inertia (N, 3)`` principal moments or ``(N, 6)`` tensors ``[Ixx, Iyy,
-    Izz, Ixy, Ixz, Iyz]`` (kg m^2), ``angular_velocity (N, 3)`` (rad/s, body frame), ``orientation
-    (N, 4)`` (``q_NB`` as ``x, y, z, w``); ``propagator`` and ``options`` as for ``propagate``.
+    Return ``(omega_B, q_NB)`` for ``N`` bodies at the ``M`` sorted ``times`` (s).
+
+    The shapes are ``(N, M, 3)`` and ``(N, M, 4)``. ``inertia (N, 3)`` principal moments or
+    ``(N, 6)`` tensors ``[Ixx, Iyy, Izz, Ixy, Ixz, Iyz]`` (kg m^2), ``angular_velocity (N, 3)``
+    (rad/s, body frame), ``orientation (N, 4)`` (``q_NB`` as ``x, y, z, w``); ``propagator`` and
+    ``options`` as for ``propagate``.
     """
     inertia = _table(inertia, 'inertia', (3, 6))
     count = inertia.shape[0]
@@ -90,8 +91,10 @@ def _propagator(i, inertia, angular_velocity, orientation, propagator='auto', **
 
 def _exact_together(inertia, angular_velocity, orientation, times, omega, q) -> list:
     """
-    Evaluate the bodies the exact solution covers with constants in columns, into ``omega`` and
-    ``q``; return the indices of the others (to go one by one). Raises for a bad body.
+    Evaluate the bodies the exact solution covers, with their constants in columns.
+
+    The results go into ``omega`` and ``q``; return the indices of the others (to go one by one).
+    Raises for a bad body.
     """
     count = inertia.shape[0]
     bodies = _bodies(inertia, angular_velocity)
@@ -110,10 +113,11 @@ def _exact_together(inertia, angular_velocity, orientation, times, omega, q) -> 
     periodic = moving[mc > 0.0]
     # bodies whose Jacobi functions take the same kind of series, in groups that bound the memory
     group = GROUP_BODIES
+    # positions in moving
     kinds = (
         np.flatnonzero(mc >= JacobiElliptic.TRIGONOMETRIC_MC),
         np.flatnonzero((mc > 0.0) & (mc < JacobiElliptic.TRIGONOMETRIC_MC)),
-    )  # positions in moving
+    )
     zeros = initial_samples(times)
     for positions in (
         kind[start: start + group] for kind in kinds for start in range(0, kind.size, group)
@@ -146,12 +150,12 @@ def _evaluate_rows(
     attitude: PolhodeAttitude, rows, times, zeros: int, angular_velocity, q0, omega, q
 ) -> None:
     """
-    Bodies ``rows`` (ascending) of ``omega`` and ``q`` from their ``attitude``; their first
-    ``zeros`` samples (t = 0) the initial state itself.
+    Fill the bodies ``rows`` (ascending) of ``omega`` and ``q`` from their ``attitude``.
+
+    Their first ``zeros`` samples (t = 0) are the initial state itself.
     """
-    if (
-        rows[-1] - rows[0] == rows.size - 1
-    ):  # consecutive: views take the result, (times, bodies, k), directly
+    # consecutive: views take the result, (times, bodies, k), directly
+    if rows[-1] - rows[0] == rows.size - 1:
         attitude(
             times,
             out=(
@@ -168,8 +172,10 @@ def _evaluate_rows(
 
 def _compiled_together(moments, axes, angular_velocity, q0, times, omega, q) -> list:
     """
-    :func:`_exact_together` by :mod:`.attitude_kernels`: each body's table built by the same
-    compiled code as for one body, then each kind's bodies evaluated by its kernel in one call.
+    Do :func:`_exact_together`'s work with :mod:`.attitude_kernels`.
+
+    Each body's table is built by the same compiled code as for one body, then each kind's bodies
+    are evaluated by its kernel in one call.
     """
     principal_axes = np.empty((moments.shape[0], 3, 3))
     for j in range(3):  # from rows of columns over bodies (or of floats)
@@ -187,10 +193,11 @@ def _compiled_together(moments, axes, angular_velocity, q0, times, omega, q) -> 
 
 def _bodies(inertia, angular_velocity):
     """
-    Principal moments ``(N, 3)`` and principal axes (rows of columns over bodies), as
-    :class:`RigidBody` gives them body by body; ``None`` if some body would be refused (the checks
-    of
-    :class:`RigidBody` and of the propagators' representable state, on all bodies at once).
+    Return the principal moments ``(N, 3)`` and axes of all bodies, or ``None`` if one is refused.
+
+    The axes are rows of columns over bodies; moments and axes as :class:`RigidBody` gives them
+    body by body. ``None`` if some body would be refused (the checks of :class:`RigidBody` and of
+    the propagators' representable state, on all bodies at once).
     """
     with np.errstate(over='ignore', invalid='ignore'):
         finite = np.all(np.isfinite(inertia), axis=1) & np.all(
@@ -217,9 +224,8 @@ def _bodies(inertia, angular_velocity):
             ):
                 return None
             tensors = moments[:, :, None] * np.eye(3)
-        h = np.einsum(
-            'nij,nj->ni', tensors, angular_velocity
-        )  # the representability check, |H|^2 I_max^2 finite
+        # the representability check, |H|^2 I_max^2 finite
+        h = np.einsum('nij,nj->ni', tensors, angular_velocity)
         if not np.all(np.isfinite(np.sum(h * h, axis=1) * moments.max(axis=1) ** 2)):
             return None
     return moments, axes_rows
@@ -227,8 +233,10 @@ def _bodies(inertia, angular_velocity):
 
 def _unit_quaternions(orientation: np.ndarray) -> np.ndarray:
     """
-    Each row as :func:`unit_quaternion` gives it (the same ``math.hypot`` norm and division); a
-    row it would refuse or divide is handed to it, so that the error names the body.
+    Normalise each row of ``orientation`` as :func:`unit_quaternion` does.
+
+    The same ``math.hypot`` norm and division; a row it would refuse or divide is handed to it, so
+    that the error names the body.
     """
     with np.errstate(over='ignore', invalid='ignore'):
         norms = (
@@ -248,8 +256,9 @@ def _unit_quaternions(orientation: np.ndarray) -> np.ndarray:
 
 def _take(frame: SolverFrame, positions: np.ndarray) -> SolverFrame:
     """
-    The solver frames of some bodies (every value an array over bodies, tuples element by
-    element).
+    Return the solver frames of the bodies at ``positions``.
+
+    Every value is an array over bodies; tuples are taken element by element.
     """
     return SolverFrame(
         *(
@@ -260,7 +269,7 @@ def _take(frame: SolverFrame, positions: np.ndarray) -> SolverFrame:
 
 
 def _rows(columns, rows) -> tuple:
-    """The selected bodies of each column."""
+    """Return the selected bodies of each column."""
     return tuple(column[rows] if isinstance(column, np.ndarray) else column for column in columns)
 
 

@@ -13,10 +13,12 @@
 # limitations under the License.
 
 """
-Bodies built from parts: boxes, cylinders, spheres and point masses, each with a mass, a size, a
-position and an orientation in the body frame, combined about the composite centre of mass by the
-parallel axis theorem (seed 002: find the new centre of mass, add the parts' own inertias rotated
-into the body frame, add ``m (|d|^2 1 - d d^T)`` for each part's offset ``d`` from it).
+Bodies built from parts: boxes, cylinders, spheres and point masses.
+
+Each part has a mass, a size, a position and an orientation in the body frame; the parts are
+combined about the composite centre of mass by the parallel axis theorem (seed 002: find the new
+centre of mass, add the parts' own inertias rotated into the body frame, add
+``m (|d|^2 1 - d d^T)`` for each part's offset ``d`` from it).
 
 The body frame of a scene made of parts is the frame the parts are written in, moved to the
 composite centre of mass; the tensor is generally not diagonal there, and :class:`RigidBody`
@@ -58,7 +60,9 @@ PART_KINDS = {
     'box': (
         {
             **_MASS,
-            'size': Param(vector(3, unit='m', positive=True), help='edge lengths [x, y, z], m'),
+            'size': Param(
+                vector(3, unit='m', positive=True), description='edge lengths [x, y, z], m'
+            ),
         },
         lambda v: _box(v['mass'], v['size']),
     ),

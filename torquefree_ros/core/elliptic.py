@@ -13,8 +13,9 @@
 # limitations under the License.
 
 """
-Jacobi elliptic functions and one elliptic integral of the third kind, parametrised by the
-**complementary** parameter ``mc = 1 - m``.
+Jacobi elliptic functions and one elliptic integral of the third kind, in ``mc = 1 - m``.
+
+Both are parametrised by the **complementary** parameter ``mc = 1 - m``.
 
 Why not ``scipy.special.ellipj``: it takes ``m``, and next to the separatrix of the free rigid body
 ``m`` rounds to 1 and ``mc`` (what sets the period ``K ~ log(4/sqrt(mc))``) is lost. Near the
@@ -24,10 +25,10 @@ precision.
 The method (periods and integrals from Carlson's symmetric forms in ``scipy.special``):
 
 * reduce ``u`` to ``r`` in ``[0, K]`` with the half-period ``2K`` symmetries;
-* on ``[0, K/2]`` evaluate ``sn, cn, dn`` as quotients of theta series in the nome of ``m`` (``m <=
-  1/2``) or, by Jacobi's imaginary transformation, of the complementary parameter (``m > 1/2``):
-  each nome is at most ``exp(-pi)``, a few terms reach float64, and ``cn``, ``dn`` keep relative
-  precision (:class:`_ThetaSeries`);
+* on ``[0, K/2]`` evaluate ``sn, cn, dn`` as quotients of theta series in the nome of ``m``
+  (``m <= 1/2``) or, by Jacobi's imaginary transformation, of the complementary parameter
+  (``m > 1/2``): each nome is at most ``exp(-pi)``, a few terms reach float64, and ``cn``, ``dn``
+  keep relative precision (:class:`_ThetaSeries`);
 * on ``[K/2, K]`` use ``v = K - u``: ``sn = cd(v)``, ``cn = k' sd(v)``, ``dn = k' nd(v)`` (DLMF
   22.4.3);
 * except when ``S`` is not asked for and ``m <= 1/2``: the trigonometric series hold for every real
@@ -37,16 +38,16 @@ The method (periods and integrals from Carlson's symmetric forms in ``scipy.spec
 The attitude about the angular momentum needs ``Π(n; am u | m) = u + n S(u)`` (``n <= 0``) with
 ``S(u) = ∫_0^u sn^2/(1 - n sn^2) du' = (1/3) sn^3 R_J(cn^2, dn^2, 1, 1 - n sn^2)`` (DLMF 19.25.14).
 ``S`` itself is returned, not ``Π``: the attitude uses ``n S`` beside terms that would cancel
-against ``u``. On the second half of the quarter period ``S`` comes from the same identity in ``v =
-K - u`` (``sn(K - v) = cd(v)``), so nothing cancels. On the separatrix (``mc = 0``) everything is
-hyperbolic and in closed form.
+against ``u``. On the second half of the quarter period ``S`` comes from the same identity in
+``v = K - u`` (``sn(K - v) = cd(v)``), so nothing cancels. On the separatrix (``mc = 0``)
+everything is hyperbolic and in closed form.
 
 The attitude only needs ``n S`` to absolute precision, beside a linear term, and there a cheaper
 form serves (Jacobi's form of the third kind, Whittaker & Watson §22.74, taken to an imaginary
 shift): with ``n = -m sc^2(b|mc)``, ``z = pi u/(2K)`` and ``beta = pi b/(2K)``,
 ``n S(u) = n (S(K)/K) u + w arg θ4(z + i beta)``, ``w = sqrt(-n/((m - n)(1 - n)))``. The *theta
-phase* ``arg θ4(z + i beta)`` is periodic and takes a few more terms of the same series as ``sn,
-cn, dn`` and one ``atan2`` a sample, where ``R_J`` costs more than everything else together
+phase* ``arg θ4(z + i beta)`` is periodic and takes a few more terms of the same series as
+``sn, cn, dn`` and one ``atan2`` a sample, where ``R_J`` costs more than everything else together
 (:class:`_ThetaPhase`).
 """
 
@@ -64,9 +65,11 @@ from .ops import COLUMNS, FLOATS
 
 class JacobiValues(NamedTuple):
     """
-    ``sn, cn, dn`` at ``u``, with ``S = ∫_0^u sn^2/(1 - n sn^2)`` and the theta phase when asked
-    for (else ``None``); ``u = r + 2K j`` with ``r`` in ``[-K, K]`` (where ``cn >= 0``) and ``j``
-    the ``half_periods``, kept for continuous angles.
+    ``sn, cn, dn`` at ``u``, with ``S`` and the theta phase when asked for.
+
+    ``S = ∫_0^u sn^2/(1 - n sn^2)`` and the theta phase are ``None`` when not asked for;
+    ``u = r + 2K j`` with ``r`` in ``[-K, K]`` (where ``cn >= 0``) and ``j`` the ``half_periods``,
+    kept for continuous angles.
     """
 
     sn: np.ndarray
@@ -88,9 +91,10 @@ class JacobiValues(NamedTuple):
 
     def phase_minus_angle(self, a, b) -> np.ndarray:
         """
-        ``theta_phase - angle(a, b)`` by one ``atan2``: both ``atan2`` terms lie within ``pi/2``
-        of 0 (``re > 0``, ``cn(r) >= 0``), so their difference is the argument of one product,
-        unwrapped.
+        Return ``theta_phase - angle(a, b)`` by one ``atan2``.
+
+        Both ``atan2`` terms lie within ``pi/2`` of 0 (``re > 0``, ``cn(r) >= 0``), so their
+        difference is the argument of one product, unwrapped.
         """
         re, im, linear = self.phase_parts
         x, y = a * self.reduced_cn, b * self.reduced_sn
@@ -99,12 +103,17 @@ class JacobiValues(NamedTuple):
 
     @property
     def am(self) -> np.ndarray:
-        """The amplitude, continuous: ``am(r) + pi j``."""
+        """
+        Return the amplitude, continuous over half periods.
+
+        ``am(r) + pi j``.
+        """
         return self.angle(1.0, 1.0)
 
     def angle(self, a, b) -> np.ndarray:
         """
-        The continuous angle of ``(a cn, b sn)`` (``a, b > 0``) from the angle 0 at ``u = 0``:
+        Return the continuous angle of ``(a cn, b sn)`` (``a, b > 0``), 0 at ``u = 0``.
+
         ``atan2(b sn(r), a cn(r)) + pi j`` (``a = b = 1``: the amplitude).
         """
         return np.arctan2(b * self.reduced_sn, a * self.reduced_cn) + np.pi * self.half_periods
@@ -112,10 +121,11 @@ class JacobiValues(NamedTuple):
 
 class JacobiElliptic:
     """
-    Jacobi functions for a fixed parameter given as ``mc = 1 - m`` (``0 <= mc <= 1``; pass ``m``
-    too when it is known to more relative precision than ``1 - mc``), ``S`` for a fixed
-    characteristic ``n <= 0``, and the theta phase: ``n S(u) = n * sn2_integral_slope * u +
-    phase_weight * phase``.
+    Jacobi functions for a fixed parameter, ``S`` for a fixed characteristic, and the theta phase.
+
+    The parameter is given as ``mc = 1 - m`` (``0 <= mc <= 1``; pass ``m`` too when it is known to
+    more relative precision than ``1 - mc``), the characteristic is ``n <= 0``, and the theta phase
+    gives ``n S(u) = n * sn2_integral_slope * u + phase_weight * phase``.
     """
 
     #: from this ``mc`` up the functions are trigonometric theta series, below it hyperbolic ones
@@ -138,15 +148,15 @@ class JacobiElliptic:
             self.phase_weight = _phase_weight(FLOATS, m, n)
             self.quarter_period = np.inf
             self.sn2_integral_quarter = np.inf
-            self.sn2_integral_slope = 1.0 / (
-                1.0 - self.n
-            )  # S(u) ~ u / (1 - n) far out on the separatrix
+            # S(u) ~ u / (1 - n) far out on the separatrix
+            self.sn2_integral_slope = 1.0 / (1.0 - self.n)
 
     # -- public ---------------------------------------------------------------------------------
     def __call__(self, u, *, integral: bool = True, phase: bool = False) -> JacobiValues:
         """
-        The values at ``u``; ``S`` (to relative precision) unless ``integral`` is false, the
-        theta phase if ``phase``.
+        Return the values at ``u``.
+
+        ``S`` (to relative precision) unless ``integral`` is false, the theta phase if ``phase``.
         """
         u = np.asarray(u, dtype=float)
         if u.ndim == 0:  # one argument: the values as scalars
@@ -161,11 +171,12 @@ class JacobiElliptic:
     @staticmethod
     def columns(mc: np.ndarray, n: np.ndarray, m: np.ndarray | None = None) -> 'JacobiElliptic':
         """
-        Many parameters at once (``0 < mc <= 1``, ``n <= 0``, arrays ``(N,)`` over bodies):
-        every constant an array over bodies, so that ``u`` of shape ``(M, N)`` gives column ``i``
-        exactly as ``JacobiElliptic(mc[i], n[i], m[i])(u[:, i])`` would (the same elementwise
-        operations; bodies along the contiguous axis, so that numpy's loops run over them whatever
-        ``M`` is).
+        Build the functions of many parameters at once (arrays ``(N,)`` over bodies).
+
+        Parameters ``0 < mc <= 1`` and ``n <= 0``; every constant is an array over bodies, so that
+        ``u`` of shape ``(M, N)`` gives column ``i`` exactly as
+        ``JacobiElliptic(mc[i], n[i], m[i])(u[:, i])`` would (the same elementwise operations;
+        bodies along the contiguous axis, so that numpy's loops run over them whatever ``M`` is).
         """
         mc, n = (np.asarray(v, dtype=float) for v in (mc, n))
         m = 1.0 - mc if m is None else np.asarray(m, dtype=float)
@@ -187,8 +198,9 @@ class JacobiElliptic:
 
     def _set_constants(self, ops, mc, n, m, trigonometric: bool) -> None:
         """
-        Every constant off the separatrix (``mc > 0``), by the same operations for one parameter
-        (floats) and for arrays over bodies.
+        Set every constant off the separatrix (``mc > 0``).
+
+        By the same operations for one parameter (floats) and for arrays over bodies.
         """
         self.mc, self.n, self.m, self.k_prime = mc, n, m, ops.sqrt(mc)
         self.phase_weight = _phase_weight(ops, m, n)
@@ -215,25 +227,25 @@ class JacobiElliptic:
             functions = self._whole_half_period if self._theta.trigonometric else self._two_halves
             if not integral:
                 return functions(u, phase)
-            values = self._with_integral(
-                u
-            )  # S's R_J form, on the two halves of the quarter period
+            # S's R_J form, on the two halves of the quarter period
+            values = self._with_integral(u)
             return values._replace(phase_parts=functions(u, True).phase_parts) if phase else values
 
     def _whole_half_period(self, u: np.ndarray, phase: bool) -> JacobiValues:
         """
-        ``m <= 1/2``, without ``S``: the trigonometric series hold for every real ``z`` (see
-        :class:`_ThetaSeries`), so ``u`` is reduced by ``2K`` to ``r = u - 2K j``, ``z_r = pi
-        r/(2K)`` in ``[-pi/2, pi/2]``, and the functions come from it directly: ``sn(r) = sin z_r
-        A/D``, ``cn(r) = cos z_r B/D >= 0``, ``dn = C/D``, cubics in ``s = sin^2 z_r``; no
-        selection between two halves, which makes a call fewer array operations. The theta phase is
+        Evaluate for ``m <= 1/2``, without ``S``, on the whole half-period at once.
+
+        The trigonometric series hold for every real ``z`` (see :class:`_ThetaSeries`), so ``u`` is
+        reduced by ``2K`` to ``r = u - 2K j``, ``z_r = pi r/(2K)`` in ``[-pi/2, pi/2]``, and the
+        functions come from it directly: ``sn(r) = sin z_r A/D``, ``cn(r) = cos z_r B/D >= 0``,
+        ``dn = C/D``, cubics in ``s = sin^2 z_r``; no selection between two halves, which makes a
+        call fewer array operations. The theta phase is
         ``θ4(i beta) + s P(s) + i sin z_r cos z_r Q(s)`` (:class:`_ThetaPhase`).
         """
         series = self._theta
         half_periods, r = self._reduce(u)
-        reduced = (
-            series.scale * r
-        )  # (z = pi u/(2K) scaled first would add a rounding of its size to every sample)
+        # (z = pi u/(2K) scaled first would add a rounding of its size to every sample)
+        reduced = series.scale * r
         sine, cosine = np.sin(reduced), np.cos(reduced)
         s = sine * sine
         k0, k1, k2, k3 = series.phased_cubics if phase else series.cubics
@@ -256,14 +268,15 @@ class JacobiElliptic:
 
     def _two_halves(self, u: np.ndarray, phase: bool) -> JacobiValues:
         """
-        ``m > 1/2``, without ``S``: the hyperbolic series on ``[0, K/2]``, at ``w = |r|`` on the
-        first half of the quarter period and at ``w = K - |r|`` on the second, each half's three
-        functions one numerator over one denominator (``sh = sinh y``, ``ch = cosh y``): ``(sh A,
-        D, C) / (ch B)`` on the first (``sn = tanh A/B``, ``cn = D/(ch B)``, ``dn = C/(ch B)``),
-        ``(D, k' sh A, k' ch B) / C`` on the second (``sn = cd(w)``, ``cn = k' sd(w)``, ``dn = k'
-        nd(w)``). The theta phase from the same variables (:class:`_ThetaPhase`: ``arg θ2(gamma - i
-        y) - kappa w`` on the first half, ``kappa w - arg θ3(gamma - i y)`` on the second), odd in
-        ``r``.
+        Evaluate for ``m > 1/2``, without ``S``: the hyperbolic series on ``[0, K/2]``.
+
+        The series are evaluated at ``w = |r|`` on the first half of the quarter period and at
+        ``w = K - |r|`` on the second, each half's three functions one numerator over one
+        denominator (``sh = sinh y``, ``ch = cosh y``): ``(sh A, D, C) / (ch B)`` on the first
+        (``sn = tanh A/B``, ``cn = D/(ch B)``, ``dn = C/(ch B)``), ``(D, k' sh A, k' ch B) / C`` on
+        the second (``sn = cd(w)``, ``cn = k' sd(w)``, ``dn = k' nd(w)``). The theta phase from the
+        same variables (:class:`_ThetaPhase`: ``arg θ2(gamma - i y) - kappa w`` on the first half,
+        ``kappa w - arg θ3(gamma - i y)`` on the second), odd in ``r``.
         """
         series = self._theta
         half_periods, r = self._reduce(u)
@@ -318,8 +331,10 @@ class JacobiElliptic:
 
     def values_at(self, sn: float, cn: float, dn: float) -> JacobiValues:
         """
-        The values at the ``u`` in ``[-K, K]`` where the functions are ``sn``, ``cn >= 0``,
-        ``dn`` (scalars): ``am`` and ``S`` from them directly, without finding ``u``.
+        Return the values at the ``u`` in ``[-K, K]`` where the functions have the given values.
+
+        The functions are ``sn``, ``cn >= 0``, ``dn`` (scalars): ``am`` and ``S`` from them
+        directly, without finding ``u``.
         """
         return JacobiValues(
             sn=sn,
@@ -333,8 +348,9 @@ class JacobiElliptic:
 
     def incomplete_first_kind(self, sn, cn, dn) -> np.ndarray:
         """
-        ``u = F(am|m)`` in ``[-K, K]`` from ``sn``, ``cn >= 0``, ``dn`` (inverse of
-        ``__call__``).
+        Return ``u = F(am|m)`` in ``[-K, K]`` from ``sn``, ``cn >= 0``, ``dn``.
+
+        The inverse of ``__call__``.
         """
         sn, cn, dn = (np.asarray(v, dtype=float) for v in (sn, cn, dn))
         return first_kind_from_values(sn, cn, dn)
@@ -342,16 +358,19 @@ class JacobiElliptic:
     # -- internals ------------------------------------------------------------------------------
     def _reduce(self, u: np.ndarray):
         """
-        ``(j, r)`` with ``u = r + 2K j``, ``r`` in ``[-K, K]`` (exact next to a multiple of
-        ``2K``).
+        Return ``(j, r)`` with ``u = r + 2K j``, ``r`` in ``[-K, K]``.
+
+        Exact next to a multiple of ``2K``.
         """
         half_periods = np.rint(u * self._per_period)
         return half_periods, u - self._period * half_periods
 
     def _fold(self, r: np.ndarray):
         """
-        ``(first, w)`` for ``0 <= r <= K``: ``w = r`` on the first half of the quarter period,
-        ``K - r`` on the second, so that the series are evaluated on ``[0, K/2]``.
+        Fold ``0 <= r <= K`` onto ``[0, K/2]``, where the series are evaluated.
+
+        Return ``(first, w)``: ``w = r`` on the first half of the quarter period, ``K - r`` on the
+        second.
         """
         first = r <= self._half_K
         return first, np.where(first, r, self._K - r)
@@ -359,9 +378,8 @@ class JacobiElliptic:
     def _quarter(self, r: np.ndarray):
         """``sn, cn, dn`` and ``S`` for ``0 <= r <= K``."""
         mc, n, kp = self.mc, self.n, self.k_prime
-        first, w = self._fold(
-            r
-        )  # second half through v = K - r: sn = cd(v), cn = k' sd(v), dn = k' nd(v)
+        # second half through v = K - r: sn = cd(v), cn = k' sd(v), dn = k' nd(v)
+        first, w = self._fold(r)
         s1, c1, d1 = self._theta(w)
         inverse_d1 = 1.0 / d1
         s = np.where(first, s1, c1 * inverse_d1)
@@ -381,10 +399,12 @@ class JacobiElliptic:
 
     def _separatrix(self, u: np.ndarray, integral: bool, phase: bool) -> JacobiValues:
         """
-        ``m = 1``: ``sn = tanh``, ``cn = dn = sech``, ``am = gd``, and in closed form
-        ``S(u) = ∫ tanh^2/(1 - n tanh^2) = [u - atan(sqrt(-n) tanh u) / sqrt(-n)] / (1 - n)``
-        (the theta phase is that arctangent). The difference cancels for small ``u`` (``S ~
-        u^3/3``), so there ``S`` comes from the Carlson form used off the separatrix,
+        Evaluate on the separatrix, ``m = 1``.
+
+        ``sn = tanh``, ``cn = dn = sech``, ``am = gd``, and in closed form
+        ``S(u) = ∫ tanh^2/(1 - n tanh^2) = [u - atan(sqrt(-n) tanh u) / sqrt(-n)] / (1 - n)`` (the
+        theta phase is that arctangent). The difference cancels for small ``u`` (``S ~ u^3/3``), so
+        there ``S`` comes from the Carlson form used off the separatrix,
         ``(1/3) tanh^3 R_J(sech^2, sech^2, 1, 1 - n tanh^2)``.
         """
         a = np.abs(u)
@@ -398,9 +418,8 @@ class JacobiElliptic:
             bounded = np.arctan(root * tanh) / root if root > 0.0 else tanh
             c2 = sech * sech
             with np.errstate(under='ignore'):
-                carlson = (
-                    tanh**3 * elliprj(c2, c2, 1.0, 1.0 - self.n * tanh * tanh) / 3.0
-                )  # inf once sech^2 underflows
+                # inf once sech^2 underflows
+                carlson = tanh**3 * elliprj(c2, c2, 1.0, 1.0 - self.n * tanh * tanh) / 3.0
             s = np.where(a < 1.0, carlson, (u - bounded) / (1.0 - self.n))
         return JacobiValues(
             sn=tanh,
@@ -414,11 +433,8 @@ class JacobiElliptic:
         )
 
 
-_ONE, _TWO, _PI = (
-    np.array(1.0),
-    np.array(2.0),
-    np.array(math.pi),
-)  # (numpy values: see _set_constants)
+# (numpy values: see _set_constants)
+_ONE, _TWO, _PI = np.array(1.0), np.array(2.0), np.array(math.pi)
 
 
 def _parity(half_periods: np.ndarray) -> np.ndarray:
@@ -428,8 +444,9 @@ def _parity(half_periods: np.ndarray) -> np.ndarray:
 
 def _first_element(value):
     """
-    One argument's value from a batch of one (tuples element by element, constants as they
-    are).
+    Return one argument's value from a batch of one.
+
+    Tuples element by element, constants as they are.
     """
     if value is None or isinstance(value, float):
         return value
@@ -440,17 +457,20 @@ def _first_element(value):
 
 def first_kind_from_values(sn, cn, dn, rf=elliprf):
     """
-    ``u = F(am|m)`` in ``[-K, K]`` from ``sn``, ``cn >= 0``, ``dn`` (floats or arrays). Taking
-    ``cn^2`` and ``dn^2`` directly keeps ``u`` accurate next to ``±K``, where ``am`` is ``±pi/2``
-    to rounding.
+    Return ``u = F(am|m)`` in ``[-K, K]`` from ``sn``, ``cn >= 0``, ``dn``.
+
+    Floats or arrays. Taking ``cn^2`` and ``dn^2`` directly keeps ``u`` accurate next to ``±K``,
+    where ``am`` is ``±pi/2`` to rounding.
     """
     return sn * rf(cn * cn, dn * dn, 1.0)
 
 
 def sn2_integral_from_values(sn, cn, dn, n, rj=elliprj):
     """
-    ``S(u) = (1/3) sn^3 R_J(cn^2, dn^2, 1, 1 - n sn^2)`` at the ``u`` in ``[-K, K]`` where the
-    functions are ``sn``, ``cn >= 0``, ``dn`` (floats or arrays; DLMF 19.25.14).
+    Return ``S(u) = (1/3) sn^3 R_J(cn^2, dn^2, 1, 1 - n sn^2)`` from the functions' values.
+
+    At the ``u`` in ``[-K, K]`` where the functions are ``sn``, ``cn >= 0``, ``dn`` (floats or
+    arrays; DLMF 19.25.14).
     """
     s2 = sn * sn
     return sn * s2 * rj(cn * cn, dn * dn, 1.0, 1.0 - n * s2) / 3.0
@@ -465,7 +485,8 @@ class _Stacked(JacobiElliptic):
 
 class _ThetaSeries:
     """
-    ``sn, cn, dn`` for ``0 <= u <= K/2`` as quotients of Jacobi theta functions (DLMF 22.2.4),
+    ``sn, cn, dn`` for ``0 <= u <= K/2`` as quotients of Jacobi theta functions (DLMF 22.2.4).
+
     ``sn = θ3 θ1(z) / (θ2 θ4(z))``, ``cn = θ4 θ2(z) / (θ2 θ4(z))``, ``dn = θ4 θ3(z) / (θ3 θ4(z))``
     (constants at 0), each series cut after the terms that matter in float64.
 
@@ -488,15 +509,16 @@ class _ThetaSeries:
     * ``C(c), D(c) = 1 ± 2q c + 2q^4 (2c^2-1) ± 2q^9 (4c^3-3c)`` (``θ3``, ``θ4``)
 
     so ``sn = (θ3/θ2) sin z A/D``, ``cn = (θ4/θ2) cos z B/D``, ``dn = (θ4/θ3) C/D`` and,
-    hyperbolic, ``sn = (θ3/θ4) tanh y A/B``, ``cn = (θ2/θ4) D/(B cosh y)``, ``dn = (θ2/θ3) C/(B
-    cosh y)``. Their coefficients (constant factors folded in) are set once; a sample is ``sin``
-    and ``cos`` (or ``sinh``, ``cosh``, ``tanh``) and four Horner cubics, whose terms fall off fast
-    enough that none cancels: ``sn`` is a sine or ``tanh`` times a positive quotient and ``cn``,
-    ``dn`` are quotients of sums without cancellation, so all three keep relative precision next to
-    ``u = 0`` and next to the separatrix. A fixed count, and powers of ``q`` by products, keep each
-    value the same whatever else is evaluated with it. The trigonometric cubics are kept in ``s =
-    sin^2 z = (1 - c)/2`` (``sin(2j+1)z / sin z``, ``cos(2j+1)z / cos z`` and ``cos 2jz`` are
-    polynomials in it), which a sample has without forming ``c``.
+    hyperbolic, ``sn = (θ3/θ4) tanh y A/B``, ``cn = (θ2/θ4) D/(B cosh y)``,
+    ``dn = (θ2/θ3) C/(B cosh y)``. Their coefficients (constant factors folded in) are set once; a
+    sample is ``sin`` and ``cos`` (or ``sinh``, ``cosh``, ``tanh``) and four Horner cubics, whose
+    terms fall off fast enough that none cancels: ``sn`` is a sine or ``tanh`` times a positive
+    quotient and ``cn``, ``dn`` are quotients of sums without cancellation, so all three keep
+    relative precision next to ``u = 0`` and next to the separatrix. A fixed count, and powers of
+    ``q`` by products, keep each value the same whatever else is evaluated with it. The
+    trigonometric cubics are kept in ``s = sin^2 z = (1 - c)/2`` (``sin(2j+1)z / sin z``,
+    ``cos(2j+1)z / cos z`` and ``cos 2jz`` are polynomials in it), which a sample has without
+    forming ``c``.
 
     Works on one parameter (floats) or on columns of parameters of one kind (``trigonometric`` the
     same for every column). The cubics of its :class:`_ThetaPhase` join the same Horner pass.
@@ -505,9 +527,8 @@ class _ThetaSeries:
     def __init__(self, K, K_complementary, trigonometric: bool, ops, phase: '_ThetaPhase'):
         self.trigonometric = trigonometric
         ratio = K_complementary / K if trigonometric else K / K_complementary
-        self.scale = np.asarray(
-            (0.5 * math.pi) / (K if trigonometric else K_complementary)
-        )  # u -> z or y
+        # u -> z or y
+        self.scale = np.asarray((0.5 * math.pi) / (K if trigonometric else K_complementary))
         q = ops.exp(-math.pi * ratio)  # the same value for one parameter and for columns
         q2 = q * q
         q4 = q2 * q2
@@ -551,12 +572,20 @@ class _ThetaSeries:
 
     @functools.cached_property
     def phased_cubics(self) -> tuple:
-        """The four cubics and their phase's, stacked for one Horner pass (see :func:`_stack`)."""
+        """
+        Return the four cubics and their phase's, stacked for one Horner pass.
+
+        See :func:`_stack`.
+        """
         return _stack(self.rows + list(self.phase.cubics))
 
     @functools.cached_property
     def cubics(self) -> tuple:
-        """The functions' own four cubics (a view of the stack; the attitude takes all of it)."""
+        """
+        Return the functions' own four cubics: a view of the stack.
+
+        The attitude takes all of the stack.
+        """
         return tuple(k[:4] for k in self.phased_cubics)
 
     def __call__(self, u):
@@ -581,9 +610,10 @@ class _ThetaSeries:
 
 def _stack(rows) -> tuple:
     """
-    Coefficient ``k`` of cubics given as rows ``(c0, c1, c2, c3)``, stacked for one Horner pass:
-    ``(rows, 1)`` for one parameter (``c`` of shape ``(M,)``), ``(rows, 1, N)`` for parameters over
-    bodies (``c`` of shape ``(M, N)``).
+    Stack cubics given as rows ``(c0, c1, c2, c3)`` by coefficient, for one Horner pass.
+
+    Coefficient ``k`` is ``(rows, 1)`` for one parameter (``c`` of shape ``(M,)``),
+    ``(rows, 1, N)`` for parameters over bodies (``c`` of shape ``(M, N)``).
     """
     coefficients = np.array([row[k] for k in range(4) for row in rows])
     return tuple(coefficients.reshape((4, len(rows), 1) + coefficients.shape[1:]))
@@ -591,17 +621,20 @@ def _stack(rows) -> tuple:
 
 def _phase_weight(ops, m, n):
     """
-    ``w = sqrt(-n / ((m - n)(1 - n)))``, 0 for ``n = 0`` (where ``S`` has no weight in ``n
-    S``).
+    Return ``w = sqrt(-n / ((m - n)(1 - n)))``, 0 for ``n = 0``.
+
+    At ``n = 0``, ``S`` has no weight in ``n S``.
     """
     return ops.sqrt(-n / (ops.where(n < 0.0, m - n, 1.0) * (1.0 - n)))
 
 
 def _third_kind_shift(ops, m, n):
     """
-    ``b`` with ``n = -m sc^2(b|mc)``, and ``b' = K' - b``, each directly (Carlson's ``R_F``), so
-    that whichever is small is known to relative precision: ``sc^2(b|mc) = -n/m`` and
-    ``sc^2(b'|mc) = -1/n``. ``n = 0`` gives ``b = 0``; ``m = 0`` (``n < 0``) gives ``b = inf``.
+    Return ``b`` with ``n = -m sc^2(b|mc)``, and ``b' = K' - b``, each directly.
+
+    Each comes from Carlson's ``R_F``, so that whichever is small is known to relative precision:
+    ``sc^2(b|mc) = -n/m`` and ``sc^2(b'|mc) = -1/n``. ``n = 0`` gives ``b = 0``; ``m = 0``
+    (``n < 0``) gives ``b = inf``.
     """
     moving = n < 0.0
     d = ops.where(moving, m - n, 1.0)
@@ -614,16 +647,17 @@ def _third_kind_shift(ops, m, n):
 
 class _ThetaPhase:
     """
-    The theta phase ``arg θ4(z + i beta)`` (``z = pi u/(2K)``, ``beta = pi b/(2K)``, ``b`` from
-    :func:`_third_kind_shift`): the constants of its cubics, which join :class:`_ThetaSeries`'
-    Horner pass in the same variable. The real part stays positive, so one ``atan2`` gives the
-    phase without any branch to follow.
+    The theta phase ``arg θ4(z + i beta)``: the constants of its cubics.
 
-    Trigonometric (``m <= 1/2``), for every real ``z`` from ``θ4(z + i beta) = θ4(i beta) + s P(s)
-    + i sin z cos z Q(s)``, ``s = sin^2 z`` (``P``, ``Q`` cubics with ``q^(j^2) cosh 2j beta``,
-    ``q^(j^2) sinh 2j beta``, ``j <= 4``). When ``|n|`` is large (a thin rod) ``θ4(i beta)`` is
-    tiny, and it comes from the product form with ``1 - q e^(2 beta) = -expm1(-pi b'/K)``: the near
-    zero is exact, not a difference.
+    ``z = pi u/(2K)``, ``beta = pi b/(2K)``, ``b`` from :func:`_third_kind_shift`. The cubics join
+    :class:`_ThetaSeries`' Horner pass in the same variable. The real part stays positive, so one
+    ``atan2`` gives the phase without any branch to follow.
+
+    Trigonometric (``m <= 1/2``), for every real ``z`` from
+    ``θ4(z + i beta) = θ4(i beta) + s P(s) + i sin z cos z Q(s)``, ``s = sin^2 z`` (``P``, ``Q``
+    cubics with ``q^(j^2) cosh 2j beta``, ``q^(j^2) sinh 2j beta``, ``j <= 4``). When ``|n|`` is
+    large (a thin rod) ``θ4(i beta)`` is tiny, and it comes from the product form with
+    ``1 - q e^(2 beta) = -expm1(-pi b'/K)``: the near zero is exact, not a difference.
 
     Hyperbolic (``m > 1/2``), by Jacobi's imaginary transformation (DLMF 20.7(viii)),
     ``arg θ4(z + i beta) = arg θ2(gamma - i y) - kappa u`` on the first half and
@@ -660,12 +694,8 @@ class _ThetaPhase:
         q, rho, sigma = ops.exp(-L * Kc), ops.exp(-L * bc), ops.exp(-L * (Kc + b))
         q2 = q * q
         q6 = q2 * q2 * q2
-        spread = (
-            1.0,
-            q2,
-            q6,
-            q6 * q6,
-        )  # q^(j(j-1)): q^(j^2) e^(+-2j beta) = (rho or sigma)^j q^(j(j-1))
+        # q^(j(j-1)): q^(j^2) e^(+-2j beta) = (rho or sigma)^j q^(j(j-1))
+        spread = (1.0, q2, q6, q6 * q6)
         up = (
             rho,
             rho * rho * spread[1],
@@ -694,9 +724,8 @@ class _ThetaPhase:
             )
             for j in range(1, 5)
         )
-        base = -ops.expm1(
-            -L * bc
-        )  # θ4(i beta) = (1 - rho) prod (1 - q^2j)(1 - sigma q^(2j-2))(1 - rho q^2j)
+        # θ4(i beta) = (1 - rho) prod (1 - q^2j)(1 - sigma q^(2j-2))(1 - rho q^2j)
+        base = -ops.expm1(-L * bc)
         q_even = 1.0
         for _ in range(6):
             q_before, q_even = q_even, q_even * q2
@@ -727,17 +756,16 @@ class _ThetaPhase:
         direct = b <= bc
         angle = (0.5 * math.pi / Kc) * ops.where(direct, b, bc)
         sin_angle, cos_angle = ops.sin(angle), ops.cos(angle)
-        sg, cg = (
-            ops.where(direct, sin_angle, cos_angle),
-            ops.where(direct, cos_angle, sin_angle),
-        )  # of gamma
+        # of gamma
+        sg, cg = ops.where(direct, sin_angle, cos_angle), ops.where(direct, cos_angle, sin_angle)
         v = sg * sg
+        # cos (2j+1) gamma
         cos_odd = (
             cg,
             cg * (1.0 - 4.0 * v),
             cg * ((1.0 - 12.0 * v) + 16.0 * v * v),
             cg * (((1.0 - 24.0 * v) + 80.0 * v * v) - 64.0 * v * v * v),
-        )  # cos (2j+1) gamma
+        )
         sin_odd = (
             sg,
             sg * (3.0 - 4.0 * v),

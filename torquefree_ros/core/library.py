@@ -13,9 +13,11 @@
 # limitations under the License.
 
 """
-The scene library: the YAML files in ``torquefree_ros/scenes/``, shipped inside the package (so
-a source checkout, a wheel and a colcon install all find them the same way) and also installed
-under ``share/torquefree_ros/config/scenes`` for ROS users to browse.
+The scene library: the YAML files in ``torquefree_ros/scenes/``.
+
+They are shipped inside the package (so a source checkout, a wheel and a colcon install all find
+them the same way) and also installed under ``share/torquefree_ros/config/scenes`` for ROS users to
+browse.
 """
 
 from __future__ import annotations
@@ -32,8 +34,9 @@ def library_scenes() -> dict[str, Path]:
 
 def is_scene_name(text: str) -> bool:
     """
-    A bare name (``explorer1``) rather than a path (``./explorer1``, ``a/b.yaml``,
-    ``x.yaml``).
+    Tell a bare scene name (``explorer1``) from a path.
+
+    True for a bare name, false for a path (``./explorer1``, ``a/b.yaml``, ``x.yaml``).
     """
     return (
         bool(text)

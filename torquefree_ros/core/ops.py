@@ -13,13 +13,14 @@
 # limitations under the License.
 
 """
-Arithmetic on one body's numbers (plain Python floats) or on many bodies' (numpy arrays, one
-element per body), behind one set of names, so that constants are written once and computed either
-way with the same IEEE operations in the same order: ``+ - * /`` and ``sqrt`` are correctly rounded
-in Python and numpy alike, ``copysign``, ``min``/``max`` and selections are exact, scipy's Carlson
-integrals are one C function per element, and ``atan2``, ``hypot``, ``exp``, ``sin`` and the like
-are Python's ``math`` functions for both (numpy may vectorise its own). A body computed among many
-is bit for bit the body alone.
+Arithmetic on one body's numbers or on many bodies', behind one set of names.
+
+One body's numbers are plain Python floats, many bodies' are numpy arrays (one element per body).
+Constants are written once and computed either way with the same IEEE operations in the same order:
+``+ - * /`` and ``sqrt`` are correctly rounded in Python and numpy alike, ``copysign``,
+``min``/``max`` and selections are exact, scipy's Carlson integrals are one C function per element,
+and ``atan2``, ``hypot``, ``exp``, ``sin`` and the like are Python's ``math`` functions for both
+(numpy may vectorise its own). A body computed among many is bit for bit the body alone.
 """
 
 from __future__ import annotations
@@ -74,8 +75,9 @@ class _Floats:
 
 def _per_element(function):
     """
-    ``function`` (one of ``math``'s) applied element by element to arrays over bodies, as to one
-    body.
+    Make ``function`` (one of ``math``'s) apply element by element to arrays over bodies.
+
+    Each element is computed as for one body.
     """
 
     def apply(*arrays):

@@ -13,8 +13,10 @@
 # limitations under the License.
 
 """
-The exact torque-free motion of a rigid body: body rates by Jacobi elliptic functions, attitude
-by the rotation about the constant angular momentum.
+The exact torque-free motion of a rigid body.
+
+Body rates by Jacobi elliptic functions, attitude by the rotation about the constant angular
+momentum.
 
 Equations (Landau & Lifshitz, Mechanics §37; Celledoni, Fassò, Säfström & Zanna, "The exact
 computation of the free rigid body motion and its use in splitting methods", SIAM J. Sci. Comput.
@@ -34,10 +36,10 @@ Attitude: ``R_NS(t) = P Rz(psi(t)) Q(m(t))`` where ``Q(m)`` is the shortest-arc 
 ``n = -J3 (J2-J1) / (J1 (J3-J2)) <= 0``. Its two terms cancel for a thin rod (``J3 << J1``), so it
 is used as ``psi_e' = |m|/J1 + |m|(J3-J1) n/(J1 J3) sn^2/(1 - n sn^2)``, integrated exactly by
 :class:`JacobiElliptic`'s ``S`` as its mean slope times ``u`` plus the theta phase (the weights
-combine to ``sign(J3 - J1)``): ``psi`` is a constant rate plus a bounded periodic term;
-the shortest-arc frame differs from it by the angle of ``(m1, m2) = (A cn, ±B sn)``, taken
-continuously (``atan2(B sn(r), A cn(r)) + pi j`` for ``u = r + 2K j``, ``|r| <= K``), so the
-quaternion stays continuous over any number of periods.
+combine to ``sign(J3 - J1)``): ``psi`` is a constant rate plus a bounded periodic term; the
+shortest-arc frame differs from it by the angle of ``(m1, m2) = (A cn, ±B sn)``, taken continuously
+(``atan2(B sn(r), A cn(r)) + pi j`` for ``u = r + 2K j``, ``|r| <= K``), so the quaternion stays
+continuous over any number of periods.
 """
 
 from __future__ import annotations
@@ -64,8 +66,9 @@ from .rigid_body import EQUAL_MOMENTS_RTOL, MotionRegime, RigidBody
 @dataclass(frozen=True)
 class Polhode:
     """
-    One non-stationary torque-free motion: its solver frame and regime parameters, and the
-    Jacobi functions of its parameter.
+    One non-stationary torque-free motion.
+
+    Its solver frame and regime parameters, and the Jacobi functions of its parameter.
     """
 
     frame: SolverFrame
@@ -82,22 +85,24 @@ class Polhode:
 
 def solve_polhode(moments_P, omega_P) -> Polhode | None:
     """
-    Choose the solver frame and regime once; ``None`` for a stationary motion (rest, a sphere,
-    or a spin about a principal axis), whose rate is constant. (Plain float arithmetic: this runs
-    on every reset, where numpy's per-call cost would dominate.)
+    Choose the solver frame and regime once; return ``None`` for a stationary motion.
+
+    Stationary: rest, a sphere, or a spin about a principal axis, whose rate is constant. (Plain
+    float arithmetic: this runs on every reset, where numpy's per-call cost would dominate.)
     """
-    I = [float(v) for v in moments_P]
+    moments = [float(v) for v in moments_P]
     w = [float(v) for v in omega_P]
-    if is_stationary(I, w):
+    if is_stationary(moments, w):
         return None
-    frame = solver_frame(FLOATS, I, w)
+    frame = solver_frame(FLOATS, moments, w)
     return Polhode(frame, JacobiElliptic(frame.mc, frame.n, frame.m))
 
 
 def body_polhode(body: RigidBody, omega0_B) -> Polhode | None:
     """
-    The polhode of ``body`` starting at ``omega0_B`` (body frame), ``None`` for a stationary
-    motion.
+    Return the polhode of ``body`` starting at ``omega0_B`` (body frame).
+
+    ``None`` for a stationary motion.
     """
     axes = body.principal_axes.tolist()
     return solve_polhode(
@@ -107,9 +112,10 @@ def body_polhode(body: RigidBody, omega0_B) -> Polhode | None:
 
 def exact_attitude(body: RigidBody, omega0_B, q0_NB) -> 'PolhodeAttitude | None':
     """
-    The exact attitude from ``omega0_B`` and ``q0_NB``, ``None`` for a stationary motion. With
-    the compiled kernels its constants are compiled too (:func:`.attitude_kernels.build_row`): a
-    few µs.
+    Return the exact attitude from ``omega0_B`` and ``q0_NB``, ``None`` for a stationary motion.
+
+    With the compiled kernels its constants are compiled too (:func:`.attitude_kernels.build_row`):
+    a few µs.
     """
     if attitude_kernels.ENABLED:
         kinds, table = attitude_kernels.build_tables(
@@ -135,12 +141,14 @@ def exact_attitude(body: RigidBody, omega0_B, q0_NB) -> 'PolhodeAttitude | None'
 
 class PolhodeAttitude:
     """
-    Exact ``(omega_F, q_NF)`` at any times for a frame F fixed in the body (the propagator's
-    body frame), from the constants of :func:`.polhode_constants.attitude_constants`.
+    Exact ``(omega_F, q_NF)`` at any times for a frame F fixed in the body.
 
-    Per sample: ``omega_F = (cn, sn, dn) diag(a, b, c) C`` and ``q_NF = L ⊗ Rz(psi) ⊗ Q(m) ⊗
-    q_SF``; the constant left and right factors are one 4x4 matrix, and ``Rz(psi) ⊗ Q(m)`` is
-    written out (``Q(m)`` has no z part, ``Rz`` only z and w).
+    F is the propagator's body frame; the constants are those of
+    :func:`.polhode_constants.attitude_constants`.
+
+    Per sample: ``omega_F = (cn, sn, dn) diag(a, b, c) C`` and
+    ``q_NF = L ⊗ Rz(psi) ⊗ Q(m) ⊗ q_SF``; the constant left and right factors are one 4x4 matrix,
+    and ``Rz(psi) ⊗ Q(m)`` is written out (``Q(m)`` has no z part, ``Rz`` only z and w).
 
     One body (constants are floats): called with times ``(M,)`` it gives ``(M, 3)`` rates and
     ``(M, 4)`` attitudes. Many (constants are arrays over ``N`` bodies, ``jacobi`` from
@@ -200,8 +208,10 @@ class PolhodeAttitude:
     @classmethod
     def from_table(cls, table: np.ndarray, kind: str, many: bool = False) -> 'PolhodeAttitude':
         """
-        The compiled attitude of the bodies whose table :func:`.attitude_kernels.build_tables`
-        gave, all of one ``kind``: one body (one row), or ``many`` (results ``(M, N, k)``).
+        Build a compiled attitude from a table of :func:`.attitude_kernels.build_tables`.
+
+        The table's bodies are all of one ``kind``: one body (one row), or ``many`` (results
+        ``(M, N, k)``).
         """
         attitude = object.__new__(cls)
         attitude.jacobi = None
@@ -216,8 +226,9 @@ class PolhodeAttitude:
 
     def __call__(self, t: np.ndarray, out: tuple | None = None):
         """
-        Rates and attitudes at ``t``; into ``out = (omega, q)`` if given (arrays of the result's
-        shape).
+        Return the rates and attitudes at ``t``.
+
+        They go into ``out = (omega, q)`` if given (arrays of the result's shape).
         """
         if self._table is not None:
             return self._compiled(t, out)
@@ -237,13 +248,13 @@ class PolhodeAttitude:
 
     def _compiled(self, t: np.ndarray, out: tuple | None):
         """
-        :meth:`__call__` by :mod:`.attitude_kernels`, which fill ``(bodies, samples, k)``
-        arrays.
+        Do :meth:`__call__`'s work with :mod:`.attitude_kernels`.
+
+        The kernels fill ``(bodies, samples, k)`` arrays.
         """
         bodies = self._bodies or 1
-        if (
-            out is not None
-        ):  # the kernel's layout is bodies first: (M, N, k) views of it are taken back
+        # the kernel's layout is bodies first: (M, N, k) views of it are taken back
+        if out is not None:
             given = tuple(a[None] if self._bodies is None else a.swapaxes(0, 1) for a in out)
             filled = tuple(a if a.flags.c_contiguous else np.empty(a.shape) for a in given)
         else:
@@ -284,10 +295,12 @@ class PolhodeAttitude:
 
 def _combine(columns, rows) -> np.ndarray:
     """
-    ``np.stack(columns, -1) @ matrix`` for the matrix's ``rows``, summed element by element
-    rather than by BLAS, whose kernels (and so roundings) change with the number of rows: a sample
-    must not depend on how many were requested with it. Columns ``(M,)`` with rows ``(l,)``, or
-    ``(M, N)`` with rows ``(N, l)`` (bodies: the same operations, body by body).
+    Compute ``np.stack(columns, -1) @ matrix`` from the matrix's ``rows``, element by element.
+
+    Summed element by element rather than by BLAS, whose kernels (and so roundings) change with the
+    number of rows: a sample must not depend on how many were requested with it. Columns ``(M,)``
+    with rows ``(l,)``, or ``(M, N)`` with rows ``(N, l)`` (bodies: the same operations, body by
+    body).
     """
     total = columns[0][..., None] * rows[0]
     for column, row in zip(columns[1:], rows[1:]):
@@ -306,21 +319,21 @@ def _angle_between(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def classify_motion(body: RigidBody, omega_B) -> MotionRegime:
-    """The regime of the torque-free motion starting at ``omega_B`` (seed 000 and 002)."""
+    """Classify the torque-free motion starting at ``omega_B`` (seed 000 and 002)."""
     omega_P = body.to_principal(omega_B)
-    I = body.moments
-    lo, mid, hi = np.argsort(I, kind='stable')
-    scale = float(np.max(I))
-    equal_lo = I[mid] - I[lo] <= EQUAL_MOMENTS_RTOL * scale
-    equal_hi = I[hi] - I[mid] <= EQUAL_MOMENTS_RTOL * scale
+    moments = body.moments
+    lo, mid, hi = np.argsort(moments, kind='stable')
+    scale = float(np.max(moments))
+    equal_lo = moments[mid] - moments[lo] <= EQUAL_MOMENTS_RTOL * scale
+    equal_hi = moments[hi] - moments[mid] <= EQUAL_MOMENTS_RTOL * scale
     if not np.any(omega_P):
         return MotionRegime('at_rest')
     if equal_lo and equal_hi:
         return MotionRegime('sphere')
     gaps = body.momentum_energy_gaps(omega_B)
     two_T = float(2.0 * body.kinetic_energy(omega_B))
-    distance = float(gaps[mid] / (two_T * I[mid]))
-    polhode = solve_polhode(I, omega_P)
+    distance = float(gaps[mid] / (two_T * moments[mid]))
+    polhode = solve_polhode(moments, omega_P)
     if polhode is None:
         axis_index = int(np.argmax(np.abs(omega_P)))
         if (equal_lo and axis_index in (lo, mid)) or (equal_hi and axis_index in (mid, hi)):
@@ -332,13 +345,13 @@ def classify_motion(body: RigidBody, omega_B) -> MotionRegime:
     period = polhode.polhode_period
     if equal_lo or equal_hi:
         symmetry_axis = hi if equal_lo else lo
-        transverse = I[mid]
-        precession = (I[symmetry_axis] / transverse - 1.0) * float(omega_P[symmetry_axis])
+        transverse = moments[mid]
+        precession = (moments[symmetry_axis] / transverse - 1.0) * float(omega_P[symmetry_axis])
         kind = 'axisymmetric_oblate' if equal_lo else 'axisymmetric_prolate'
         # The cones of seed 000: the body cone is swept by w about the symmetry axis, the space
         # cone by w about H; the symmetry axis precesses about H_N at |H| / I_transverse.
         axial = abs(float(omega_P[symmetry_axis]))
-        H_P = I * omega_P
+        H_P = moments * omega_P
         return MotionRegime(
             kind,
             polhode_period=period,

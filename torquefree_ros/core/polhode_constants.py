@@ -13,8 +13,10 @@
 # limitations under the License.
 
 """
-The exact solution's constants from an initial state, by one set of formulas for one body (plain
-floats: every reset builds one) or for many at once (numpy columns: ``propagate_batch``).
+The exact solution's constants from an initial state, for one body or for many at once.
+
+One set of formulas for one body (plain floats: every reset builds one) or for many at once (numpy
+columns: ``propagate_batch``).
 
 Every function takes the arithmetic it runs on (:data:`.ops.FLOATS` or :data:`.ops.COLUMNS`), which
 does the same IEEE operations either way: a body of a batch is bit for bit the body built alone.
@@ -45,8 +47,10 @@ class SolverFrame(NamedTuple):
 
 def is_stationary(moments, omega) -> Any:
     """
-    Euler's equations' right-hand side, exactly zero only for a relative equilibrium (rest, a
-    sphere, a spin about a principal axis): the rate is then constant.
+    Tell whether Euler's equations' right-hand side is exactly zero.
+
+    It is only for a relative equilibrium (rest, a sphere, a spin about a principal axis): the rate
+    is then constant.
     """
     I, w = moments, omega
     return (
@@ -58,8 +62,10 @@ def is_stationary(moments, omega) -> Any:
 
 def solver_frame(ops, moments, omega) -> SolverFrame:
     """
-    Choose the solver frame and the regime's parameters, for principal ``moments`` and the rate
-    ``omega`` in principal axes (three values each; not stationary).
+    Choose the solver frame and the regime's parameters.
+
+    For principal ``moments`` and the rate ``omega`` in principal axes (three values each; not
+    stationary).
     """
     I, w = moments, omega
     pick = ops.pick
@@ -104,8 +110,9 @@ def solver_frame(ops, moments, omega) -> SolverFrame:
 
 class AttitudeConstants(NamedTuple):
     """
-    Everything :class:`~.polhode.PolhodeAttitude` evaluates with, for ``mc > 0`` (values: floats
-    or columns; the 3x3 and 4x4 matrices as nested tuples of them).
+    Everything :class:`~.polhode.PolhodeAttitude` evaluates with, for ``mc > 0``.
+
+    Values: floats or columns; the 3x3 and 4x4 matrices as nested tuples of them.
     """
 
     initial_phase: Any  # u0
@@ -114,9 +121,8 @@ class AttitudeConstants(NamedTuple):
     momentum_amplitudes: tuple  # m = (cn, sn, dn) * these
     direction: Any  # sign(J3 - J2)
     lever: tuple  # A, B: the angle of (m1, m2) is that of (A cn, B sn) times sign(J3 - J2)
-    psi_rate: (
-        Any  # psi = psi_rate t + direction (theta phase - angle of (A cn, B sn)) + psi_offset
-    )
+    # psi = psi_rate t + direction (theta phase - angle of (A cn, B sn)) + psi_offset
+    psi_rate: Any
     psi_offset: Any
     frame_change: tuple  # q_NF = (about_H_arc) @ this
 
@@ -125,9 +131,11 @@ def attitude_constants(
     ops, frame: SolverFrame, solver_from_frame, q_NF0, sn2_integral_slope
 ) -> AttitudeConstants:
     """
-    The attitude's constants for ``omega_S = solver_from_frame @ omega_F`` (rows of values), the
-    initial attitude ``q_NF0`` (four values) and the mean slope ``S(K)/K`` of the Jacobi functions'
-    ``S`` (:class:`.elliptic.JacobiElliptic`).
+    Compute the attitude's constants.
+
+    For ``omega_S = solver_from_frame @ omega_F`` (rows of values), the initial attitude ``q_NF0``
+    (four values) and the mean slope ``S(K)/K`` of the Jacobi functions' ``S``
+    (:class:`.elliptic.JacobiElliptic`).
     """
     J1, J2, J3 = frame.moments
     a, b, c = frame.amplitudes
@@ -151,8 +159,8 @@ def attitude_constants(
     q_SF = quaternion.matrix_quaternion(solver_from_frame, ops)
     q_NS0 = quaternion.multiply_values(q_NF0, quaternion.conjugate_values(q_SF))
     left = quaternion.multiply_values(
-        q_NS0, (-m0[1] / arc_norm, m0[0] / arc_norm, -0.0, arc_w / arc_norm)
-    )  # conj(Q(m0))
+        q_NS0, (-m0[1] / arc_norm, m0[0] / arc_norm, -0.0, arc_w / arc_norm)  # conj(Q(m0))
+    )
     return AttitudeConstants(
         initial_phase=u0,
         momentum=momentum,
@@ -175,9 +183,10 @@ def attitude_constants(
 
 def solver_from_body(ops, frame: SolverFrame, principal_axes) -> tuple:
     """
-    Rows of ``C`` with ``omega_S = C omega_B`` for principal axes given as the columns of
-    ``principal_axes`` (rows of values): ``C[i][j] = signs[i] principal_axes[j][axes[i]]``,
-    exact.
+    Return the rows of ``C`` with ``omega_S = C omega_B``.
+
+    For principal axes given as the columns of ``principal_axes`` (rows of values):
+    ``C[i][j] = signs[i] principal_axes[j][axes[i]]``, exact.
     """
     pick, (row0, row1, row2) = ops.pick, principal_axes
     return tuple(
@@ -190,8 +199,9 @@ def solver_from_body(ops, frame: SolverFrame, principal_axes) -> tuple:
 
 def to_principal(omega_B, principal_axes) -> tuple:
     """
-    ``omega_P = principal_axes^T omega_B``, summed in one fixed order (values: floats or
-    columns).
+    Return ``omega_P = principal_axes^T omega_B``, summed in one fixed order.
+
+    Values: floats or columns.
     """
     (w0, w1, w2), (a0, a1, a2) = omega_B, principal_axes
     return (

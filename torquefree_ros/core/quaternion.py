@@ -41,7 +41,7 @@ def _single(*arrays: np.ndarray) -> bool:
 
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``a x b`` of 3-vectors (``np.cross``, with the float path for one pair)."""
+    """Return ``a x b`` of 3-vectors (``np.cross``, with the float path for one pair)."""
     a = np.asarray(a, dtype=float)
     b = np.asarray(b, dtype=float)
     if not _single(a, b):
@@ -72,8 +72,10 @@ def multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
 
 def multiply_values(p, q) -> tuple:
     """
-    ``p ⊗ q`` of two quaternions given as four values each, floats or arrays (the same
-    operations as :func:`multiply`), for code that builds constants from a handful of numbers.
+    Return ``p ⊗ q`` of two quaternions given as four values each, floats or arrays.
+
+    The same operations as :func:`multiply`, for code that builds constants from a handful of
+    numbers.
     """
     px, py, pz, pw = p
     qx, qy, qz, qw = q
@@ -86,15 +88,16 @@ def multiply_values(p, q) -> tuple:
 
 
 def conjugate_values(q) -> tuple:
-    """The conjugate of a quaternion given as four values."""
+    """Return the conjugate of a quaternion given as four values."""
     return (-q[0], -q[1], -q[2], q[3])
 
 
 def product_matrix(left: np.ndarray, right: np.ndarray) -> np.ndarray:
     """
-    The 4x4 matrix ``M`` with ``M x = left ⊗ x ⊗ right`` for any ``x`` (one quaternion each): a
-    fixed frame change on both sides of many quaternions is then one matrix product, ``X @
-    M.T``.
+    Return the 4x4 matrix ``M`` with ``M x = left ⊗ x ⊗ right`` for any ``x``.
+
+    ``left`` and ``right`` are one quaternion each: a fixed frame change on both sides of many
+    quaternions is then one matrix product, ``X @ M.T``.
     """
     return np.array(
         product_matrix_values(
@@ -105,9 +108,10 @@ def product_matrix(left: np.ndarray, right: np.ndarray) -> np.ndarray:
 
 def product_matrix_values(left, right) -> tuple:
     """
-    :func:`product_matrix` with each quaternion as four values (floats or arrays): the product
-    of the matrices of ``left ⊗ .`` and ``. ⊗ right``, summed in one fixed order; rows of
-    values.
+    Compute :func:`product_matrix` with each quaternion as four values (floats or arrays).
+
+    The product of the matrices of ``left ⊗ .`` and ``. ⊗ right``, summed in one fixed order; rows
+    of values.
     """
     px, py, pz, pw = left
     qx, qy, qz, qw = right
@@ -152,16 +156,19 @@ def to_matrix(q: np.ndarray) -> np.ndarray:
 
 def from_matrix(matrix) -> np.ndarray:
     """
-    Unit quaternion of a proper rotation matrix (Shepperd's method, largest pivot), ``w >=
-    0``.
+    Return the unit quaternion, ``w >= 0``, of a proper rotation matrix.
+
+    Shepperd's method, largest pivot.
     """
     return np.array(matrix_quaternion(np.asarray(matrix, dtype=float).tolist()))
 
 
 def matrix_quaternion(m, ops=FLOATS) -> tuple:
     """
-    :func:`from_matrix` of a matrix given as rows of values: floats (``ops``
-    :data:`.ops.FLOATS`) or arrays over bodies (:data:`.ops.COLUMNS`).
+    Compute :func:`from_matrix` of a matrix given as rows of values.
+
+    The values are floats (``ops`` :data:`.ops.FLOATS`) or arrays over bodies
+    (:data:`.ops.COLUMNS`).
     """
     trace = m[0][0] + m[1][1] + m[2][2]
     pivot = ops.first_largest([m[0][0], m[1][1], m[2][2], trace])
@@ -189,9 +196,10 @@ def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 def rotate_values(q, v) -> tuple:
     """
-    ``R(q) v`` of a quaternion and a vector given as values, floats or arrays (the same
-    operations as :func:`rotate` of one pair): ``v + 2 w (u x v) + 2 u x (u x v)``, u the vector
-    part, w the scalar.
+    Return ``R(q) v`` of a quaternion and a vector given as values, floats or arrays.
+
+    The same operations as :func:`rotate` of one pair: ``v + 2 w (u x v) + 2 u x (u x v)``, u the
+    vector part, w the scalar.
     """
     ux, uy, uz, w = q
     vx, vy, vz = v
@@ -209,7 +217,11 @@ def rotate_inverse(q: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def exp_rotation(rotation_vector: np.ndarray) -> np.ndarray:
-    """Unit quaternion of the rotation by ``|v|`` rad about ``v`` (the map ``v -> exp(v/2)``)."""
+    """
+    Return the unit quaternion of the rotation by ``|v|`` rad about ``v``.
+
+    The map ``v -> exp(v/2)``.
+    """
     v = np.asarray(rotation_vector, dtype=float)
     # sin(|v|/2)/|v| without dividing by zero: its series is exact to rounding below 1e-4.
     if v.ndim == 1:

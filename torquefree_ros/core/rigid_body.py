@@ -13,9 +13,10 @@
 # limitations under the License.
 
 """
-Rigid body: inertia (principal moments or a full tensor), validation, invariants, the Duffing
-analog of seed 000 (Junkins, Jacobson & Blanton 1973) and a classification of the torque-free
-motion.
+Rigid body: inertia, validation, invariants, the Duffing analog and the motion's classification.
+
+The inertia is principal moments or a full tensor; the Duffing analog is that of seed 000 (Junkins,
+Jacobson & Blanton 1973); the classification is of the torque-free motion.
 
 Frames in names: ``omega_B`` is the body-frame rate in the user's body frame B; ``_P`` marks the
 principal frame P. ``principal_axes`` has the principal axes as columns in B coordinates, is a
@@ -53,7 +54,9 @@ class RigidBody:
     @classmethod
     def from_inertia(cls, inertia, name: str = 'inertia') -> 'RigidBody':
         """
-        From ``[I1, I2, I3]`` (principal; B is then the principal frame, any order),
+        Build a body from principal moments, tensor elements or a 3x3 matrix.
+
+        ``[I1, I2, I3]`` (principal; B is then the principal frame, any order),
         ``[Ixx, Iyy, Izz, Ixy, Ixz, Iyz]`` (tensor elements, as in URDF) or a 3x3 matrix.
         """
         if isinstance(inertia, RigidBody):
@@ -112,22 +115,25 @@ class RigidBody:
         separatrix (``H^2 = 2 T I_mid``); this form only subtracts moments.
         """
         w2 = self.to_principal(omega_B) ** 2
-        I = self.moments
-        return np.einsum('i,ij,...i->...j', I, I[:, None] - I[None, :], w2)
+        moments = self.moments
+        return np.einsum('i,ij,...i->...j', moments, moments[:, None] - moments[None, :], w2)
 
     def duffing_constants(self, omega_B):
         """
-        ``(A, B, K)`` of ``w_i'' + A_i w_i + B_i w_i^3 = 0`` and of its integral
-        ``w_i'^2 + A_i w_i^2 + B_i/2 w_i^4 = K_i``, principal axis order (seed 000).
+        Return ``(A, B, K)`` of each principal rate's Duffing equation (seed 000).
+
+        The equation is ``w_i'' + A_i w_i + B_i w_i^3 = 0``, its integral
+        ``w_i'^2 + A_i w_i^2 + B_i/2 w_i^4 = K_i``; principal axis order.
         """
-        I = self.moments
+        moments = self.moments  # I_1, I_2, I_3
         g = self.momentum_energy_gaps(omega_B)  # g_j = H^2 - 2 T I_j
-        product = I[0] * I[1] * I[2]
+        product = moments[0] * moments[1] * moments[2]
         A, B, K = np.empty(3), np.empty(3), np.empty(3)
         for i, j, k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
-            A[i] = -((I[i] - I[j]) * g[k] + (I[i] - I[k]) * g[j]) / product
-            B[i] = 2.0 * (I[i] - I[j]) * (I[i] - I[k]) / (I[j] * I[k])
-            K[i] = -g[j] * g[k] / (I[i] ** 2 * I[j] * I[k])
+            I_i, I_j, I_k = moments[i], moments[j], moments[k]
+            A[i] = -((I_i - I_j) * g[k] + (I_i - I_k) * g[j]) / product
+            B[i] = 2.0 * (I_i - I_j) * (I_i - I_k) / (I_j * I_k)
+            K[i] = -g[j] * g[k] / (I_i**2 * I_j * I_k)
         return A, B, K
 
     def classify(self, omega_B) -> 'MotionRegime':
@@ -139,8 +145,10 @@ class RigidBody:
 @dataclass(frozen=True)
 class MotionRegime:
     """
-    What kind of torque-free motion a state starts; periods in seconds (``inf`` where the
-    motion never repeats, ``nan`` where the notion does not apply).
+    What kind of torque-free motion a state starts.
+
+    Periods are in seconds (``inf`` where the motion never repeats, ``nan`` where the notion does
+    not apply).
     """
 
     kind: str  # at_rest | sphere | pure_spin | axisymmetric_oblate | axisymmetric_prolate |
@@ -153,9 +161,8 @@ class MotionRegime:
     separatrix_distance: float = float('nan')  # (H^2/2T - I_mid) / I_mid
     body_cone_angle: float = float('nan')  # axisymmetric: between w and the symmetry axis, rad
     space_cone_angle: float = float('nan')  # axisymmetric: between w and H, rad
-    inertial_precession_rate: float = float(
-        'nan'
-    )  # axisymmetric: symmetry axis about H_N, |H|/I_T
+    # axisymmetric: symmetry axis about H_N, |H|/I_T
+    inertial_precession_rate: float = float('nan')
 
     def summary(self) -> str:
         parts = [self.kind.replace('_', ' ')]
@@ -179,8 +186,9 @@ class MotionRegime:
 
 def _float_array(value) -> np.ndarray | None:
     """
-    ``value`` as a float array, or ``None`` if it is not numbers (then checked for the
-    message).
+    Return ``value`` as a float array, or ``None`` if it is not numbers.
+
+    ``None``: the value is then checked for the message.
     """
     try:
         return np.asarray(value, dtype=float)
@@ -197,9 +205,8 @@ def _symmetric_tensor(matrix: np.ndarray, name: str) -> np.ndarray:
     return 0.5 * (matrix + matrix.T)
 
 
-_IDENTITY = np.eye(
-    3
-)  # the principal axes of a body given in its principal frame (shared: read-only)
+# the principal axes of a body given in its principal frame (shared: read-only)
+_IDENTITY = np.eye(3)
 _IDENTITY.flags.writeable = False
 
 # Sums and products of moments (eigen-solver, triangle check, I_max |H|^2) must stay finite in
@@ -210,7 +217,8 @@ MAX_INERTIA = 1e100  # kg m^2
 def _check_magnitude(values: np.ndarray, name: str) -> None:
     if max(map(abs, values.ravel().tolist())) > MAX_INERTIA:
         raise ValueError(
-            f'{name}: entries must lie within ±{MAX_INERTIA:g} kg m^2 so that float64 sums and products '
+            f'{name}: entries must lie within ±{MAX_INERTIA:g} kg m^2 '
+            'so that float64 sums and products '
             f'of them stay finite; this one overflows (largest {np.max(np.abs(values)):g})'
         )
 

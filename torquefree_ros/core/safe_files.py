@@ -13,10 +13,11 @@
 # limitations under the License.
 
 """
-Reading files that anyone may have written (scene files, a bag's metadata.yaml) totally: only a
-regular file below a size bound is read (a FIFO or a device is refused before it can block), and a
-YAML document is refused if it nests too deeply or expands, through aliases, into too many values
-("billion laughs"). Every failure is a ``ValueError`` whose text says what and where.
+Reading files that anyone may have written (scene files, a bag's metadata.yaml) totally.
+
+Only a regular file below a size bound is read (a FIFO or a device is refused before it can block),
+and a YAML document is refused if it nests too deeply or expands, through aliases, into too many
+values ("billion laughs"). Every failure is a ``ValueError`` whose text says what and where.
 """
 
 from __future__ import annotations
@@ -33,8 +34,9 @@ MAX_YAML_DEPTH = 64  # nesting levels; PyYAML recurses once per level
 
 def read_regular_file(path: Path, max_bytes: int) -> bytes:
     """
-    The bytes of a regular file of at most ``max_bytes``; ``OSError`` as from ``open``,
-    ``ValueError`` for a special file or one too large.
+    Return the bytes of a regular file of at most ``max_bytes``.
+
+    ``OSError`` as from ``open``, ``ValueError`` for a special file or one too large.
     """
     descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, 'O_CLOEXEC', 0))
     try:
@@ -83,12 +85,8 @@ def load_yaml(text: str, where: str, loader_class=yaml.SafeLoader):
         raise ValueError(
             f'{where}: not valid YAML: nested too deeply (more than {MAX_YAML_DEPTH} levels)'
         ) from None
-    except (
-        KeyError,
-        IndexError,
-        TypeError,
-        OverflowError,
-    ) as error:  # PyYAML's constructors on odd scalars
+    except (KeyError, IndexError, TypeError, OverflowError) as error:
+        # PyYAML's constructors on odd scalars
         raise ValueError(
             f'{where}: not valid YAML: a value cannot be read ({type(error).__name__}: '
             f'{clip(str(error))})'
@@ -105,7 +103,12 @@ def load_yaml(text: str, where: str, loader_class=yaml.SafeLoader):
 
 
 def _check_node_size(root, where: str) -> None:
-    """Counted with a memo over shared (aliased) nodes, so the count itself stays cheap."""
+    """
+    Raise ``ValueError`` if the YAML tree under ``root`` nests too deeply or has too many values.
+
+    The values are counted with a memo over shared (aliased) nodes, so the count itself stays
+    cheap.
+    """
     sizes: dict[int, int] = {}
     depths: dict[int, int] = {}
 

@@ -27,8 +27,8 @@ Schema (SI units; every error names the file, the field path and the reason)::
     effects: [- NAME: {parameters}]             # see core.effects; none = torque-free
     accuracy: 1e-10                             # integrator tolerance when an effect needs one
     sweep: {members: 9}                         # optional: a family at the initial |H| (members())
-    watch: 900                                  # optional: seconds its story takes (plots show
-    that long)
+    watch: 900                                  # optional: seconds its story takes
+                                                # (plots show that long)
 
 An effect that changes the motion makes the scene need a numerical propagator; an output effect
 (``imu``, ``euler_angles``) only adds a topic. A scene that names nothing builds nothing: no effect
@@ -66,7 +66,9 @@ from .schema import (
 )
 
 DEFAULT_SCENE_DATA = {
-    'description': 'a triaxial body tumbling visibly about its minor axis (the built-in default scene)',
+    'description': (
+        'a triaxial body tumbling visibly about its minor axis (the built-in default scene)'
+    ),
     'body': {'inertia': [3.0, 2.0, 1.0]},
     'initial': {'angular_velocity': [0.3, 0.2, 1.0], 'orientation': [0.0, 0.0, 0.0, 1.0]},
     'effects': [],
@@ -108,8 +110,9 @@ class Scene:
         **options,
     ) -> Propagator:
         """
-        The scene's propagator; ``auto`` is exact unless an effect changes the motion. The
-        keyword arguments override the scene's body and initial state (the node's parameters).
+        Return the scene's propagator; ``auto`` is exact unless an effect changes the motion.
+
+        The keyword arguments override the scene's body and initial state (the node's parameters).
         """
         return make_propagator(
             self.inertia if inertia is None else inertia,
@@ -123,13 +126,13 @@ class Scene:
 
     def members(self) -> list['Scene']:
         """
-        The energy sweep (seed 000): at the ``|H|`` of the initial state, energies spaced evenly
-        from the minimum ``H^2 / (2 I_max)`` (a spin about the major axis) to the maximum
-        ``H^2 / (2 I_min)`` (about the minor axis). Member ``j`` has ``H_P = |H| (sqrt(1 - f)
-        e_major
-        + sqrt(f) e_minor)``, ``f = j / (members - 1)``, so ``2T = H^2 ((1 - f) / I_max + f /
-          I_min)``.
-        A scene without ``sweep`` is its own only member.
+        Return the scenes of the energy sweep (seed 000), or this scene alone without ``sweep``.
+
+        At the ``|H|`` of the initial state, energies are spaced evenly from the minimum
+        ``H^2 / (2 I_max)`` (a spin about the major axis) to the maximum ``H^2 / (2 I_min)`` (about
+        the minor axis). Member ``j`` has ``H_P = |H| (sqrt(1 - f) e_major + sqrt(f) e_minor)``,
+        ``f = j / (members - 1)``, so ``2T = H^2 ((1 - f) / I_max + f / I_min)``. A scene without
+        ``sweep`` is its own only member.
         """
         if not self.sweep_members:
             return [self]
@@ -156,23 +159,25 @@ def default_scene() -> Scene:
     return scene_from_mapping(DEFAULT_SCENE_DATA)
 
 
-MAX_SCENE_BYTES = (
-    1 << 20
-)  # a scene is a few hundred bytes; a schedule of thousands of segments still fits
+# a scene is a few hundred bytes; a schedule of thousands of segments still fits
+MAX_SCENE_BYTES = 1 << 20
 MAX_PATH_LENGTH = 4096  # PATH_MAX on Linux
 
 
 def load_scene(path_or_name) -> Scene:
     """
-    Read and validate a scene: a file, or the name of a library scene (``explorer1``;
-    ``default`` is the built-in default). An existing file wins over a library name. Loading is
-    total: any input gives a Scene or a SceneError naming the file (and line, or field path), in
-    bounded time and memory (``safe_files``: regular files of at most 1 MiB, bounded YAML).
+    Read and validate a scene: a file, or the name of a library scene.
+
+    A library scene is named bare (``explorer1``); ``default`` is the built-in default. An existing
+    file wins over a library name. Loading is total: any input gives a Scene or a SceneError naming
+    the file (and line, or field path), in bounded time and memory (``safe_files``: regular files
+    of at most 1 MiB, bounded YAML).
     """
     name = str(path_or_name)
     if len(name) > MAX_PATH_LENGTH or '\0' in name:
         raise SceneError(
-            f'scene: not a usable file name ({len(name)} characters, at most {MAX_PATH_LENGTH}, no NUL)'
+            f'scene: not a usable file name ({len(name)} characters, '
+            f'at most {MAX_PATH_LENGTH}, no NUL)'
         )
     path = Path(path_or_name)
     if not _exists(path) and library.is_scene_name(name):
@@ -193,9 +198,11 @@ def read_document(
     path, error: type[Exception] = SceneError, what: str = 'scene'
 ) -> tuple[str, object]:
     """
-    A YAML file read as scenes are: a regular file of at most MAX_SCENE_BYTES, UTF-8, YAML 1.2
-    numbers, keys given once, bounded nesting; returns ``(text, document)``. Every failure is an
-    ``error`` naming the file (``what`` before a failure to read it at all).
+    Read a YAML file as scenes are read; return ``(text, document)``.
+
+    A regular file of at most MAX_SCENE_BYTES, UTF-8, YAML 1.2 numbers, keys given once, bounded
+    nesting. Every failure is an ``error`` naming the file (``what`` before a failure to read it at
+    all).
     """
     try:
         data = read_regular_file(path, MAX_SCENE_BYTES)
@@ -224,9 +231,11 @@ def _exists(path: Path) -> bool:
 
 class _SceneLoader(yaml.SafeLoader):
     """
-    YAML 1.2 numbers: PyYAML follows YAML 1.1, where ``1e-3`` and ``3.986e14`` (no dot or no
-    exponent sign) are strings, a trap in a file of SI values. A key given twice is an error
-    (PyYAML would silently keep the last).
+    The scenes' YAML loader: YAML 1.2 numbers, and a key given twice is an error.
+
+    PyYAML follows YAML 1.1, where ``1e-3`` and ``3.986e14`` (no dot or no exponent sign) are
+    strings, a trap in a file of SI values. A key given twice is an error (PyYAML would silently
+    keep the last).
     """
 
     def construct_mapping(self, node, deep=False):
@@ -253,14 +262,15 @@ class _SceneLoader(yaml.SafeLoader):
 _SceneLoader.add_implicit_resolver(
     'tag:yaml.org,2002:float',
     re.compile(
-        r'^[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?$|^[-+]?\.(?:inf|Inf|INF)$|^\.(?:nan|NaN|NAN)$'
+        r'^[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?$'
+        r'|^[-+]?\.(?:inf|Inf|INF)$|^\.(?:nan|NaN|NAN)$'
     ),
     list('-+0123456789.'),
 )
 
 _INITIAL = {
     'angular_velocity': Param(
-        vector(3, unit='rad/s'), help='initial body-frame rate [wx, wy, wz], rad/s'
+        vector(3, unit='rad/s'), description='initial body-frame rate [wx, wy, wz], rad/s'
     ),
     'orientation': Param(unit_quaternion(), np.array([0.0, 0.0, 0.0, 1.0])),
 }
@@ -292,8 +302,9 @@ def scene_from_mapping(data, source: str = '<built-in default>') -> Scene:
 
 def _check_effect_scales(values) -> None:
     """
-    Each motion effect's torque and state rate at the initial state must be finite: a parameter
-    such as ``mean_motion: 1e308`` is refused here, with its path, not mid-run.
+    Check that each motion effect's torque and state rate at the initial state are finite.
+
+    A parameter such as ``mean_motion: 1e308`` is refused here, with its path, not mid-run.
     """
     from .propagators.base import overflowing_message
 
@@ -353,12 +364,14 @@ def _body(value, path: str) -> dict:
 
 _TOP = {
     'description': Param(text(allow_empty=True), ''),
-    'body': Param(_body, help='every scene names its body: inertia or parts'),
-    'initial': Param(mapping(_INITIAL), help='every scene names its initial state'),
+    'body': Param(_body, description='every scene names its body: inertia or parts'),
+    'initial': Param(mapping(_INITIAL), description='every scene names its initial state'),
     'effects': Param(listing(parse_effect), []),
     'accuracy': Param(number(MIN_ACCURACY, MAX_ACCURACY), None),
     'sweep': Param(
-        mapping({'members': Param(integer(2, 1000), help='how many initial states, 2 or more')}),
+        mapping(
+            {'members': Param(integer(2, 1000), description='how many initial states, 2 or more')}
+        ),
         None,
     ),
     'watch': Param(number(positive=True, maximum=MAX_WATCH, unit='s'), None),

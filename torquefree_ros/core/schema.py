@@ -13,8 +13,10 @@
 # limitations under the License.
 
 """
-A small declarative schema for scene files: each field is a checker that converts a YAML value
-or raises :class:`FieldError` with the field's path (``effects[1].torque``) and the reason.
+A small declarative schema for scene files.
+
+Each field is a checker that converts a YAML value or raises :class:`FieldError` with the field's
+path (``effects[1].torque``) and the reason.
 
 A mapping is checked against a dict of :class:`Param` (checker + default); an unknown key is named
 with the nearest valid one, a missing required key is named as missing.
@@ -50,12 +52,11 @@ class FieldError(ValueError):
 class Param:
     check: Checker
     default: Any = REQUIRED
-    help: str = ''
+    description: str = ''
 
 
-MAX_SHOWN = (
-    80  # characters of a bad value quoted in an error: enough to recognise it, never a flood
-)
+# characters of a bad value quoted in an error: enough to recognise it, never a flood
+MAX_SHOWN = 80
 
 
 def shown(value) -> str:
@@ -75,7 +76,11 @@ def _is_number(value) -> bool:
 
 
 def _finite(value) -> bool:
-    """A finite real number as float64 (an integer of 400 digits is not: float() overflows)."""
+    """
+    Tell whether ``value`` is a finite real number as float64.
+
+    An integer of 400 digits is not: float() overflows.
+    """
     try:
         return math.isfinite(float(value))
     except OverflowError:
@@ -99,7 +104,7 @@ def number(
     positive: bool = False,
     unit: str = '',
 ) -> Checker:
-    """A finite real number in ``[minimum, maximum]`` (``positive``: > 0)."""
+    """Build a checker of a finite real number in ``[minimum, maximum]`` (``positive``: > 0)."""
     suffix = f' {unit}' if unit else ''
 
     def check(value, path):
@@ -149,8 +154,10 @@ _TOPIC = re.compile(r'^~?/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*$')
 
 def topic_name(value, path):
     """
-    A ROS topic name (relative or absolute; tokens of letters, digits and '_', not starting with
-    a digit; at most 256 characters, a limit DDS implementations share).
+    Check a ROS topic name (relative or absolute).
+
+    Tokens of letters, digits and '_', not starting with a digit; at most 256 characters, a limit
+    DDS implementations share.
     """
     if not isinstance(value, str) or len(value) > 256 or not _TOPIC.match(value):
         raise FieldError(
@@ -161,8 +168,10 @@ def topic_name(value, path):
 
 def retired(reason: str) -> Checker:
     """
-    A key that is no longer used: any value is refused with ``reason`` (what replaced it, what
-    to do), so an old scene file fails with an explanation rather than an "unknown key" guess.
+    Build the checker of a key that is no longer used.
+
+    Any value is refused with ``reason`` (what replaced it, what to do), so an old scene file fails
+    with an explanation rather than an "unknown key" guess.
     """
 
     def check(value, path):
@@ -185,7 +194,7 @@ def choice(*options: str) -> Checker:
 
 
 def vector(*lengths: int, unit: str = '', positive: bool = False) -> Checker:
-    """A list of ``lengths`` finite numbers, as a float array."""
+    """Build a checker of a list of ``lengths`` finite numbers, as a float array."""
     wanted = ' or '.join(str(n) for n in lengths)
 
     def check(value, path):
@@ -211,8 +220,9 @@ def vector(*lengths: int, unit: str = '', positive: bool = False) -> Checker:
 
 def unit_quaternion() -> Checker:
     """
-    ``(x, y, z, w)``, normalised by the core's own check (zero and far-from-unit norms
-    refused).
+    Build a checker of an ``(x, y, z, w)`` quaternion, normalised by the core's own check.
+
+    Zero and far-from-unit norms are refused.
     """
     as_vector = vector(4)
 
@@ -242,8 +252,9 @@ def mapping(params: dict[str, Param]) -> Checker:
 
 def fields(value, path: str, params: dict[str, Param]) -> dict:
     """
-    Check a mapping against ``params``; returns every key, defaults filled (``None`` stays for
-    an optional key without a default).
+    Check a mapping against ``params``; return every key, defaults filled.
+
+    ``None`` stays for an optional key without a default.
     """
     if not isinstance(value, dict):
         keys = ', '.join(params)
@@ -255,7 +266,8 @@ def fields(value, path: str, params: dict[str, Param]) -> dict:
             result[key] = param.check(value[key], child(path, key))
         elif param.default is REQUIRED:
             raise FieldError(
-                child(path, key), 'missing' + (f' ({param.help})' if param.help else '')
+                child(path, key),
+                'missing' + (f' ({param.description})' if param.description else ''),
             )
         else:
             result[key] = param.default
@@ -274,7 +286,7 @@ def check_keys(value: dict, allowed, path: str) -> None:
 
 
 def one_key(value, path: str, known, what: str) -> tuple[str, Any]:
-    """A ``- NAME: {parameters}`` entry: its name (one of ``known``) and its parameters."""
+    """Split a ``- NAME: {parameters}`` entry into its name (one of ``known``) and parameters."""
     if not (isinstance(value, dict) and len(value) == 1):
         raise FieldError(
             path, f"expected a one-key mapping '- NAME: {{parameters}}' naming a {what}"

@@ -66,8 +66,9 @@ class Invariants:
 
 class Simulation:
     """
-    ``propagator`` sampled at ``rate`` Hz from ``epoch_ns``, with ``outputs`` (output
-    effects).
+    A started simulation: ``propagator`` sampled at ``rate`` Hz from ``epoch_ns``.
+
+    ``outputs`` are its output effects.
     """
 
     def __init__(
@@ -103,13 +104,14 @@ class Simulation:
     @property
     def command_holds(self) -> tuple:
         """
-        ``(effect, hold)`` of each effect that takes commands (``torque_command``), in scene
-        order.
+        Return ``(effect, hold)`` of each effect that takes commands (``torque_command``).
+
+        In scene order.
         """
         return tuple((effect, effect.hold) for effect in command_inputs(self.propagator.effects))
 
     def stamp_ns(self, k: int) -> int:
-        """The stamp of sample ``k``, as :meth:`samples` stamps it."""
+        """Return the stamp of sample ``k``, as :meth:`samples` stamps it."""
         return int(stamps_ns(self.epoch_ns, np.array([k / self.rate]))[0])
 
     def samples(self, first: int, count: int) -> SampleBlock:
@@ -125,7 +127,8 @@ class Simulation:
                 np.argmin(np.all(np.isfinite(omega), axis=1) & np.all(np.isfinite(q), axis=1))
             )
             raise ValueError(
-                f'the state at t = {times[bad]:g} s is not finite: this body and initial state leave '
+                f'the state at t = {times[bad]:g} s is not finite: '
+                'this body and initial state leave '
                 f"float64's range (propagator {self.propagator.describe()})"
             )
         outputs, positions = [], []
@@ -155,7 +158,8 @@ class Simulation:
 
     def invariants(self, omega_B, internal=None) -> Invariants:
         """
-        Energy and momentum (body + effects) of a sample and their drift since the (re)start.
+        Return a sample's energy and momentum (body + effects) and their drift since the (re)start.
+
         Where the scene conserves them, the drift is the propagator's error (the exact one: zero up
         to rounding); a torque or a damper changes them by physics.
         """
@@ -177,8 +181,10 @@ class Simulation:
 
     def summary(self) -> str:
         """
-        One line: inertia, initial state, invariants, regime with its period, propagator and the
-        accuracy it delivers, rate and the stamp of sample 0.
+        Describe the simulation in one line.
+
+        Inertia, initial state, invariants, regime with its period, propagator and the accuracy it
+        delivers, rate and the stamp of sample 0.
         """
         body, p = self.body, self.propagator
         inertia = _fmt(body.moments)
@@ -188,10 +194,11 @@ class Simulation:
                 f'tensor {_fmt([t[0, 0], t[1, 1], t[2, 2], t[0, 1], t[0, 2], t[1, 2]])} '
                 f'-> principal moments {inertia}'
             )
+        regime = 'regime' if p.dynamics.torque_free else 'torque-free regime of the initial state'
         return (
             f'inertia {inertia} kg m^2, w0 {_fmt(p.omega0_B)} rad/s, q0 {_fmt(p.q0_NB)}, '
             f'T {self.kinetic_energy0:.9g} J, |H| {self.momentum0:.9g} kg m^2/s, '
-            f'{"regime" if p.dynamics.torque_free else "torque-free regime of the initial state"}: '
+            f'{regime}: '
             f'{self.regime.summary()}; effects {self.describe_effects()}; '
             f'propagator {p.describe()}, accuracy: {self.accuracy}; {self.rate:g} Hz, '
             f'first stamp {self.epoch_ns // 10**9}.{self.epoch_ns % 10**9:09d} s'
@@ -200,8 +207,10 @@ class Simulation:
     @cached_property
     def accuracy(self) -> str:
         """
-        What the propagator's settings deliver from this initial state (measured once, on fresh
-        propagators: :func:`~torquefree_ros.core.accuracy.estimate_accuracy`).
+        Describe what the propagator's settings deliver from this initial state.
+
+        Measured once, on fresh propagators:
+        :func:`~torquefree_ros.core.accuracy.estimate_accuracy`.
         """
         try:
             return estimate_accuracy(self.propagator).describe()

@@ -45,7 +45,7 @@ MIN_RATE = 1e-3
 
 
 def check_rate(rate, name: str = 'rate') -> float:
-    """A sample rate in Hz: a finite number in [MIN_RATE, MAX_RATE]."""
+    """Check a sample rate in Hz (finite, in [MIN_RATE, MAX_RATE]); return it as a float."""
     if isinstance(rate, bool) or not isinstance(rate, (int, float, np.integer, np.floating)):
         raise ValueError(f'{name}: expected a number (Hz), got {rate!r}')
     rate = float(rate)
@@ -63,8 +63,10 @@ def stamps_ns(epoch_ns: int, times: np.ndarray) -> np.ndarray:
 
 def restart_epoch_ns(now_ns: int, last_stamp_ns: int | None, rate: float) -> int:
     """
-    The epoch of a (re)start: now, but never before one period after the last published stamp,
-    so stamps never go backwards and a clock of our own keeps its cadence across a reset.
+    Return the epoch of a (re)start: now, unless that is too soon after the last stamp.
+
+    The epoch is never before one period after the last published stamp, so stamps never go
+    backwards and a clock of our own keeps its cadence across a reset.
     """
     if last_stamp_ns is None:
         return int(now_ns)

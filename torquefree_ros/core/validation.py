@@ -38,22 +38,21 @@ def finite_vector(value, name: str, lengths: Sequence[int] = (3,)) -> np.ndarray
     if array.ndim != 1 or array.shape[0] not in lengths:
         wanted = ' or '.join(str(n) for n in lengths)
         raise ValueError(f'{name}: expected {wanted} numbers, got shape {array.shape}')
-    if not all(
-        map(math.isfinite, array.tolist())
-    ):  # a few numbers: plain floats beat numpy's reductions
+    # a few numbers: plain floats beat numpy's reductions
+    if not all(map(math.isfinite, array.tolist())):
         raise ValueError(f'{name}: every entry must be finite, got {array.tolist()}')
     return array
 
 
 def unit_quaternion(value, name: str = 'orientation') -> np.ndarray:
     """
-    An ``(x, y, z, w)`` quaternion as the rotation it is meant to be.
+    Return the ``(x, y, z, w)`` quaternion ``value`` as the rotation it is meant to be.
 
     The initial state is exactly the input when ``|q|`` is 1 to float64 rounding
-    (``| |q| - 1 | <= 4 eps``): no bit changes. Otherwise ``q / |q|`` when ``| |q|^2 - 1 | <=
-    0.01`` (tf2's rule: hand-typed values such as ``[0.2, 0.1, -0.3, 0.927]``); beyond that the
-    input is refused, with the normalised value in the message. ``|q|`` is ``math.hypot``
-    (correctly rounded up to one ulp, the same on every machine and numpy version).
+    (``| |q| - 1 | <= 4 eps``): no bit changes. Otherwise ``q / |q|`` when
+    ``| |q|^2 - 1 | <= 0.01`` (tf2's rule: hand-typed values such as ``[0.2, 0.1, -0.3, 0.927]``);
+    beyond that the input is refused, with the normalised value in the message. ``|q|`` is
+    ``math.hypot`` (correctly rounded up to one ulp, the same on every machine and numpy version).
     """
     q = finite_vector(value, name, (4,))
     norm = math.hypot(*q.tolist())
@@ -64,14 +63,15 @@ def unit_quaternion(value, name: str = 'orientation') -> np.ndarray:
     if abs(norm * norm - 1.0) > UNIT_QUATERNION_TOLERANCE:
         normalised = ', '.join(f'{x:.6g}' for x in q / norm)
         raise ValueError(
-            f'{name}: expected a unit quaternion (x, y, z, w), got norm {norm:.6g} (allowed: |norm^2 - 1| <= '
-            f'{UNIT_QUATERNION_TOLERANCE:g}, as tf2); if [{normalised}] is the rotation you mean, give that'
+            f'{name}: expected a unit quaternion (x, y, z, w), got norm {norm:.6g} '
+            f'(allowed: |norm^2 - 1| <= {UNIT_QUATERNION_TOLERANCE:g}, as tf2); '
+            f'if [{normalised}] is the rotation you mean, give that'
         )
     return q / norm
 
 
 def sample_times(value, name: str = 'times') -> np.ndarray:
-    """A 1-D array of finite, non-negative, non-decreasing times in seconds."""
+    """Return ``value`` as a 1-D array of finite, non-negative, non-decreasing times in seconds."""
     try:
         times = np.asarray(value, dtype=float)
     except (TypeError, ValueError) as error:
@@ -100,7 +100,8 @@ def sample_times(value, name: str = 'times') -> np.ndarray:
 
 def initial_samples(times: np.ndarray) -> int:
     """
-    How many of the checked ``times`` (:func:`sample_times`) are ``t = 0``: they lead, and are
-    the initial state itself, not its reconstruction through a solution.
+    Count the checked ``times`` (:func:`sample_times`) that are ``t = 0``.
+
+    They lead, and are the initial state itself, not its reconstruction through a solution.
     """
     return int(np.searchsorted(times, 0.0, side='right')) if times.size and times[0] == 0.0 else 0

@@ -13,14 +13,15 @@
 # limitations under the License.
 
 """
-Gymnasium environments over the plant: one body (:class:`AttitudeEnv`) or a batch
-(:class:`AttitudeVectorEnv`).
+Gymnasium environments over the plant: :class:`AttitudeEnv` and :class:`AttitudeVectorEnv`.
 
-Optional: this module needs ``gymnasium`` (the ``gym`` extra, ``pip install
-'torquefree_ros[gym]'``); ``import torquefree_ros`` does not import it. Importing this module
-registers the id ``torquefree_ros/Attitude-v0``: ``gymnasium.make("torquefree_ros/Attitude-v0",
-scene="detumble")`` and ``gymnasium.make_vec(..., num_envs=N,
-vectorization_mode="vector_entry_point")``.
+One body (:class:`AttitudeEnv`) or a batch (:class:`AttitudeVectorEnv`).
+
+Optional: this module needs ``gymnasium`` (the ``gym`` extra,
+``pip install 'torquefree_ros[gym]'``); ``import torquefree_ros`` does not import it. Importing
+this module registers the id ``torquefree_ros/Attitude-v0``:
+``gymnasium.make("torquefree_ros/Attitude-v0", scene="detumble")`` and
+``gymnasium.make_vec(..., num_envs=N, vectorization_mode="vector_entry_point")``.
 
 The task (both environments)
 ----------------------------
@@ -38,12 +39,11 @@ observes the state at ``k + 1``.
   nothing.
 * **Observation**: ``[omega_B (3, rad/s, body frame), q_NB (4, x y z w), the effects' own
   states]``, float64 (the plant's state, bit for bit). Bounds: the quaternion's components in
-  ``[-1, 1]``; when the scene's only motion effect is ``torque_command``, each rate within ``(|H_0|
-  + sqrt(3) max_torque max_steps / rate) / I_min`` (the momentum the box can add in an episode,
-    ``|H_0| <= I_max
-  |omega_0|`` over the initial rates ``reset`` can draw), else unbounded (Gymnasium's checker then
-  warns about the infinite bounds: none is known for other effects); the effects' own states are
-  unbounded.
+  ``[-1, 1]``; when the scene's only motion effect is ``torque_command``, each rate within
+  ``(|H_0| + sqrt(3) max_torque max_steps / rate) / I_min`` (the momentum the box can add in an
+  episode, ``|H_0| <= I_max |omega_0|`` over the initial rates ``reset`` can draw), else unbounded
+  (Gymnasium's checker then warns about the infinite bounds: none is known for other effects); the
+  effects' own states are unbounded.
 * **Reward** (:class:`DetumbleReward`, the default; ``h = 1 / rate``)::
 
       r_k = -h * ( |omega_B(t_k+1)|^2 / omega_ref^2 + c * |tau_k|^2 / max_torque^2 )
@@ -125,6 +125,8 @@ TORQUE_WEIGHT = 0.1
 
 class DetumbleReward:
     """
+    The default reward: a quadratic cost of the body rate and the torque over the step.
+
     ``r_k = -h (|omega_B(t_k+1)|^2 / omega_ref^2 + c |tau_k|^2 / max_torque^2)``, ``h = dt``,
     ``c = torque_weight`` (the module's docstring). Works on one body's arrays (a float) and on a
     batch's rows (``(N,)``; ``omega_ref`` may then be ``(N,)``) with the same arithmetic, element
@@ -146,8 +148,8 @@ class DetumbleReward:
 
     def __repr__(self) -> str:
         return (
-            f'DetumbleReward(omega_ref={self.omega_ref!r}, max_torque={self.max_torque!r}, dt={self.dt!r}, '
-            f'torque_weight={self.torque_weight!r})'
+            f'DetumbleReward(omega_ref={self.omega_ref!r}, max_torque={self.max_torque!r}, '
+            f'dt={self.dt!r}, torque_weight={self.torque_weight!r})'
         )
 
 
@@ -158,9 +160,8 @@ class AttitudeEnv(gymnasium.Env):
     ``scene``: a :class:`~torquefree_ros.Scene`, a scene file's path or a library scene's name,
     with a ``torque_command`` effect (else ``ValueError``); ``rate``: Hz; ``max_steps``: the
     episode's length (truncation); ``reward``: ``reward(state, torque, next_state) -> float``,
-    default
-    :class:`DetumbleReward`; ``omega_tol``: rad/s, the rate below which the episode terminates;
-    ``randomize``, ``spread``: the initial rate drawn at every reset (see ``reset``);
+    default :class:`DetumbleReward`; ``omega_tol``: rad/s, the rate below which the episode
+    terminates; ``randomize``, ``spread``: the initial rate drawn at every reset (see ``reset``);
     ``torque_weight``: ``c`` of the default reward.
     """
 
@@ -196,11 +197,8 @@ class AttitudeEnv(gymnasium.Env):
             else reward
         )
         if not callable(self.reward):
-            raise ValueError(
-                f'reward: expected a callable reward(state, torque, next_state), got {reward!r}'[
-                    :300
-                ]
-            )
+            text = f'reward: expected a callable reward(state, torque, next_state), got {reward!r}'
+            raise ValueError(text[:300])
         self.action_space = spaces.Box(-self.max_torque, self.max_torque, (3,), np.float64)
         self.observation_space = _observation_space(
             self.scene,
@@ -231,14 +229,16 @@ class AttitudeEnv(gymnasium.Env):
 
     @property
     def plant(self) -> Plant | None:
-        """The episode's plant (``None`` before the first ``reset``)."""
+        """Return the episode's plant, or ``None`` before the first ``reset``."""
         return self._plant
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         """
-        Start an episode at ``t = 0``: from the scene's initial state, or with the initial body
-        rate drawn from ``np_random`` when ``randomize`` (the constructor's;
-        ``options={"randomize": bool}`` for this reset). Returns ``(observation, {"t": 0.0})``.
+        Start an episode at ``t = 0``; return ``(observation, {"t": 0.0})``.
+
+        The episode starts from the scene's initial state, or with the initial body rate drawn
+        from ``np_random`` when ``randomize`` (the constructor's; ``options={"randomize": bool}``
+        for this reset).
         """
         super().reset(seed=seed)
         randomize = _reset_options(options, self.randomize)
@@ -273,12 +273,12 @@ class AttitudeEnv(gymnasium.Env):
 
 class AttitudeVectorEnv(VectorEnv):
     """
-    N bodies in batched plants, next-step autoreset (the module's docstring). ``scene``: one
-    scene (a Scene, path or library name) for ``num_envs`` bodies, or a list of scenes (one body
-    each; their motion effects of the same kinds and their ``max_torque`` equal). The other
-    arguments are
-    :class:`AttitudeEnv`'s; a ``reward`` is called once a step with the batch's rows and returns
-    ``(N,)``.
+    N bodies in batched plants, with next-step autoreset (the module's docstring).
+
+    ``scene``: one scene (a Scene, path or library name) for ``num_envs`` bodies, or a list of
+    scenes (one body each; their motion effects of the same kinds and their ``max_torque`` equal).
+    The other arguments are :class:`AttitudeEnv`'s; a ``reward`` is called once a step with the
+    batch's rows and returns ``(N,)``.
 
     ``reset(seed=..., options=...)``: ``seed`` an int (body ``i`` gets ``seed + i``), a list of N
     seeds or ``None`` (each body keeps its generator); ``options``: ``randomize`` (bool, this
@@ -330,7 +330,8 @@ class AttitudeVectorEnv(VectorEnv):
             if limit != self.max_torque:
                 raise ValueError(
                     f"scene[{index}]: its max_torque {limit:g} N m differs from scene[0]'s "
-                    f'{self.max_torque:g}: the bodies of a vector environment share one action space'
+                    f'{self.max_torque:g}: the bodies of a vector environment share one '
+                    'action space'
                 )
         self.reward = (
             DetumbleReward(
@@ -343,11 +344,8 @@ class AttitudeVectorEnv(VectorEnv):
             else reward
         )
         if not callable(self.reward):
-            raise ValueError(
-                f'reward: expected a callable reward(state, torque, next_state), got {reward!r}'[
-                    :300
-                ]
-            )
+            text = f'reward: expected a callable reward(state, torque, next_state), got {reward!r}'
+            raise ValueError(text[:300])
         self._width = 7 + plant.state.internal.shape[1]
         self.single_action_space = spaces.Box(-self.max_torque, self.max_torque, (3,), np.float64)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
@@ -377,7 +375,7 @@ class AttitudeVectorEnv(VectorEnv):
 
     @property
     def np_random(self) -> tuple:
-        """Each body's generator (as SyncVectorEnv gives its environments')."""
+        """Return each body's generator (as SyncVectorEnv gives its environments')."""
         for b, rng in enumerate(self._rngs):
             if rng is None:
                 self._rngs[b] = seeding.np_random()[0]
@@ -408,11 +406,11 @@ class AttitudeVectorEnv(VectorEnv):
         else:
             mask = np.asarray(mask)
             if mask.shape != (n,) or mask.dtype != np.bool_ or not mask.any():
-                raise ValueError(
-                    f"options['reset_mask']: expected a ({n},) bool array with a True, got {mask!r}"[
-                        :300
-                    ]
+                text = (
+                    f"options['reset_mask']: expected a ({n},) bool array with a True, "
+                    f'got {mask!r}'
                 )
+                raise ValueError(text[:300])
             if not self._started:
                 raise RuntimeError('reset: the first reset resets every body (no reset_mask)')
             bodies = np.flatnonzero(mask)
@@ -441,9 +439,8 @@ class AttitudeVectorEnv(VectorEnv):
         )
         terminated = stepped & (_squared_norm(after.omega_B) < self._tol2)
         truncated = stepped & (self._steps >= self.max_steps)
-        if (
-            resetting.any()
-        ):  # next-step autoreset: those whose episode ended on the last step begin again
+        # next-step autoreset: those whose episode ended on the last step begin again
+        if resetting.any():
             self._begin(np.flatnonzero(resetting), self.randomize)
         self._autoreset = terminated | truncated
         info = {
@@ -456,12 +453,12 @@ class AttitudeVectorEnv(VectorEnv):
         }
         return self._obs.copy(), rewards, terminated, truncated, info
 
-    # -- internals
-    # ------------------------------------------------------------------------------------
+    # -- internals -------------------------------------------------------------------------------
     def _begin(self, bodies: np.ndarray, randomize: bool) -> None:
         """
-        New episodes for ``bodies``: they leave their cohorts and form a new one, at its sample
-        0.
+        Begin new episodes for ``bodies``.
+
+        They leave their cohorts and form a new one, at its sample 0.
         """
         scenes = [
             _disperse(self.scenes[b], self.spread, self._rngs[b]) if randomize else self.scenes[b]
@@ -492,8 +489,9 @@ class AttitudeVectorEnv(VectorEnv):
 
 class _Cohort:
     """
-    Bodies that began their episodes on the same step, in one batched plant; row ``r`` is body
-    ``bodies[r]`` while ``alive[r]``.
+    Bodies that began their episodes on the same step, in one batched plant.
+
+    Row ``r`` is body ``bodies[r]`` while ``alive[r]``.
     """
 
     def __init__(self, plant: Plant, bodies: np.ndarray):
@@ -506,12 +504,12 @@ class _Cohort:
         return np.concatenate([state.omega_B, state.q_NB, state.internal], axis=1)
 
 
-# -- helpers
-# --------------------------------------------------------------------------------------------
+# -- helpers -------------------------------------------------------------------------------------
 def _squared_norm(v):
     """
-    ``v_x^2 + v_y^2 + v_z^2`` over the last axis, in the same order for one vector and for
-    rows.
+    Return ``v_x^2 + v_y^2 + v_z^2`` over the last axis.
+
+    The same order of operations for one vector and for rows.
     """
     v = np.asarray(v)
     return v[..., 0] * v[..., 0] + v[..., 1] * v[..., 1] + v[..., 2] * v[..., 2]
@@ -533,6 +531,8 @@ def _mask(n: int, bodies: np.ndarray) -> np.ndarray:
 
 def _clip(action, shape: tuple, max_torque: float) -> tuple[np.ndarray, np.ndarray]:
     """
+    Return the action clipped to ``[-max_torque, max_torque]``, and whether each body's was.
+
     The action as float64 of ``shape``, clipped to ``[-max_torque, max_torque]``; and whether
     each body's was clipped. Not numbers, the wrong shape or not finite: ``ValueError``.
     """
@@ -561,8 +561,8 @@ def _command_effect(scene: Scene):
 def _max_torque(plant: Plant, where: str) -> float:
     if not plant.takes_torque:
         raise ValueError(
-            f'{where}: {plant.scenes[0].source} takes no torque (it names no torque_command effect); '
-            'an attitude environment needs one'
+            f'{where}: {plant.scenes[0].source} takes no torque '
+            '(it names no torque_command effect); an attitude environment needs one'
         )
     return float(_command_effect(plant.scenes[0]).values['max_torque'])
 
@@ -574,8 +574,9 @@ def _omega_ref(scene: Scene) -> float:
 
 def _disperse(scene: Scene, spread: float, rng: np.random.Generator) -> Scene:
     """
-    The scene with its initial body rate drawn around its own: ``omega + spread |omega| u``,
-    ``u`` from ``rng.uniform(-1, 1, 3)``.
+    Return the scene with its initial body rate drawn around its own.
+
+    ``omega + spread |omega| u``, ``u`` from ``rng.uniform(-1, 1, 3)``.
     """
     omega = np.asarray(scene.angular_velocity, dtype=float)
     drawn = omega + spread * float(np.linalg.norm(omega)) * rng.uniform(-1.0, 1.0, 3)
@@ -586,9 +587,10 @@ def _observation_space(
     scene: Scene, internal: int, max_torque: float, duration: float, spread: float
 ) -> spaces.Box:
     """
-    The module's bounds: the rates within what the box can add to the initial momentum in
-    ``duration`` when ``torque_command`` is the only motion effect (|omega| <= |H| / I_min), else
-    unbounded.
+    Return the observation space with the module's bounds.
+
+    The rates within what the box can add to the initial momentum in ``duration`` when
+    ``torque_command`` is the only motion effect (|omega| <= |H| / I_min), else unbounded.
     """
     rate = math.inf
     if all(e.name == 'torque_command' for e in scene.effects):

@@ -13,8 +13,7 @@
 # limitations under the License.
 
 """
-A scene as a plant a controller steps in process: one body, or a batch of bodies advanced
-together.
+A scene as a plant a controller steps in process: one body, or a batch advanced together.
 
 ``Plant(scene, rate)`` holds the body at sample ``k`` (time ``t_k = k / rate``); ``step(torque)``
 holds ``torque`` over ``[t_k, t_k+1)`` under the ``torque_command`` effect's rules (its frame,
@@ -47,8 +46,10 @@ from ..core.timing import check_rate
 
 class PlantState(NamedTuple):
     """
-    A sample: body rates (rad/s, body frame), attitude ``q_NB`` (x, y, z, w) and the effects'
-    own states (a damper's rate); a batch has a leading axis of bodies.
+    A sample: body rates, attitude and the effects' own states.
+
+    Body rates (rad/s, body frame), attitude ``q_NB`` (x, y, z, w) and the effects' own states (a
+    damper's rate); a batch has a leading axis of bodies.
     """
 
     omega_B: np.ndarray
@@ -58,8 +59,10 @@ class PlantState(NamedTuple):
 
 class Plant:
     """
-    See the module's docstring. ``scene``: a :class:`Scene`, a scene file's path or a library
-    scene's name, or a list of them (a batch, even of one).
+    A scene, or a batch of scenes, stepped in process (see the module's docstring).
+
+    ``scene``: a :class:`Scene`, a scene file's path or a library scene's name, or a list of them
+    (a batch, even of one).
     """
 
     def __init__(self, scene, rate: float):
@@ -75,8 +78,7 @@ class Plant:
         self.scenes = scenes
         self._build()
 
-    # -- state
-    # ----------------------------------------------------------------------------------------
+    # -- state -----------------------------------------------------------------------------------
     @property
     def size(self) -> int:
         """How many bodies."""
@@ -88,21 +90,21 @@ class Plant:
 
     @property
     def state(self) -> PlantState:
-        """The state at sample ``k`` (copies)."""
+        """Return the state at sample ``k`` (copies)."""
         return self._shaped(self._sample)
 
     @property
     def takes_torque(self) -> bool:
         return self._commands is not None
 
-    # -- stepping
-    # -------------------------------------------------------------------------------------
+    # -- stepping --------------------------------------------------------------------------------
     def step(self, torque=None) -> PlantState:
         """
-        Hold ``torque`` (N m, in the ``torque_command`` effect's frame; ``(3,)``, or ``(N, 3)``
-        for a batch) over ``[t_k, t_k+1)`` and return the state at ``k + 1``. ``None``: no new
-        command (the one in force holds until its timeout). A refused torque raises ``ValueError``
-        and changes nothing.
+        Hold ``torque`` over ``[t_k, t_k+1)`` and return the state at ``k + 1``.
+
+        ``torque``: N m, in the ``torque_command`` effect's frame; ``(3,)``, or ``(N, 3)`` for a
+        batch. ``None``: no new command (the one in force holds until its timeout). A refused
+        torque raises ``ValueError`` and changes nothing.
         """
         if torque is not None:
             self._accept(torque)
@@ -111,8 +113,9 @@ class Plant:
 
     def run(self, duration: float) -> PlantState:
         """
-        Advance ``floor(duration * rate)`` samples without new commands; returns their states,
-        with a leading axis of samples (after the bodies' axis, for a batch).
+        Advance ``floor(duration * rate)`` samples without new commands and return their states.
+
+        The states have a leading axis of samples (after the bodies' axis, for a batch).
         """
         if (
             isinstance(duration, bool)
@@ -123,9 +126,8 @@ class Plant:
                 f'duration: expected a non-negative number of seconds, got {duration!r}'
             )
         count = int(np.floor(duration * self.rate + 1e-9))
-        if (
-            self._commands is not None
-        ):  # the hold's timeout may end within the run: one interval a call
+        # the hold's timeout may end within the run: one interval a call
+        if self._commands is not None:
             samples = [self._advance(np.array([(self.k + 1) / self.rate])) for _ in range(count)]
             rows = (
                 np.concatenate(samples, axis=1)
@@ -141,8 +143,7 @@ class Plant:
         self._build()
         return self.state
 
-    # -- internals
-    # ------------------------------------------------------------------------------------
+    # -- internals -------------------------------------------------------------------------------
     def _build(self) -> None:
         kernels.compile_kernels()
         propagators = []
@@ -155,9 +156,9 @@ class Plant:
         for index, layout in enumerate(layouts):
             if layout != layouts[0]:
                 raise ValueError(
-                    f'scene[{index}]: its motion effects ({", ".join(layout) or "none"}) differ from '
-                    f"scene[0]'s ({', '.join(layouts[0]) or 'none'}): a batch steps bodies of one kind "
-                    '(make one plant per kind)'
+                    f'scene[{index}]: its motion effects ({", ".join(layout) or "none"}) '
+                    f"differ from scene[0]'s ({', '.join(layouts[0]) or 'none'}): a batch steps "
+                    'bodies of one kind (make one plant per kind)'
                 )
         n = 7 + propagators[0].dynamics.state_size
         count = len(propagators)
@@ -227,24 +228,24 @@ class Plant:
         values = values.reshape(self.size, 3)
         finite = np.all(np.isfinite(values), axis=1)
         if not finite.all():
-            raise ValueError(
-                f'torque: not finite (body {int(np.argmin(finite))}): {values[int(np.argmin(finite))].tolist()}'
-            )
+            b = int(np.argmin(finite))
+            raise ValueError(f'torque: not finite (body {b}): {values[b].tolist()}')
         over = np.max(np.abs(values), axis=1) > commands.max_torque
         if over.any():
             b = int(np.argmax(over))
             raise ValueError(
-                f'torque: a component exceeds max_torque {commands.max_torque[b]:g} N m (body {b}): '
-                f'{values[b].tolist()}'
+                f'torque: a component exceeds max_torque {commands.max_torque[b]:g} N m '
+                f'(body {b}): {values[b].tolist()}'
             )
         commands.torque[:] = values
         commands.stamp_ns[:] = sample_stamp_ns(self.k, self.rate)
 
     def _hold(self) -> None:
         """
-        The torque over ``[t_k, t_k+1)``: the command in force (zero once it timed out), in its
-        frame, added to the scene's constant torques (CommandHold's rule, for every body at
-        once).
+        Set the commanded torque over ``[t_k, t_k+1)`` for every body.
+
+        The command in force (zero once it timed out), in its frame, added to the scene's constant
+        torques (CommandHold's rule, for every body at once).
         """
         commands = self._commands
         if commands is None:
@@ -305,8 +306,10 @@ class Plant:
 
     def _fail(self, body: int, times: np.ndarray):
         """
-        A body could not reach its sample. The kernels' state is mid-step for some bodies, so
-        the plant refuses to go on until ``reset()``; ``state`` stays the last sample reached.
+        Stop the plant and raise: a body could not reach its sample.
+
+        The kernels' state is mid-step for some bodies, so the plant refuses to go on until
+        ``reset()``; ``state`` stays the last sample reached.
         """
         t = float(times[min(int(self._reached[body]), times.size - 1)])
         error = compiled.dop853_error(
@@ -335,17 +338,17 @@ def _as_scene(scene, where: str) -> Scene:
         return scene
     if isinstance(scene, (str, Path)):
         return load_scene(scene)
-    raise ValueError(
-        f"{where}: expected a Scene, a scene file's path or a library scene's name, got {scene!r}"[
-            :300
-        ]
+    text = (
+        f"{where}: expected a Scene, a scene file's path or a library scene's name, got {scene!r}"
     )
+    raise ValueError(text[:300])
 
 
 def _layout(propagator) -> tuple:
     """
-    What a batch's bodies must share: their motion effects' kinds, in order, and their
-    frames.
+    Return what a batch's bodies must share.
+
+    Their motion effects' kinds, in order, and their frames.
     """
     return tuple(
         f'{e.name}{"(inertial)" if getattr(e, "inertial", False) else ""}'

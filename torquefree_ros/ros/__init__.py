@@ -13,6 +13,8 @@
 # limitations under the License.
 
 """
-The ROS layer: the simulator node, its parameters and sample loop, the topic recorder and bag
-player, QoS conversions and process handling. Imports rclpy; the core and the bag tools do not.
+The ROS layer: everything that imports rclpy (the core and the bag tools do not).
+
+The simulator node, its parameters and sample loop, the topic recorder and bag player, QoS
+conversions and process handling.
 """

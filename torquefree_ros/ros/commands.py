@@ -13,8 +13,9 @@
 # limitations under the License.
 
 """
-The node's command inputs: a subscription per ``torque_command`` effect the scene names (none
-otherwise), handing each ``geometry_msgs/WrenchStamped`` to the running simulation's hold
+The node's command inputs: a subscription per ``torque_command`` effect the scene names.
+
+None otherwise. Each hands every ``geometry_msgs/WrenchStamped`` to the running simulation's hold
 (``core.effects.commands``), which accepts it or refuses it with a counted reason.
 """
 
@@ -31,7 +32,7 @@ from ..core.effects.commands import command_inputs
 
 
 def command_effects(request: RunRequest | None) -> dict:
-    """topic -> effect, for the effects of ``request`` that take commands."""
+    """Map topic -> effect, for the effects of ``request`` that take commands."""
     if request is None:
         return {}
     return {effect.topic: effect for effect in command_inputs(request.propagator.effects)}
@@ -39,6 +40,8 @@ def command_effects(request: RunRequest | None) -> dict:
 
 class CommandInputs:
     """
+    The subscriptions that hand each command to the hold of the effect on its topic.
+
     ``holds()`` gives the running simulation's ``(effect, hold)`` pairs; a command goes to the
     hold of the effect on its topic. Refusals and an ignored force are logged once per run and
     reason.
@@ -50,9 +53,8 @@ class CommandInputs:
         self._node = node
         self._holds = holds
         self._accepted = accepted  # called after a command went into its hold
-        self._qos = command_profile(
-            depth
-        )  # best effort: it matches every controller (why: command_profile)
+        # best effort: it matches every controller (why: command_profile)
+        self._qos = command_profile(depth)
         self._subscriptions: dict = {}
         self._logged: set = set()  # (id of the hold, what) already said
 
@@ -120,8 +122,10 @@ def command_diagnostics(
     holds, last_index: int | None, missed_steps: int, lockstep: bool
 ) -> tuple[dict, str]:
     """
-    Diagnostic values of the command inputs and a warning ("" when none): no command for
-    ``timeout`` (the torque is zero), refusals, missed lock-step answers.
+    Return the diagnostic values of the command inputs and a warning ("" when none).
+
+    The warning names: no command for ``timeout`` (the torque is zero), refusals, missed lock-step
+    answers.
     """
     values, warnings = {}, []
     for effect, hold in holds:
@@ -138,7 +142,8 @@ def command_diagnostics(
             )
             if hold.timed_out(last_index):
                 warnings.append(
-                    f'{effect.topic}: no command for {effect.values["timeout"]:g} s: the torque is zero'
+                    f'{effect.topic}: no command for {effect.values["timeout"]:g} s: '
+                    'the torque is zero'
                 )
         if hold.force_seen:
             values[prefix + 'force'] = 'ignored (only the torque acts)'

@@ -43,8 +43,9 @@ def refusal(reason: str) -> SetParametersResult:
 
 def parameter_from_message(message) -> Parameter:
     """
-    ``Parameter.from_parameter_msg`` with the checks it lacks; ``ValueError`` names the
-    problem.
+    Build a ``Parameter`` from its message, with the checks rclpy lacks.
+
+    ``Parameter.from_parameter_msg`` with the checks it lacks; ``ValueError`` names the problem.
     """
     name = message.name
     if not name or len(name) > MAX_NAME_LENGTH:
@@ -61,6 +62,8 @@ def parameter_from_message(message) -> Parameter:
 
 
 class GuardedParameterService(ParameterService):
+    """rclpy's ``ParameterService`` that answers every request (see the module's docstring)."""
+
     def __init__(self, node):
         self._logger = node.get_logger()
         super().__init__(node)

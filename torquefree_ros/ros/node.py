@@ -13,8 +13,7 @@
 # limitations under the License.
 
 """
-The attitude simulator node ``TorqueFreeSim`` (default name ``torquefree``; ``cli.sim`` runs
-it).
+The attitude simulator node ``TorqueFreeSim`` (default name ``torquefree``; ``cli.sim`` runs it).
 
 A thin layer over the dynamics core: parameters (``parameters``) describe a simulation, the
 sample loop (``sample_loop``) publishes it, ``~/reset`` restarts it, ``~/pause`` pauses and resumes
@@ -67,9 +66,10 @@ LATE_WARNING_FRACTION = 0.01
 
 class _Publishers:
     """
-    The node's sample publishers by topic: ``angular_velocity`` and ``attitude`` always,
-    ``/clock`` from the first run that publishes it (a clock of our own, or ``publish_clock``), an
-    output's topic only while a scene names it.
+    The node's sample publishers by topic.
+
+    ``angular_velocity`` and ``attitude`` always, ``/clock`` from the first run that publishes it
+    (a clock of our own, or ``publish_clock``), an output's topic only while a scene names it.
     """
 
     def __init__(self, node: Node, depth: int):
@@ -116,6 +116,8 @@ class _Publishers:
 
 class TorqueFreeSim(Node):
     """
+    The attitude simulator node: it publishes from the moment it is constructed.
+
     Publishes ``angular_velocity`` and ``attitude`` from the moment it is constructed; the
     caller spins it (services, parameters, diagnostics). Raises :class:`ConfigurationError` when
     the start-up parameters do not describe a usable simulation. ``stepped``: a sample goes out
@@ -227,6 +229,8 @@ class TorqueFreeSim(Node):
 
     def _note_inertia(self, simulation) -> None:
         """
+        Keep the body's inertia in the bag's metadata while it is the same for the whole recording.
+
         The bag stores the body's inertia (as torquefree_bag does) so that it can be plotted; a
         reset that changes the inertia removes it: no single value describes the recording then.
         """
@@ -255,16 +259,14 @@ class TorqueFreeSim(Node):
             self._bag = None
         super().destroy_node()
 
-    # -- parameters
-    # --------------------------------------------------------------------------------
+    # -- parameters ------------------------------------------------------------------------------
     def _values(self, changes=()) -> dict:
         values = {
             spec.name: check_value(spec.name, self.get_parameter(spec.name)) for spec in SPECS
         }
         for parameter in changes:
-            if (
-                parameter.name in SPEC_BY_NAME
-            ):  # rclpy's own parameters (use_sim_time) pass through
+            # rclpy's own parameters (use_sim_time) pass through
+            if parameter.name in SPEC_BY_NAME:
                 values[parameter.name] = check_value(parameter.name, parameter)
         return values
 
@@ -277,7 +279,8 @@ class TorqueFreeSim(Node):
                 if parameter.name not in SPEC_BY_NAME and not self.has_parameter(parameter.name):
                     known = ', '.join(spec.name for spec in SPECS)
                     raise ValueError(
-                        f'{clip(parameter.name, 60)}: not a parameter of this node (parameters: {known})'
+                        f'{clip(parameter.name, 60)}: not a parameter of this node '
+                        f'(parameters: {known})'
                     )
             if self._declared:
                 for parameter in parameters:
@@ -304,15 +307,15 @@ class TorqueFreeSim(Node):
             )
         return SetParametersResult(successful=True)
 
-    # -- reset
-    # -------------------------------------------------------------------------------------
+    # -- reset -----------------------------------------------------------------------------------
     def _on_reset(self, request, response):
         try:
             run = self._run_request()
             self._outputs.ensure(run)
             self._commands.ensure(run)
             simulation = self._loop.restart(run)
-        except Exception as error:  # noqa: BLE001 - ValueError: an unusable state; anything else must not end the node
+        # ValueError: an unusable state; anything else must not end the node
+        except Exception as error:  # noqa: BLE001 - a callback must not end the node
             self._outputs.retire(self._loop.request)
             self._commands.retire(self._loop.request)
             response.success = False
@@ -342,8 +345,7 @@ class TorqueFreeSim(Node):
             self.get_logger().warning(run.left_out)
         return response
 
-    # -- pause
-    # -------------------------------------------------------------------------------------
+    # -- pause -----------------------------------------------------------------------------------
     def _on_pause(self, request, response):
         try:
             report = self._loop.pause(bool(request.data))
@@ -360,8 +362,7 @@ class TorqueFreeSim(Node):
             self.get_logger().info(response.message)
         return response
 
-    # -- diagnostics
-    # -------------------------------------------------------------------------------
+    # -- diagnostics -----------------------------------------------------------------------------
     def _publish_diagnostics(self) -> None:
         loop = self._loop
         simulation, last = loop.simulation, loop.last

@@ -13,9 +13,10 @@
 # limitations under the License.
 
 """
-The simulator node's parameters: declarations with descriptors, validation, and the
-configuration they describe. Values take effect at the next ``~/reset`` (``qos_depth`` only at
-start-up).
+The simulator node's parameters: declarations, validation and the configuration they describe.
+
+Each parameter is declared with a descriptor. Values take effect at the next ``~/reset``
+(``qos_depth`` only at start-up).
 
 Every parameter is declared with dynamic typing so that this module, not rclpy, checks the type:
 the reason then names the parameter, and an integer is accepted where a number is meant
@@ -101,18 +102,18 @@ SPECS = (
     ParameterSpec(
         'scene',
         '',
-        'Path of a scene file (YAML), or the name of a library scene (dzhanibekov, '
-        'explorer1, ...); empty = the built-in default scene. Once running, only library names, the '
-        'start-up scene and files under scene_directories are accepted.' + _AT_RESET,
+        'Path of a scene file (YAML), or the name of a library scene (dzhanibekov, explorer1, '
+        '...); empty = the built-in default scene. Once running, only library names, the start-up '
+        'scene and files under scene_directories are accepted.' + _AT_RESET,
         'a library scene name, the start-up scene, or a regular file of at most 1 MiB under '
         'scene_directories; or empty',
     ),
     ParameterSpec(
         'scene_directories',
         [''],
-        "Directories whose scene files (and subdirectories') the scene parameter may name while the "
-        'node runs; read at start-up only, so no participant on the domain can widen it. '
-        "[''] = none (library names and the start-up scene only).",
+        "Directories whose scene files (and subdirectories') the scene parameter may name while "
+        "the node runs; read at start-up only, so no participant on the domain can widen it. [''] "
+        '= none (library names and the start-up scene only).',
         'absolute or relative directory paths',
         read_only=True,
     ),
@@ -141,8 +142,8 @@ SPECS = (
     ParameterSpec(
         'sweep_member',
         -1,
-        'For an energy-sweep scene (energy_sweep): the member to run, 0 = minimum energy; -1 = the '
-        "scene's own initial state." + _AT_RESET,
+        'For an energy-sweep scene (energy_sweep): the member to run, 0 = minimum energy; -1 = '
+        "the scene's own initial state." + _AT_RESET,
         'an integer in [-1, members - 1]',
         number_range=(-1, 999),
     ),
@@ -164,10 +165,10 @@ SPECS = (
     ParameterSpec(
         'publish_clock',
         False,
-        'Publish /clock at real_time_factor 1 too: one message per sample, at its stamp, just before '
-        'it, so that neighbours started with use_sim_time:=true follow the simulator (they wait '
-        'forever for a /clock otherwise). Any other real_time_factor, or lockstep, always publishes '
-        '/clock.' + _AT_RESET,
+        'Publish /clock at real_time_factor 1 too: one message per sample, at its stamp, just '
+        'before it, so that neighbours started with use_sim_time:=true follow the simulator (they '
+        'wait forever for a /clock otherwise). Any other real_time_factor, or lockstep, always '
+        'publishes /clock.' + _AT_RESET,
         'true or false',
     ),
     ParameterSpec(
@@ -185,32 +186,33 @@ SPECS = (
     ParameterSpec(
         'frame_prefix',
         '',
-        "Put before body_frame wherever the body frame is named (angular_velocity, /tf's child, the "
-        'outputs, the frame of body-frame commands), not before inertial_frame: nodes in several '
-        'namespaces then publish distinct bodies (sat1/body, sat2/body) under one shared inertial '
-        'frame on /tf. Empty = none.' + _AT_RESET,
+        "Put before body_frame wherever the body frame is named (angular_velocity, /tf's child, "
+        'the outputs, the frame of body-frame commands), not before inertial_frame: nodes in '
+        'several namespaces then publish distinct bodies (sat1/body, sat2/body) under one shared '
+        'inertial frame on /tf. Empty = none.' + _AT_RESET,
         _PREFIX_RULE,
     ),
     ParameterSpec(
         'position',
         [0.0, 0.0, 0.0],
         "Where the body's centre sits in the inertial frame [x, y, z], m: /tf's translation, the "
-        "position of pose and odometry, the markers' place. Constant (the simulator moves attitude "
-        'only); for several bodies side by side in one view. [] = the origin.' + _AT_RESET,
+        "position of pose and odometry, the markers' place. Constant (the simulator moves "
+        'attitude only); for several bodies side by side in one view. [] = the origin.'
+        + _AT_RESET,
         '3 finite numbers',
     ),
     ParameterSpec(
         'propagator',
         'auto',
-        "auto (the exact solution for a torque-free scene, DOP853 at the scene's accuracy when an effect "
-        'changes the motion) or a registered propagator.' + _AT_RESET,
+        "auto (the exact solution for a torque-free scene, DOP853 at the scene's accuracy when an "
+        'effect changes the motion) or a registered propagator.' + _AT_RESET,
         'one of: ' + ', '.join(['auto', *sorted(PROPAGATORS)]),
     ),
     ParameterSpec(
         'qos_depth',
         10,
-        "History depth of the reliable publishers (/tf at least 100, as tf2_ros's "
-        'broadcaster) and of the best-effort command inputs (read at start-up only).',
+        "History depth of the reliable publishers (/tf at least 100, as tf2_ros's broadcaster) "
+        'and of the best-effort command inputs (read at start-up only).',
         'an integer in [1, 10000]',
         read_only=True,
         number_range=(1, 10000),
@@ -218,28 +220,30 @@ SPECS = (
     ParameterSpec(
         'lockstep',
         False,
-        'Closed loop in lock-step (read at start-up only): after publishing sample k the node waits for '
-        "the controller's torque_command stamped t_k (or later), applies it over [t_k, t_k+1), then "
-        'computes sample k+1; so the same controller gives the same samples whatever the load. Runs on a '
-        'clock of its own (/clock); real_time_factor then only caps the pace (0 = as fast as the '
-        'controller answers).',
+        'Closed loop in lock-step (read at start-up only): after publishing sample k the node '
+        "waits for the controller's torque_command stamped t_k (or later), applies it over [t_k, "
+        't_k+1), then computes sample k+1; so the same controller gives the same samples whatever '
+        'the load. Runs on a clock of its own (/clock); real_time_factor then only caps the pace '
+        '(0 = as fast as the controller answers).',
         'true or false',
         read_only=True,
     ),
     ParameterSpec(
         'lockstep_timeout',
         1.0,
-        "Lock-step: wall seconds to wait for the controller's answer before going on with the command in "
-        'force (counted as a missed step in /diagnostics).' + _AT_RESET,
+        "Lock-step: wall seconds to wait for the controller's answer before going on with the "
+        'command in force (counted as a missed step in /diagnostics).' + _AT_RESET,
         '> 0 and <= 3600',
         number_range=(0.0, 3600.0),
     ),
     ParameterSpec(
         'record_bag',
         '',
-        'Bag directory (rosbag2 MCAP) to record every published sample into; empty = no recording. '
-        'Read at start-up only, so no participant on the domain can make the node write elsewhere.',
-        'a path that does not exist yet, in a writable directory; an existing bag is never overwritten',
+        'Bag directory (rosbag2 MCAP) to record every published sample into; empty = no '
+        'recording. Read at start-up only, so no participant on the domain can make the node '
+        'write elsewhere.',
+        'a path that does not exist yet, in a writable directory; an existing bag is never '
+        'overwritten',
         read_only=True,
     ),
 )
@@ -247,7 +251,7 @@ SPEC_BY_NAME = {spec.name: spec for spec in SPECS}
 
 
 def check_value(name: str, parameter: Parameter):
-    """The parameter's value in canonical form, or ``ValueError`` naming it and the reason."""
+    """Return the parameter's value in canonical form; ``ValueError`` names it and the reason."""
     kind, value = parameter.type_, parameter.value
     if name == 'scene_directories':
         if kind != Parameter.Type.STRING_ARRAY:
@@ -331,8 +335,8 @@ def check_value(name: str, parameter: Parameter):
             raise ValueError(f'{name}: unknown propagator {shown(value)} (known: {known})')
         return value
     if name == 'frame_prefix':
-        # a prefix is a frame id's start: whatever frame follows it, "x" or "body", the whole is
-        # one
+        # a prefix is a frame id's start: whatever frame follows it, "x" or "body", the whole
+        # is one
         if value and (len(value) >= MAX_FRAME_LENGTH or not _FRAME.match(value + 'x')):
             raise ValueError(f'{name}: expected {_PREFIX_RULE}, got {shown(value)}')
         return value
@@ -343,10 +347,11 @@ def check_value(name: str, parameter: Parameter):
 
 class ScenePolicy:
     """
-    Which scene files a remote caller may name, fixed at start-up: library names, the start-up
-    scene and regular files below ``directories`` (symbolic links resolved first, so a link cannot
-    lead out). Anything else is refused without reading it, so no refusal quotes a file it should
-    not.
+    Which scene files a remote caller may name, fixed at start-up.
+
+    Library names, the start-up scene and regular files below ``directories`` (symbolic links
+    resolved first, so a link cannot lead out). Anything else is refused without reading it, so no
+    refusal quotes a file it should not.
     """
 
     def __init__(self, start_up_scene: str, directories):
@@ -367,8 +372,9 @@ class ScenePolicy:
         if real is not None and any(real.is_relative_to(d) for d in self.directories):
             return
         where = ', '.join(str(d) for d in self.directories) or 'none given'
+        library = ', '.join(sorted(library_scenes()))
         raise ValueError(
-            f'scene: {shown(scene)} is not a library scene ({", ".join(sorted(library_scenes()))}) '
+            f'scene: {shown(scene)} is not a library scene ({library}) '
             f'nor a file under scene_directories ({where}; set at start-up)'
         )
 
@@ -378,8 +384,10 @@ _OVERRIDES = ('inertia', 'angular_velocity', 'orientation')
 
 def run_request(values: dict) -> RunRequest:
     """
-    The run canonical values (``check_value``) describe, the scene filling what is not set.
-    Building its propagator checks that the whole state is usable, not only each value alone.
+    Build the run that canonical values (``check_value``) describe.
+
+    The scene fills what is not set. Building its propagator checks that the whole state is
+    usable, not only each value alone.
     """
     try:
         scene = load_scene(values['scene']) if values['scene'] else default_scene()
@@ -397,8 +405,8 @@ def run_request(values: dict) -> RunRequest:
         clashing = [key for key in ('inertia', 'angular_velocity') if values[key] is not None]
         if clashing:
             raise ValueError(
-                f'sweep_member: the member defines the body and its rate, so it cannot be combined '
-                f'with {" or ".join(clashing)} (set {clashing[0]} to [] first)'
+                'sweep_member: the member defines the body and its rate, so it cannot be '
+                f'combined with {" or ".join(clashing)} (set {clashing[0]} to [] first)'
             )
         if member >= scene.sweep_members:
             raise ValueError(
@@ -420,8 +428,8 @@ def run_request(values: dict) -> RunRequest:
     )
     propagator.max_steps_per_sample = MAX_STEPS_PER_SAMPLE
     # the first sample period, computed now: a scene too stiff (or too many steps per sample) or
-    # outside float64 fails here, with its reason, rather than in the sample loop after the run was
-    # accepted
+    # outside float64 fails here, with its reason, rather than in the sample loop after the run
+    # was accepted
     try:
         Simulation(
             propagator, values['publish_rate'], rate_name='publish_rate', outputs=outputs
@@ -431,8 +439,8 @@ def run_request(values: dict) -> RunRequest:
     left_out = ''
     if missing:
         left_out = (
-            f'not published: {", ".join(missing)} (its message package is not installed here; every '
-            'ROS 2 install has it, and torquefree_bag writes it to bags without it)'
+            f'not published: {", ".join(missing)} (its message package is not installed here; '
+            'every ROS 2 install has it, and torquefree_bag writes it to bags without it)'
         )
     body_frame = values['frame_prefix'] + values['body_frame']
     if len(body_frame) > MAX_FRAME_LENGTH:
@@ -466,6 +474,8 @@ def _installed(type_name: str) -> bool:
 
 def describe(values: dict, scene) -> str:
     """
+    Describe the run: what a user needs to know to reproduce it.
+
     ``scene 'dzhanibekov' (FILE), overrides: inertia [..]`` — what a user needs to know to
     reproduce the run, including parameters that stay in force after the scene changed.
     """
@@ -475,7 +485,8 @@ def describe(values: dict, scene) -> str:
         else 'the built-in default scene'
     )
     if values['sweep_member'] >= 0:
-        name += f' member {values["sweep_member"]} ({scene.description.rsplit("(", 1)[-1].rstrip(")")})'
+        energy = scene.description.rsplit('(', 1)[-1].rstrip(')')
+        name += f' member {values["sweep_member"]} ({energy})'
     overrides = [
         f'{key} [{", ".join(f"{x:.9g}" for x in values[key])}]'
         for key in _OVERRIDES

@@ -13,8 +13,9 @@
 # limitations under the License.
 
 """
-Pause and resume (``~/pause``, ``std_srvs/SetBool``): what the sample loop reports and what the
-node answers.
+Pause and resume (``~/pause``, ``std_srvs/SetBool``).
+
+What the sample loop reports and what the node answers.
 
 The rule, in one place (the service's answers, the README and the tests quote it):
 
@@ -49,10 +50,9 @@ class PauseReport(NamedTuple):
     next_index: int  # the sample that goes out next (k)
     rate: float  # publish_rate: t_k = k / rate
     clock_ns: int | None  # the value /clock holds (None: the run publishes no /clock, or none yet)
-    paused_for_ns: (
-        int  # how long it had been paused (monotonic ns; 0 when it was running); resuming with
-    )
-    # wall-clock stamps, also how far this resume moved them
+    # how long it had been paused (monotonic ns; 0 when it was running); resuming with wall-clock
+    # stamps, also how far this resume moved them
+    paused_for_ns: int
     wall_clock: bool  # the run's stamps are wall-clock time
     total_shift_ns: int  # how far all pauses of the run moved its stamps
 
@@ -61,12 +61,12 @@ class PauseReport(NamedTuple):
         return where(self.next_index, self.rate)
 
     def message(self) -> str:
-        """The service's answer."""
+        """Return the service's answer."""
         if not self.changed:
             if self.paused:
                 return (
-                    f'already paused at {self.where} for {self.paused_for_ns * 1e-9:.3f} s: nothing '
-                    'changed'
+                    f'already paused at {self.where} for {self.paused_for_ns * 1e-9:.3f} s: '
+                    'nothing changed'
                 )
             return f'not paused (running, next {self.where}): nothing changed'
         if self.paused:
@@ -77,13 +77,14 @@ class PauseReport(NamedTuple):
             )
             rule = WALL_CLOCK_RULE if self.wall_clock else OWN_CLOCK_RULE
             return (
-                f'paused at {self.where}, which goes out on resuming; no sample goes out meanwhile{held}; '
-                f'on resuming, {rule}'
+                f'paused at {self.where}, which goes out on resuming; '
+                f'no sample goes out meanwhile{held}; on resuming, {rule}'
             )
         paused = f'after {self.paused_for_ns * 1e-9:.3f} s paused'
         if self.wall_clock:
             return (
-                f'resumed at {self.where} {paused}; stamps shifted by +{seconds_text(self.paused_for_ns)} s '
+                f'resumed at {self.where} {paused}; '
+                f'stamps shifted by +{seconds_text(self.paused_for_ns)} s '
                 f'(+{seconds_text(self.total_shift_ns)} s in this run): {WALL_CLOCK_RULE}'
             )
         return f'resumed at {self.where} {paused}: {OWN_CLOCK_RULE}'

@@ -13,8 +13,9 @@
 # limitations under the License.
 
 """
-``torquefree_play``: replays a bag onto its topics with the recorded timing, like ``ros2 bag
-play``.
+``torquefree_play``: replays a bag onto its topics with the recorded timing.
+
+It works like ``ros2 bag play``.
 
 Each topic gets a publisher with the QoS its publishers offered when it was recorded (rosbag2's
 rule, ``ros_qos.offer_for_recorded``); messages go out as the recorded bytes, message ``i`` at
@@ -56,7 +57,7 @@ class BagPlayer(Node):
         self.publishers_by_topic = {}
         for topic in self.topics:
             try:
-                cls = message_class(topic.type)
+                cls = message_class(topic.type_name)
             except ValueError as error:
                 self.get_logger().warning(f'not playing {topic.name}: {error}')
                 continue

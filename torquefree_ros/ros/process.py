@@ -36,18 +36,21 @@ from rclpy.signals import SignalHandlerOptions
 
 def init(args=None) -> None:
     """
-    ``rclpy.init`` without rclpy's signal handlers (``cli.common.console_command`` has already
-    made SIGTERM end the process like Ctrl-C).
+    Run ``rclpy.init`` without rclpy's signal handlers.
+
+    ``cli.common.console_command`` has already made SIGTERM end the process like Ctrl-C.
     """
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
 
 
 class Spinner(threading.Thread):
     """
-    Spins ``executor`` in a helper thread until :meth:`stop`; an exception from a callback ends
-    the spin and is kept in ``error`` for the main thread to report. It spins in short slices
-    rather than calling ``executor.spin()``, so that it has left the executor before anyone shuts
-    the executor down (shutting it down under a spinning thread can abort the process in rcl).
+    A helper thread that spins ``executor`` until :meth:`stop`.
+
+    An exception from a callback ends the spin and is kept in ``error`` for the main thread to
+    report. It spins in short slices rather than calling ``executor.spin()``, so that it has left
+    the executor before anyone shuts the executor down (shutting it down under a spinning thread
+    can abort the process in rcl).
     """
 
     SLICE = 0.1  # s: the longest a stop waits for the spin to notice
@@ -78,10 +81,12 @@ class Spinner(threading.Thread):
 
 def shut_down(executor, node, spinner: Spinner | None = None) -> None:
     """
-    Stop spinning, then shut the executor down, destroy the node (its last log lines still reach
-    /rosout) and shut the context down. Any argument may be None (the process stopped before it).
-    A second Ctrl-C or SIGTERM meanwhile is ignored: cut short, the bag would lose its end and rcl
-    would abort the process on half-destroyed objects.
+    Stop spinning, shut the executor down, destroy the node and shut the context down.
+
+    The node is destroyed before the context, so its last log lines still reach /rosout. Any
+    argument may be None (the process stopped before it). A second Ctrl-C or SIGTERM meanwhile is
+    ignored: cut short, the bag would lose its end and rcl would abort the process on
+    half-destroyed objects.
     """
     with _interrupts_ignored():
         if spinner is not None and spinner.is_alive():
@@ -100,9 +105,8 @@ def _interrupts_ignored():
         return
     signals = (signal.SIGINT, signal.SIGTERM)
     previous = [signal.getsignal(number) for number in signals]
-    for (
-        number
-    ) in signals:  # a Python no-op, not SIG_IGN: one already pending then runs it harmlessly
+    # a Python no-op, not SIG_IGN: one already pending then runs it harmlessly
+    for number in signals:
         signal.signal(number, _ignore)
     try:
         yield
@@ -117,11 +121,12 @@ def _ignore(signum, frame) -> None:
 
 def exit_process(status: int):
     """
-    End a ROS script's process with ``status`` once it has closed everything (node, bag,
-    context), skipping the interpreter's finalization: there the DDS library's static objects can
-    be destroyed while one of its threads still runs, and the C++ runtime aborts ("terminate called
-    without an active exception", seen about once in several hundred clean Ctrl-C exits in the test
-    suite).
+    End a ROS script's process with ``status``, skipping the interpreter's finalization.
+
+    Called once the script has closed everything (node, bag, context). The interpreter's
+    finalization is skipped because there the DDS library's static objects can be destroyed while
+    one of its threads still runs, and the C++ runtime aborts ("terminate called without an active
+    exception", seen about once in several hundred clean Ctrl-C exits in the test suite).
     """
     sys.stdout.flush()
     sys.stderr.flush()
@@ -130,8 +135,9 @@ def exit_process(status: int):
 
 def process_main(main):
     """
-    The console-script entry of a ROS script: ``main()``, then :func:`exit_process`. (``main``
-    itself returns normally, for callers in a process of their own.)
+    Return the console-script entry of a ROS script: ``main()``, then :func:`exit_process`.
+
+    (``main`` itself returns normally, for callers in a process of their own.)
     """
 
     def run():

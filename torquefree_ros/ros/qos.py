@@ -13,6 +13,8 @@
 # limitations under the License.
 
 """
+QoS: rclpy's profiles and the bag's, rosbag2's rules, the node's own profiles and warnings.
+
 Between rclpy's QoS profiles and the bag's (rosbag2 v9) ones, and rosbag2's rules for choosing
 the QoS a recorder requests and a player offers; the node's own profiles and its warnings when a
 peer's QoS cannot match them.
@@ -65,6 +67,8 @@ def _duration(ns: int) -> Duration:
 
 def request_for_offers(offers: list[BagQos]) -> QoSProfile:
     """
+    Return the QoS rosbag2's recorder requests for topics with these ``offers``.
+
     What rosbag2's recorder requests: reliable / transient local only if every publisher offers
     it.
     """
@@ -80,9 +84,10 @@ def request_for_offers(offers: list[BagQos]) -> QoSProfile:
 
 def offer_for_recorded(profiles: tuple[BagQos, ...]) -> QoSProfile:
     """
-    What rosbag2's player offers: the recorded profile when all publishers agreed on the
-    policies that decide compatibility (keep-last history of its own), else rmw's defaults
-    (reliable, volatile).
+    Return the QoS rosbag2's player offers for a topic recorded with ``profiles``.
+
+    The recorded profile when all publishers agreed on the policies that decide compatibility
+    (keep-last history of its own), else rmw's defaults (reliable, volatile).
     """
     same = profiles and all(
         (q.reliability, q.durability, q.deadline, q.liveliness, q.liveliness_lease_duration)
@@ -116,10 +121,7 @@ def offer_for_recorded(profiles: tuple[BagQos, ...]) -> QoSProfile:
 
 
 def message_class(type_name: str):
-    """
-    The Python class of ``pkg/msg/Type``; ``ValueError`` naming the type when it is not
-    installed.
-    """
+    """Return the Python class of ``pkg/msg/Type``; ``ValueError`` names it when not installed."""
     try:
         package, namespace, name = type_name.split('/')
         return getattr(importlib.import_module(f'{package}.{namespace}'), name)
@@ -127,8 +129,7 @@ def message_class(type_name: str):
         raise ValueError(f"message type '{type_name}': not installed for Python") from None
 
 
-# -- the node's profiles
-# --------------------------------------------------------------------------------
+# -- the node's profiles -------------------------------------------------------------------------
 TF_MESSAGE = 'tf2_msgs/msg/TFMessage'
 #: tf2_ros's TransformBroadcaster publishes /tf keep-last 100 (DynamicBroadcasterQoS): a listener
 #: joining a busy /tf with its usual depth-100 subscription then matches what it expects
@@ -137,8 +138,9 @@ TF_DEPTH = 100
 
 def sample_profile(depth: int, message_type: str = '') -> QoSProfile:
     """
-    What the node's publishers offer: reliable, volatile, keep-last ``depth`` (/tf at least
-    TF_DEPTH).
+    Return what the node's publishers offer: reliable, volatile, keep-last ``depth``.
+
+    On /tf the depth is at least TF_DEPTH.
     """
     if message_type == TF_MESSAGE:
         depth = max(depth, TF_DEPTH)
@@ -149,13 +151,14 @@ def sample_profile(depth: int, message_type: str = '') -> QoSProfile:
 
 def command_profile(depth: int) -> QoSProfile:
     """
-    What a command subscription requests. Best effort, because it matches reliable and
-    best-effort publishers alike whenever they appear. Not BEST_AVAILABLE: rmw resolves it once,
-    when the subscription is created; with no publisher yet (the node starts before its controller)
-    it becomes reliable and never matches a best-effort publisher that comes later (seen with
-    rmw_fastrtps_cpp, Jazzy). The cost: a reliable publisher's commands arrive best effort, without
-    resending; a lost one is a missed step in lock-step (counted in /diagnostics), not a wrong
-    sample.
+    Return what a command subscription requests: best effort.
+
+    Best effort, because it matches reliable and best-effort publishers alike whenever they
+    appear. Not BEST_AVAILABLE: rmw resolves it once, when the subscription is created; with no
+    publisher yet (the node starts before its controller) it becomes reliable and never matches a
+    best-effort publisher that comes later (seen with rmw_fastrtps_cpp, Jazzy). The cost: a
+    reliable publisher's commands arrive best effort, without resending; a lost one is a missed
+    step in lock-step (counted in /diagnostics), not a wrong sample.
     """
     return QoSProfile(
         history=HistoryPolicy.KEEP_LAST, depth=depth, reliability=ReliabilityPolicy.BEST_EFFORT
@@ -187,14 +190,17 @@ def _policy(event) -> str:
 
 def publisher_warnings(logger, topic: str, offered: QoSProfile) -> PublisherEventCallbacks:
     """
-    Callbacks that warn on ``logger`` when a subscription asks ``topic`` for more than it offers
-    (rclpy's own line does not say what is offered nor that the peer gets nothing).
+    Build callbacks that warn when a subscription asks ``topic`` for more than it offers.
+
+    The warnings go to ``logger`` (rclpy's own line does not say what is offered nor that the peer
+    gets nothing).
     """
 
     def incompatible(event) -> None:
         logger.warning(
-            f'{topic}: a subscription requests QoS this node does not offer (last policy in conflict: '
-            f'{_policy(event)}; offered: {describe_profile(offered)}), so it receives no message '
+            f'{topic}: a subscription requests QoS this node does not offer '
+            f'(last policy in conflict: {_policy(event)}; '
+            f'offered: {describe_profile(offered)}), so it receives no message '
             f'from this node (incompatible subscriptions so far: {event.total_count})'
         )
 
@@ -203,14 +209,16 @@ def publisher_warnings(logger, topic: str, offered: QoSProfile) -> PublisherEven
 
 def subscription_warnings(logger, topic: str, requested: QoSProfile) -> SubscriptionEventCallbacks:
     """
-    Callbacks that warn on ``logger`` when a publisher on ``topic`` offers less than is
-    requested.
+    Build callbacks that warn when a publisher on ``topic`` offers less than is requested.
+
+    The warnings go to ``logger``.
     """
 
     def incompatible(event) -> None:
         logger.warning(
-            f'{topic}: a publisher offers QoS this node does not accept (last policy in conflict: '
-            f'{_policy(event)}; requested: {describe_profile(requested)}), so none of its messages '
+            f'{topic}: a publisher offers QoS this node does not accept '
+            f'(last policy in conflict: {_policy(event)}; '
+            f'requested: {describe_profile(requested)}), so none of its messages '
             f'arrive (incompatible publishers so far: {event.total_count})'
         )
 

@@ -57,9 +57,8 @@ class TopicRecorder(Node):
         self._recording: dict[str, object] = {}
         self._skipped: set[str] = set()
         self.failure = ''
-        self.first_message_time: float | None = (
-            None  # time.monotonic() of the first message written
-        )
+        # time.monotonic() of the first message written
+        self.first_message_time: float | None = None
         self.create_timer(DISCOVERY_PERIOD, self.discover)
         self.create_timer(FLUSH_PERIOD, self._flush_if_due)
         self.discover()

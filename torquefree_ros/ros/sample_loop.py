@@ -95,17 +95,12 @@ class RunRequest:
     configuration: str = ''  # which scene and which parameter overrides describe this run
     left_out: str = ''  # the scene's outputs this Python cannot publish, and why ("" when none)
     lockstep: bool = False  # wait for the controller's answer to each sample (a clock of our own)
-    lockstep_timeout: float = (
-        1.0  # wall s to wait for it before going on with the command in force
-    )
-    publish_clock: bool = (
-        False  # /clock with wall-clock stamps too (a clock of our own always has it)
-    )
-    body_position: tuple = (
-        0.0,
-        0.0,
-        0.0,
-    )  # where tf, pose, odometry and markers place the body (m, inertial)
+    # wall s to wait for it before going on with the command in force
+    lockstep_timeout: float = 1.0
+    # /clock with wall-clock stamps too (a clock of our own always has it)
+    publish_clock: bool = False
+    # where tf, pose, odometry and markers place the body (m, inertial)
+    body_position: tuple = (0.0, 0.0, 0.0)
 
     @property
     def wall_clock(self) -> bool:
@@ -114,8 +109,9 @@ class RunRequest:
     @property
     def clock(self) -> bool:
         """
-        Whether the run publishes ``/clock`` (one message per sample, at its stamp, just before
-        it).
+        Whether the run publishes ``/clock``.
+
+        One message per sample, at its stamp, just before it.
         """
         return self.publish_clock or not self.wall_clock
 
@@ -157,13 +153,11 @@ class _Run:
         self.holds = simulation.command_holds  # closed loop: (effect, hold) per command input
         self.shift_ns = 0  # wall clock: how far pauses moved the run's stamps (its epoch) in all
         self.publishers: list = []  # of self.columns' topics
-        self.stopped_by = (
-            ''  # lock-step: why the executor's thread could not compute the next sample
-        )
+        # lock-step: why the executor's thread could not compute the next sample
+        self.stopped_by = ''
         if self.holds:
-            self.max_block = (
-                1  # each sample computed when due, under the commands received by then
-            )
+            # each sample computed when due, under the commands received by then
+            self.max_block = 1
             for effect, hold in self.holds:
                 hold.frame_id = effect.frame_id(request.body_frame, request.inertial_frame)
 
@@ -179,12 +173,13 @@ class _Run:
 
     @property
     def next_out(self) -> int:
-        """The index of the next sample to go out."""
+        """Return the index of the next sample to go out."""
         return self.block.first + self.position if self.block is not None else self.next_index
 
     def resume(self, paused_ns: int) -> None:
         """
         Continue after ``paused_ns`` (monotonic) paused.
+
         A clock of our own held: only the pacing moves on. Wall-clock stamps: the run's epoch moves
         on by the time paused, and with it the stamps of the samples computed ahead (re-encoded
         from the same values), the command holds' grid and the commands in force (so a command's
@@ -243,9 +238,11 @@ class _Run:
 
     def adapt(self, size: int, cost: float) -> None:
         """
-        Model a block's cost as fixed + size * per_sample. The largest block whose cost fits in
-        one period delays no sample past its period; if even the fixed cost does not fit, every
-        block delays one sample whatever its size, so the largest block makes the fewest late.
+        Model a block's cost as fixed + size * per_sample, and size the next block from it.
+
+        The largest block whose cost fits in one period delays no sample past its period; if even
+        the fixed cost does not fit, every block delays one sample whatever its size, so the
+        largest block makes the fewest late.
         """
         if self.fixed_cost is None:
             self.fixed_cost = cost
@@ -265,6 +262,8 @@ class _Run:
 
 class SampleLoop:
     """
+    The loop that publishes a run's samples from its own thread.
+
     Publishes ``angular_velocity``, ``attitude``, the scene's outputs (and ``/clock``) from its
     own thread.
 
@@ -301,9 +300,8 @@ class SampleLoop:
         self.failure = ''
         self._pause_request: tuple[bool, threading.Event, list] | None = None
         self._paused_since_ns: int | None = None  # monotonic; None: running
-        self.paused_at = (
-            ''  # while paused: the sample that goes out next, as "sample k (t = ... s)"
-        )
+        # while paused: the sample that goes out next, as "sample k (t = ... s)"
+        self.paused_at = ''
         self._clock_ns: int | None = None  # the last /clock value published
         # lock-step as fast as possible: whoever computes a sample holds _turn; the loop's thread
         # sets _awaiting (the run) while it waits on _turn for the answer to the last sample, due
@@ -324,9 +322,10 @@ class SampleLoop:
 
     def restart(self, request: RunRequest, timeout: float = 10.0) -> Simulation:
         """
-        Apply ``request`` between two samples; returns the new simulation once it is running
-        (while paused, once it is in place: it starts paused, and its sample 0 goes out on
-        resuming).
+        Apply ``request`` between two samples; return the new simulation once it is running.
+
+        While paused, it returns once the new simulation is in place: it starts paused, and its
+        sample 0 goes out on resuming.
         """
         done, result = threading.Event(), []
         with self._lock:
@@ -340,8 +339,9 @@ class SampleLoop:
 
     def pause(self, paused: bool, timeout: float = 10.0) -> PauseReport:
         """
-        Pause (True) or resume (False) between two samples; returns once the loop has done it
-        (from then on, while paused, no sample goes out).
+        Pause (True) or resume (False) between two samples; return once the loop has done it.
+
+        From then on, while paused, no sample goes out.
         """
         done, result = threading.Event(), []
         with self._lock:
@@ -358,9 +358,10 @@ class SampleLoop:
 
     def command_arrived(self) -> None:
         """
-        Called on the executor's thread after a command went into its hold: in lock-step as fast
-        as possible, if it answers the sample the loop waits on, the next sample is computed and
-        published here and now (see the module's docstring).
+        Handle a command that went into its hold (called on the executor's thread).
+
+        In lock-step as fast as possible, if the command answers the sample the loop waits on, the
+        next sample is computed and published here and now (see the module's docstring).
         """
         if self._awaiting is None:  # (read again under the lock)
             return
@@ -370,7 +371,8 @@ class SampleLoop:
                 return
             try:
                 self._step(run)
-            except Exception as error:  # noqa: BLE001 - the loop's thread reports it (not the executor)
+            # not raised to the executor: the loop's thread reports it
+            except Exception as error:  # noqa: BLE001 - the loop's thread reports it
                 if self._stopping or not self._keep_going():
                     return
                 run.stopped_by = f'{type(error).__name__}: {error}'
@@ -379,16 +381,16 @@ class SampleLoop:
 
     def step(self, count: int) -> None:
         """
-        Stepped loop: let ``count`` more samples go out (a negative count takes back those not
-        sent yet).
+        Let ``count`` more samples go out of a stepped loop.
+
+        A negative count takes back those not sent yet.
         """
         with self._lock:
             if self._steps is None:
                 raise RuntimeError('the sample loop is not stepped')
             self._steps = max(0, self._steps + int(count))
-            if (
-                self._run is not None
-            ):  # lock-step: the wait for the answer starts now (the loop was held)
+            # lock-step: the wait for the answer starts now (the loop was held)
+            if self._run is not None:
                 self._answer_due = time.monotonic() + self._run.request.lockstep_timeout
         self._signal()
 
@@ -434,8 +436,7 @@ class SampleLoop:
         last = self.last_stamp_ns
         return last if last is not None else run.simulation.epoch_ns
 
-    # -- the loop thread
-    # ---------------------------------------------------------------------------
+    # -- the loop thread -------------------------------------------------------------------------
     def _begin(self, request: RunRequest) -> _Run:
         last = self.last_stamp_ns
         now = time.time_ns() if request.wall_clock else (last or 0)
@@ -488,9 +489,8 @@ class SampleLoop:
         elif changed:
             self._paused_since_ns = None
             run.resume(paused_for)
-            self._answer_due = (
-                time.monotonic() + run.request.lockstep_timeout
-            )  # the wait starts again
+            # the wait starts again
+            self._answer_due = time.monotonic() + run.request.lockstep_timeout
         report = PauseReport(
             changed=changed,
             paused=wanted,
@@ -536,9 +536,8 @@ class SampleLoop:
             if self.paused:
                 self._while_paused()
                 continue
-            if (
-                self._steps == 0
-            ):  # stepped, and no sample let out yet: wait for step() (or a request)
+            # stepped, and no sample let out yet: wait for step() (or a request)
+            if self._steps == 0:
                 if self._wake.wait(MAX_WAIT):
                     self._wake.clear()
                 continue
@@ -566,8 +565,9 @@ class SampleLoop:
 
     def _refill(self, run: _Run) -> bool:
         """
-        The next block computed and encoded; False (the reason in ``run.stopped_by``) when it
-        cannot be.
+        Compute and encode the next block.
+
+        Return False (the reason in ``run.stopped_by``) when it cannot be.
         """
         try:
             run.refill()
@@ -600,11 +600,12 @@ class SampleLoop:
 
     def _lockstep_turn(self, run: _Run) -> None:
         """
-        Lock-step as fast as possible, on the loop's thread: wait (on ``_turn``) for the answer
-        to the last sample; the answer's callback computes and publishes the next one meanwhile,
-        unless the answer came before the wait or does not come within ``lockstep_timeout`` (a
-        missed step): then this thread does. Returns after one sample, or early for a pending
-        request or a failure.
+        Take one turn of lock-step as fast as possible, on the loop's thread.
+
+        Wait (on ``_turn``) for the answer to the last sample; the answer's callback computes and
+        publishes the next one meanwhile, unless the answer came before the wait or does not come
+        within ``lockstep_timeout`` (a missed step): then this thread does. Returns after one
+        sample, or early for a pending request or a failure.
         """
         if run.stopped_by:
             self._fail(run.stopped_by)
@@ -634,8 +635,9 @@ class SampleLoop:
 
     def _step(self, run: _Run) -> None:
         """
-        Closed loop, one sample: seal the interval before it, compute it, publish it (under
-        ``_turn``).
+        Step the closed loop by one sample: seal the interval before it, compute it, publish it.
+
+        Called under ``_turn``.
         """
         n = run.next_index
         if n > 0:
@@ -646,9 +648,11 @@ class SampleLoop:
 
     def _close_interval(self, run: _Run) -> bool:
         """
-        Closed loop: fix the torque over ``[t_n-1, t_n)`` before sample ``n`` is computed: when
-        ``n`` is due (paced), once the controller answered ``n - 1`` (lock-step). False when the
-        wait was cut short (a restart, a stop, or not due yet): the loop checks again.
+        Fix the torque over ``[t_n-1, t_n)`` (closed loop) before sample ``n`` is computed.
+
+        It is fixed when ``n`` is due (paced), once the controller answered ``n - 1``
+        (lock-step). False when the wait was cut short (a restart, a stop, or not due yet): the
+        loop checks again.
         """
         n = run.next_index
         if n == 0:
@@ -699,7 +703,7 @@ class SampleLoop:
         self._to_bag(lambda recorder: recorder.write_sample(stamp, columns, index))
 
     def _record_commands(self, effect, hold, commands) -> None:
-        """The commands that start holding, logged at the stamp of the sample they hold from."""
+        """Record the commands that start holding, at the stamp of the sample they hold from."""
 
         def write(recorder):
             for command in commands:

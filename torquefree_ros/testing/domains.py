@@ -13,10 +13,11 @@
 # limitations under the License.
 
 """
-ROS domain ids for test simulators: each simulator claims one no other process on this machine
-holds (a lock file per id in the temporary directory, the same files ``test/conftest.py`` claims
-its session's domain with), so parallel test processes, pytest-xdist workers included, never see
-each other's participants. Discovery is kept on this machine
+ROS domain ids for test simulators: each claims one no other process on this machine holds.
+
+A lock file per id in the temporary directory (the same files ``test/conftest.py`` claims its
+session's domain with), so parallel test processes, pytest-xdist workers included, never see each
+other's participants. Discovery is kept on this machine
 (``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``).
 """
 
@@ -33,10 +34,9 @@ DOMAINS = range(1, 102)
 _LOCK_NAME = 'torquefree_ros_domain_{}.lock'
 
 _guard = threading.Lock()
-_last = (
-    0  # the id this process claimed last: the next claim starts after it, so an id just released
-)
-#            (its participant's traffic possibly still in flight) is the last one reused
+# the id this process claimed last: the next claim starts after it, so an id just released (its
+# participant's traffic possibly still in flight) is the last one reused
+_last = 0
 
 
 class DomainClaim:
@@ -53,7 +53,7 @@ class DomainClaim:
 
 
 def claim_domain() -> DomainClaim:
-    """The first free domain id after the one this process claimed last (wrapping round)."""
+    """Claim the first free domain id after the one this process claimed last (wrapping round)."""
     global _last
     with _guard:
         ids = list(DOMAINS)

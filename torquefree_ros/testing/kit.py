@@ -43,8 +43,9 @@ KIT_NODE = 'torquefree_test_kit'
 
 class SimulatorTimeout(TimeoutError):
     """
-    A wait of the kit's did not end within its timeout; the message names what did not
-    arrive.
+    A wait of the kit's did not end within its timeout.
+
+    The message names what did not arrive.
     """
 
 
@@ -62,8 +63,9 @@ class Sample:
 @dataclass(frozen=True)
 class State:
     """
-    The exact state at ``t`` (s since the run's start); arrays of states when ``t`` is an
-    array.
+    The exact state at ``t`` (s since the run's start).
+
+    Arrays of states when ``t`` is an array.
     """
 
     t: Any
@@ -72,14 +74,15 @@ class State:
 
 
 def stamp_ns(stamp) -> int:
-    """A ``builtin_interfaces/Time`` in integer nanoseconds."""
+    """Return a ``builtin_interfaces/Time`` in integer nanoseconds."""
     return stamp.sec * 1_000_000_000 + stamp.nanosec
 
 
 def message_stamp_ns(message) -> int | None:
     """
-    The stamp a message of the simulator's carries: its header's, ``/clock``'s time, the first
-    transform's or marker's; None when it has none.
+    Return the stamp a message of the simulator's carries (ns), or None when it has none.
+
+    Its header's, ``/clock``'s time, the first transform's or marker's.
     """
     header = getattr(message, 'header', None)
     if header is not None:
@@ -96,8 +99,9 @@ def message_stamp_ns(message) -> int | None:
 
 class Tap:
     """
-    What is published on one topic, in order of arrival (:attr:`messages`); :meth:`wait` for
-    more.
+    What is published on one topic, in order of arrival (:attr:`messages`).
+
+    :meth:`wait` for more.
     """
 
     def __init__(self, simulator: 'Simulator', topic: str, message_type, qos):
@@ -111,9 +115,10 @@ class Tap:
 
     def wait(self, count: int, timeout: float | None = None) -> list:
         """
-        Spin until ``count`` messages in all have arrived; returns them all. On timeout the
-        error names the topic, how many came and who publishes it (none: the node never
-        answered).
+        Spin until ``count`` messages in all have arrived; return them all.
+
+        On timeout the error names the topic, how many came and who publishes it (none: the node
+        never answered).
         """
 
         def missing() -> str:
@@ -125,8 +130,8 @@ class Tap:
                 or 'none'
             )
             return (
-                f'tap on {self.topic} ({_type_name(self.message_type)}): {len(self.messages)} of {count} '
-                f'messages arrived; publishers on the topic: {who}'
+                f'tap on {self.topic} ({_type_name(self.message_type)}): '
+                f'{len(self.messages)} of {count} messages arrived; publishers on the topic: {who}'
             )
 
         self._simulator.spin_until(lambda: len(self.messages) >= count, timeout, missing)
@@ -135,8 +140,9 @@ class Tap:
 
 class _Watch:
     """
-    What a watched subscription's callbacks have processed: they returned for ``count``
-    messages, the last of them stamped ``latest`` (ns).
+    What a watched subscription's callbacks have processed.
+
+    They returned for ``count`` messages, the last of them stamped ``latest`` (ns).
     """
 
     def __init__(self):
@@ -233,9 +239,8 @@ class Simulator:
             self._release_domain()
             raise
         self.executor.add_node(self.node)
-        self._kit_node = (
-            None  # the kit's own node, made when first needed (stepped: at once, to record)
-        )
+        # the kit's own node, made when first needed (stepped: at once, to record)
+        self._kit_node = None
         try:
             if stepped:
                 self._record()
@@ -255,18 +260,19 @@ class Simulator:
             self.executor.add_node(self._kit_node)
         return self._kit_node
 
-    # -- the caller's nodes
-    # --------------------------------------------------------------------------
+    # -- the caller's nodes ----------------------------------------------------------------------
     def add_node(self, node) -> None:
         """
-        Spin ``node`` with the simulator (same context, same executor, the caller's thread);
-        from now on :meth:`advance` waits for its subscriptions to the simulator's topics. The
+        Spin ``node`` with the simulator (same context, same executor, the caller's thread).
+
+        From now on :meth:`advance` waits for its subscriptions to the simulator's topics. The
         simulator destroys it on exit.
         """
         if node.context is not self.context:
             raise ValueError(
                 f"add_node: node '{node.get_name()}' belongs to another context; create it with "
-                'context=sim.context (and namespace=sim.namespace, to subscribe with relative names)'
+                'context=sim.context (and namespace=sim.namespace, to subscribe with relative '
+                'names)'
             )
         self._check_names(node)
         self._added.append(node)
@@ -274,8 +280,9 @@ class Simulator:
 
     def create_node(self, name: str, **options):
         """
-        ``rclpy.create_node`` in the simulator's context and namespace, added
-        (:meth:`add_node`).
+        Create a node (``rclpy.create_node``) in the simulator's context and namespace.
+
+        The node is added (:meth:`add_node`).
         """
         import rclpy
 
@@ -286,8 +293,10 @@ class Simulator:
 
     def tap(self, topic: str, message_type, qos=None) -> Tap:
         """
-        Collect what is published on ``topic`` (relative names resolve in the simulator's
-        namespace), reliable keep-last 1000 unless ``qos`` is given.
+        Collect what is published on ``topic``.
+
+        Relative names resolve in the simulator's namespace; the subscription is reliable
+        keep-last 1000 unless ``qos`` is given.
         """
         from rclpy.qos import QoSProfile, ReliabilityPolicy
 
@@ -300,16 +309,15 @@ class Simulator:
         self._taps.append(tap)
         return tap
 
-    # -- stepping
-    # ------------------------------------------------------------------------------------
+    # -- stepping --------------------------------------------------------------------------------
     @property
     def k(self) -> int:
-        """The index of the next sample :meth:`advance` lets out."""
+        """Return the index of the next sample :meth:`advance` lets out."""
         return self._next
 
     @property
     def t(self) -> float:
-        """The time (s since the run's start) of the last sample out, or 0 before any."""
+        """Return the time (s since the run's start) of the last sample out, or 0 before any."""
         return max(self._next - 1, 0) / self._simulation.rate
 
     @property
@@ -318,8 +326,9 @@ class Simulator:
 
     def advance(self, n: int = 1, timeout: float | None = None) -> list[Sample]:
         """
-        Publish the next ``n`` samples, one at a time, and return them (as :attr:`samples` has
-        them).
+        Publish the next ``n`` samples, one at a time, and return them.
+
+        They are returned as :attr:`samples` has them.
 
         A sample counts as processed, and the next goes out, once every subscription of every node
         added (and of the kit's recorder) to a topic the sample went out on has had its callback
@@ -376,8 +385,9 @@ class Simulator:
 
     def _watched(self, expected: dict) -> list:
         """
-        (node, subscription, watch) for every subscription to a topic in ``expected``, wrapping
-        the callbacks of subscriptions not seen before.
+        Return (node, subscription, watch) for every subscription to a topic in ``expected``.
+
+        The callbacks of subscriptions not seen before are wrapped.
         """
         out = []
         for node in [node for node in (self._kit_node, *self._added) if node is not None]:
@@ -425,8 +435,10 @@ class Simulator:
 
     def _wait_matched(self, watched: list, timeout: float) -> None:
         """
-        Until the simulator's publisher on each watched topic has matched the watched
-        subscriptions (a volatile sample published before then would be lost to them).
+        Spin until the simulator's publishers have matched the watched subscriptions.
+
+        The publisher on each watched topic, that is: a volatile sample published before then
+        would be lost to them.
         """
         fresh = [entry for entry in watched if id(entry[1]) not in self._matched]
         if not fresh:
@@ -449,7 +461,8 @@ class Simulator:
                 if subscription.get_publisher_count() == 0
             ]
             return (
-                "discovery: the simulator's publishers have not matched every subscription to them: "
+                "discovery: the simulator's publishers have not matched every subscription to "
+                'them: '
                 + ('; '.join(lines) or 'each has a publisher, but a publisher lacks a subscriber')
             )
 
@@ -485,7 +498,8 @@ class Simulator:
             ):
                 continue
             seen = (
-                f'its callback returned for {watch.count} message(s), the last stamped {_seconds(watch.latest)}'
+                f'its callback returned for {watch.count} message(s), '
+                f'the last stamped {_seconds(watch.latest)}'
                 if watch.count
                 else 'its callback has not run for any message'
             )
@@ -500,10 +514,12 @@ class Simulator:
             self.node.resolve_topic_name(effect.topic)
             for effect, _ in self._simulation.command_holds
         )
+        answer = _seconds(self._simulation.stamp_ns(k - 1))
+        timeout = self.node.sample_loop.request.lockstep_timeout
         return (
-            f'in lock-step it waits for a command stamped {_seconds(self._simulation.stamp_ns(k - 1))} or later on {topics} '
+            f'in lock-step it waits for a command stamped {answer} or later on {topics} '
             f'(the answer to sample {k - 1}) and none came within lockstep_timeout '
-            f'({self.node.sample_loop.request.lockstep_timeout:g} s); for an open loop pass lockstep=False'
+            f'({timeout:g} s); for an open loop pass lockstep=False'
         )
 
     def _qos_problem(self, subscription) -> str:
@@ -532,25 +548,25 @@ class Simulator:
             )
         if loop.simulation is not self._simulation:
             raise RuntimeError(
-                "the simulator was reset behind the kit's back (its ~/reset service): use sim.reset()"
+                "the simulator was reset behind the kit's back (its ~/reset service): "
+                'use sim.reset()'
             )
 
-    # -- truth, samples, reset
-    # -----------------------------------------------------------------------
+    # -- truth, samples, reset -------------------------------------------------------------------
     def truth(self, t) -> State:
         """
-        The exact state at ``t`` (s since the run's start; a number or a sorted array), from a
-        fresh propagator of the same scene and parameters: the exact solution, or the scene's
-        propagator at its accuracy when an effect changes the motion (the node's samples are its
-        values at ``k / rate``, bit for bit). A scene that takes torque commands has no truth
-        without them: compare with
-        :attr:`samples` instead.
+        Return the exact state at ``t`` (s since the run's start; a number or a sorted array).
+
+        It comes from a fresh propagator of the same scene and parameters: the exact solution, or
+        the scene's propagator at its accuracy when an effect changes the motion (the node's
+        samples are its values at ``k / rate``, bit for bit). A scene that takes torque commands
+        has no truth without them: compare with :attr:`samples` instead.
         """
         self._sync()
         if self._simulation.command_holds:
             raise ValueError(
-                'truth: the scene takes torque commands; its motion depends on those the node received '
-                '(compare with sim.samples)'
+                'truth: the scene takes torque commands; its motion depends on those the node '
+                'received (compare with sim.samples)'
             )
         scalar = np.ndim(t) == 0
         times = np.atleast_1d(np.asarray(t, dtype=float))
@@ -563,9 +579,10 @@ class Simulator:
 
     def time_of(self, stamp) -> float:
         """
-        The time (s since the run's start) of a stamp (``builtin_interfaces/Time`` or integer
-        ns): for a sample's stamp exactly its ``k / publish_rate``, the time :meth:`truth`
-        wants.
+        Return the time (s since the run's start) of a stamp.
+
+        The stamp is a ``builtin_interfaces/Time`` or integer ns; for a sample's stamp the time is
+        exactly its ``k / publish_rate``, the time :meth:`truth` wants.
         """
         self._sync()
         ns = stamp if isinstance(stamp, (int, np.integer)) else stamp_ns(stamp)
@@ -576,10 +593,12 @@ class Simulator:
 
     def reset(self, **parameters) -> str:
         """
-        Set ``parameters`` (atomically, with the node's checks) and call ``~/reset``: the run
-        restarts at ``t = 0`` and :attr:`samples` start over. Returns the service's summary; raises
-        ``ValueError`` with the reason when a value or the reset is refused (the running simulation
-        then goes on unchanged; values accepted stay set, as through the parameter service).
+        Set ``parameters`` (atomically, with the node's checks) and call ``~/reset``.
+
+        The run restarts at ``t = 0`` and :attr:`samples` start over. Returns the service's
+        summary; raises ``ValueError`` with the reason when a value or the reset is refused (the
+        running simulation then goes on unchanged; values accepted stay set, as through the
+        parameter service).
         """
         from rclpy.parameter import Parameter
         from std_srvs.srv import Trigger
@@ -588,7 +607,8 @@ class Simulator:
             values = [Parameter(name, value=value) for name, value in parameters.items()]
             try:
                 result = self.node.set_parameters_atomically(values)
-            except Exception as error:  # noqa: BLE001 - rclpy raises for read-only ones: the same refusal
+            # rclpy raises for read-only ones: the same refusal
+            except Exception as error:  # noqa: BLE001 - a refusal either way
                 raise ValueError(f'reset: parameters refused: {error}') from None
             if not result.successful:
                 raise ValueError(f'reset: parameters refused: {result.reason}')
@@ -623,8 +643,8 @@ class Simulator:
         self.samples = []
         self._halves.clear()
         self._matched.clear()  # a reset may have made new output publishers
-        # the values the run was made from (they may change later, without a reset, through the
-        # parameters)
+        # the values the run was made from (they may change later, without a reset, through
+        # the parameters)
         self._values = {
             spec.name: check_value(spec.name, self.node.get_parameter(spec.name)) for spec in SPECS
         }
@@ -632,8 +652,9 @@ class Simulator:
 
     def _fresh_propagator(self):
         """
-        The propagator the node's run has, built anew from the same values (never the running
-        one: the sample loop's thread uses it, and an integrator keeps state).
+        Build the propagator the node's run has, anew from the same values.
+
+        Never the running one: the sample loop's thread uses it, and an integrator keeps state.
         """
         from ..ros.parameters import run_request
 
@@ -651,8 +672,9 @@ class Simulator:
 
     def _topics_of(self, k: int) -> dict:
         """
-        resolved topic -> whether sample ``k`` goes out on it, for every topic the run
-        publishes.
+        Map resolved topic -> whether sample ``k`` goes out on it.
+
+        For every topic the run publishes.
         """
         from ..bag.samples import ANGULAR_VELOCITY, ATTITUDE, CLOCK
 
@@ -667,7 +689,7 @@ class Simulator:
         return topics
 
     def _publisher(self, topic: str):
-        """The node's publisher of a resolved topic (KeyError when it has none)."""
+        """Return the node's publisher of a resolved topic (KeyError when it has none)."""
         for publisher in self.node.publishers:
             if publisher.topic_name == topic:
                 return publisher
@@ -705,8 +727,7 @@ class Simulator:
             k = round((ns - simulation.epoch_ns) * 1e-9 * simulation.rate)
             self.samples.append(Sample(k, k / simulation.rate, ns, parts['w'], parts['q']))
 
-    # -- spinning
-    # --------------------------------------------------------------------------------------
+    # -- spinning --------------------------------------------------------------------------------
     def spin_until(
         self,
         condition: Callable[[], bool],
@@ -715,9 +736,11 @@ class Simulator:
         check: Callable[[], None] | None = None,
     ) -> None:
         """
-        Spin the executor in this thread until ``condition()`` holds; :class:`SimulatorTimeout`
-        after ``timeout`` s (default: the simulator's), naming ``what`` (a text, or a function
-        giving one then). ``check()`` runs between spins and may raise to stop at once.
+        Spin the executor in this thread until ``condition()`` holds.
+
+        :class:`SimulatorTimeout` after ``timeout`` s (default: the simulator's), naming ``what``
+        (a text, or a function giving one then). ``check()`` runs between spins and may raise to
+        stop at once.
         """
         timeout = self.timeout if timeout is None else timeout
         deadline = time.monotonic() + timeout
@@ -730,12 +753,12 @@ class Simulator:
                 raise SimulatorTimeout(f'timed out after {timeout:g} s: {text}')
             self.executor.spin_once(timeout_sec=min(remaining, 0.1))
 
-    # -- teardown
-    # ------------------------------------------------------------------------------------
+    # -- teardown --------------------------------------------------------------------------------
     def close(self) -> None:
         """
-        Stop the simulator and destroy every node of its context, the caller's included; leaves
-        no thread, context, participant or domain claim behind.
+        Stop the simulator and destroy every node of its context, the caller's included.
+
+        Leaves no thread, context, participant or domain claim behind.
         """
         from rclpy.exceptions import InvalidHandle
 
@@ -748,9 +771,8 @@ class Simulator:
             self.node.destroy_node()  # stops and joins the sample loop's thread
             for node in (*reversed(self._added), self._kit_node):
                 if node is not None:
-                    with contextlib.suppress(
-                        InvalidHandle
-                    ):  # the caller may have destroyed it already
+                    # the caller may have destroyed it already
+                    with contextlib.suppress(InvalidHandle):
                         node.destroy_node()
         finally:
             self.context.try_shutdown()
@@ -769,13 +791,14 @@ class Simulator:
     def __exit__(self, *exc_info) -> None:
         self.close()
 
-    # -- helpers
-    # -----------------------------------------------------------------------------------------
+    # -- helpers ---------------------------------------------------------------------------------
     def _simulation_name(self) -> str:
         return self.node.sample_loop.request.configuration
 
     def _check_names(self, node) -> None:
         """
+        Refuse a node whose subscription to a simulator's topic resolves elsewhere.
+
         A subscription to a topic named like the simulator's but resolved elsewhere is a
         namespace mistake: say so now rather than at the first timeout.
         """
@@ -784,12 +807,12 @@ class Simulator:
         for subscription in node.subscriptions:
             name = subscription.topic_name
             base = name.rsplit('/', 1)[-1]
-            if (
-                base in ours and name != ours[base] and name == f'{own}/{base}'
-            ):  # a relative name, elsewhere
+            # a relative name, elsewhere
+            if base in ours and name != ours[base] and name == f'{own}/{base}':
                 raise ValueError(
-                    f"add_node: node '{node.get_name()}' subscribes to {name}, the simulator publishes "
-                    f'{ours[base]}: create the node with namespace=sim.namespace '
+                    f"add_node: node '{node.get_name()}' subscribes to {name}, "
+                    f'the simulator publishes {ours[base]}: '
+                    'create the node with namespace=sim.namespace '
                     f"('{self.namespace}') or subscribe to the full name"
                 )
 
@@ -797,8 +820,9 @@ class Simulator:
 @contextlib.contextmanager
 def simulator(scene: str | None = None, **options) -> Iterator[Simulator]:
     """
-    ``with simulator(scene="dzhanibekov", publish_rate=50.0) as sim:`` — a :class:`Simulator`,
-    closed on exit (every node in it destroyed).
+    Start a :class:`Simulator`, closed on exit (every node in it destroyed).
+
+    ``with simulator(scene="dzhanibekov", publish_rate=50.0) as sim:``
     """
     sim = Simulator(scene, **options)
     try:

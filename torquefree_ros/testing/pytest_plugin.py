@@ -22,8 +22,9 @@ pytest plugin (the ``pytest11`` entry point ``torquefree_ros``): the ``torquefre
 or, one test per set of parameters, through indirect parametrization (a dict of parameters, or a
 scene's name)::
 
-    @pytest.mark.parametrize("torquefree_sim", ["dzhanibekov", {"scene": "explorer1"}],
-    indirect=True)
+    @pytest.mark.parametrize(
+        "torquefree_sim", ["dzhanibekov", {"scene": "explorer1"}], indirect=True
+    )
 
 Both may be given: the parametrization's values win. Each test gets a fresh simulator in a ROS
 domain and namespace of its own, closed after the test (every node added to it destroyed), so tests
@@ -72,7 +73,11 @@ def _parameters(request) -> dict:
 
 @pytest.fixture
 def torquefree_sim(request):
-    """A started :class:`torquefree_ros.testing.Simulator`, stepped by the test (``advance``)."""
+    """
+    Yield a started :class:`torquefree_ros.testing.Simulator`.
+
+    The test steps it (``advance``).
+    """
     from .kit import simulator
 
     with simulator(**_parameters(request)) as sim:

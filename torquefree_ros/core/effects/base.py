@@ -58,8 +58,9 @@ class Effect(abc.ABC):
 
     def __eq__(self, other) -> bool:
         """
-        Equal when of the same kind with the same parameters (scenes loaded twice compare
-        equal).
+        Tell whether ``other`` is of the same kind with the same parameters.
+
+        Scenes loaded twice compare equal.
         """
         if type(other) is not type(self):
             return NotImplemented
@@ -87,14 +88,17 @@ class MotionEffect(Effect):
     holds_per_sample: ClassVar[bool] = False
     state_size: ClassVar[int] = 0
     conserves: ClassVar[frozenset] = frozenset()
-    #: its torque's compiled form: a code of ``integrators/motion_kernels.py`` (whose section there
-    #: reads
-    #: :meth:`kernel_parameters`), or None for a torque held constant on each smooth piece, which
-    #: the compiled integrators take from :meth:`held_torque` where the piece starts
+    #: its torque's compiled form: a code of ``integrators/motion_kernels.py`` (whose section
+    #: there reads :meth:`kernel_parameters`), or None for a torque held constant on each smooth
+    #: piece, which the compiled integrators take from :meth:`held_torque` where the piece starts
     kernel_code: ClassVar[int | None] = None
 
     def bound(self, tensor: np.ndarray) -> 'MotionEffect':
-        """This effect for a body of inertia ``tensor`` (body frame); a copy when it needs it."""
+        """
+        Return this effect for a body of inertia ``tensor`` (body frame).
+
+        A copy when it needs it.
+        """
         return self
 
     def initial_state(self, omega0_B: np.ndarray) -> np.ndarray:
@@ -110,10 +114,11 @@ class MotionEffect(Effect):
         segment_start: float,
     ) -> np.ndarray:
         """
-        Body-frame torque on the body. ``segment_start``: where the smooth piece being
-        integrated begins (a breakpoint or a step start); piecewise quantities are those of the
-        piece starting there, so a stage evaluated exactly at the next breakpoint still sees this
-        piece.
+        Return the body-frame torque on the body.
+
+        ``segment_start``: where the smooth piece being integrated begins (a breakpoint or a step
+        start); piecewise quantities are those of the piece starting there, so a stage evaluated
+        exactly at the next breakpoint still sees this piece.
         """
 
     def state_rate(
@@ -125,20 +130,23 @@ class MotionEffect(Effect):
         return ()
 
     def kernel_parameters(self) -> tuple[float, ...]:
-        """The numbers its kernel reads, in order (bound: after :meth:`bound`)."""
+        """Return the numbers its kernel reads, in order (bound: after :meth:`bound`)."""
         return ()
 
     def held_torque(self, segment_start: float) -> tuple[np.ndarray, bool]:
         """
-        For an effect without a kernel: the torque it holds on the piece starting at
-        ``segment_start``, and whether it is in the inertial frame (else the body frame).
+        Return the torque held on the piece starting at ``segment_start``, and its frame.
+
+        For an effect without a kernel: the torque it holds, and whether it is in the inertial
+        frame (else the body frame).
         """
         raise NotImplementedError(f'{self.name}: neither a kernel code nor a held torque')
 
     def momentum_B(self, state: np.ndarray) -> np.ndarray:
         """
-        Angular momentum the effect carries itself (a wheel, a damper), body frame; broadcasts
-        over leading axes of ``state``.
+        Return the angular momentum the effect carries itself (a wheel, a damper), body frame.
+
+        Broadcasts over leading axes of ``state``.
         """
         return np.zeros(state.shape[:-1] + (3,))
 
@@ -148,9 +156,11 @@ class MotionEffect(Effect):
 
 class OutputEffect(Effect):
     """
-    Derives one topic from the samples. ``topic``, ``message_type``; ``frame`` is ``body`` or
-    ``inertial`` (the frame id the node uses for it). :meth:`stream` starts the output for a run.
-    Every output may set its own ``rate`` (``RATE``): it then goes out on every n-th sample.
+    Derives one topic from the samples.
+
+    ``topic``, ``message_type``; ``frame`` is ``body`` or ``inertial`` (the frame id the node uses
+    for it). :meth:`stream` starts the output for a run. Every output may set its own ``rate``
+    (``RATE``): it then goes out on every n-th sample.
     """
 
     changes_motion = False
@@ -170,8 +180,10 @@ class OutputEffect(Effect):
 
     def every(self, rate: float, rate_name: str = 'rate') -> int:
         """
-        ``n``: the output goes out on samples ``k = 0, n, 2n, ...`` of a run at ``rate`` Hz (1
-        without a rate of its own); a rate that does not divide ``rate`` is a ``ValueError``.
+        Return ``n``: the output goes out on samples ``k = 0, n, 2n, ...`` of a run at ``rate`` Hz.
+
+        ``n`` is 1 without a rate of its own; a rate that does not divide ``rate`` is a
+        ``ValueError``.
         """
         own = self.values.get('rate')
         if own is None:
@@ -188,17 +200,19 @@ class OutputEffect(Effect):
     @abc.abstractmethod
     def stream(self, rate: float, propagator) -> 'OutputStream':
         """
-        The output of one run at ``rate`` Hz of ``propagator`` (its body, initial state,
-        invariants).
+        Return the output of one run at ``rate`` Hz of ``propagator``.
+
+        The propagator gives its body, initial state and invariants.
         """
 
 
 class OutputStream(abc.ABC):
     """
-    Per run: ``rows(first, times, omega_B, q_NB, internal)`` gives one row of float64 per sample
-    (``internal``: the effects' own states), the message's numbers in the order its layout reads
-    them. Rows depend only on the sample index and the scene, never on how samples are cut into
-    blocks.
+    One run's output: a row of float64 per sample.
+
+    ``rows(first, times, omega_B, q_NB, internal)`` gives them (``internal``: the effects' own
+    states), the message's numbers in the order its layout reads them. Rows depend only on the
+    sample index and the scene, never on how samples are cut into blocks.
     """
 
     @abc.abstractmethod
@@ -226,7 +240,7 @@ def parse_effect(entry, path: str) -> Effect:
 
 
 def invariants_conserved(effects) -> frozenset:
-    """What stays constant under all ``effects`` (torque-free: energy and momentum)."""
+    """Return what stays constant under all ``effects`` (torque-free: energy and momentum)."""
     kept = frozenset({ENERGY, MOMENTUM})
     for effect in effects:
         kept &= effect.conserves

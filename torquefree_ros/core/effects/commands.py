@@ -63,8 +63,8 @@ class Command(NamedTuple):
 class TorqueCommand(MotionEffect):
     name = 'torque_command'
     summary = (
-        'torque from a controller (geometry_msgs/WrenchStamped on `topic`), held from the first sample at '
-        'or after its stamp; zero after `timeout` without a command'
+        'torque from a controller (geometry_msgs/WrenchStamped on `topic`), '
+        'held from the first sample at or after its stamp; zero after `timeout` without a command'
     )
     message_type = 'geometry_msgs/msg/WrenchStamped'
     holds_per_sample = True
@@ -94,11 +94,15 @@ class TorqueCommand(MotionEffect):
         return self.values['topic']
 
     def frame_id(self, body_frame: str, inertial_frame: str) -> str:
-        """The ``header.frame_id`` its commands must carry."""
+        """Return the ``header.frame_id`` its commands must carry."""
         return inertial_frame if self.inertial else body_frame
 
     def bound(self, tensor):
-        """A copy with a hold of its own: every propagator (every run) starts without commands."""
+        """
+        Return a copy with a hold of its own.
+
+        Every propagator (every run) starts without commands.
+        """
         bound = copy.copy(self)
         bound.hold = CommandHold(self.values['timeout'], self.values['max_torque'])
         return bound
@@ -113,18 +117,20 @@ class TorqueCommand(MotionEffect):
 
 def command_inputs(effects) -> tuple:
     """
-    The effects among ``effects`` (a propagator's, bound) that take commands, each with its
-    hold.
+    Return the effects among ``effects`` that take commands, each with its hold.
+
+    ``effects`` are a propagator's, bound.
     """
     return tuple(effect for effect in effects if getattr(effect, 'hold', None) is not None)
 
 
 class CommandHold:
     """
-    The commands of one run and the torque they hold on each sample interval. ``start(rate,
-    epoch_ns)`` puts it on the run's sample grid. Thread-safe: commands arrive on one thread while
-    the samples are computed on another; :meth:`seal` fixes the torque of the intervals about to be
-    computed, so a command arriving meanwhile holds from the next interval.
+    The commands of one run and the torque they hold on each sample interval.
+
+    ``start(rate, epoch_ns)`` puts it on the run's sample grid. Thread-safe: commands arrive on one
+    thread while the samples are computed on another; :meth:`seal` fixes the torque of the
+    intervals about to be computed, so a command arriving meanwhile holds from the next interval.
     """
 
     def __init__(self, timeout: float, max_torque: float):
@@ -133,9 +139,8 @@ class CommandHold:
         self.rate = 1.0
         self.epoch_ns = 0
         self.frame_id = ''  # the frame_id commands must carry ("" until the run sets it)
-        self.commands: list[
-            Command
-        ] = []  # accepted, in order; sealing forgets those no longer in force
+        # accepted, in order; sealing forgets those no longer in force
+        self.commands: list[Command] = []
         self._starts: list[int] = []
         self.accepted = 0
         self.sealed = -1  # intervals 0 .. sealed have their torque fixed
@@ -149,9 +154,10 @@ class CommandHold:
 
     def shift(self, offset_ns: int) -> None:
         """
-        Move the grid and the commands kept by ``offset_ns`` (a paused run resuming on
-        wall-clock stamps: its epoch moved on, and a command's timeout counts simulated time, which
-        stood still).
+        Move the grid and the commands kept by ``offset_ns``.
+
+        For a paused run resuming on wall-clock stamps: its epoch moved on, and a command's timeout
+        counts simulated time, which stood still.
         """
         with self._lock:  # commands arrive on another thread meanwhile
             self.epoch_ns += int(offset_ns)
@@ -162,11 +168,11 @@ class CommandHold:
 
     # -- the grid -------------------------------------------------------------------------------
     def stamp_ns(self, k: int) -> int:
-        """The stamp of sample ``k``, as the simulation stamps it."""
+        """Return the stamp of sample ``k``, as the simulation stamps it."""
         return sample_stamp_ns(k, self.rate, self.epoch_ns)
 
     def index_at_or_after(self, stamp_ns: int) -> int:
-        """The first sample ``k >= 0`` whose stamp is at or after ``stamp_ns``."""
+        """Return the first sample ``k >= 0`` whose stamp is at or after ``stamp_ns``."""
         k = max(0, math.ceil((stamp_ns - self.epoch_ns) * 1e-9 * self.rate))
         while k > 0 and self.stamp_ns(k - 1) >= stamp_ns:
             k -= 1
@@ -176,8 +182,9 @@ class CommandHold:
 
     def interval_at(self, t: float) -> int:
         """
-        The sample interval ``[t_k, t_k+1)`` holding ``t`` (s since the start; ``t_k = k /
-        rate``).
+        Return the sample interval ``[t_k, t_k+1)`` holding ``t``.
+
+        ``t`` in s since the start; ``t_k = k / rate``.
         """
         k = math.floor(t * self.rate)
         if (k + 1) / self.rate <= t:
@@ -196,9 +203,10 @@ class CommandHold:
         arrival_ns: int | None = None,
     ) -> tuple[bool, str]:
         """
-        Accept a command or refuse it; returns ``(accepted, reason)`` (the reason's first words
-        name the rule). ``arrival_ns``: replaying a recording, the stamp it was logged at stands
-        for the moment it arrived (the samples before it had been computed).
+        Accept a command or refuse it; return ``(accepted, reason)``.
+
+        The reason's first words name the rule. ``arrival_ns``: replaying a recording, the stamp it
+        was logged at stands for the moment it arrived (the samples before it had been computed).
         """
         torque = np.array(torque, dtype=float)
         force = np.array(force, dtype=float)
@@ -219,7 +227,10 @@ class CommandHold:
         if np.max(np.abs(torque)) > self.max_torque:
             return f'too large: a torque component exceeds max_torque {self.max_torque:g} N m'
         if frame_id != self.frame_id:
-            return f"wrong frame: header.frame_id is {clip(repr(frame_id), 80)}, the command's frame is {self.frame_id!r}"
+            return (
+                f'wrong frame: header.frame_id is {clip(repr(frame_id), 80)}, '
+                f"the command's frame is {self.frame_id!r}"
+            )
         if self.commands and stamp_ns < self.commands[-1].stamp_ns:
             return 'stale: stamped before the latest accepted command'
         return ''
@@ -239,23 +250,24 @@ class CommandHold:
     # -- the torque out -------------------------------------------------------------------------
     def seal(self, through: int) -> list[Command]:
         """
-        Fix the torque of intervals ``0 .. through``; returns the commands that start holding in
-        the newly sealed intervals (what a recorder writes). Commands superseded before interval
-        ``through - 1`` are forgotten, so a long run keeps a bounded list.
+        Fix the torque of intervals ``0 .. through``.
+
+        Returns the commands that start holding in the newly sealed intervals (what a recorder
+        writes). Commands superseded before interval ``through - 1`` are forgotten, so a long run
+        keeps a bounded list.
         """
         with self._lock:
             first = bisect.bisect_right(self._starts, self.sealed)
             self.sealed = max(self.sealed, through)
             sealed = self.commands[first: bisect.bisect_right(self._starts, self.sealed)]
-            keep = (
-                bisect.bisect_right(self._starts, through - 1) - 1
-            )  # the one in force on through - 1
+            # the one in force on through - 1
+            keep = bisect.bisect_right(self._starts, through - 1) - 1
             if keep > 0:
                 del self.commands[:keep], self._starts[:keep]
             return sealed
 
     def in_force(self, k: int) -> Command | None:
-        """The command holding on interval ``k`` (None: none yet, or timed out)."""
+        """Return the command holding on interval ``k`` (None: none yet, or timed out)."""
         with self._lock:  # sealing may trim the lists meanwhile
             index = bisect.bisect_right(self._starts, k) - 1
             command = self.commands[index] if index >= 0 else None
@@ -265,8 +277,9 @@ class CommandHold:
 
     def timed_out(self, k: int) -> bool:
         """
-        No command in force on interval ``k`` for ``timeout`` (since the last one, or the
-        start).
+        Tell whether interval ``k`` has had no command in force for ``timeout``.
+
+        Counted since the last command, or the start.
         """
         with self._lock:
             index = bisect.bisect_right(self._starts, k) - 1
@@ -287,9 +300,10 @@ class CommandHold:
 
     def wait_for(self, stamp_ns: int, timeout: float, interrupted) -> bool:
         """
-        Lock-step: wait (wall clock, at most ``timeout`` s) for an accepted command stamped at
-        or after ``stamp_ns``; ``interrupted()`` is polled so that a reset or a stop need not
-        wait.
+        Wait (lock-step) for an accepted command stamped at or after ``stamp_ns``.
+
+        Wall clock, at most ``timeout`` s; ``interrupted()`` is polled so that a reset or a stop
+        need not wait.
         """
         deadline = time.monotonic() + timeout
         with self._lock:
@@ -303,16 +317,18 @@ class CommandHold:
 
 def sample_stamp_ns(k: int, rate: float, epoch_ns: int = 0) -> int:
     """
-    The stamp of sample ``k`` of a run at ``rate`` Hz from ``epoch_ns``, as the simulation
-    stamps it.
+    Return the stamp of sample ``k`` of a run at ``rate`` Hz from ``epoch_ns``.
+
+    As the simulation stamps it.
     """
     return epoch_ns + round(k / rate * 1e9)
 
 
 def timed_out(now_ns, since_ns, timeout_ns):
     """
-    The timeout rule: no command for ``timeout`` since ``since_ns`` (integers, or arrays of
-    them).
+    Apply the timeout rule: no command for ``timeout`` since ``since_ns``.
+
+    Integers, or arrays of them.
     """
     return now_ns - since_ns >= timeout_ns
 

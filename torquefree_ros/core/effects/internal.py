@@ -13,9 +13,10 @@
 # limitations under the License.
 
 """
-Internal momentum: a viscous nutation damper and a constant-momentum rotor (a gyrostat). Both
-exchange momentum with the body only, so the total angular momentum ``R(q) (I w + h_internal)`` is
-constant in the inertial frame.
+Internal momentum: a viscous nutation damper and a constant-momentum rotor (a gyrostat).
+
+Both exchange momentum with the body only, so the total angular momentum
+``R(q) (I w + h_internal)`` is constant in the inertial frame.
 """
 
 from __future__ import annotations
@@ -31,9 +32,10 @@ from ..schema import FieldError, number, Param, vector
 @register
 class Damper(MotionEffect):
     """
-    A spherical viscous damper: a rotor of scalar inertia ``J`` in a cavity filled with fluid
-    of damping coefficient ``c`` (Hughes, *Spacecraft Attitude Dynamics*, ch. 7). Its state is its
-    absolute rate ``nu`` in body components:
+    A spherical viscous damper: a rotor of scalar inertia ``J`` in a cavity filled with fluid.
+
+    The fluid's damping coefficient is ``c`` (Hughes, *Spacecraft Attitude Dynamics*, ch. 7). Its
+    state is its absolute rate ``nu`` in body components:
 
         I w'  + w x I w  =  c (nu - w)          (body, inertia without the damper's rotor)
         J (nu' + w x nu) = -c (nu - w)          (rotor)
@@ -43,15 +45,21 @@ class Damper(MotionEffect):
     """
 
     name = 'damper'
-    summary = 'viscous nutation damper with its own rate: energy falls, |H| stays, the spin goes to the major axis'
+    summary = (
+        'viscous nutation damper with its own rate: energy falls, |H| stays, '
+        'the spin goes to the major axis'
+    )
     state_size = 3
     conserves = frozenset({MOMENTUM})
     kernel_code = motion_kernels.DAMPER
     parameters = {
         'inertia': Param(
-            number(positive=True, unit='kg m^2'), help="the damper rotor's inertia J, kg m^2"
+            number(positive=True, unit='kg m^2'),
+            description="the damper rotor's inertia J, kg m^2",
         ),
-        'damping': Param(number(positive=True, unit='N m s'), help='viscous coefficient c, N m s'),
+        'damping': Param(
+            number(positive=True, unit='N m s'), description='viscous coefficient c, N m s'
+        ),
         'initial_rate': Param(vector(3, unit='rad/s'), None),
     }
 
@@ -60,7 +68,7 @@ class Damper(MotionEffect):
         self.J, self.c = inertia, damping
 
     def initial_state(self, omega0_B):
-        """The rotor turns with the body unless ``initial_rate`` says otherwise."""
+        """Return the rotor's initial rate: the body's, unless ``initial_rate`` says otherwise."""
         rate = self.values['initial_rate']
         return np.array(omega0_B if rate is None else rate, dtype=float)
 
@@ -83,9 +91,10 @@ class Damper(MotionEffect):
 @register
 class Rotor(MotionEffect):
     """
-    A wheel spinning at constant relative momentum ``h`` along a body-fixed ``axis`` (a
-    gyrostat): ``I w' + w x (I w + h) = 0``, ``I`` the whole body's inertia with the wheel
-    included. Both ``|H|`` of body + wheel and ``w . I w / 2`` are constant.
+    A wheel spinning at constant relative momentum ``h`` along a body-fixed ``axis`` (a gyrostat).
+
+    ``I w' + w x (I w + h) = 0``, ``I`` the whole body's inertia with the wheel included. Both
+    ``|H|`` of body + wheel and ``w . I w / 2`` are constant.
     """
 
     name = 'rotor'
@@ -94,9 +103,9 @@ class Rotor(MotionEffect):
     kernel_code = motion_kernels.ROTOR
     parameters = {
         'momentum': Param(
-            number(unit='N m s'), help="the wheel's momentum relative to the body, N m s"
+            number(unit='N m s'), description="the wheel's momentum relative to the body, N m s"
         ),
-        'axis': Param(vector(3), help="the wheel's spin axis, body frame (normalised)"),
+        'axis': Param(vector(3), description="the wheel's spin axis, body frame (normalised)"),
     }
 
     @classmethod

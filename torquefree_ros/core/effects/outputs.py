@@ -74,7 +74,10 @@ NOT_PROVIDED = -1.0  # REP 145: element 0 of a covariance is -1 when the quantit
 @register
 class Imu(OutputEffect):
     name = 'imu'
-    summary = 'sensor_msgs/Imu gyro on the body: white noise and bias random walk, seeded (REP 145 covariances)'
+    summary = (
+        'sensor_msgs/Imu gyro on the body: white noise and bias random walk, seeded '
+        '(REP 145 covariances)'
+    )
     message_type = 'sensor_msgs/msg/Imu'
     frame = 'body'
     parameters = {
@@ -92,8 +95,10 @@ class Imu(OutputEffect):
 
 class _SeededStream(OutputStream):
     """
-    Draws from a seeded PCG64 stream consumed in sample order: a sample's draws are the same
-    however samples are requested (skipped samples consume theirs; asking earlier restarts).
+    Draws from a seeded PCG64 stream consumed in sample order.
+
+    A sample's draws are the same however samples are requested (skipped samples consume theirs;
+    asking earlier restarts).
     """
 
     def __init__(self, seed: int):
@@ -113,10 +118,11 @@ class _SeededStream(OutputStream):
 
     @abc.abstractmethod
     def _draw(self, count: int):
-        """The draws of the next ``count`` samples (advances ``next_index``)."""
+        """Return the draws of the next ``count`` samples (advances ``next_index``)."""
 
 
 class _ImuStream(_SeededStream):
+
     def __init__(self, imu: Imu, rate: float):
         values = imu.values
         self.white_sigma = values['gyro_noise_density'] * np.sqrt(rate)
@@ -134,8 +140,9 @@ class _ImuStream(_SeededStream):
 
     def _draw(self, count: int):
         """
-        White noise and bias of the next ``count`` samples; sample 0 carries the initial
-        bias.
+        Return the white noise and bias of the next ``count`` samples.
+
+        Sample 0 carries the initial bias.
         """
         normals = self.rng.standard_normal((count, 6))
         steps = self.walk_sigma * normals[:, 3:]
@@ -161,7 +168,10 @@ class _ImuStream(_SeededStream):
 @register
 class EulerAngles(OutputEffect):
     name = 'euler_angles'
-    summary = '3-2-1 (yaw, pitch, roll) Euler angles of the attitude, as Vector3Stamped (roll, pitch, yaw)'
+    summary = (
+        '3-2-1 (yaw, pitch, roll) Euler angles of the attitude, '
+        'as Vector3Stamped (roll, pitch, yaw)'
+    )
     message_type = 'geometry_msgs/msg/Vector3Stamped'
     frame = 'inertial'
     parameters = {'topic': Param(topic_name, 'euler_angles'), 'rate': OutputEffect.RATE}
@@ -171,14 +181,16 @@ class EulerAngles(OutputEffect):
 
 
 class _EulerStream(OutputStream):
+
     def rows(self, first, times, omega_B, q_NB, internal):
         return roll_pitch_yaw(q_NB)
 
 
 def roll_pitch_yaw(q_NB) -> np.ndarray:
     """
-    ``(phi, theta, psi)`` per row: ``[BN] = R1(phi) R2(theta) R3(psi)``, ``theta`` in
-    ``[-pi/2, pi/2]``, the others in ``(-pi, pi]``.
+    Return ``(phi, theta, psi)`` per row, with ``[BN] = R1(phi) R2(theta) R3(psi)``.
+
+    ``theta`` in ``[-pi/2, pi/2]``, the others in ``(-pi, pi]``.
     """
     R = quaternion.to_matrix(q_NB)  # [NB]; [BN] is its transpose
     yaw = np.arctan2(R[..., 1, 0], R[..., 0, 0])
@@ -218,6 +230,7 @@ class Pose(OutputEffect):
 
 
 class _PoseStream(OutputStream):
+
     def rows(self, first, times, omega_B, q_NB, internal):
         rows = np.zeros((times.shape[0], 7))  # position (x, y, z), orientation (x, y, z, w)
         rows[:, 3:] = q_NB
@@ -228,8 +241,9 @@ class _PoseStream(OutputStream):
 class Odometry(OutputEffect):
     name = 'odometry'
     summary = (
-        'nav_msgs/Odometry ground truth: inertial frame -> body frame, zero position, q_NB, body rates in '
-        'the body frame (REP 105), zero linear velocity; covariances zero (exact values)'
+        'nav_msgs/Odometry ground truth: inertial frame -> body frame, zero position, q_NB, '
+        'body rates in the body frame (REP 105), zero linear velocity; '
+        'covariances zero (exact values)'
     )
     message_type = 'nav_msgs/msg/Odometry'
     frame = 'inertial'  # header.frame_id; child_frame_id is the body frame
@@ -247,6 +261,7 @@ ODOMETRY_ROW = 13
 
 
 class _OdometryStream(OutputStream):
+
     def rows(self, first, times, omega_B, q_NB, internal):
         rows = np.zeros((times.shape[0], ODOMETRY_ROW))
         rows[:, 3:7] = q_NB  # copies: the very floats of attitude and angular_velocity
@@ -261,7 +276,8 @@ ARCSEC = math.pi / (180.0 * 3600.0)
 class StarTracker(OutputEffect):
     name = 'star_tracker'
     summary = (
-        'sensor_msgs/Imu with only the orientation: the attitude turned by a seeded noise rotation, '
+        'sensor_msgs/Imu with only the orientation: '
+        'the attitude turned by a seeded noise rotation, '
         '1-sigma across and about the boresight (arcsec), covariance filled (REP 145)'
     )
     message_type = 'sensor_msgs/msg/Imu'
@@ -284,8 +300,9 @@ class StarTracker(OutputEffect):
 
     def noise_axes(self) -> np.ndarray:
         """
-        Columns ``e1, e2, b``: a right-handed body-frame basis whose third axis is the
-        boresight.
+        Return the columns ``e1, e2, b`` of a right-handed body-frame basis.
+
+        The third axis is the boresight.
         """
         b = self.values['boresight']
         helper = np.eye(3)[int(np.argmin(np.abs(b)))]  # the body axis least aligned with b
@@ -308,6 +325,7 @@ class StarTracker(OutputEffect):
 
 
 class _StarTrackerStream(_SeededStream):
+
     def __init__(self, tracker: StarTracker):
         self.scaled_axes = tracker.noise_axes() * tracker.noise_sigmas()  # n = scaled_axes @ g
         self.template = np.zeros(IMU_ROW)
@@ -335,8 +353,8 @@ class _StarTrackerStream(_SeededStream):
 class Markers(OutputEffect):
     name = 'markers'
     summary = (
-        "visualization_msgs/MarkerArray in the inertial frame: the body's inertia box on its principal "
-        'axes, arrows along w and H, all three in every message'
+        "visualization_msgs/MarkerArray in the inertial frame: the body's inertia box "
+        'on its principal axes, arrows along w and H, all three in every message'
     )
     message_type = 'visualization_msgs/msg/MarkerArray'
     frame = 'inertial'
@@ -367,9 +385,10 @@ class Markers(OutputEffect):
 
     def box_sides(self, body) -> np.ndarray:
         """
-        Sides of the uniform box with the body's principal moments, along
-        ``body.principal_axes``: ``d_i^2 = 6 (J_j + J_k - J_i) / m``, scaled so the longest is
-        ``size``; a side of a rod or a plate (zero by the triangle inequality's edge) is drawn
+        Return the sides of the uniform box with the body's principal moments.
+
+        Along ``body.principal_axes``: ``d_i^2 = 6 (J_j + J_k - J_i) / m``, scaled so the longest
+        is ``size``; a side of a rod or a plate (zero by the triangle inequality's edge) is drawn
         ``size / 100`` thick.
         """
         J = body.moments
@@ -388,6 +407,7 @@ MARKER_ROW = 13
 
 
 class _MarkerStream(OutputStream):
+
     def __init__(self, markers: Markers, rate: float, propagator):
         values, body = markers.values, propagator.body
         size = values['size']
@@ -405,9 +425,8 @@ class _MarkerStream(OutputStream):
         if count == 0:
             return np.empty((0, MARKER_ROW))
         momentum_B = self.momentum_B(omega_B, internal)
-        if (
-            count == 1
-        ):  # a closed loop's one sample at a time: floats are ~20x faster than 1-row arrays
+        # a closed loop's one sample at a time: floats are ~20x faster than 1-row arrays
+        if count == 1:
             return np.array(
                 [self._row(q_NB[0].tolist(), omega_B[0].tolist(), momentum_B[0].tolist())]
             )
@@ -415,9 +434,10 @@ class _MarkerStream(OutputStream):
 
     def _row(self, q_NB, omega_B, momentum_B) -> tuple:
         """
-        A markers row from values: floats (one sample) or arrays (a block), by the same
-        operations in the same order, so a sample's row does not depend on how the blocks are
-        cut.
+        Build a markers row from values: floats (one sample) or arrays (a block).
+
+        By the same operations in the same order, so a sample's row does not depend on how the
+        blocks are cut.
         """
         x, y, z, w = q_NB
         # R(q_NB), as quaternion.to_matrix writes it

@@ -13,8 +13,9 @@
 # limitations under the License.
 
 """
-External torques: a commanded torque (constant or piecewise constant, body or inertial frame)
-and the gravity-gradient torque of a circular orbit.
+External torques: a commanded torque and the gravity-gradient torque of a circular orbit.
+
+The commanded torque is constant or piecewise constant, in the body or the inertial frame.
 """
 
 from __future__ import annotations
@@ -34,8 +35,8 @@ EARTH_MU = 3.986004418e14  # m^3/s^2 (WGS 84 / IERS)
 
 _SEGMENT = mapping(
     {
-        'start': Param(number(minimum=0.0, unit='s'), help='time the segment starts, s'),
-        'torque': Param(vector(3, unit='N m'), help='torque [x, y, z], N m'),
+        'start': Param(number(minimum=0.0, unit='s'), description='time the segment starts, s'),
+        'torque': Param(vector(3, unit='N m'), description='torque [x, y, z], N m'),
     }
 )
 
@@ -43,8 +44,10 @@ _SEGMENT = mapping(
 @register
 class ExternalTorque(MotionEffect):
     """
-    ``torque`` held constant, or a ``schedule`` of segments ``{start, torque}`` each held until
-    the next starts (zero before the first); in the ``body`` or the ``inertial`` frame.
+    A constant or piecewise-constant torque, in the ``body`` or the ``inertial`` frame.
+
+    ``torque`` held constant, or a ``schedule`` of segments ``{start, torque}`` each held until the
+    next starts (zero before the first); in the ``body`` or the ``inertial`` frame.
     """
 
     name = 'external_torque'
@@ -88,7 +91,11 @@ class ExternalTorque(MotionEffect):
         self.uses_attitude = self.inertial
 
     def torque_at(self, t: float) -> np.ndarray:
-        """The commanded torque at ``t``, in its own frame (a segment holds from its start on)."""
+        """
+        Return the commanded torque at ``t``, in its own frame.
+
+        A segment holds from its start on.
+        """
         return self._torques[bisect.bisect_right(self._starts, t) - 1]
 
     def held_torque(self, segment_start):
@@ -105,9 +112,11 @@ class ExternalTorque(MotionEffect):
 @register
 class GravityGradient(MotionEffect):
     """
-    Circular orbit in the inertial x-y plane, prograde about +z, the body at argument of
-    latitude ``u = u0 + n t`` from +x: ``r_N = r (cos u, sin u, 0)``. Torque
-    ``3 mu / r^5  r_B x (I r_B) = 3 n^2  e_B x (I e_B)`` with ``e_B = R(q)^T r_N / r``.
+    The gravity-gradient torque of a circular orbit in the inertial x-y plane.
+
+    The orbit is prograde about +z, the body at argument of latitude ``u = u0 + n t`` from +x:
+    ``r_N = r (cos u, sin u, 0)``. Torque ``3 mu / r^5  r_B x (I r_B) = 3 n^2  e_B x (I e_B)`` with
+    ``e_B = R(q)^T r_N / r``.
     """
 
     name = 'gravity_gradient'

@@ -13,8 +13,7 @@
 # limitations under the License.
 
 """
-Numerical integration at compiled speed: the room of the kernels that integrate a scene with
-effects.
+Numerical integration at compiled speed: the kernels that integrate a scene with effects.
 
 - :mod:`.motion_kernels`: the equations of motion (every motion effect's torque and state rate) and
   the steps of DOP853 (scipy's tableau, error control and dense output), RK4 and Lie-group RK4, as

@@ -13,10 +13,11 @@
 # limitations under the License.
 
 """
-The compiled path of the numerical propagators: a scene's motion as a kernel model, and the
-drivers that run :mod:`.motion_kernels`' DOP853 and fixed-step methods with the same stops
-(breakpoints, sample times), restarts and step budget as the reference path in
-``propagators/numerical.py``.
+The compiled path of the numerical propagators.
+
+A scene's motion as a kernel model, and the drivers that run :mod:`.motion_kernels`' DOP853 and
+fixed-step methods with the same stops (breakpoints, sample times), restarts and step budget as the
+reference path in ``propagators/numerical.py``.
 
 A propagator built while :data:`ENABLED` holds evaluates here; ``TORQUEFREE_ROS_KERNELS=numpy`` in
 the environment (or numba missing) keeps the reference path, scipy's DOP853 and numpy's stages.
@@ -48,9 +49,10 @@ _D = np.ascontiguousarray(tableau.D, dtype=float)
 
 def build_model(dynamics) -> np.ndarray:
     """
-    The kernels' description of ``dynamics`` (layout in :mod:`.motion_kernels`): the inertia
-    tensor, its inverse, then one entry per effect with a kernel of its own (code, state offset,
-    parameters). Effects that hold a piecewise-constant torque have no entry (see
+    Return the kernels' description of ``dynamics`` (layout in :mod:`.motion_kernels`).
+
+    The inertia tensor, its inverse, then one entry per effect with a kernel of its own (code,
+    state offset, parameters). Effects that hold a piecewise-constant torque have no entry (see
     :func:`held_torques`).
     """
     entries = []
@@ -75,9 +77,10 @@ def build_model(dynamics) -> np.ndarray:
 
 def held_torques(dynamics, segment_start: float, out: np.ndarray) -> np.ndarray:
     """
-    ``out[:3]``: the sum of the body-frame torques held on the piece starting at
-    ``segment_start``, ``out[3:]`` the inertial-frame ones (in the effects' order, as Dynamics adds
-    them).
+    Sum the torques held on the piece starting at ``segment_start`` into ``out``.
+
+    ``out[:3]``: the sum of the body-frame torques, ``out[3:]`` the inertial-frame ones (in the
+    effects' order, as Dynamics adds them).
     """
     out[:] = 0.0
     for effect in dynamics.effects:
@@ -92,8 +95,10 @@ def held_torques(dynamics, segment_start: float, out: np.ndarray) -> np.ndarray:
 
 def derivatives(dynamics, times, states) -> np.ndarray:
     """
-    ``y'`` of ``dynamics`` at each of ``states (N, 7 + state_size)`` at ``times`` (each its own
-    piece start), through the kernels: what the tests hold against ``Dynamics.derivative``.
+    Return ``y'`` of ``dynamics`` at each of ``states (N, 7 + state_size)`` at ``times``.
+
+    Each time is its own piece start. Computed through the kernels: what the tests hold against
+    ``Dynamics.derivative``.
     """
     kernels.compile_kernels()
     times = np.ascontiguousarray(times, dtype=float)
@@ -127,9 +132,10 @@ class _Kernel:
 
 class DOP853Kernel(_Kernel):
     """
-    ``DOP853Propagator``'s evaluation through the kernels: free steps (outputs never shape
-    them), a new piece at each breakpoint (initial step selected again, as a new scipy solver
-    does).
+    ``DOP853Propagator``'s evaluation through the kernels.
+
+    Free steps (outputs never shape them), a new piece at each breakpoint (initial step selected
+    again, as a new scipy solver does).
     """
 
     def __init__(self, propagator):
@@ -143,8 +149,9 @@ class DOP853Kernel(_Kernel):
 
     def restart(self) -> None:
         """
-        Back to the initial state: a piece that ended at t = 0 (the first step begins a new
-        one).
+        Go back to the initial state: a piece that ended at t = 0.
+
+        The first step begins a new one.
         """
         self.y[:] = self.initial
         self.solver[:] = 0.0
@@ -206,8 +213,9 @@ class DOP853Kernel(_Kernel):
 
 def dop853_error(status: int, propagator, t: float, solver: np.ndarray) -> RuntimeError:
     """
-    The error for a DOP853 kernel's ``status`` (BUDGET, TOO_SMALL, STIFF) on the way to ``t``,
-    in the reference path's words.
+    Return the error for a DOP853 kernel's ``status`` on the way to ``t``.
+
+    ``status`` is BUDGET, TOO_SMALL or STIFF; the error is in the reference path's words.
     """
     from ..propagators.base import StepBudgetExceeded, StepTooSmall
 
@@ -218,15 +226,18 @@ def dop853_error(status: int, propagator, t: float, solver: np.ndarray) -> Runti
     if status == kernels.TOO_SMALL:
         return StepTooSmall(propagator, at)
     return RuntimeError(
-        f'dop853: the step fell to {step:.2g} s at t = {at:.6g} s, under {propagator.min_step:.2g} s '
-        f"(1e-7 of a turn): the scene's effects are too stiff for an explicit integrator"
+        f'dop853: the step fell to {step:.2g} s at t = {at:.6g} s, '
+        f'under {propagator.min_step:.2g} s (1e-7 of a turn): '
+        "the scene's effects are too stiff for an explicit integrator"
     )
 
 
 class FixedStepKernel(_Kernel):
     """
-    A fixed-step propagator's steps through the kernels: whole grid steps in one call up to the
-    next breakpoint, a step holding a breakpoint split there (numerical.py's ``_advance``).
+    A fixed-step propagator's steps through the kernels.
+
+    Whole grid steps in one call up to the next breakpoint, a step holding a breakpoint split there
+    (numerical.py's ``_advance``).
     """
 
     def __init__(self, propagator, method: int):
@@ -242,8 +253,9 @@ class FixedStepKernel(_Kernel):
     @property
     def whole_loop(self) -> bool:
         """
-        No breakpoint anywhere (no schedule, no torque held per sample): the loop over the times
-        runs in the kernel, with the held torques of t = 0 throughout.
+        Tell whether there is no breakpoint anywhere (no schedule, no torque held per sample).
+
+        Then the loop over the times runs in the kernel, with the held torques of t = 0 throughout.
         """
         return not self.dynamics.breakpoints and self.dynamics.sample_rate is None
 
@@ -294,7 +306,7 @@ class FixedStepKernel(_Kernel):
             j = reached
 
     def partial_step(self, t: float, h: float) -> np.ndarray:
-        """The state ``h`` after grid time ``t`` (the grid state untouched)."""
+        """Return the state ``h`` after grid time ``t`` (the grid state untouched)."""
         self.partial[:] = self.y
         self._advance(t, self.partial, h)
         return self.partial
@@ -302,10 +314,10 @@ class FixedStepKernel(_Kernel):
     def _advance(self, t: float, y: np.ndarray, h: float) -> None:
         end = t + h
         next_breakpoint = self.dynamics.next_breakpoint
-        breakpoint = next_breakpoint(t)
-        while breakpoint < end:
+        stop = next_breakpoint(t)
+        while stop < end:
             self.hold_from(t)
-            kernels.fixed_step(self.method, t, y, breakpoint - t, self.model, self.held, self.work)
-            t, breakpoint = breakpoint, next_breakpoint(breakpoint)
+            kernels.fixed_step(self.method, t, y, stop - t, self.model, self.held, self.work)
+            t, stop = stop, next_breakpoint(stop)
         self.hold_from(t)
         kernels.fixed_step(self.method, t, y, end - t, self.model, self.held, self.work)

@@ -13,8 +13,7 @@
 # limitations under the License.
 
 """
-Compiled equations of motion and integrators for scenes with effects (numba, loaded on first
-use).
+Compiled equations of motion and integrators for scenes with effects (numba, loaded on first use).
 
 The right-hand side of :class:`~..propagators.dynamics.Dynamics` and the steps of the ``dop853``,
 ``rk4`` and ``lie_rk4`` propagators as scalar loops over one flat state ``y = (w, q, x)``, without
@@ -63,8 +62,7 @@ import threading
 
 import numpy as np
 
-# -- effect codes (a literal each: compiled code keeps what it read when it compiled)
-# -------------------
+# -- effect codes (a literal each: compiled code keeps what it read when it compiled) -------------
 GRAVITY_GRADIENT = 1  # parameters: mean motion n, argument of latitude u0, the inertia tensor (9)
 DAMPER = 2  # parameters: rotor inertia J, damping c; state: the rotor's rate nu (3)
 ROTOR = 3  # parameters: the wheel's momentum h_B (3)
@@ -72,8 +70,7 @@ ROTOR = 3  # parameters: the wheel's momentum h_B (3)
 PARAMETER_COUNTS = {GRAVITY_GRADIENT: 11, DAMPER: 2, ROTOR: 3}
 MODEL_HEADER = 19  # tensor, inverse, entry count
 
-# -- solver state of a DOP853 run (a float64 array, kept by the caller between calls)
-# -----------------
+# -- solver state of a DOP853 run (a float64 array, kept by the caller between calls) -------------
 T, H_ABS, T_OLD, H_PREVIOUS, T_BOUND, RTOL, ATOL, DENSE_READY, MIN_STEP = range(9)
 SOLVER_WIDTH = 9
 # what dop853_outputs returns
@@ -81,20 +78,19 @@ DONE, SEGMENT_END, RESTART, BUDGET, TOO_SMALL, STIFF = range(6)
 SAFETY, MIN_FACTOR, MAX_FACTOR, ERROR_EXPONENT = 0.9, 0.2, 10.0, -1.0 / 8.0
 STAGES, STAGES_EXTENDED, INTERPOLATOR_POWER = 12, 16, 7
 
-# -- fixed-step methods
-# -------------------------------------------------------------------------------
+# -- fixed-step methods ---------------------------------------------------------------------------
 RK4, LIE_RK4 = 0, 1
 
 
-# ==== effects
-# =========================================================================================== Each
-# takes the state's scalars and returns scalars: the right-hand side reads the state once.
+# ==== effects ====================================================================================
+# Each takes the state's scalars and returns scalars: the right-hand side reads the state once.
 
 
 def _gravity_gradient(t, qx, qy, qz, qw, model, p):
     """
-    ``3 n^2 e_B x (I e_B)``, ``e_B = R(q)^T (cos u, sin u, 0)``, ``u = u0 + n t``
-    (GravityGradient).
+    Return the gravity-gradient torque ``3 n^2 e_B x (I e_B)`` (GravityGradient).
+
+    ``e_B = R(q)^T (cos u, sin u, 0)``, ``u = u0 + n t``.
     """
     n = model[p]
     u = model[p + 1] + n * t
@@ -108,8 +104,9 @@ def _gravity_gradient(t, qx, qy, qz, qw, model, p):
 
 def _damper(w1, w2, w3, n1, n2, n3, model, p):
     """
-    Torque ``c (nu - w)`` on the body, and the rotor's ``nu' = -c/J (nu - w) - w x nu``
-    (Damper).
+    Return the torque ``c (nu - w)`` on the body and the rotor's ``nu'`` (Damper).
+
+    ``nu' = -c/J (nu - w) - w x nu``.
     """
     J, c = model[p], model[p + 1]
     d1, d2, d3 = n1 - w1, n2 - w2, n3 - w3
@@ -139,16 +136,16 @@ def _rotate_inverse(qx, qy, qz, qw, vx, vy, vz):
     )
 
 
-# ==== the right-hand side
-# ===============================================================================
+# ==== the right-hand side ========================================================================
 
 
 def _rhs(t, Y, r, model, held, OUT, o):
     """
-    ``OUT[o] = y'`` of the state ``y = Y[r] = (w, q, x)`` (Dynamics.derivative): rows of 2-D
-    arrays, by index (the steps' stages are rows of their scratch). The torque is summed in
-    scalars, not in a scratch array: stores and reloads through memory cost ~10x the arithmetic
-    here.
+    Set ``OUT[o] = y'`` of the state ``y = Y[r] = (w, q, x)`` (Dynamics.derivative).
+
+    Rows of 2-D arrays, by index (the steps' stages are rows of their scratch). The torque is
+    summed in scalars, not in a scratch array: stores and reloads through memory cost ~10x the
+    arithmetic here.
     """
     w1, w2, w3 = Y[r, 0], Y[r, 1], Y[r, 2]
     qx, qy, qz, qw = Y[r, 3], Y[r, 4], Y[r, 5], Y[r, 6]
@@ -190,9 +187,8 @@ def _rhs(t, Y, r, model, held, OUT, o):
 
 def derivative(t, y, model, held, out):
     """``out = y'`` of one state ``y = (w, q, x)`` (1-D arrays; Dynamics.derivative)."""
-    _rhs(
-        t, y[np.newaxis, :], 0, model, held, out[np.newaxis, :], 0
-    )  # (reshape calls a helper each time)
+    # (reshape calls a helper each time)
+    _rhs(t, y[np.newaxis, :], 0, model, held, out[np.newaxis, :], 0)
 
 
 def derivatives(t, y, model, held, out):
@@ -201,8 +197,7 @@ def derivatives(t, y, model, held, out):
         _rhs(t[i], y, i, model, held, out, i)
 
 
-# ==== DOP853
-# ============================================================================================
+# ==== DOP853 =====================================================================================
 # Which of the tableau's coefficients are not zero: scipy's, read by compile_kernels (numba
 # compiles module arrays in as constants, so in a stage's sum, unrolled for a constant stage, the
 # zero terms vanish)
@@ -221,8 +216,10 @@ def _rms_scaled(values, work):
 
 def dop853_begin(t0, t_bound, rtol, atol, min_step, solver, y, f, work, model, held):
     """
-    A new smooth piece from ``(t0, y)`` to ``t_bound`` (inf: none): ``f = y'(t0)`` and the
-    initial step (scipy's select_initial_step with order 7); ``work`` is (3, n) of scratch.
+    Begin a new smooth piece from ``(t0, y)`` to ``t_bound`` (inf: none).
+
+    ``f = y'(t0)`` and the initial step (scipy's select_initial_step with order 7); ``work`` is (3,
+    n) of scratch.
     """
     derivative(t0, y, model, held, f)
     solver[T], solver[T_BOUND], solver[RTOL], solver[ATOL] = t0, t_bound, rtol, atol
@@ -258,10 +255,11 @@ def dop853_begin(t0, t_bound, rtol, atol, min_step, solver, y, f, work, model, h
 
 def _stage_sum(K, A, s, y, h, work):
     """
-    ``work[STAGE] = y + h sum_j A[s, j] K[j]`` over the stages before ``s`` (scipy's
-    ``np.dot(K[:s].T, a[:s]) * h``), the sum over stages innermost, in a register, in the order of
-    ``j``, the zero coefficients left out (``s`` is a constant where this is inlined: the loop over
-    ``j`` unrolls).
+    Set ``work[STAGE] = y + h sum_j A[s, j] K[j]`` over the stages before ``s``.
+
+    As scipy's ``np.dot(K[:s].T, a[:s]) * h``, with the sum over stages innermost, in a register,
+    in the order of ``j``, the zero coefficients left out (``s`` is a constant where this is
+    inlined: the loop over ``j`` unrolls).
     """
     for i in range(y.size):
         total = 0.0
@@ -299,8 +297,9 @@ def _stage_state(K, A, s, y, h, work):
 
 def _extra_stage_state(K, A, s, y, h, work):
     """
-    :func:`_stage_sum` of the interpolant's stage ``s`` (13 to 15), each with its ``s`` a
-    constant.
+    Do :func:`_stage_sum` of the interpolant's stage ``s`` (13 to 15).
+
+    Each with its ``s`` a constant.
     """
     if s == 13:
         _stage_sum(K, A, 13, y, h, work)
@@ -312,9 +311,10 @@ def _extra_stage_state(K, A, s, y, h, work):
 
 def _dop853_step(solver, y, y_old, f, K, work, model, held, A, B, C, E3, E5):
     """
-    One accepted step (scipy's RungeKutta._step_impl); False when the step fell below scipy's
-    floor. The sums run over stages innermost, in a register (faster here than rows of K at a
-    time).
+    Take one accepted step (scipy's RungeKutta._step_impl).
+
+    False when the step fell below scipy's floor. The sums run over stages innermost, in a register
+    (faster here than rows of K at a time).
     """
     t = solver[T]
     n = y.size
@@ -371,9 +371,8 @@ def _dop853_step(solver, y, y_old, f, K, work, model, held, A, B, C, E3, E5):
             h_abs *= factor
             break
         shrink = SAFETY * error**ERROR_EXPONENT
-        if (
-            not shrink > MIN_FACTOR
-        ):  # also a NaN error (an overflowed stage): scipy's max() gives 0.2 there
+        # also a NaN error (an overflowed stage): scipy's max() gives 0.2 there
+        if not shrink > MIN_FACTOR:
             shrink = MIN_FACTOR
         h_abs *= shrink
         rejected = True
@@ -390,7 +389,11 @@ def _dop853_step(solver, y, y_old, f, K, work, model, held, A, B, C, E3, E5):
 
 
 def _dop853_dense(solver, y, y_old, f, K, F, work, model, held, A, C, D):
-    """The last step's interpolant coefficients ``F`` (scipy's DOP853._dense_output_impl)."""
+    """
+    Compute the last step's interpolant coefficients ``F``.
+
+    As scipy's DOP853._dense_output_impl.
+    """
     n = y.size
     h = solver[H_PREVIOUS]
     t_old = solver[T_OLD]
@@ -422,8 +425,9 @@ def dop853_outputs(
     times, first, out, max_steps, solver, y, y_old, f, K, F, work, model, held, A, B, C, E3, E5, D
 ):
     """
-    Fill ``out[first:]`` with the states at ``times[first:]`` (sorted), stepping as needed;
-    returns ``(index, status)`` (``q`` normalised in each output row): the first time not filled,
+    Fill ``out[first:]`` with the states at ``times[first:]`` (sorted), stepping as needed.
+
+    Returns ``(index, status)`` (``q`` normalised in each output row): the first time not filled,
     and why it stopped: DONE; SEGMENT_END (the piece ended at ``t_bound`` before ``times[index]``:
     the caller begins the next); RESTART (``times[index]`` lies before the last step); BUDGET (more
     than ``max_steps`` steps for one time; < 0: no bound); TOO_SMALL (the step fell below scipy's
@@ -480,8 +484,9 @@ def dop853_outputs(
 
 def next_sample_time(t, rate):
     """
-    The first sample time ``k / rate`` after ``t`` (Dynamics.next_breakpoint's rule for a torque
-    held from sample to sample, the same operations).
+    Return the first sample time ``k / rate`` after ``t``.
+
+    Dynamics.next_breakpoint's rule for a torque held from sample to sample, the same operations.
     """
     k = math.floor(t * rate) + 1
     while k > 1 and (k - 1) / rate > t:
@@ -521,14 +526,15 @@ def dop853_outputs_batch(
     reached,
 ):
     """
-    :func:`dop853_outputs` for each body ``b`` of a batch (row ``b`` of every array; ``out (N,
-    M, n)``), a new smooth piece begun where one ends, as the single-body driver begins it: at body
-    ``b``'s next breakpoint (``breaks[b]``, ascending, padded with ``inf``) or, when ``sample_rate
-    > 0``, the next sample time, whichever comes first. A piece beginning at ``t0`` holds the
-    torque of the scene's own piece containing it (``piece_helds[b, j]``, ``j`` the breakpoints at
-    or before ``t0``) plus the commanded one (``command_helds[b]``, over this call), in
-    ``helds[b]``. ``status[b]`` and ``reached[b]``: what dop853_outputs returned last for body
-    ``b``.
+    Run :func:`dop853_outputs` for each body ``b`` of a batch (row ``b`` of every array).
+
+    ``out`` is ``(N, M, n)``. A new smooth piece is begun where one ends, as the single-body driver
+    begins it: at body ``b``'s next breakpoint (``breaks[b]``, ascending, padded with ``inf``) or,
+    when ``sample_rate > 0``, the next sample time, whichever comes first. A piece beginning at
+    ``t0`` holds the torque of the scene's own piece containing it (``piece_helds[b, j]``, ``j``
+    the breakpoints at or before ``t0``) plus the commanded one (``command_helds[b]``, over this
+    call), in ``helds[b]``. ``status[b]`` and ``reached[b]``: what dop853_outputs returned last for
+    body ``b``.
     """
     for b in range(solvers.shape[0]):
         i = 0
@@ -581,8 +587,7 @@ def dop853_outputs_batch(
             break
 
 
-# ==== fixed-step methods
-# ================================================================================
+# ==== fixed-step methods =========================================================================
 
 
 def _exp_times(q, vx, vy, vz, out):
@@ -599,8 +604,9 @@ def _exp_times(q, vx, vy, vz, out):
 
 def fixed_step(method, t, y, h, model, held, work):
     """
-    One step of ``method`` (RK4 or LIE_RK4, numerical.py's ``advance``) over ``[t, t + h]``, in
-    place; ``work`` is (9, n) of scratch (n >= 7).
+    Take one step of ``method`` (RK4 or LIE_RK4, numerical.py's ``advance``) over ``[t, t + h]``.
+
+    In place; ``work`` is (9, n) of scratch (n >= 7).
     """
     n = y.size
     k1, k2, k3, k4, y2, y3, y4 = work[0], work[1], work[2], work[3], work[4], work[5], work[6]
@@ -658,8 +664,9 @@ def fixed_step(method, t, y, h, model, held, work):
 
 def fixed_outputs(method, times, first, out, max_steps, step, grid, y, partial, model, held, work):
     """
-    A fixed-step propagator's whole loop over sorted ``times`` (numerical.py's ``_evaluate``)
-    for a scene without breakpoints: the grid point at or below each time (a time within 4 rounding
+    Run a fixed-step propagator's whole loop over sorted ``times`` (numerical.py's ``_evaluate``).
+
+    For a scene without breakpoints: the grid point at or below each time (a time within 4 rounding
     units of a grid point is on it), whole steps up to it, one partial step from a copy.
     ``grid[0]``: the grid index reached, kept between calls. Returns ``(index, status)``: DONE,
     RESTART (a time before the grid index) or BUDGET (more than ``max_steps`` steps for one time; <
@@ -703,9 +710,10 @@ def fixed_outputs(method, times, first, out, max_steps, step, grid, y, partial, 
 
 def fixed_steps(method, j, j_end, step, bound, y, model, held, work):
     """
-    Whole grid steps ``[j step, (j + 1) step]`` from ``j`` while ``j < j_end`` and no breakpoint
-    lies inside the step (``bound``: the first breakpoint after ``j step``); returns the ``j``
-    reached.
+    Take whole grid steps ``[j step, (j + 1) step]`` from ``j`` while ``j < j_end``.
+
+    Only while no breakpoint lies inside the step (``bound``: the first breakpoint after
+    ``j step``); returns the ``j`` reached.
     """
     while j < j_end:
         t = j * step
@@ -716,8 +724,7 @@ def fixed_steps(method, j, j_end, step, bound, y, model, held, work):
     return j
 
 
-# ==== loading
-# ===========================================================================================
+# ==== loading ====================================================================================
 
 # Inlined where called, by LLVM (``forceinline``): the effects and the right-hand side into the
 # steps, a DOP853 step and its interpolant into the loop over the outputs. (numba's own inliner
@@ -750,9 +757,11 @@ _compiled = False
 
 def compile_kernels() -> None:
     """
-    Replace this module's functions by numba's compiled ones (once, before any is called: a
-    compiled function calls what the module's globals hold when it compiles). Cached next to this
-    file, or in the user's cache directory when the install is read-only.
+    Replace this module's functions by numba's compiled ones, once.
+
+    Once, before any is called: a compiled function calls what the module's globals hold when it
+    compiles. Cached next to this file, or in the user's cache directory when the install is
+    read-only.
     """
     global _compiled, _A_USED, _B_USED, _E3_USED, _E5_USED, _D_USED
     with _compiling:

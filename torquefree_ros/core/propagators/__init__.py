@@ -52,10 +52,11 @@ def make_propagator(
     **options,
 ) -> Propagator:
     """
-    Build a propagator by name. ``auto`` is the exact solution when no effect changes the
-    motion, else DOP853 held to ``accuracy`` (``rtol``; ``atol = accuracy / 100``; default
-    :data:`DEFAULT_ACCURACY`). ``effects``: motion effects only (outputs never reach a
-    propagator).
+    Build a propagator by name.
+
+    ``auto`` is the exact solution when no effect changes the motion, else DOP853 held to
+    ``accuracy`` (``rtol``; ``atol = accuracy / 100``; default :data:`DEFAULT_ACCURACY`).
+    ``effects``: motion effects only (outputs never reach a propagator).
     """
     effects = tuple(effects)
     if propagator != 'auto':

@@ -44,16 +44,18 @@ class AnalyticPropagator(Propagator):
     @functools.cached_property
     def polhode(self) -> Polhode | None:
         """
-        The motion's regime parameters and Jacobi functions (``None`` for a stationary
-        motion).
+        Return the motion's regime parameters and Jacobi functions.
+
+        ``None`` for a stationary motion.
         """
         return body_polhode(self.body, self.omega0_B)
 
     def _spin(self, times) -> np.ndarray:
         """
-        ``q0 ⊗ exp(t w / 2) = cos(|w| t / 2) q0 + sin(|w| t / 2) q0 ⊗ (w / |w|, 0)`` for a
-        constant ``w`` (``quaternion.exp_rotation`` would find the same axis and norm again at
-        every sample).
+        Return ``q0 ⊗ exp(t w / 2)`` at ``times`` for the constant rate ``w``.
+
+        ``q0 ⊗ exp(t w / 2) = cos(|w| t / 2) q0 + sin(|w| t / 2) q0 ⊗ (w / |w|, 0)``
+        (``quaternion.exp_rotation`` would find the same axis and norm again at every sample).
         """
         speed = math.hypot(*self.omega0_B.tolist())
         if speed == 0.0:

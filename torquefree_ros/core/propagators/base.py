@@ -13,9 +13,10 @@
 # limitations under the License.
 
 """
-One interface for every propagator (after scipy's ``OdeSolver`` family): construct from a body,
-an initial state and the scene's motion effects, then evaluate ``(omega_B, q_NB)`` at any sorted
-array of times since that state.
+One interface for every propagator (after scipy's ``OdeSolver`` family).
+
+Construct from a body, an initial state and the scene's motion effects, then evaluate
+``(omega_B, q_NB)`` at any sorted array of times since that state.
 """
 
 from __future__ import annotations
@@ -75,8 +76,8 @@ class Propagator(abc.ABC):
         if effects and not self.supports_effects:
             names = ', '.join(effect.name for effect in effects)
             raise ValueError(
-                f"propagator: '{self.name}' is the exact torque-free solution; the scene's effects "
-                f"({names}) need a numerical propagator ('auto' picks one)"
+                f"propagator: '{self.name}' is the exact torque-free solution; "
+                f"the scene's effects ({names}) need a numerical propagator ('auto' picks one)"
             )
         self.settings = {**self.options, **options}
         # Without effects (the exact solution's only case) the equations of motion are built when
@@ -107,8 +108,9 @@ class Propagator(abc.ABC):
     @property
     def conserved(self) -> frozenset:
         """
-        The invariants (``energy``, ``momentum``) the motion keeps: a numerical propagator's
-        drift in them is its error; the others change by physics.
+        Return the invariants (``energy``, ``momentum``) the motion keeps.
+
+        A numerical propagator's drift in them is its error; the others change by physics.
         """
         return self.dynamics.conserved
 
@@ -129,8 +131,9 @@ class Propagator(abc.ABC):
 
     def stop_at_samples(self, rate: float) -> None:
         """
-        Make every sample time ``k / rate`` a breakpoint (a scene whose torque is held from
-        sample to sample: a controller's command), and start over from the initial state.
+        Make every sample time ``k / rate`` a breakpoint, and start over from the initial state.
+
+        For a scene whose torque is held from sample to sample: a controller's command.
         """
         self.dynamics.sample_rate = float(rate)
         self._restart()
@@ -159,30 +162,33 @@ class StepBudgetExceeded(RuntimeError):
 
     def __init__(self, propagator: Propagator, t: float, step: float):
         super().__init__(
-            f'{propagator.name}: reaching t = {t:.6g} s needs more than {propagator.max_steps_per_sample:,} steps '
-            f'from the sample before (the step is {step:.2g} s), the bound per sample that keeps the node responsive: raise the '
-            'sample rate, or relax the accuracy (a longer step, looser tolerances)'
+            f'{propagator.name}: reaching t = {t:.6g} s needs more than '
+            f'{propagator.max_steps_per_sample:,} steps from the sample before '
+            f'(the step is {step:.2g} s), the bound per sample that keeps the node responsive: '
+            'raise the sample rate, or relax the accuracy (a longer step, looser tolerances)'
         )
 
 
 class StepTooSmall(RuntimeError):
     """
-    The adaptive step fell below what float64 resolves at ``t`` (scipy's "Required step size is
-    less than spacing between numbers"): the motion is too fast there, or has overflowed.
+    The adaptive step fell below what float64 resolves at ``t``.
+
+    This is scipy's "Required step size is less than spacing between numbers": the motion is too
+    fast there, or has overflowed.
     """
 
     def __init__(self, propagator: Propagator, t: float):
         super().__init__(
-            f'{propagator.name}: at t = {t:.6g} s the step fell under 10 rounding units of t: the motion there is '
-            "too fast or too stiff for float64 steps, or has overflowed (check the scene's rates, torques and "
-            'effect parameters)'
+            f'{propagator.name}: at t = {t:.6g} s the step fell under 10 rounding units of t: '
+            'the motion there is too fast or too stiff for float64 steps, or has overflowed '
+            "(check the scene's rates, torques and effect parameters)"
         )
 
 
 def overflowing_message(effect) -> str:
     return (
-        f"{effect.describe()}: its torque or its own state's rate overflows float64 at the initial state "
-        '(a parameter far outside any physical scale)'
+        f"{effect.describe()}: its torque or its own state's rate overflows float64 "
+        'at the initial state (a parameter far outside any physical scale)'
     )
 
 
@@ -194,9 +200,8 @@ def _check_representable(body: RigidBody, omega_B: np.ndarray) -> None:
     # The solvers form products like I_max * |H|^2; they must stay finite in float64. (Plain
     # floats, which overflow to inf in products; every propagator built runs this.)
     w = omega_B.tolist()
-    h = [
-        row[0] * w[0] + row[1] * w[1] + row[2] * w[2] for row in body.tensor.tolist()
-    ]  # overflow gives inf
+    # overflow gives inf
+    h = [row[0] * w[0] + row[1] * w[1] + row[2] * w[2] for row in body.tensor.tolist()]
     largest = max(body.moments.tolist())
     scale = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]) * largest * largest
     if not math.isfinite(scale):

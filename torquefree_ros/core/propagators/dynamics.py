@@ -13,8 +13,10 @@
 # limitations under the License.
 
 """
-The equations of motion a numerical propagator integrates: Euler's equations with the torques
-of a scene's motion effects, the attitude kinematics, and the effects' own states.
+The equations of motion a numerical propagator integrates.
+
+Euler's equations with the torques of a scene's motion effects, the attitude kinematics, and the
+effects' own states.
 
     I w' = I w x w + sum(torque_B),   q' = 1/2 q ⊗ (w, 0),   x_e' = effect_e.state_rate
 
@@ -34,6 +36,7 @@ from ..rigid_body import RigidBody
 
 
 class Dynamics:
+
     def __init__(self, body: RigidBody, effects=()):
         self.body = body
         self._tensor_rows = tuple(map(tuple, body.tensor.tolist()))
@@ -56,14 +59,13 @@ class Dynamics:
         self.sample_rate: float | None = None
 
     def next_breakpoint(self, t: float) -> float:
-        """The first breakpoint after ``t`` (``inf`` when none)."""
+        """Return the first breakpoint after ``t`` (``inf`` when none)."""
         index = bisect.bisect_right(self.breakpoints, t)
         following = self.breakpoints[index] if index < len(self.breakpoints) else math.inf
         rate = self.sample_rate
         if rate is not None:
-            k = (
-                math.floor(t * rate) + 1
-            )  # the sample time k / rate just after t, as samples compute it
+            # the sample time k / rate just after t, as samples compute it
+            k = math.floor(t * rate) + 1
             while k > 1 and (k - 1) / rate > t:
                 k -= 1
             while k / rate <= t:
@@ -81,9 +83,11 @@ class Dynamics:
 
     def derivative(self, t: float, y: np.ndarray, segment_start: float) -> np.ndarray:
         """
-        ``y'`` of the flat state ``y = (w, q, x)``, on the smooth piece that starts at
-        ``segment_start`` (see :meth:`MotionEffect.torque_B`). The rigid body's part is plain float
-        arithmetic: it is evaluated once per stage, and numpy's per-call cost would dominate.
+        Return ``y'`` of the flat state ``y = (w, q, x)``.
+
+        On the smooth piece that starts at ``segment_start`` (see :meth:`MotionEffect.torque_B`).
+        The rigid body's part is plain float arithmetic: it is evaluated once per stage, and
+        numpy's per-call cost would dominate.
         """
         w1, w2, w3, qx, qy, qz, qw = y[:7].tolist()
         (a11, a12, a13), (a21, a22, a23), (a31, a32, a33) = self._tensor_rows
@@ -127,8 +131,9 @@ class Dynamics:
         self, omega_B: np.ndarray, q_NB: np.ndarray, x: np.ndarray
     ) -> int | None:
         """
-        The index of the first effect whose torque or state rate is not finite at this state (a
-        parameter like a mean motion of 1e308), or None.
+        Find the first effect whose torque or state rate is not finite at this state.
+
+        Return its index, or None; such an effect has a parameter like a mean motion of 1e308.
         """
         with np.errstate(all='ignore'):
             for index, (effect, part) in enumerate(zip(self.effects, self.slices)):
@@ -144,8 +149,7 @@ class Dynamics:
                     return index
         return None
 
-    # -- invariants of the whole system (body + effects' own momentum and energy)
-    # ------------------
+    # -- invariants of the whole system (body + effects' own momentum and energy) -----------------
     def momentum_B(self, omega_B: np.ndarray, x: np.ndarray) -> np.ndarray:
         total = self.body.angular_momentum(omega_B)
         for effect, part in zip(self.effects, self.slices):

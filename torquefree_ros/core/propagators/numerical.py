@@ -13,8 +13,9 @@
 # limitations under the License.
 
 """
-Numerical propagators: cross-checks for the exact solution and the integrators for scenes with
-effects. They integrate :class:`~.dynamics.Dynamics` (Euler's equations with the effects' torques,
+Numerical propagators: cross-checks for the exact solution and integrators for scenes with effects.
+
+They integrate :class:`~.dynamics.Dynamics` (Euler's equations with the effects' torques,
 ``q' = 1/2 q ⊗ (w, 0)``, the effects' own states) in the user's body frame with the full inertia
 tensor, independently of the principal-axis machinery the exact solver uses.
 
@@ -60,8 +61,9 @@ _GRID_SNAP_ULPS = 4
 
 class FixedStepPropagator(Propagator):
     """
-    A one-step method on a fixed grid; subclasses implement :meth:`advance` on the flat state
-    ``y = (w, q, x)``.
+    A one-step method on a fixed grid.
+
+    Subclasses implement :meth:`advance` on the flat state ``y = (w, q, x)``.
     """
 
     options = {'step': 1e-3}
@@ -97,17 +99,18 @@ class FixedStepPropagator(Propagator):
     def _advance(self, t: float, y: np.ndarray, h: float) -> np.ndarray:
         """``advance`` over ``[t, t + h]``, split at the breakpoints inside it."""
         end = t + h
-        breakpoint = self.dynamics.next_breakpoint(t)
-        while breakpoint < end:
-            y = self.advance(t, y, breakpoint - t)
-            t, breakpoint = breakpoint, self.dynamics.next_breakpoint(breakpoint)
+        stop = self.dynamics.next_breakpoint(t)
+        while stop < end:
+            y = self.advance(t, y, stop - t)
+            t, stop = stop, self.dynamics.next_breakpoint(stop)
         return self.advance(t, y, end - t)
 
     def _grid_point(self, t: float) -> tuple[int, float]:
         """
-        The grid point ``j`` at or below ``t`` and the partial step from it. A time within
-        rounding of a grid point is on it, so a 100 Hz output on a 1 ms grid takes no extra partial
-        step.
+        Return the grid point ``j`` at or below ``t`` and the partial step from it.
+
+        A time within rounding of a grid point is on it, so a 100 Hz output on a 1 ms grid takes no
+        extra partial step.
         """
         j = round(t / self.step)
         if abs(t - j * self.step) <= _GRID_SNAP_ULPS * math.ulp(t):
@@ -173,10 +176,12 @@ class RK4Propagator(FixedStepPropagator):
 @register
 class LieRK4Propagator(FixedStepPropagator):
     """
-    Commutator-free Lie-group Runge-Kutta of order 4 (Celledoni, Marthinsen & Owren, FGCS 19,
-    2003) for ``q' = q ⊗ (w/2)`` acting from the right, classical RK4 on ``w`` and ``x``. The
-    attitude only ever moves by products of unit quaternions, so ``|q| = 1`` by construction; the
-    renormalisation per step only removes the rounding random walk.
+    Commutator-free Lie-group Runge-Kutta of order 4 for the attitude.
+
+    After Celledoni, Marthinsen & Owren (FGCS 19, 2003), for ``q' = q ⊗ (w/2)`` acting from the
+    right; classical RK4 on ``w`` and ``x``. The attitude only ever moves by products of unit
+    quaternions, so ``|q| = 1`` by construction; the renormalisation per step only removes the
+    rounding random walk.
     """
 
     name = 'lie_rk4'
@@ -220,8 +225,9 @@ class LieRK4Propagator(FixedStepPropagator):
 @register
 class DOP853Propagator(Propagator):
     """
-    Adaptive explicit Runge-Kutta 8(5,3) of Dormand & Prince with its 7th-order dense output,
-    scipy's implementation stepping freely (``t_bound = inf``) so that outputs never shape the
+    Adaptive explicit Runge-Kutta 8(5,3) of Dormand & Prince with its 7th-order dense output.
+
+    scipy's implementation, stepping freely (``t_bound = inf``) so that outputs never shape the
     steps. ``q`` is normalised only on output.
     """
 
@@ -270,22 +276,24 @@ class DOP853Propagator(Propagator):
                 self._begin_segment(solver.t, solver.y)
                 solver = self._solver
             self._step_start = solver.t
-            message = solver.step()
-            if (
-                solver.status == 'failed'
-            ):  # scipy's "Required step size is less than spacing between numbers"
+            solver.step()
+            # scipy's "Required step size is less than spacing between numbers"
+            if solver.status == 'failed':
                 raise StepTooSmall(self, solver.t)
             if solver.step_size < self.min_step and solver.status != 'finished':
                 raise RuntimeError(
-                    f'dop853: the step fell to {solver.step_size:.2g} s at t = {solver.t:.6g} s, under {self.min_step:.2g} s '
-                    f"(1e-7 of a turn): the scene's effects are too stiff for an explicit integrator"
+                    f'dop853: the step fell to {solver.step_size:.2g} s at t = {solver.t:.6g} s, '
+                    f'under {self.min_step:.2g} s (1e-7 of a turn): '
+                    "the scene's effects are too stiff for an explicit integrator"
                 )
         return solver
 
     def _begin_segment(self, t0: float, y0: np.ndarray):
         """
-        A solver that ends at the next breakpoint (none: it steps freely). Made when its first
-        step is due (scipy evaluates the right-hand side at ``t0`` as it is made).
+        Make a solver that ends at the next breakpoint (none: it steps freely).
+
+        Made when its first step is due (scipy evaluates the right-hand side at ``t0`` as it is
+        made).
         """
         bound = self.dynamics.next_breakpoint(t0)
         self._segment_start = t0
@@ -321,8 +329,9 @@ class DOP853Propagator(Propagator):
 
 class _SegmentStart:
     """
-    Where the next segment starts, before its solver exists: a finished solver's ``t`` and
-    ``y``.
+    Where the next segment starts, before its solver exists.
+
+    A finished solver's ``t`` and ``y``.
     """
 
     status = 'finished'
