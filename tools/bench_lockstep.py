@@ -310,8 +310,9 @@ def main(argv=None) -> int:
         f"Where a round trip goes (medians): {round_trip:.0f} µs, of which rclpy's floor (both "
         f"processes' executors, DDS both ways, the controller) {floor:.0f} µs and the node's own "
         f'work {node_us:.0f} µs; the remaining {round_trip - floor - node_us:.0f} µs is the '
-        "node's rclpy side beyond the floor's (the command taken as a Python message, three more "
-        "messages published per sample: /clock, attitude, markers) and the machine's noise."
+        "node's rclpy side beyond the floor's (three more messages published per sample: /clock, "
+        'attitude, markers; the command taken by its own wait set, raw, where the floor runs its '
+        "executor's callback) and the machine's noise."
     )
     report.save(args.output)
     return 0

@@ -38,6 +38,11 @@ _INT32_MAX = 2**31 - 1
 
 
 def _stamp_fields(stamps_ns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    if len(stamps_ns) == 1:  # one sample at a time (a closed loop): no ufuncs on one element
+        sec, nanosec = divmod(int(stamps_ns[0]), 1_000_000_000)
+        if not -_INT32_MAX - 1 <= sec <= _INT32_MAX:
+            raise ValueError('stamps: builtin_interfaces/Time seconds must fit in int32')
+        return np.array([sec], dtype=np.int64), np.array([nanosec], dtype=np.int64)
     stamps_ns = np.asarray(stamps_ns, dtype=np.int64)
     sec, nanosec = np.divmod(stamps_ns, np.int64(1_000_000_000))
     if stamps_ns.size and (sec.min() < -_INT32_MAX - 1 or sec.max() > _INT32_MAX):

@@ -122,7 +122,7 @@ class Simulation:
                 'builtin_interfaces/Time (int32 seconds)'
             )
         omega, q, internal = self.propagator.states(times)
-        if not (np.all(np.isfinite(omega)) and np.all(np.isfinite(q))):
+        if not (np.isfinite(omega).all() and np.isfinite(q).all()):
             bad = int(
                 np.argmin(np.all(np.isfinite(omega), axis=1) & np.all(np.isfinite(q), axis=1))
             )

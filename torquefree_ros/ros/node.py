@@ -135,6 +135,7 @@ class TorqueFreeSim(Node):
         )
         self._declared = False
         self._loop: SampleLoop | None = None
+        self._commands: CommandInputs | None = None
         self._bag: SampleRecorder | None = None
         try:
             self.add_on_set_parameters_callback(self._on_set_parameters)
@@ -245,6 +246,8 @@ class TorqueFreeSim(Node):
             custom[_INERTIA_CHANGED] = 'true'
 
     def destroy_node(self):
+        if self._commands is not None:
+            self._commands.close()  # its thread first: it steps the loop in lock-step
         if self._loop is not None:
             self._loop.stop()
         if self._bag is not None:

@@ -30,12 +30,12 @@ interval); in lock-step the loop first waits for the controller's answer to the 
 command stamped at or after it), at most ``lockstep_timeout`` wall seconds, and always runs on its
 own clock. The commands that hold go into the bag, logged at the sample they hold from.
 
-Lock-step as fast as possible (``real_time_factor`` 0): the answer's own callback, on the
-executor's thread, seals the interval, computes the next sample and publishes it
-(:meth:`SampleLoop.command_arrived`) while the loop's thread waits for it: handing each answer over
-to the loop's thread would cost a thread switch per round trip (``make bench-lockstep`` measures
-both). The two threads take turns under one lock, and the loop's thread alone applies restarts,
-pauses, failures and the missed answers' timeout.
+Lock-step as fast as possible (``real_time_factor`` 0): the thread that takes the answer (the
+node's command inputs, ``ros.commands``) seals the interval, computes the next sample and
+publishes it (:meth:`SampleLoop.command_arrived`) while the loop's thread waits for it: handing
+each answer over to the loop's thread would cost a thread switch per round trip (``make
+bench-lockstep`` measures both). The two threads take turns under one lock, and the loop's
+thread alone applies restarts, pauses, failures and the missed answers' timeout.
 
 Pause (``pause(True)``, the node's ``~/pause``): taken between two samples, like a restart; from
 then on no sample goes out and nothing is recorded, the simulated clock stands still (``/clock``,
@@ -153,7 +153,7 @@ class _Run:
         self.holds = simulation.command_holds  # closed loop: (effect, hold) per command input
         self.shift_ns = 0  # wall clock: how far pauses moved the run's stamps (its epoch) in all
         self.publishers: list = []  # of self.columns' topics
-        # lock-step: why the executor's thread could not compute the next sample
+        # lock-step: why the command thread could not compute the next sample
         self.stopped_by = ''
         if self.holds:
             # each sample computed when due, under the commands received by then
@@ -358,7 +358,7 @@ class SampleLoop:
 
     def command_arrived(self) -> None:
         """
-        Handle a command that went into its hold (called on the executor's thread).
+        Handle a command that went into its hold (called on the command inputs' thread).
 
         In lock-step as fast as possible, if the command answers the sample the loop waits on, the
         next sample is computed and published here and now (see the module's docstring).
@@ -371,7 +371,7 @@ class SampleLoop:
                 return
             try:
                 self._step(run)
-            # not raised to the executor: the loop's thread reports it
+            # not raised to the command thread: the loop's thread reports it
             except Exception as error:  # noqa: BLE001 - the loop's thread reports it
                 if self._stopping or not self._keep_going():
                     return

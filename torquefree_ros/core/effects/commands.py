@@ -222,9 +222,11 @@ class CommandHold:
             return True, ''
 
     def _refusal(self, stamp_ns, torque, force, frame_id) -> str:
-        if not (np.all(np.isfinite(torque)) and np.all(np.isfinite(force))):
+        # on Python floats: one command at a time, where numpy's per-call cost is most of the work
+        torque_values = torque.ravel().tolist()
+        if not all(map(math.isfinite, torque_values + force.ravel().tolist())):
             return 'not finite: wrench has a NaN or infinite component'
-        if np.max(np.abs(torque)) > self.max_torque:
+        if max(map(abs, torque_values)) > self.max_torque:
             return f'too large: a torque component exceeds max_torque {self.max_torque:g} N m'
         if frame_id != self.frame_id:
             return (
@@ -240,7 +242,7 @@ class CommandHold:
             raise ValueError(
                 f'command holding from sample {command.start} after one from {self._starts[-1]}'
             )
-        if np.any(command.force):
+        if any(command.force.ravel().tolist()):
             self.force_seen = True
         self.commands.append(command)
         self._starts.append(command.start)
