@@ -51,6 +51,7 @@ CDR_LE = b'\x00\x01\x00\x00'
 _HEADER = struct.Struct('<iII')  # stamp.sec, stamp.nanosec, frame_id's length (with its NUL)
 _WRENCH = struct.Struct('<6d')  # force x y z, torque x y z
 WAIT_SLICE_NS = 100_000_000  # the longest the thread takes to notice a closed context
+RELEASE_TIMEOUT = 1.0  # s: the longest retire waits for the thread to let go of a subscription
 
 
 def command_effects(request: RunRequest | None) -> dict:
@@ -119,8 +120,11 @@ class CommandInputs:
         self._subscriptions: dict = {}
         self._logged: set = set()  # (id of the hold, what) already said
         self._group = _ServedApart()
-        # the subscriptions' dict, shared by ensure/retire and the thread
-        self._lock = threading.Lock()
+        # the subscriptions' dict, shared by ensure/retire and the thread; a generation counts its
+        # changes, and the thread says which generation it serves (it holds no older handle)
+        self._turnover = threading.Condition()
+        self._generation = 0
+        self._serving = 0
         self._changed = GuardCondition(None, None, context=node.context)
         self._closing = False
         self._thread: threading.Thread | None = None
@@ -140,19 +144,33 @@ class CommandInputs:
                     event_callbacks=events,
                     raw=True,
                 )
-                with self._lock:
+                with self._turnover:
                     self._subscriptions[topic] = subscription
+                    self._generation += 1
         self._wake_thread()
 
     def retire(self, request: RunRequest | None) -> None:
-        with self._lock:
+        with self._turnover:
             retired = [
                 self._subscriptions.pop(topic)
                 for topic in set(self._subscriptions) - set(command_effects(request))
             ]
+            if not retired:
+                return
+            self._generation += 1
+            generation = self._generation
+        self._wake_thread()
+        thread = self._thread
+        if thread is not None and thread is not threading.current_thread():
+            # rclpy defers destroying a subscription the thread's wait set still holds: gone
+            # from the graph when retire returns, as before
+            with self._turnover:
+                self._turnover.wait_for(
+                    lambda: self._serving >= generation or not thread.is_alive(),
+                    RELEASE_TIMEOUT,
+                )
         for subscription in retired:
             self._node.destroy_subscription(subscription)
-        self._wake_thread()
 
     def close(self) -> None:
         """Stop the thread (before the node and its context go)."""
@@ -188,8 +206,10 @@ class CommandInputs:
     def _serve(self) -> None:
         context = self._node.context
         while not self._closing and context.ok():
-            with self._lock:
+            with self._turnover:
                 subscriptions = list(self._subscriptions.items())
+                self._serving = self._generation
+                self._turnover.notify_all()
             try:
                 self._wait_and_take(subscriptions, context)
             except Exception as error:  # noqa: BLE001 - a closed context ends the thread quietly
