@@ -45,9 +45,9 @@ from rclpy.serialization import deserialize_message
 
 from .qos import command_profile, subscription_warnings
 from .sample_loop import RunRequest
+from ..bag.cdr import CDR_LE
 from ..core.effects.commands import command_inputs
 
-CDR_LE = b'\x00\x01\x00\x00'
 _HEADER = struct.Struct('<iII')  # stamp.sec, stamp.nanosec, frame_id's length (with its NUL)
 _WRENCH = struct.Struct('<6d')  # force x y z, torque x y z
 WAIT_SLICE_NS = 100_000_000  # the longest the thread takes to notice a closed context
