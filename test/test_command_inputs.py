@@ -87,7 +87,6 @@ def _node(context) -> TorqueFreeSim:
     overrides = [
         Parameter('scene', value='detumble'),
         Parameter('lockstep', value=False),
-        Parameter('outputs', value=['angular_velocity']),
     ]
     return TorqueFreeSim(context=context, parameter_overrides=overrides)
 

@@ -29,7 +29,8 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 # what is ours to lint: the package, its tests, tools, examples, launch file and setup script
-LINTED = ['torquefree_ros', 'test', 'tools', 'examples', 'launch', 'setup.py']
+LINTED_DIRECTORIES = ['torquefree_ros', 'test', 'tools', 'examples', 'launch']
+LINTED = [*LINTED_DIRECTORIES, 'setup.py']
 COPYRIGHT = 'Copyright 2026 torquefree_ros maintainers'
 APACHE_HEADER = (
     'Licensed under the Apache License, Version 2.0 (the "License");',
@@ -52,7 +53,7 @@ def _paths() -> list[str]:
 
 def _sources() -> list[Path]:
     files = [REPO / 'setup.py', *sorted((REPO / 'foxglove').glob('*.ts'))]
-    for name in LINTED[:-1]:
+    for name in LINTED_DIRECTORIES:
         files += sorted(
             path
             for path in (REPO / name).rglob('*.py')

@@ -35,6 +35,7 @@ import numpy as np
 
 CDR_LE = b'\x00\x01\x00\x00'
 _INT32_MAX = 2**31 - 1
+_STAMP_AND_LENGTH = struct.Struct('<iII')  # Header: stamp.sec, stamp.nanosec, len(frame_id) + 1
 
 
 def _stamp_fields(stamps_ns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -391,9 +392,10 @@ def decode_stamped_doubles(message: bytes, width: int) -> tuple[int, str, np.nda
     """
     if message[:4] != CDR_LE:
         raise ValueError('not a little-endian CDR message (encapsulation header)')
-    sec, nanosec, length = np.frombuffer(message, dtype='<i4,<u4,<u4', count=1, offset=4)[0]
-    text_end = 12 + int(length)
+    # struct, not numpy: the node decodes its commands one at a time with it
+    sec, nanosec, length = _STAMP_AND_LENGTH.unpack_from(message, 4)
+    text_end = 12 + length
     start = 4 + -(-text_end // 8) * 8
-    values = np.frombuffer(message, dtype='<f8', count=width, offset=start)
-    frame = message[16: 16 + int(length) - 1].decode('utf-8')
-    return int(sec) * 1_000_000_000 + int(nanosec), frame, values.copy()
+    values = struct.unpack_from(f'<{width}d', message, start)
+    frame = message[16: 16 + length - 1].decode('utf-8')
+    return sec * 1_000_000_000 + nanosec, frame, np.array(values)

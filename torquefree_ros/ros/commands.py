@@ -19,19 +19,18 @@ None otherwise. Each hands every ``geometry_msgs/WrenchStamped`` to the running 
 (``core.effects.commands``), which accepts it or refuses it with a counted reason.
 
 The command subscriptions are served by a thread of their own, not by the node's executor: it
-waits on them alone (an rclpy wait set), takes each command as CDR bytes and decodes it with
-``struct``. The executor rebuilds its wait set from every entity of the node for each callback
-and deserializes into Python messages: about 60 µs a command, a fifth of a lock-step round trip
-(docs/bench/lockstep.md). The subscriptions' QoS event handlers (the incompatible-QoS warnings)
-are served by the same thread: with rmw_fastrtps, a subscription's events wake a wait set while
-its messages wait to be taken, so an executor holding the events but not the subscription would
-spin.
+waits on them alone (an rclpy wait set), takes each command as CDR bytes and decodes it as the
+bag tools do (``bag.cdr``). The executor rebuilds its wait set from every entity of the node
+for each callback and deserializes into Python messages: about 60 µs a command, a fifth of a
+lock-step round trip (docs/bench/lockstep.md). The subscriptions' QoS event handlers (the
+incompatible-QoS warnings) are served by the same thread: with rmw_fastrtps, a subscription's
+events wake a wait set while its messages wait to be taken, so an executor holding the events but
+not the subscription would spin.
 """
 
 from __future__ import annotations
 
 from contextlib import ExitStack
-import struct
 import threading
 import time
 from typing import Callable
@@ -45,11 +44,9 @@ from rclpy.serialization import deserialize_message
 
 from .qos import command_profile, subscription_warnings
 from .sample_loop import RunRequest
-from ..bag.cdr import CDR_LE
+from ..bag.cdr import decode_stamped_doubles
 from ..core.effects.commands import command_inputs
 
-_HEADER = struct.Struct('<iII')  # stamp.sec, stamp.nanosec, frame_id's length (with its NUL)
-_WRENCH = struct.Struct('<6d')  # force x y z, torque x y z
 WAIT_SLICE_NS = 100_000_000  # the longest the thread takes to notice a closed context
 RELEASE_TIMEOUT = 1.0  # s: the longest retire waits for the thread to let go of a subscription
 
@@ -65,16 +62,16 @@ def decode_wrench_stamped(data: bytes) -> tuple[int, str, tuple, tuple]:
     """
     Decode ``(stamp_ns, frame_id, torque, force)`` from a ``WrenchStamped``'s CDR bytes.
 
-    Little-endian CDR (what every rmw on this machine's architectures writes) by ``struct``;
+    Little-endian CDR (what every rmw on this machine's architectures writes) by
+    :func:`~torquefree_ros.bag.cdr.decode_stamped_doubles` (a Header, then force and torque);
     anything else through rclpy's deserializer.
     """
-    if data[:4] == CDR_LE:
-        sec, nanosec, length = _HEADER.unpack_from(data, 4)
-        # the doubles are 8-aligned from the end of the encapsulation header (4 bytes)
-        start = 4 + -(-(12 + length) // 8) * 8
-        values = _WRENCH.unpack_from(data, start)
-        frame_id = data[16:15 + length].decode('utf-8', 'replace')
-        return sec * 1_000_000_000 + nanosec, frame_id, values[3:], values[:3]
+    try:
+        stamp, frame_id, values = decode_stamped_doubles(data, 6)
+        force_and_torque = values.tolist()
+        return stamp, frame_id, tuple(force_and_torque[3:]), tuple(force_and_torque[:3])
+    except ValueError:  # big-endian (or a frame_id that is not UTF-8): rclpy decides
+        pass
     message = deserialize_message(data, WrenchStamped)
     stamp = message.header.stamp.sec * 1_000_000_000 + message.header.stamp.nanosec
     torque, force = message.wrench.torque, message.wrench.force
