@@ -159,6 +159,20 @@ def test_an_output_at_its_own_rate_is_the_same_output_sampled_at_that_rate():
         np.concatenate([piece.output_positions[0] + piece.first for piece in pieces]),
         np.arange(0, 501, 5),
     )
+    # the states first and the outputs after (a closed loop's one sample at a time): the same
+    again = Simulation(fast.propagator(), RATE, outputs=fast.outputs)
+    for k in range(12):
+        states = again.samples(k, 1, outputs=False)
+        assert states.outputs == ()
+        single = again.with_outputs(states)
+        for rows, positions, j in zip(single.outputs, single.output_positions, range(3)):
+            if positions is None:
+                np.testing.assert_array_equal(rows, block.outputs[j][k: k + 1])
+            else:
+                every = (5, 2)[j]
+                assert positions.tolist() == ([0] if k % every == 0 else [])
+                expected = block.outputs[j][k // every:][: len(positions)]
+                np.testing.assert_array_equal(rows, expected)
 
 
 @pytest.mark.parametrize(

@@ -37,13 +37,34 @@ RATE = 20.0
 OMEGA0 = [0.4, -0.3, 0.5]
 
 
-def _scene(tmp_path, inertia=(SPHERE, SPHERE, SPHERE), extra=''):
+# outputs beside the closed loop: every sample (markers, a noisy gyro) and every other (a star
+# tracker at half the rate); the node publishes them after the rates (SampleLoop._step)
+OUTPUTS = (
+    '  - markers: {}\n'
+    '  - imu: {gyro_noise_density: 1.0e-4, seed: 42}\n'
+    f'  - star_tracker: {{cross_boresight_noise: 5.0, seed: 7, rate: {RATE / 2}}}\n'
+)
+
+
+def _scene(tmp_path, inertia=(SPHERE, SPHERE, SPHERE), extra='', outputs=''):
     path = tmp_path / 'plant.yaml'
     path.write_text(
         f'body: {{inertia: {list(inertia)}}}\ninitial: {{angular_velocity: {OMEGA0}}}\n'
-        f'effects:\n  - torque_command: {{timeout: 0.5{extra}}}\naccuracy: 1.0e-12\n'
+        f'effects:\n  - torque_command: {{timeout: 0.5{extra}}}\n{outputs}accuracy: 1.0e-12\n'
     )
     return path
+
+
+def _raw_messages(bag, start_ns: int, end_ns: int) -> dict:
+    """Return topic -> the CDR bytes of its messages logged in ``[start_ns, end_ns]``."""
+    from rosbags.highlevel import AnyReader
+
+    messages: dict = {}
+    with AnyReader([bag]) as reader:
+        for connection, timestamp, raw in reader.messages():
+            if start_ns <= timestamp <= end_ns:
+                messages.setdefault(connection.topic, []).append(bytes(raw))
+    return messages
 
 
 class RateDamper:
@@ -113,7 +134,7 @@ def test_lockstep_detumbles_as_predicted_reproducibly_and_replays_offline_bit_fo
     from torquefree_ros import load_scene, Plant
     from torquefree_ros.cli.bag import main as bag_main
 
-    scene = _scene(tmp_path)
+    scene = _scene(tmp_path, outputs=OUTPUTS)
     recorded = tmp_path / 'live'
     count = 120
     with connected_harness(
@@ -200,6 +221,15 @@ def test_lockstep_detumbles_as_predicted_reproducibly_and_replays_offline_bit_fo
     np.testing.assert_array_equal(
         [[m.quaternion.x, m.quaternion.y, m.quaternion.z, m.quaternion.w] for _, m in attitude], q
     )
+    # every sample topic, outputs included, in the very same bytes
+    live_bytes = _raw_messages(recorded, epoch, window_end)
+    replayed_bytes = _raw_messages(replay, epoch, window_end)
+    samples = {f'{namespace}/{name}' for name in ('angular_velocity', 'attitude', 'markers')}
+    samples |= {f'{namespace}/{name}' for name in ('imu', 'star_tracker')}
+    assert samples <= set(replayed_bytes)
+    assert len(replayed_bytes[f'{namespace}/star_tracker']) == count // 2
+    for topic in samples:
+        assert live_bytes[topic] == replayed_bytes[topic], topic
     # the replay logs every command that holds within its samples where the node logged it
     replayed_commands = replayed[f'{namespace}/torque_command']
     assert [(log, stamp_ns(m.header)) for log, m in replayed_commands] == [

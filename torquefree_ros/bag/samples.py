@@ -71,21 +71,45 @@ def encode_block(
     """
     Encode a :class:`~torquefree_ros.core.simulation.SampleBlock`'s messages, a column per topic.
 
-    The columns are in publishing order. ``outputs``: the simulation's output effects (their rows
-    are in the block). ``position`` (x, y, z, m, in the inertial frame; None: the origin): where
-    the outputs that place the body (``tf``, ``pose``, ``odometry``, ``markers``) put its centre,
-    so that several bodies sharing one inertial frame show side by side; the simulator moves
-    attitude only, so it is constant.
+    The columns are in publishing order: :func:`encode_leading` then :func:`encode_trailing`.
+    ``outputs``: the simulation's output effects (their rows are in the block). ``position`` (x,
+    y, z, m, in the inertial frame; None: the origin): where the outputs that place the body
+    (``tf``, ``pose``, ``odometry``, ``markers``) put its centre, so that several bodies sharing
+    one inertial frame show side by side; the simulator moves attitude only, so it is constant.
     """
+    return encode_leading(block, body_frame, clock) + encode_trailing(
+        block, body_frame, inertial_frame, outputs, position
+    )
+
+
+def encode_leading(block, body_frame: str, clock: bool = False) -> tuple:
+    """
+    Encode the columns that go out first: ``/clock`` (when ``clock``), then ``angular_velocity``.
+
+    Apart so that a closed loop publishes the rates its controller answers before it computes
+    and encodes the rest (:meth:`~torquefree_ros.core.simulation.Simulation.with_outputs`).
+    """
+    stamps = block.stamps_ns
+    rates = SampleColumn(
+        *ANGULAR_VELOCITY, encode_stamped_doubles(stamps, body_frame, block.omega_B)
+    )
+    return (SampleColumn(CLOCK[0], CLOCK[1], encode_times(stamps)), rates) if clock else (rates,)
+
+
+def encode_trailing(
+    block, body_frame: str, inertial_frame: str, outputs=(), position=None
+) -> tuple:
+    """Encode the columns after :func:`encode_leading`'s: ``attitude``, then the outputs'."""
+    if len(block.outputs) < len(outputs):
+        raise ValueError(
+            f'the block has rows for {len(block.outputs)} outputs, not {len(outputs)} '
+            '(Simulation.with_outputs adds them)'
+        )
     place = body_offset(position)
     stamps = block.stamps_ns
-    columns = [SampleColumn(CLOCK[0], CLOCK[1], encode_times(stamps))] if clock else []
-    columns.append(
-        SampleColumn(*ANGULAR_VELOCITY, encode_stamped_doubles(stamps, body_frame, block.omega_B))
-    )
-    columns.append(
+    columns = [
         SampleColumn(*ATTITUDE, encode_stamped_doubles(stamps, inertial_frame, block.q_NB))
-    )
+    ]
     for output, rows, positions in zip(
         outputs, block.outputs, block.output_positions or (None,) * len(outputs)
     ):

@@ -114,7 +114,13 @@ class Simulation:
         """Return the stamp of sample ``k``, as :meth:`samples` stamps it."""
         return int(stamps_ns(self.epoch_ns, np.array([k / self.rate]))[0])
 
-    def samples(self, first: int, count: int) -> SampleBlock:
+    def samples(self, first: int, count: int, outputs: bool = True) -> SampleBlock:
+        """
+        Return samples ``first .. first + count - 1``: their states and the outputs' rows.
+
+        ``outputs=False`` leaves the outputs' rows for :meth:`with_outputs`: a closed loop
+        publishes the rates its controller answers before it computes the rest.
+        """
         times = np.arange(first, first + count) / self.rate
         if count and self.epoch_ns / 1e9 + times[-1] >= MAX_STAMP_S:
             raise ValueError(
@@ -131,6 +137,13 @@ class Simulation:
                 'this body and initial state leave '
                 f"float64's range (propagator {self.propagator.describe()})"
             )
+        block = SampleBlock(first, times, stamps_ns(self.epoch_ns, times), omega, q, internal)
+        return self.with_outputs(block) if outputs else block
+
+    def with_outputs(self, block: SampleBlock) -> SampleBlock:
+        """Return ``block`` with the rows of the simulation's outputs."""
+        first, count, times = block.first, len(block), block.times
+        omega, q, internal = block.omega_B, block.q_NB, block.internal
         outputs, positions = [], []
         for stream, every in zip(self._streams, self._every):
             if every == 1:
@@ -146,14 +159,7 @@ class Simulation:
             )
             positions.append(picked)
         return SampleBlock(
-            first,
-            times,
-            stamps_ns(self.epoch_ns, times),
-            omega,
-            q,
-            internal,
-            tuple(outputs),
-            tuple(positions),
+            first, times, block.stamps_ns, omega, q, internal, tuple(outputs), tuple(positions)
         )
 
     def invariants(self, omega_B, internal=None) -> Invariants:

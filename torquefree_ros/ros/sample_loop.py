@@ -63,7 +63,7 @@ import numpy as np
 
 from .pause import PauseReport, where
 from ..bag.cdr import encode_times
-from ..bag.samples import CLOCK, encode_block, encode_command
+from ..bag.samples import CLOCK, encode_block, encode_command, encode_leading, encode_trailing
 from ..bag.writer import BagError
 from ..core.propagators import Propagator
 from ..core.simulation import SampleBlock, Simulation
@@ -149,6 +149,7 @@ class _Run:
         self.next_index = 0
         self.block: SampleBlock | None = None
         self.columns: tuple = ()  # bag.samples.SampleColumn per topic, in publishing order
+        self.leading_only = False  # the block's trailing columns are still to come (complete())
         self.position = 0
         self.holds = simulation.command_holds  # closed loop: (effect, hold) per command input
         self.shift_ns = 0  # wall clock: how far pauses moved the run's stamps (its epoch) in all
@@ -209,6 +210,25 @@ class _Run:
             position=request.body_position,
         )
 
+    def complete(self) -> tuple:
+        """
+        Add the outputs' rows and the trailing columns to a block refilled ``leading_only``.
+
+        Return the columns added.
+        """
+        request = self.request
+        self.block = self.simulation.with_outputs(self.block)
+        trailing = encode_trailing(
+            self.block,
+            request.body_frame,
+            request.inertial_frame,
+            self.simulation.outputs,
+            request.body_position,
+        )
+        self.columns += trailing
+        self.leading_only = False
+        return trailing
+
     def deadline(self, stamp_ns: int) -> float | None:
         """Monotonic time at which the sample is due, or None when not paced."""
         if self.request.wall_clock:
@@ -220,10 +240,21 @@ class _Run:
             + (stamp_ns - self.simulation.epoch_ns) * 1e-9 / self.request.real_time_factor
         )
 
-    def refill(self) -> None:
+    def refill(self, leading_only: bool = False) -> None:
+        """
+        Compute and encode the next block.
+
+        ``leading_only`` (one sample of a closed loop): only the columns of
+        :func:`~torquefree_ros.bag.samples.encode_leading`, the rest left for :meth:`complete`.
+        """
         started = time.perf_counter()
-        block = self.simulation.samples(self.next_index, self.block_size)
-        self.columns = self.encode(block)
+        block = self.simulation.samples(self.next_index, self.block_size, outputs=not leading_only)
+        self.columns = (
+            encode_leading(block, self.request.body_frame, self.request.clock)
+            if leading_only
+            else self.encode(block)
+        )
+        self.leading_only = leading_only
         self.block = block
         self.next_index += len(block)
         self.position = 0
@@ -563,14 +594,14 @@ class SampleLoop:
                     self.late += 1
             self._send(run)
 
-    def _refill(self, run: _Run) -> bool:
+    def _refill(self, run: _Run, leading_only: bool = False) -> bool:
         """
-        Compute and encode the next block.
+        Compute and encode the next block (``leading_only``: see :meth:`_Run.refill`).
 
         Return False (the reason in ``run.stopped_by``) when it cannot be.
         """
         try:
-            run.refill()
+            run.refill(leading_only)
         except (ValueError, ArithmeticError, RuntimeError) as error:  # RuntimeError: a step bound
             run.stopped_by = f'cannot compute samples {run.next_index}..: {error}'
             return False
@@ -578,13 +609,24 @@ class SampleLoop:
         return True
 
     def _send(self, run: _Run) -> None:
-        """Publish (and record) the block's next sample."""
-        block, i = run.block, run.position
+        """
+        Publish (and record) the block's next sample.
+
+        A block refilled ``leading_only`` is completed between its leading and trailing columns.
+        """
+        i = run.position
+        _publish(run.publishers, run.columns, i)
+        if run.leading_only:
+            try:
+                trailing = run.complete()
+            except (ValueError, ArithmeticError, RuntimeError) as error:
+                run.stopped_by = f'cannot compute the outputs of sample {run.next_out}: {error}'
+                return
+            publishers = [self._publishers.get(column.topic) for column in trailing]
+            run.publishers += publishers
+            _publish(publishers, trailing, i)
+        block = run.block
         stamp = int(block.stamps_ns[i])
-        for publisher, column in zip(run.publishers, run.columns):
-            message = column.messages[i]
-            if message is not None:  # None: an output at a rate of its own skips this sample
-                publisher.publish(message)
         if self._recorder is not None:
             self._record(stamp, run.columns, i)
         if run.request.clock:
@@ -642,7 +684,9 @@ class SampleLoop:
         n = run.next_index
         if n > 0:
             self._seal(run, n - 1)
-        if self._refill(run):
+        # the rates go out before the rest is computed: the controller works on its answer
+        # meanwhile (on the other core)
+        if self._refill(run, leading_only=True):
             self._send(run)
             self._answer_due = time.monotonic() + run.request.lockstep_timeout
 
@@ -723,6 +767,13 @@ class SampleLoop:
         while not self._take_pending():
             self._wake.wait()
             self._wake.clear()
+
+
+def _publish(publishers, columns, index: int) -> None:
+    for publisher, column in zip(publishers, columns):
+        message = column.messages[index]
+        if message is not None:  # None: an output at a rate of its own skips this sample
+            publisher.publish(message)
 
 
 class _Stop(Exception):
