@@ -23,6 +23,8 @@ The node computes nothing physical itself.
 
 from __future__ import annotations
 
+import difflib
+
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
 from rcl_interfaces.msg import SetParametersResult
@@ -142,6 +144,7 @@ class TorqueFreeSim(Node):
             for spec in SPECS:
                 self.declare_parameter(spec.name, spec.default, spec.descriptor())
             self._declared = True
+            self._warn_unknown_overrides()
             self._scenes = ScenePolicy(
                 self.get_parameter('scene').value, self.get_parameter('scene_directories').value
             )
@@ -181,7 +184,9 @@ class TorqueFreeSim(Node):
         self._loop = SampleLoop(
             self._outputs, self.context.ok, self.get_logger(), self._bag, stepped=stepped
         )
-        simulation = self._loop.start(request)  # last: the first sample is due now
+        simulation = self._loop.prepare(request)
+        if not request.free_running:
+            self._loop.start()  # its first sample is due now
         self._note_inertia(simulation)
         topics = ', '.join(self._outputs.topic_names())
         commands = ', '.join(self._commands.topic_names())
@@ -199,6 +204,27 @@ class TorqueFreeSim(Node):
         )
         if request.left_out:
             self.get_logger().warning(request.left_out)
+        if request.free_running:
+            # after the log lines: rclpy's logger makes hundreds of syscalls (inspect, realpath),
+            # each waiting up to 5 ms for the GIL while the loop runs free (seconds in all)
+            self._loop.start()
+
+    def _warn_unknown_overrides(self) -> None:
+        """
+        Warn of start-up overrides (``-p``, ``--params-file``) naming no parameter of the node.
+
+        rclpy keeps them aside unused. A warning, not a refusal: a ``/**:`` parameter file shared
+        by several nodes carries the others' keys too.
+        """
+        unknown = sorted(
+            name for name in self._parameter_overrides if not self.has_parameter(name)
+        )
+        for name in unknown:
+            close = difflib.get_close_matches(name, SPEC_BY_NAME, n=1)
+            hint = f' (did you mean {close[0]}?)' if close else ''
+            self.get_logger().warning(
+                f'start-up parameter {name!r} is not a parameter of this node, ignored{hint}'
+            )
 
     @property
     def sample_loop(self) -> SampleLoop:

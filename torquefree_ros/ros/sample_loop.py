@@ -107,6 +107,17 @@ class RunRequest:
         return self.real_time_factor == 1.0 and not self.lockstep
 
     @property
+    def free_running(self) -> bool:
+        """
+        Whether the loop computes and publishes without ever waiting (as fast as possible).
+
+        Such a loop holds the GIL between samples, so another thread of the process waits up to
+        the interpreter's switch interval (5 ms) each time it takes the GIL back after a blocking
+        call.
+        """
+        return self.real_time_factor == 0.0 and not self.lockstep
+
+    @property
     def clock(self) -> bool:
         """
         Whether the run publishes ``/clock``.
@@ -345,8 +356,15 @@ class SampleLoop:
         self._steps: int | None = 0 if stepped else None
 
     # -- called from the executor thread ---------------------------------------------------------
-    def start(self, request: RunRequest) -> Simulation:
+    def prepare(self, request: RunRequest) -> Simulation:
+        """Make ``request`` the run :meth:`start` publishes; return its simulation."""
         self._run = self._begin(request)
+        return self._run.simulation
+
+    def start(self, request: RunRequest | None = None) -> Simulation:
+        """Start the loop's thread on ``request`` (None: the run :meth:`prepare` made)."""
+        if request is not None:
+            self.prepare(request)
         self._thread = threading.Thread(target=self._main, name='torquefree_samples', daemon=True)
         self._thread.start()
         return self._run.simulation
