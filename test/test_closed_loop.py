@@ -447,3 +447,38 @@ def test_a_second_ctrl_c_while_closing_still_closes_the_bag_and_exits_cleanly(tm
     assert 'terminate called' not in stderr and 'Traceback' not in stderr, stderr
     # closed: metadata.yaml written, the summary in place
     assert metadata(bag)['message_count'] > 0
+
+
+def test_outputs_failing_after_the_rates_went_out_stop_the_run_until_a_reset(
+    tmp_path, monkeypatch
+):
+    from sim_harness import connected_harness
+    from torquefree_ros.core.simulation import Simulation
+
+    with_outputs = Simulation.with_outputs
+
+    def failing_at_sample_5(simulation, block):
+        if block.first == 5:
+            raise ValueError('rows out of range')
+        return with_outputs(simulation, block)
+
+    monkeypatch.setattr(Simulation, 'with_outputs', failing_at_sample_5)
+    scene = _scene(tmp_path, outputs='  - markers: {}\n')
+    with connected_harness(
+        publish_rate=RATE,
+        real_time_factor=0.0,
+        lockstep=True,
+        lockstep_timeout=0.5,  # the start-up run's first samples go unanswered
+        scene=str(scene),
+    ) as harness:
+        RateDamper(harness)
+        loop = harness.node.sample_loop
+        harness.spin_until(lambda: loop.failure, what='the failure')
+        # sample 5's rates went out before its markers failed; the run stops there, whole
+        # samples 0-4 published and counted
+        assert loop.failure == 'cannot compute the outputs of sample 5: rows out of range'
+        assert loop.published == 5 and loop.last.index == 4
+        monkeypatch.undo()
+        assert harness.reset().success
+        harness.spin_until(lambda: loop.published >= 5 + 20, what='samples after the reset')
+        assert not loop.failure

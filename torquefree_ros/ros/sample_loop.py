@@ -639,6 +639,7 @@ class SampleLoop:
                 trailing = run.complete()
             except (ValueError, ArithmeticError, RuntimeError) as error:
                 run.stopped_by = f'cannot compute the outputs of sample {run.next_out}: {error}'
+                run.block = None  # no half-sent block left behind (a pause would re-encode it)
                 return
             publishers = [self._publishers.get(column.topic) for column in trailing]
             run.publishers += publishers
