@@ -35,7 +35,10 @@ node's command inputs, ``ros.commands``) seals the interval, computes the next s
 publishes it (:meth:`SampleLoop.command_arrived`) while the loop's thread waits for it: handing
 each answer over to the loop's thread would cost a thread switch per round trip (``make
 bench-lockstep`` measures both). The two threads take turns under one lock, and the loop's
-thread alone applies restarts, pauses, failures and the missed answers' timeout.
+thread alone applies restarts, pauses, failures and the missed answers' timeout. A lock-step
+sample's rates (after ``/clock``) go out as soon as its state is computed; its outputs' rows are
+computed, and its attitude and outputs encoded and published, after them: the controller works on
+its answer meanwhile.
 
 Pause (``pause(True)``, the node's ``~/pause``): taken between two samples, like a restart; from
 then on no sample goes out and nothing is recorded, the simulated clock stands still (``/clock``,
