@@ -186,6 +186,75 @@ def test_blocks_inside_a_chunk_change_nothing(monkeypatch):
         assert_same_table(reference, run_campaign(make(), scheduler='in-process', chunk_size=64))
 
 
+def test_dask_tasks_group_consecutive_chunks_by_the_number_of_workers():
+    """
+    Every chunk goes in one task, in run order; fewer tasks than chunks, smaller near the end.
+
+    At most 1 / (TASKS_PER_WORKER * workers) of the chunks a task; a task a chunk without workers.
+    """
+    from torquefree_ros.campaigns.engine import TASKS_PER_WORKER, tasks
+
+    for chunks in (1, 2, 7, 16, 40, 400):
+        parts = [(10 * i, 10 * i + 10) for i in range(chunks)]
+        assert tasks(parts, 0) == [[part] for part in parts]
+        for workers in (1, 2, 3, 8):
+            groups = tasks(parts, workers)
+            assert [part for group in groups for part in group] == parts
+            largest = max(1, chunks // (TASKS_PER_WORKER * workers))
+            sizes = [len(group) for group in groups]
+            assert all(1 <= size <= largest for size in sizes), (chunks, workers, sizes)
+            assert sizes == sorted(sizes, reverse=True) and sizes[-1] == 1
+    sizes = [len(group) for group in tasks([(i, i + 1) for i in range(40)], 2)]
+    assert sizes == [5, 5, 5, 5, 5, 4, 3, 2, 2, 1, 1, 1, 1]
+
+
+def test_chunks_grouped_in_tasks_give_the_same_table_parts_and_progress(cluster, tmp_path):
+    """
+    Many chunks on 2 workers go in fewer tasks; the table and each chunk's part and progress stay.
+
+    The table is the in-process one bit for bit, ``progress`` is called once per chunk (the runs
+    done growing by the chunk size), and an interrupted campaign keeps a part per finished chunk.
+    """
+    from torquefree_ros.campaigns.engine import chunks, tasks
+
+    reference = run_campaign(torque_free_campaign(), scheduler='in-process')
+    campaign = load_campaign(torque_free_campaign())
+    assert len(tasks(chunks(campaign, 8), 2)) < len(chunks(campaign, 8)) == 75
+    progress = []
+    table = run_campaign(
+        torque_free_campaign(),
+        scheduler=cluster.scheduler_address,
+        output=tmp_path / 'whole',
+        chunk_size=8,
+        progress=lambda done, total: progress.append(done),
+    )
+    assert_same_table(reference, table)
+    assert_same_table(reference, pq.read_table(tmp_path / 'whole' / 'runs.parquet'))
+    assert progress[0] == 0 and progress[-1] == 600 and len(progress) == 1 + 75
+    assert np.all(np.diff(progress) == 8)
+    output = tmp_path / 'interrupted'
+    with pytest.raises(Interrupted):
+        run_campaign(
+            torque_free_campaign(),
+            scheduler=cluster.scheduler_address,
+            output=output,
+            chunk_size=8,
+            progress=interrupt_after(200),
+        )
+    names = [p.name for p in (output / 'parts').glob('runs-*.parquet')]
+    assert names and all(int(n[15:24]) - int(n[5:14]) == 8 for n in names)
+    assert_same_table(
+        reference,
+        run_campaign(
+            torque_free_campaign(),
+            scheduler=cluster.scheduler_address,
+            output=output,
+            chunk_size=50,
+            resume=True,
+        ),
+    )
+
+
 @contextlib.contextmanager
 def dask_processes(tmp_path, workers: list):
     """

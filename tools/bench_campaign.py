@@ -227,8 +227,13 @@ def measure_round(clusters: dict, directory: Path) -> dict:
 
 
 def engine_costs(clusters: dict, directory: Path) -> dict:
-    """Per chunk: one-run one-sample chunks in this process, then on the warm 1-worker cluster."""
-    from torquefree_ros.campaigns import run_campaign
+    """
+    Per chunk: one-run one-sample chunks in this process, then on the warm 1-worker cluster.
+
+    On the cluster, in the engine's tasks of several chunks (``engine.tasks``), then a task a
+    chunk.
+    """
+    from torquefree_ros.campaigns import engine, load_campaign, run_campaign
 
     tiny = torque_free_campaign(OVERHEAD_TASKS)
     tiny.update(duration=0.0, metrics=['final_rates'])
@@ -248,13 +253,24 @@ def engine_costs(clusters: dict, directory: Path) -> dict:
         for _ in range(2)
     )
     client = clusters[1][1]
-    on_worker = min(
+    # as the engine groups them (engine.tasks), then a task a chunk
+    grouped = min(
         timed(lambda: run_campaign(tiny, scheduler=client, chunk_size=1)) for _ in range(2)
     )
+    tasks_per_worker = engine.TASKS_PER_WORKER
+    engine.TASKS_PER_WORKER = OVERHEAD_TASKS
+    try:
+        alone = min(
+            timed(lambda: run_campaign(tiny, scheduler=client, chunk_size=1)) for _ in range(2)
+        )
+    finally:
+        engine.TASKS_PER_WORKER = tasks_per_worker
     return {
         'chunk_in_process_ms': 1e3 * in_process / OVERHEAD_TASKS,
         'part_file_ms': 1e3 * (with_parts - in_process) / OVERHEAD_TASKS,
-        'chunk_dask_ms': 1e3 * (on_worker - in_process) / OVERHEAD_TASKS,
+        'chunk_dask_ms': 1e3 * (alone - in_process) / OVERHEAD_TASKS,
+        'chunk_grouped_ms': 1e3 * (grouped - in_process) / OVERHEAD_TASKS,
+        'grouped_tasks': len(engine.tasks(engine.chunks(load_campaign(tiny), 1), 1)),
     }
 
 
@@ -425,8 +441,12 @@ def main(argv=None) -> int:
     )
     report.add(f"| writing a chunk's part file | {costs['part_file_ms']:.2f} ms |")
     report.add(
-        '| a chunk on a warm local worker, beyond its cost in this process | '
-        f'{costs["chunk_dask_ms"]:.2f} ms |'
+        '| a chunk on a warm local worker as a Dask task of its own, beyond its cost in this '
+        f'process | {costs["chunk_dask_ms"]:.2f} ms |'
+    )
+    report.add(
+        f'| the same, {OVERHEAD_TASKS} chunks grouped in {costs["grouped_tasks"]} tasks as the '
+        f'engine does (`engine.tasks`), per chunk | {costs["chunk_grouped_ms"]:.2f} ms |'
     )
     for index, (rss, peak) in enumerate(memory):
         report.add(

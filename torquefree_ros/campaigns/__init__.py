@@ -72,7 +72,8 @@ def run_campaign(
     ``scheduler``: ``None`` (a local cluster, or this process for a campaign of one chunk),
     ``"in-process"``, ``"local"``, a Dask scheduler's address or a ``distributed.Client``;
     ``workers``: the local cluster's worker processes (default: one per core); ``chunk_size``: runs
-    per task (the table does not depend on it); ``progress(done_runs, total_runs)``: called once
+    per chunk, a part file and a progress step (the table does not depend on it; on Dask a task
+    runs several consecutive chunks); ``progress(done_runs, total_runs)``: called once
     before the first chunk (``done_runs`` = the runs a resumed campaign already holds) and after
     each chunk.
 

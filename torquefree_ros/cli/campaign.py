@@ -81,7 +81,10 @@ def _parser() -> argparse.ArgumentParser:
         '--chunk',
         type=_positive,
         metavar='RUNS',
-        help='runs per task (default: 256, fewer for long runs); the table does not depend on it',
+        help=(
+            'runs per chunk, a part file and a progress step (default: 256, fewer for long runs); '
+            'the table does not depend on it'
+        ),
     )
     again = run.add_mutually_exclusive_group()
     again.add_argument(
