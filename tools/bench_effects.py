@@ -822,8 +822,9 @@ def main() -> int:
     report.add(
         'Per case, the fastest of the calls: building the propagator; `DOP853Kernel.evaluate` '
         'alone from a restart (all the stepping and the dense output, q normalised in each output '
-        'row: one numba call per smooth piece); the rest of `states()` (build + states() minus '
-        'the parts, each the fastest of its own calls: it can come out slightly negative). Then '
+        'row: one numba call, the pieces begun inside it); the rest of `states()` (build + '
+        'states() minus the parts, each the fastest of its own calls: it can come out slightly '
+        'negative). Then '
         'the stepping alone, for the kernel and for cyrk: the same run asked only for the '
         'breakpoints and the end (no dense output), per step; and the outputs, (all samples − '
         'stepping alone) per sample (dense output and its 3 extra right-hand-side calls per step, '

@@ -23,10 +23,11 @@ bodies, each with its own inertia, initial state and effect parameters; ``step``
 torques and one compiled call advances every body. A body of a batch is bit for bit the same body
 alone: both run the same kernel (``motion_kernels.dop853_outputs_batch``) with the same numbers.
 
-The plant integrates with DOP853 at the scene's ``accuracy`` (``auto``'s settings), through the
-compiled kernels: the same steps as the ``dop853`` propagator of the same scene (the stepping
-starts again at every sample when the scene takes commands, as the node's does, and at every switch
-of a torque schedule, each body of a batch at its own).
+The plant integrates with DOP853 at the scene's ``accuracy`` (``auto``'s settings) through
+``compiled.DOP853Bodies``, the engine the ``dop853`` propagator runs with one body: the node's
+closed loop and its offline replay run the same object (the stepping starts again at every sample
+when the scene takes commands, and at every switch of a torque schedule, each body of a batch at
+its own).
 """
 
 from __future__ import annotations
@@ -160,35 +161,12 @@ class Plant:
                     f"differ from scene[0]'s ({', '.join(layouts[0]) or 'none'}): a batch steps "
                     'bodies of one kind (make one plant per kind)'
                 )
-        n = 7 + propagators[0].dynamics.state_size
         count = len(propagators)
-        self._width = n
         self._propagators = propagators
-        self._models = np.stack([compiled.build_model(p.dynamics) for p in propagators])
-        # each body's schedule: its breakpoints (padded with inf) and the scene's held torques
-        # piece by piece
-        breaks = [list(p.dynamics.breakpoints) for p in propagators]
-        width = max(1, max(len(b) for b in breaks))
-        self._breaks = np.array([b + [np.inf] * (width - len(b)) for b in breaks])
-        self._piece_helds = np.zeros((count, width + 1, 6))
-        for body, (p, starts) in enumerate(zip(propagators, breaks)):
-            for piece, start in enumerate([0.0, *starts]):
-                compiled.held_torques(p.dynamics, start, self._piece_helds[body, piece])
+        self._bodies = compiled.DOP853Bodies(propagators, MAX_STEPS_PER_SAMPLE)
+        self._width = self._bodies.width
         self._command_helds = np.zeros((count, 6))
-        self._helds = np.zeros((count, 6))
-        self._rtols = np.array([p.rtol for p in propagators])
-        self._atols = np.array([p.atol for p in propagators])
-        self._min_steps = np.array([p.min_step for p in propagators])
-        self._solvers = np.zeros((count, kernels.SOLVER_WIDTH))
-        self._ys = np.stack([np.concatenate([p.omega0_B, p.q0_NB, p.x0]) for p in propagators])
-        self._y_olds = np.empty((count, n))
-        self._fs = np.empty((count, n))
-        self._Ks = np.empty((count, kernels.STAGES_EXTENDED, n))
-        self._Fs = np.empty((count, kernels.INTERPOLATOR_POWER, n))
-        self._works = np.empty((count, 3, n))
-        self._status = np.zeros(count, dtype=np.int64)
-        self._reached = np.zeros(count, dtype=np.int64)
-        self._sample = self._ys.copy()[:, None, :]
+        self._sample = self._bodies.ys.copy()[:, None, :]
         self.k = 0
         self._failed: str | None = None
         commands = [
@@ -266,38 +244,9 @@ class Plant:
                 f'plant: stopped at sample {self.k} ({self._failed}); reset() starts it again'
             )
         self._hold()
-        out = np.empty((self.size, times.size, self._width))
         sample_rate = self.rate if self._commands is not None else 0.0
-        kernels.dop853_outputs_batch(
-            times,
-            out,
-            MAX_STEPS_PER_SAMPLE,
-            sample_rate,
-            self._breaks,
-            self._piece_helds,
-            self._command_helds,
-            self._solvers,
-            self._ys,
-            self._y_olds,
-            self._fs,
-            self._Ks,
-            self._Fs,
-            self._works,
-            self._models,
-            self._helds,
-            self._rtols,
-            self._atols,
-            self._min_steps,
-            compiled._A,
-            compiled._B,
-            compiled._C,
-            compiled._E3,
-            compiled._E5,
-            compiled._D,
-            self._status,
-            self._reached,
-        )
-        failed = np.flatnonzero(self._status != kernels.DONE)
+        out = self._bodies.advance(times, self._command_helds, sample_rate)
+        failed = np.flatnonzero(self._bodies.status != kernels.DONE)
         if failed.size:
             self._fail(int(failed[0]), times)
         self.k += times.size
@@ -311,9 +260,10 @@ class Plant:
         The kernels' state is mid-step for some bodies, so the plant refuses to go on until
         ``reset()``; ``state`` stays the last sample reached.
         """
-        t = float(times[min(int(self._reached[body]), times.size - 1)])
+        bodies = self._bodies
+        t = float(times[min(int(bodies.reached[body]), times.size - 1)])
         error = compiled.dop853_error(
-            int(self._status[body]), self._propagators[body], t, self._solvers[body]
+            int(bodies.status[body]), self._propagators[body], t, bodies.solvers[body]
         )
         self._failed = f'{"body %d: " % body if self.batch else ""}{error}'
         raise error

@@ -419,7 +419,13 @@ class SampleLoop:
             return
         with self._turn:
             run = self._awaiting
-            if run is None or self._wake.is_set() or self._steps == 0 or not run.answered():
+            if (
+                run is None
+                or run.stopped_by  # (the answer to a sample whose outputs failed)
+                or self._wake.is_set()
+                or self._steps == 0
+                or not run.answered()
+            ):
                 return
             try:
                 self._step(run)

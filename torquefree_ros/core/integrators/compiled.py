@@ -75,16 +75,21 @@ def build_model(dynamics) -> np.ndarray:
     return np.array(header + entries, dtype=float)
 
 
-def held_torques(dynamics, segment_start: float, out: np.ndarray) -> np.ndarray:
+def held_torques(
+    dynamics, segment_start: float, out: np.ndarray, commanded: bool | None = None
+) -> np.ndarray:
     """
     Sum the torques held on the piece starting at ``segment_start`` into ``out``.
 
     ``out[:3]``: the sum of the body-frame torques, ``out[3:]`` the inertial-frame ones (in the
-    effects' order, as Dynamics adds them).
+    effects' order, as Dynamics adds them). ``commanded``: only the effects that take commands
+    (True), only the others (False), all (None).
     """
     out[:] = 0.0
     for effect in dynamics.effects:
-        if effect.kernel_code is None:
+        if effect.kernel_code is None and (
+            commanded is None or commanded == (getattr(effect, 'hold', None) is not None)
+        ):
             torque, inertial = effect.held_torque(segment_start)
             if inertial:
                 out[3:] += torque
@@ -130,84 +135,147 @@ class _Kernel:
         held_torques(self.dynamics, t, self.held)
 
 
-class DOP853Kernel(_Kernel):
+class DOP853Bodies:
     """
-    ``DOP853Propagator``'s evaluation through the kernels.
+    Bodies stepped by DOP853 through the compiled kernels, all of them in one numba call.
+
+    The plant's engine (``torquefree_ros.Plant``), and with one body the ``dop853`` propagator's
+    (:class:`DOP853Kernel`), so the node's closed loop, its offline replay and ``Plant.step`` run
+    the very same code. Each body's scene is cut into pieces at its breakpoints, each piece
+    holding the torques the scene's own effects hold on it; with a ``sample_rate`` a new piece
+    also begins at every sample time, holding the commanded torque given to :meth:`advance` on top.
+    Steps are scipy's, a new piece selecting its initial step again (as a new scipy solver does).
+    """
+
+    def __init__(self, propagators, max_steps: int):
+        kernels.compile_kernels()
+        count, n = len(propagators), 7 + propagators[0].dynamics.state_size
+        self.propagators = propagators
+        self.width = n
+        self.max_steps = int(max_steps)
+        self.models = np.stack([build_model(p.dynamics) for p in propagators])
+        # each body's pieces: its breakpoints (padded with inf) and the torques held on each
+        breaks = [list(p.dynamics.breakpoints) for p in propagators]
+        pieces = max(1, max(len(b) for b in breaks))
+        self.breaks = np.array([b + [np.inf] * (pieces - len(b)) for b in breaks])
+        self.piece_helds = np.zeros((count, pieces + 1, 6))
+        for body, (p, starts) in enumerate(zip(propagators, breaks)):
+            for piece, start in enumerate([0.0, *starts]):
+                held_torques(p.dynamics, start, self.piece_helds[body, piece], commanded=False)
+        self.helds = np.zeros((count, 6))
+        self.rtols = np.array([p.rtol for p in propagators])
+        self.atols = np.array([p.atol for p in propagators])
+        self.min_steps = np.array([p.min_step for p in propagators])
+        self.initial = np.stack([np.concatenate([p.omega0_B, p.q0_NB, p.x0]) for p in propagators])
+        self.solvers = np.zeros((count, kernels.SOLVER_WIDTH))
+        self.ys = self.initial.copy()
+        self.y_olds = np.empty((count, n))
+        self.fs = np.empty((count, n))
+        self.Ks = np.empty((count, kernels.STAGES_EXTENDED, n))
+        self.Fs = np.empty((count, kernels.INTERPOLATOR_POWER, n))
+        self.works = np.empty((count, 3, n))
+        self.status = np.zeros(count, dtype=np.int64)  # each body's last kernels status
+        self.reached = np.zeros(count, dtype=np.int64)  # the output index it stopped at
+
+    @property
+    def size(self) -> int:
+        return self.ys.shape[0]
+
+    def restart(self) -> None:
+        """Every body back to its initial state: a piece that ended at t = 0."""
+        self.ys[:] = self.initial
+        self.solvers[:] = 0.0
+
+    def advance(
+        self, times: np.ndarray, command_helds: np.ndarray, sample_rate: float = 0.0
+    ) -> np.ndarray:
+        """
+        Return every body's state at ``times`` (ascending), an ``(N, M, n)`` array.
+
+        ``command_helds (N, 6)``: the commanded torque (body frame, inertial frame) held on the
+        pieces begun in this call. Afterwards :attr:`status` says, body by body, DONE or why the
+        body stopped (:func:`dop853_error` words it), at output :attr:`reached`.
+        """
+        out = np.empty((self.size, times.size, self.width))
+        kernels.dop853_outputs_batch(
+            times,
+            out,
+            self.max_steps,
+            sample_rate,
+            self.breaks,
+            self.piece_helds,
+            command_helds,
+            self.solvers,
+            self.ys,
+            self.y_olds,
+            self.fs,
+            self.Ks,
+            self.Fs,
+            self.works,
+            self.models,
+            self.helds,
+            self.rtols,
+            self.atols,
+            self.min_steps,
+            _A,
+            _B,
+            _C,
+            _E3,
+            _E5,
+            _D,
+            self.status,
+            self.reached,
+        )
+        return out
+
+
+class DOP853Kernel:
+    """
+    ``DOP853Propagator``'s evaluation through the kernels: a :class:`DOP853Bodies` of one body.
 
     Free steps (outputs never shape them), a new piece at each breakpoint (initial step selected
-    again, as a new scipy solver does).
+    again, as a new scipy solver does). A scene whose torque is held from sample to sample (a
+    controller's commands) advances one sample interval a call, holding the command in force on
+    it, as ``Plant.step`` does.
     """
 
     def __init__(self, propagator):
-        super().__init__(propagator, 3)
-        self.solver = np.zeros(kernels.SOLVER_WIDTH)
-        self.y_old = np.empty(self.size)
-        self.f = np.empty(self.size)
-        self.K = np.empty((kernels.STAGES_EXTENDED, self.size))
-        self.F = np.empty((kernels.INTERPOLATOR_POWER, self.size))
-        self.restart()
+        self.propagator = propagator
+        self.dynamics = propagator.dynamics
+        self.bodies = DOP853Bodies([propagator], -1)
+        self.command_helds = np.zeros((1, 6))
 
     def restart(self) -> None:
-        """
-        Go back to the initial state: a piece that ended at t = 0.
-
-        The first step begins a new one.
-        """
-        self.y[:] = self.initial
-        self.solver[:] = 0.0
-
-    def _begin(self, t0: float) -> None:
-        p = self.propagator
-        self.hold_from(t0)
-        kernels.dop853_begin(
-            t0,
-            self.dynamics.next_breakpoint(t0),
-            p.rtol,
-            p.atol,
-            p.min_step,
-            self.solver,
-            self.y,
-            self.f,
-            self.work,
-            self.model,
-            self.held,
-        )
+        """Go back to the initial state; the first step begins a new piece."""
+        self.bodies.restart()
 
     def evaluate(self, times: np.ndarray) -> np.ndarray:
-        out = np.empty((times.size, self.size))
+        bodies, dynamics = self.bodies, self.dynamics
         budget = self.propagator.max_steps_per_sample
-        budget = -1 if budget is None else int(budget)
+        bodies.max_steps = -1 if budget is None else int(budget)
+        rate = dynamics.sample_rate or 0.0
+        out = np.empty((times.size, bodies.width))
         i = 0
         while i < times.size:
-            i, status = kernels.dop853_outputs(
-                times,
-                i,
-                out,
-                budget,
-                self.solver,
-                self.y,
-                self.y_old,
-                self.f,
-                self.K,
-                self.F,
-                self.work,
-                self.model,
-                self.held,
-                _A,
-                _B,
-                _C,
-                _E3,
-                _E5,
-                _D,
-            )
-            if status == kernels.DONE:
-                break
-            if status == kernels.RESTART:
-                self.restart()
-            elif status == kernels.SEGMENT_END:
-                self._begin(float(self.solver[kernels.T]))
+            reached = float(bodies.solvers[0, kernels.T])
+            if rate:  # up to the end of the sample interval the body is in, the command in force
+                end = kernels.next_sample_time(reached, rate)
+                j = i + int(np.searchsorted(times[i:], end, side='right'))
+                part = times[i:j] if j > i else np.array([end])  # (none asked: to its end)
+                held_torques(dynamics, reached, self.command_helds[0], commanded=True)
             else:
-                raise dop853_error(status, self.propagator, float(times[i]), self.solver)
+                j, part = times.size, times[i:]
+            rows = bodies.advance(part, self.command_helds, rate)[0]
+            status = int(bodies.status[0])
+            if status == kernels.RESTART:  # a time before the last step: from the start again
+                self.restart()
+                continue
+            if status != kernels.DONE:
+                at = float(part[min(int(bodies.reached[0]), part.size - 1)])
+                raise dop853_error(status, self.propagator, at, bodies.solvers[0])
+            if j > i:
+                out[i:j] = rows
+                i = j
         return out
 
 
