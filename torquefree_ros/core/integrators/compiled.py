@@ -244,6 +244,7 @@ class DOP853Kernel:
         self.dynamics = propagator.dynamics
         self.bodies = DOP853Bodies([propagator], -1)
         self.command_helds = np.zeros((1, 6))
+        self._command_held = self.command_helds[0]
 
     def restart(self) -> None:
         """Go back to the initial state; the first step begins a new piece."""
@@ -260,9 +261,12 @@ class DOP853Kernel:
             reached = float(bodies.solvers[0, kernels.T])
             if rate:  # up to the end of the sample interval the body is in, the command in force
                 end = kernels.next_sample_time(reached, rate)
-                j = i + int(np.searchsorted(times[i:], end, side='right'))
+                if times[-1] <= end:  # (a closed loop's one sample at a time)
+                    j = times.size
+                else:
+                    j = i + int(np.searchsorted(times[i:], end, side='right'))
                 part = times[i:j] if j > i else np.array([end])  # (none asked: to its end)
-                held_torques(dynamics, reached, self.command_helds[0], commanded=True)
+                held_torques(dynamics, reached, self._command_held, commanded=True)
             else:
                 j, part = times.size, times[i:]
             rows = bodies.advance(part, self.command_helds, rate)[0]
