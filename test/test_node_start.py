@@ -119,3 +119,27 @@ def test_known_overrides_and_rclpy_own_parameters_raise_no_warning(context):
         assert [line for line in node.lines if line[0] == 'warning'] == []
     finally:
         node.destroy_node()
+
+
+def test_the_node_process_runs_with_a_short_switch_interval(monkeypatch):
+    """``torquefree_sim`` owns its process: the GIL changes hands within 0.5 ms, not 5."""
+    import sys
+
+    from torquefree_ros.cli import sim
+
+    seen = []
+
+    def node():
+        seen.append(sys.getswitchinterval())
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(sim, 'init', lambda argv: None)
+    monkeypatch.setattr(sim, 'SingleThreadedExecutor', lambda: None)
+    monkeypatch.setattr(sim, 'TorqueFreeSim', node)
+    monkeypatch.setattr(sim, 'shut_down', lambda *handles: None)
+    previous = sys.getswitchinterval()
+    try:
+        assert sim.main(['torquefree_sim']) == 0
+    finally:
+        sys.setswitchinterval(previous)
+    assert seen == [sim.SWITCH_INTERVAL] and sim.SWITCH_INTERVAL < previous
