@@ -58,7 +58,7 @@ bench-plant: $(VENV)/.installed
 # Monte Carlo campaigns: 10 000 torque-free runs on 1 and 2 local workers beside the bare compute,
 # 1 000 dispersed explorer1 runs, the engine's costs (~1 min)
 bench-campaign: $(VENV)/.installed
-	$(PY) tools/bench_campaign.py --output docs/bench/campaign.md
+	$(PY) tools/bench_campaign.py --rounds 5 --output docs/bench/campaign.md
 
 bench-node: $(VENV)/.installed
 	$(PY) tools/bench_node.py --output docs/bench/node.md

@@ -187,7 +187,13 @@ def worker_memory(client) -> list[tuple[float, float]]:
     return list(client.run(measure).values())
 
 
-def measure_round(clusters: dict, directory: Path) -> dict:
+def measure_round(directory: Path) -> dict:
+    """
+    Measure one round: the bare compute, then the campaign on 1 and on 2 warm local workers.
+
+    Each cluster is started and warmed for its measurement and closed after it, so no idle
+    cluster shares the cores with the one measured (as none would with a user's campaign).
+    """
     from torquefree_ros.campaigns import engine, load_campaign, run_campaign
 
     campaign = load_campaign(torque_free_campaign())
@@ -195,13 +201,20 @@ def measure_round(clusters: dict, directory: Path) -> dict:
     bare_compute(campaign, draws[:10])  # this process's kernels loaded before the timing
     result = {}
     result['bare'], result['bare_cpu'], _ = wall_and_cpu(lambda: bare_compute(campaign, draws))
-    for workers, (_, client) in clusters.items():
-        wall, driver, on_workers = wall_and_cpu(
-            lambda: run_campaign(
-                campaign, scheduler=client, output=directory / f'w{workers}', overwrite=True
-            ),
-            client,
-        )
+    for workers in (1, 2):
+        cluster, client, _, _ = start_cluster(workers)
+        try:
+            wall, driver, on_workers = wall_and_cpu(
+                lambda: run_campaign(
+                    campaign, scheduler=client, output=directory / f'w{workers}', overwrite=True
+                ),
+                client,
+            )
+            if workers == 2:
+                result['memory'] = worker_memory(client)  # after a campaign
+        finally:
+            client.close()
+            cluster.close()
         result[f'workers_{workers}'], result[f'workers_{workers}_driver'] = wall, driver
         result[f'workers_{workers}_cpu'] = driver + on_workers
     result['ratio_1'] = result['workers_1'] / result['bare']
@@ -316,7 +329,7 @@ def main(argv=None) -> int:
         f'{RATE:g} Hz ({campaign.samples:,} samples a run; metrics '
         f'{", ".join(use.metric.name for use in campaign.metrics)}), written to a directory '
         '(part files, then `runs.parquet`) on a local cluster started and warmed before the '
-        'timing.'
+        'timing, the only one running (each is closed after its measurement).'
     )
     report.add('')
 
@@ -324,13 +337,13 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory(prefix='bench_campaign_') as temporary:
         directory = Path(temporary)
         try:
+            rounds = [measure_round(directory) for _ in range(args.rounds)]
+            memory = rounds[-1]['memory']
             for workers in (1, 2):
                 cluster, client, up, first = start_cluster(workers)
                 clusters[workers] = (cluster, client)
                 start_up[workers] = (up, first)
-            rounds = [measure_round(clusters, directory) for _ in range(args.rounds)]
             costs = engine_costs(clusters, directory)
-            memory = worker_memory(clusters[2][1])
         finally:
             for cluster, client in clusters.values():
                 client.close()
@@ -450,7 +463,7 @@ def main(argv=None) -> int:
     )
     for index, (rss, peak) in enumerate(memory):
         report.add(
-            f'| worker {index} of 2 after the campaigns: RSS (peak) | '
+            f'| worker {index} of 2 after a campaign: RSS (peak) | '
             f'{rss:.0f} MiB ({peak:.0f} MiB) |'
         )
     report.save(args.output)
