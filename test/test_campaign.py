@@ -208,6 +208,38 @@ def test_dask_tasks_group_consecutive_chunks_by_the_number_of_workers():
     assert sizes == [5, 5, 5, 5, 5, 4, 3, 2, 2, 1, 1, 1, 1]
 
 
+def test_the_default_chunk_grows_with_the_runs_per_worker_within_its_bounds():
+    """
+    256 runs a chunk, more (up to 1024) while every worker still gets 8 chunks; memory caps it.
+
+    The workers are known beforehand in-process (1), for a local cluster (``workers`` or a core
+    each) and for a Client (its threads); not for an address. A bad ``workers`` says so.
+    """
+    from types import SimpleNamespace
+
+    from torquefree_ros.campaigns.engine import chunk_runs, expected_workers
+
+    def campaign(runs, samples=1001):
+        return SimpleNamespace(runs=runs, samples=samples)
+
+    assert chunk_runs(campaign(10_000)) == 256  # workers unknown
+    assert chunk_runs(campaign(10_000), None, 2) == 625  # 16 chunks, 8 a worker
+    assert chunk_runs(campaign(10_000), None, 1) == 1024
+    assert chunk_runs(campaign(10_000), None, 8) == 256
+    assert chunk_runs(campaign(1_000), None, 2) == 256
+    assert chunk_runs(campaign(10_000, samples=100_001), None, 2) == 11  # 128 MiB of samples
+    assert chunk_runs(campaign(10_000), 7, 2) == 7
+    assert expected_workers('in-process', None) == 1
+    assert expected_workers('local', 3) == 3
+    assert expected_workers(None, None) == (os.cpu_count() or 1)
+    assert expected_workers('tcp://127.0.0.1:8786', None) is None
+    client = SimpleNamespace(nthreads=lambda: {'tcp://a': 1, 'tcp://b': 2})
+    assert expected_workers(client, None) == 3
+    for bad in (0, -1, True, 'two', 2.0):
+        with pytest.raises(ValueError, match='workers: expected a positive integer'):
+            expected_workers('local', bad)
+
+
 def test_chunks_grouped_in_tasks_give_the_same_table_parts_and_progress(cluster, tmp_path):
     """
     Many chunks on 2 workers go in fewer tasks; the table and each chunk's part and progress stay.

@@ -72,8 +72,9 @@ def run_campaign(
     ``scheduler``: ``None`` (a local cluster, or this process for a campaign of one chunk),
     ``"in-process"``, ``"local"``, a Dask scheduler's address or a ``distributed.Client``;
     ``workers``: the local cluster's worker processes (default: one per core); ``chunk_size``: runs
-    per chunk, a part file and a progress step (the table does not depend on it; on Dask a task
-    runs several consecutive chunks); ``progress(done_runs, total_runs)``: called once
+    per chunk, a part file and a progress step (default: ``engine.chunk_runs``, by the number of
+    workers; the table does not depend on it; on Dask a task runs several consecutive chunks);
+    ``progress(done_runs, total_runs)``: called once
     before the first chunk (``done_runs`` = the runs a resumed campaign already holds) and after
     each chunk.
 
@@ -86,12 +87,12 @@ def run_campaign(
     has its finished runs' kept samples written to ``output/trajectories/`` (see :mod:`.store`);
     without ``output`` they are not computed.
     """
-    from .engine import chunk_runs, chunks, execute, TRAJECTORIES
+    from .engine import chunk_runs, chunks, execute, expected_workers, TRAJECTORIES
     from .results import build_table
     from .store import CampaignDirectory
 
     campaign = load_campaign(path_or_mapping)
-    size = chunk_runs(campaign, chunk_size)
+    size = chunk_runs(campaign, chunk_size, expected_workers(scheduler, workers))
     # what the chunks run: the same runs, without trajectories when there is nowhere to write them
     computed = campaign
     if output is None:

@@ -48,7 +48,14 @@ from ..core import propagate_batch
 from ..core.rigid_body import RigidBody
 from ..core.scene import scene_from_mapping, SceneError
 
+# A chunk's runs by default (chunk_runs): DEFAULT_CHUNK_RUNS, or more (up to MAX_CHUNK_RUNS) while
+# every one of a known number of workers still gets CHUNKS_PER_WORKER chunks. Each chunk costs the
+# client a part file and a share of a task (~1 ms of CPU), which on a small machine is taken from
+# the workers: measured on 2 cores, 10 000 runs on 2 workers ran 1.77x the runs/s of 1 worker in
+# 40 chunks of 256 (the client's CPU 0.17 s), 1.84x in 20 of 512 (0.14 s).
 DEFAULT_CHUNK_RUNS = 256
+MAX_CHUNK_RUNS = 1024
+CHUNKS_PER_WORKER = 8
 CHUNK_BYTES = 128 * 2**20  # samples held by one chunk at most (then fewer runs a chunk)
 # Inside a chunk, runs are propagated and measured a block of at most this many body-samples at a
 # time (the same numbers: every run is computed on its own): a block's arrays (2 MB a quaternion
@@ -80,13 +87,48 @@ def block_runs(campaign) -> int:
     return max(1, BLOCK_SAMPLES // campaign.samples)
 
 
-def chunk_runs(campaign, requested: int | None = None) -> int:
+def chunk_runs(campaign, requested: int | None = None, workers: int | None = None) -> int:
+    """
+    Return the runs of a chunk: ``requested``, or the default for ``workers`` (None: unknown).
+
+    The default is :data:`DEFAULT_CHUNK_RUNS`, larger (up to :data:`MAX_CHUNK_RUNS`) while each of
+    ``workers`` still gets :data:`CHUNKS_PER_WORKER` chunks, and smaller when a chunk's samples
+    would pass :data:`CHUNK_BYTES`. The table does not depend on it.
+    """
     if requested is not None:
         if isinstance(requested, bool) or not isinstance(requested, int) or requested < 1:
             raise ValueError(f'chunk_size: expected a positive integer, got {requested!r}')
         return requested
+    runs = DEFAULT_CHUNK_RUNS
+    if workers:
+        share = -(-campaign.runs // (CHUNKS_PER_WORKER * workers))
+        runs = max(runs, min(MAX_CHUNK_RUNS, share))
     width = 7 + 8  # rates, attitude and a few effect states, float64
-    return max(1, min(DEFAULT_CHUNK_RUNS, CHUNK_BYTES // (campaign.samples * width * 8)))
+    return max(1, min(runs, CHUNK_BYTES // (campaign.samples * width * 8)))
+
+
+def check_workers(workers) -> None:
+    if workers is not None and (
+        isinstance(workers, bool) or not isinstance(workers, int) or workers < 1
+    ):
+        raise ValueError(f'workers: expected a positive integer, got {workers!r}')
+
+
+def expected_workers(scheduler, workers: int | None) -> int | None:
+    """
+    Return how many workers a campaign on ``scheduler`` will have, when it is known beforehand.
+
+    In-process: 1; a local cluster: ``workers`` or one per core; a ``distributed.Client``: its
+    worker threads now; a scheduler's address: None (not asked before the campaign starts).
+    """
+    check_workers(workers)
+    if scheduler == 'in-process':
+        return 1
+    if scheduler is None or scheduler == 'local':
+        return workers or os.cpu_count() or 1
+    if isinstance(scheduler, str):
+        return None
+    return sum(scheduler.nthreads().values()) or None
 
 
 def chunks(campaign, size: int) -> list[tuple[int, int]]:
@@ -380,13 +422,13 @@ def execute(
     the task completes), once per chunk, even when Dask runs a chunk again because its worker was
     lost (a chunk's columns depend only on the campaign and its runs).
     """
-    parts = chunks(campaign, chunk_runs(campaign)) if ranges is None else list(ranges)
+    if ranges is None:
+        parts = chunks(campaign, chunk_runs(campaign, None, expected_workers(scheduler, workers)))
+    else:
+        parts = list(ranges)
     if scheduler is None:
         scheduler = 'in-process' if len(parts) <= 1 else 'local'
-    if workers is not None and (
-        isinstance(workers, bool) or not isinstance(workers, int) or workers < 1
-    ):
-        raise ValueError(f'workers: expected a positive integer, got {workers!r}')
+    check_workers(workers)
     if scheduler == 'in-process':
         results = []
         for start, stop in parts:

@@ -82,8 +82,8 @@ def _parser() -> argparse.ArgumentParser:
         type=_positive,
         metavar='RUNS',
         help=(
-            'runs per chunk, a part file and a progress step (default: 256, fewer for long runs); '
-            'the table does not depend on it'
+            'runs per chunk, a part file and a progress step (default: 256, up to 1024 while '
+            'every worker gets 8 chunks; fewer for long runs); the table does not depend on it'
         ),
     )
     again = run.add_mutually_exclusive_group()
