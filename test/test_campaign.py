@@ -208,6 +208,17 @@ def test_dask_tasks_group_consecutive_chunks_by_the_number_of_workers():
     assert sizes == [5, 5, 5, 5, 5, 4, 3, 2, 2, 1, 1, 1, 1]
 
 
+def test_the_default_engine_is_a_local_cluster_of_a_worker_per_core_with_the_same_table():
+    """
+    What ``torquefree_campaign run NAME`` does: no scheduler, no workers given.
+
+    A campaign of several chunks starts a local cluster of a worker per core, and gives the
+    in-process table bit for bit.
+    """
+    reference = run_campaign(torque_free_campaign(), scheduler='in-process')
+    assert_same_table(reference, run_campaign(torque_free_campaign(), chunk_size=100))
+
+
 def test_the_default_chunk_grows_with_the_runs_per_worker_within_its_bounds():
     """
     256 runs a chunk, more (up to 1024) while every worker still gets 8 chunks; memory caps it.
