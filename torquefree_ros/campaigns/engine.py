@@ -505,7 +505,7 @@ def _on_dask(campaign, parts, scheduler, workers, on_chunk) -> list[dict]:
     if isinstance(scheduler, Client):
         client, own_client = scheduler, False
     elif scheduler == 'local':
-        workers = workers or os.cpu_count() or 1
+        workers = expected_workers('local', workers)
         cluster = local_cluster(workers)
         client, own_client = Client(cluster), True
     elif isinstance(scheduler, str):

@@ -37,7 +37,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..core.effects.commands import sample_stamp_ns, timed_out
+from ..core.effects.commands import command_inputs, sample_stamp_ns, timed_out
 from ..core.integrators import compiled
 from ..core.integrators import motion_kernels as kernels
 from ..core.propagators import ATOL_PER_RTOL, DEFAULT_ACCURACY, MAX_STEPS_PER_SAMPLE
@@ -133,7 +133,7 @@ class Plant:
             rows = (
                 np.concatenate(samples, axis=1)
                 if samples
-                else np.empty((self.size, 0, self._width))
+                else np.empty((self.size, 0, self._bodies.width))
             )
         else:
             rows = self._advance(np.arange(self.k + 1, self.k + 1 + count) / self.rate)
@@ -162,16 +162,12 @@ class Plant:
                     'bodies of one kind (make one plant per kind)'
                 )
         count = len(propagators)
-        self._propagators = propagators
         self._bodies = compiled.DOP853Bodies(propagators, MAX_STEPS_PER_SAMPLE)
-        self._width = self._bodies.width
         self._command_helds = np.zeros((count, 6))
         self._sample = self._bodies.ys.copy()[:, None, :]
         self.k = 0
         self._failed: str | None = None
-        commands = [
-            [e for e in p.effects if getattr(e, 'hold', None) is not None] for p in propagators
-        ]
+        commands = [command_inputs(p.effects) for p in propagators]
         if any(len(c) > 1 for c in commands):
             raise ValueError(
                 'scene: more than one torque_command effect; the plant takes one torque per body'
@@ -263,7 +259,7 @@ class Plant:
         bodies = self._bodies
         t = float(times[min(int(bodies.reached[body]), times.size - 1)])
         error = compiled.dop853_error(
-            int(bodies.status[body]), self._propagators[body], t, bodies.solvers[body]
+            int(bodies.status[body]), bodies.propagators[body], t, bodies.solvers[body]
         )
         self._failed = f'{"body %d: " % body if self.batch else ""}{error}'
         raise error

@@ -66,7 +66,7 @@ import numpy as np
 
 from .pause import PauseReport, where
 from ..bag.cdr import encode_times
-from ..bag.samples import CLOCK, encode_block, encode_command, encode_leading, encode_trailing
+from ..bag.samples import CLOCK, encode_command, encode_leading, encode_trailing
 from ..bag.writer import BagError
 from ..core.propagators import Propagator
 from ..core.simulation import SampleBlock, Simulation
@@ -214,14 +214,20 @@ class _Run:
         self.shift_ns += paused_ns
 
     def encode(self, block: SampleBlock) -> tuple:
+        """Encode every column of ``block`` (its outputs' rows included), in publishing order."""
+        return self.leading(block) + self.trailing(block)
+
+    def leading(self, block: SampleBlock) -> tuple:
+        return encode_leading(block, self.request.body_frame, self.request.clock)
+
+    def trailing(self, block: SampleBlock) -> tuple:
         request = self.request
-        return encode_block(
+        return encode_trailing(
             block,
             request.body_frame,
             request.inertial_frame,
             self.simulation.outputs,
-            clock=request.clock,
-            position=request.body_position,
+            request.body_position,
         )
 
     def complete(self) -> tuple:
@@ -230,15 +236,8 @@ class _Run:
 
         Return the columns added.
         """
-        request = self.request
         self.block = self.simulation.with_outputs(self.block)
-        trailing = encode_trailing(
-            self.block,
-            request.body_frame,
-            request.inertial_frame,
-            self.simulation.outputs,
-            request.body_position,
-        )
+        trailing = self.trailing(self.block)
         self.columns += trailing
         self.leading_only = False
         return trailing
@@ -263,11 +262,7 @@ class _Run:
         """
         started = time.perf_counter()
         block = self.simulation.samples(self.next_index, self.block_size, outputs=not leading_only)
-        self.columns = (
-            encode_leading(block, self.request.body_frame, self.request.clock)
-            if leading_only
-            else self.encode(block)
-        )
+        self.columns = self.leading(block) if leading_only else self.encode(block)
         self.leading_only = leading_only
         self.block = block
         self.next_index += len(block)

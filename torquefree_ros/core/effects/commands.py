@@ -115,13 +115,18 @@ class TorqueCommand(MotionEffect):
         return quaternion.rotate_inverse(q_NB, torque) if inertial else torque
 
 
+def takes_commands(effect) -> bool:
+    """Whether ``effect`` (a propagator's, bound) takes commands: it has a hold of its own."""
+    return getattr(effect, 'hold', None) is not None
+
+
 def command_inputs(effects) -> tuple:
     """
     Return the effects among ``effects`` that take commands, each with its hold.
 
     ``effects`` are a propagator's, bound.
     """
-    return tuple(effect for effect in effects if getattr(effect, 'hold', None) is not None)
+    return tuple(effect for effect in effects if takes_commands(effect))
 
 
 class CommandHold:

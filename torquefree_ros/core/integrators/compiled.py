@@ -32,6 +32,7 @@ import numpy as np
 from scipy.integrate._ivp import dop853_coefficients as tableau
 
 from . import motion_kernels as kernels
+from ..effects.commands import takes_commands
 
 #: numba is installed
 AVAILABLE = importlib.util.find_spec('numba') is not None
@@ -88,7 +89,7 @@ def held_torques(
     out[:] = 0.0
     for effect in dynamics.effects:
         if effect.kernel_code is None and (
-            commanded is None or commanded == (getattr(effect, 'hold', None) is not None)
+            commanded is None or commanded == takes_commands(effect)
         ):
             torque, inertial = effect.held_torque(segment_start)
             if inertial:
