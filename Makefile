@@ -7,7 +7,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 PIP := $(PY) -m pip --disable-pip-version-check
 
-.PHONY: run test lock reference bench bench-exact bench-effects bench-plant bench-campaign bench-node bench-bag bench-bag-day bench-lockstep bench-testing-kit clean
+.PHONY: run test docs lock reference bench bench-exact bench-effects bench-plant bench-campaign bench-node bench-bag bench-bag-day bench-lockstep bench-testing-kit clean
 
 $(VENV)/.installed: requirements.txt requirements-test.txt requirements.lock setup.py
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -15,12 +15,23 @@ $(VENV)/.installed: requirements.txt requirements-test.txt requirements.lock set
 	$(PIP) install --quiet --no-deps --no-build-isolation -e .
 	touch $@
 
+# The TypeScript compiler (npm, beside the virtualenv) that test/test_launch_and_views.py checks the
+# Foxglove/Lichtblick layout's user script with, as the apps do; node.js and npm are the machine's.
+TYPESCRIPT := $(VENV)/npm/node_modules/typescript/package.json
+
+$(TYPESCRIPT):
+	npm install --silent --no-audit --no-fund --save-exact --prefix $(VENV)/npm typescript@5.3.3
+
 run: $(VENV)/.installed
 	$(VENV)/bin/torquefree_sim $(if $(ARGS),--ros-args $(ARGS))
 
-test: $(VENV)/.installed
+test: $(VENV)/.installed $(TYPESCRIPT)
 	$(PY) -m coverage run -m pytest
 	$(PY) -m coverage report
+
+# the API reference (Sphinx, warnings as errors; test/test_docs.py builds it too): docs/api/_build/html/index.html
+docs: $(VENV)/.installed
+	$(VENV)/bin/sphinx-build -W --keep-going -b html docs/api docs/api/_build/html
 
 # Newest versions allowed by requirements*.txt, written to requirements.lock, then the tests on them.
 lock:

@@ -51,6 +51,8 @@ setup(
         'numba>=0.60',
         'pyarrow>=26',
         'dask[distributed]>=2026.8',
+        # a two-line element set's orbit (core/environment/tle.py)
+        'sgp4>=2.27',
         'ros-jazzy-rclpy[fastrtps]',
         'ros-jazzy-common-interfaces',
     ],

@@ -27,7 +27,7 @@ import pytest
 @pytest.mark.torquefree_sim(scene='estimator')  # 100 Hz gyro with a bias, a 10 Hz star tracker
 def test_the_estimate_stays_within_a_milliradian_of_the_truth(torquefree_sim):
     sim = torquefree_sim
-    sim.add_node(AttitudeEstimator(context=sim.context, namespace=sim.namespace))
+    sim.add_node(AttitudeEstimator(context=sim.context))
     estimates = sim.tap('attitude_estimate', QuaternionStamped)
     sim.advance(3000)  # 30 s: each sample processed by the estimator before the next goes out
     # one per gyro sample from the second on (the first fix comes with the first)

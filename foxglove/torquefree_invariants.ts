@@ -19,7 +19,14 @@ export const output = "/studio_script/torquefree_invariants";
 
 type KeyValue = { key: string; value: string };
 type Status = { name: string; values: KeyValue[] };
-type Invariants = { [key: string]: number };
+// The output's message definition is made from this type: named numeric fields only (the apps reject
+// an index signature, and a Plot path names a field).
+type Invariants = {
+  kinetic_energy: number;
+  angular_momentum: number;
+  kinetic_energy_drift: number;
+  angular_momentum_drift: number;
+};
 
 const KEYS = ["kinetic_energy", "angular_momentum", "kinetic_energy_drift", "angular_momentum_drift"];
 
@@ -28,14 +35,17 @@ export default function script(event: { message: { status: Status[] } }): Invari
     if (!status.name.endsWith(": simulation")) {
       continue; // another node's status on the same topic
     }
-    const found: Invariants = {};
+    const text = new Map<string, string>();
     for (const pair of status.values) {
-      if (KEYS.includes(pair.key)) {
-        found[pair.key] = Number(pair.value);
-      }
+      text.set(pair.key, pair.value);
     }
-    if (KEYS.every((key) => key in found)) {
-      return found;
+    if (KEYS.every((key) => text.has(key))) {
+      return {
+        kinetic_energy: Number(text.get("kinetic_energy")),
+        angular_momentum: Number(text.get("angular_momentum")),
+        kinetic_energy_drift: Number(text.get("kinetic_energy_drift")),
+        angular_momentum_drift: Number(text.get("angular_momentum_drift")),
+      };
     }
   }
   return undefined; // no sample yet (the node reports invariants once it has published one)

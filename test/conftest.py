@@ -35,14 +35,14 @@ def attitude_path(request, monkeypatch):
     arrays are the reference, always there. Without numba the compiled run is skipped, except on
     CI, where requirements-test.txt installs it.
     """
-    from torquefree_ros.core import attitude_kernels
+    from torquefree_ros.core.numerics import kernels as switch
 
-    if request.param == 'compiled' and not attitude_kernels.AVAILABLE:
+    if request.param == 'compiled' and not switch.AVAILABLE:
         message = 'numba (the fast extra) is not installed'
         if os.environ.get('CI'):
             pytest.fail(message + ': requirements-test.txt installs it')
         pytest.skip(message)
-    monkeypatch.setattr(attitude_kernels, 'ENABLED', request.param == 'compiled')
+    monkeypatch.setattr(switch, 'ENABLED', request.param == 'compiled')
     return request.param
 
 
@@ -51,17 +51,17 @@ def integrator_path(request, monkeypatch):
     """
     Run a test on both paths of the numerical propagators: numba's kernels and the reference.
 
-    Numba's kernels (core/integrators) are the default; the reference is scipy's DOP853 and numpy's
+    Numba's kernels (core/compiled) are the default; the reference is scipy's DOP853 and numpy's
     stages. Without numba the compiled run is skipped, except on CI, where the requirements install
     it.
     """
-    from torquefree_ros.core.integrators import compiled
+    from torquefree_ros.core.numerics import kernels as switch
 
-    if request.param == 'compiled' and not compiled.AVAILABLE:
+    if request.param == 'compiled' and not switch.AVAILABLE:
         if os.environ.get('CI'):
             pytest.fail('numba is not installed: the requirements install it')
         pytest.skip('numba is not installed')
-    monkeypatch.setattr(compiled, 'ENABLED', request.param == 'compiled')
+    monkeypatch.setattr(switch, 'ENABLED', request.param == 'compiled')
     return request.param
 
 

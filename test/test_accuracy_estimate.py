@@ -21,15 +21,15 @@ Checked against independent references (the mpmath solution, a much tighter inte
 import numpy as np
 import pytest
 from torquefree_ros.bench.cases import load_cases
-from torquefree_ros.core.accuracy import (
+from torquefree_ros.core.effects import parse_effect
+from torquefree_ros.core.propagators import make_propagator
+from torquefree_ros.core.run.accuracy import (
     estimate_accuracy,
     estimate_horizon,
     ESTIMATE_TURNS,
     trajectory_errors,
 )
-from torquefree_ros.core.effects import parse_effect
-from torquefree_ros.core.propagators import make_propagator
-from torquefree_ros.core.simulation import Simulation
+from torquefree_ros.core.run.simulation import Simulation
 
 FLAT_PLATE = load_cases(['flat_plate'])[0]
 DAMPER = (parse_effect({'damper': {'inertia': 0.1, 'damping': 0.05}}, 'effects[0]'),)

@@ -37,17 +37,18 @@ import numpy as np
 import pytest
 from torquefree_ros import propagate, propagate_batch
 from torquefree_ros.bench.cases import REFERENCE_FILE
-from torquefree_ros.core import attitude_kernels as kernels
-from torquefree_ros.core.ops import FLOATS
-from torquefree_ros.core.polhode import body_polhode
-from torquefree_ros.core.polhode_constants import attitude_constants, solver_from_body
+from torquefree_ros.core.body.rigid_body import RigidBody
+from torquefree_ros.core.exact import attitude_kernels as kernels
+from torquefree_ros.core.exact.polhode import body_polhode
+from torquefree_ros.core.exact.polhode_constants import attitude_constants, solver_from_body
+from torquefree_ros.core.numerics import kernels as switch
+from torquefree_ros.core.numerics.ops import FLOATS
 from torquefree_ros.core.propagators import make_propagator
-from torquefree_ros.core.rigid_body import RigidBody
 
 EPS = np.finfo(float).eps
 
 pytestmark = pytest.mark.skipif(
-    not kernels.AVAILABLE and not os.environ.get('CI'),
+    not switch.AVAILABLE and not os.environ.get('CI'),
     reason='numba (the fast extra) is not installed',
 )
 
@@ -55,7 +56,7 @@ pytestmark = pytest.mark.skipif(
 def _both(monkeypatch, function):
     results = {}
     for compiled in (True, False):
-        monkeypatch.setattr(kernels, 'ENABLED', compiled)
+        monkeypatch.setattr(switch, 'ENABLED', compiled)
         results[compiled] = function()
     return results[True], results[False]
 
@@ -95,7 +96,7 @@ def test_each_kind_of_motion_has_its_kernel():
 
     The kinds are m <= 1/2, m > 1/2 and the separatrix; stationary motions have no polhode.
     """
-    if not kernels.ENABLED:
+    if not switch.ENABLED:
         pytest.skip('the kernels are turned off (TORQUEFREE_ROS_KERNELS=numpy)')
     trigonometric = make_propagator([1.0, 2.0, 3.0], [0.3, 0.2, 1.0], [0, 0, 0, 1])._attitude
     hyperbolic = make_propagator([2.0, 3.0, 4.0], [0.7, 0.5, 0.6], [0, 0, 0, 1])._attitude
@@ -140,11 +141,11 @@ def test_random_bodies_agree_with_the_numpy_path(inertia, w, q0, horizon):
     results = {}
     # (hypothesis and function-scoped fixtures do not mix: set and restore)
     for compiled in (True, False):
-        saved, kernels.ENABLED = kernels.ENABLED, compiled
+        saved, switch.ENABLED = switch.ENABLED, compiled
         try:
             results[compiled] = propagate(inertia, w, q0, times)
         finally:
-            kernels.ENABLED = saved
+            switch.ENABLED = saved
     _assert_close(results[True], results[False], math.hypot(*w), horizon, f'I={inertia} w={w}')
 
 
@@ -174,7 +175,7 @@ def test_a_batch_of_both_kinds_agrees_with_the_numpy_path(monkeypatch):
 
 
 def test_one_sample_and_an_empty_request(monkeypatch):
-    monkeypatch.setattr(kernels, 'ENABLED', True)
+    monkeypatch.setattr(switch, 'ENABLED', True)
     propagator = make_propagator([2.0, 3.0, 4.0], [0.7, 0.5, 0.6], [0, 0, 0, 1])
     omega, q = propagator(np.array([0.5, 1.0, 7.0]))
     one = propagator(7.0)
@@ -190,8 +191,8 @@ def test_the_environment_turns_the_kernels_off():
 
     A user's way to rule the kernels out when a result looks wrong.
     """
-    code = 'from torquefree_ros.core import attitude_kernels as k; print(k.ENABLED)'
-    for value, expected in (('numpy', 'False'), ('numba', str(kernels.AVAILABLE))):
+    code = 'from torquefree_ros.core.numerics import kernels; print(kernels.ENABLED)'
+    for value, expected in (('numpy', 'False'), ('numba', str(switch.AVAILABLE))):
         env = {**os.environ, 'TORQUEFREE_ROS_KERNELS': value}
         printed = subprocess.run(
             [sys.executable, '-c', code], env=env, capture_output=True, text=True, check=True
@@ -280,7 +281,7 @@ def test_compiled_constants_are_the_python_ones_on_every_hard_case():
     """
     import json
 
-    from torquefree_ros.core.elliptic import JacobiElliptic
+    from torquefree_ros.core.exact.elliptic import JacobiElliptic
 
     assert kernels.TRIGONOMETRIC_MC == JacobiElliptic.TRIGONOMETRIC_MC
 
@@ -333,7 +334,7 @@ def test_a_build_is_cheap_and_the_polhode_comes_when_asked(monkeypatch):
     Its ``polhode`` (the regime parameters, for reports) is computed on first use, by the Python
     path.
     """
-    monkeypatch.setattr(kernels, 'ENABLED', True)
+    monkeypatch.setattr(switch, 'ENABLED', True)
     propagator = make_propagator([2.0, 3.0, 4.0], [0.7, 0.5, 0.6], [0, 0, 0, 1])
     assert 'polhode' not in vars(propagator)
     assert (

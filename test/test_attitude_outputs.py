@@ -26,10 +26,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from torquefree_ros import load_scene
-from torquefree_ros.core import quaternion
 from torquefree_ros.core.effects.outputs import ARCSEC
-from torquefree_ros.core.scene import scene_from_mapping, SceneError
-from torquefree_ros.core.simulation import Simulation
+from torquefree_ros.core.frames import quaternion
+from torquefree_ros.core.run.simulation import Simulation
+from torquefree_ros.core.scene.loader import scene_from_mapping, SceneError
 
 RATE = 50.0
 

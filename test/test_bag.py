@@ -44,7 +44,7 @@ import pytest
 from torquefree_ros import propagate
 from torquefree_ros.bag import BagError, BagQos, BagReader, BagWriter, message_definition
 from torquefree_ros.cli.bag import main as bag_main
-from torquefree_ros.core.scene import DEFAULT_SCENE_DATA
+from torquefree_ros.core.scene.loader import DEFAULT_SCENE_DATA
 import yaml
 
 REPO = Path(__file__).resolve().parent.parent
@@ -362,7 +362,7 @@ def test_an_unusable_output_fails_before_simulating_and_names_the_path(
     blocker.write_text('')
     calls = []
     monkeypatch.setattr(
-        'torquefree_ros.core.simulation.Simulation.samples', lambda *a: calls.append(a)
+        'torquefree_ros.core.run.simulation.Simulation.samples', lambda *a: calls.append(a)
     )
     assert (
         bag_main(['default', '--duration', '1', '--rate', '10', '--output', str(blocker / 'bag')])
@@ -486,7 +486,7 @@ def test_a_scene_with_outputs_writes_them_as_the_node_publishes_them(tmp_path):
     for each sample.
     """
     from torquefree_ros import load_scene
-    from torquefree_ros.core.simulation import Simulation
+    from torquefree_ros.core.run.simulation import Simulation
 
     bag = tmp_path / 'imu_bag'
     assert bag_main(['imu', '--duration', '2', '--rate', '50', '--output', str(bag)]) == 0

@@ -110,7 +110,7 @@ def test_flipped_bytes_are_reported_with_what_was_lost_and_reindex_keeps_the_res
 
 def _small_bag(path):
     from torquefree_ros.bag.offline import write_scene_bag
-    from torquefree_ros.core.scene import default_scene
+    from torquefree_ros.core.scene.loader import default_scene
 
     write_scene_bag(default_scene(), path, 0.5, 20)  # 22 messages, one chunk, 13 kB
     return next(path.glob('*.mcap'))
@@ -322,14 +322,14 @@ def test_no_room_for_metadata_says_the_mcap_is_whole_and_how_to_repair(tmp_path,
 
 def test_no_room_to_rebuild_after_a_write_error_gives_the_repair_command(tmp_path, monkeypatch):
     from torquefree_ros.bag import BagError, BagReader
-    from torquefree_ros.bag import reader as reader_module
+    from torquefree_ros.bag import writer as writer_module
     from torquefree_ros.cli.bag import main as bag_main
 
     writer = _one_sample_writer(tmp_path / 'bag')
     writer.flush()  # the sample's chunk is on disk
     monkeypatch.setattr(writer._mcap, 'finish', _no_space)
     # the rebuilt copy finds no room either
-    monkeypatch.setattr(reader_module, 'reindex', _no_space)
+    monkeypatch.setattr(writer_module, 'reindex', _no_space)
     with pytest.raises(BagError) as error:
         writer.close()
     message = str(error.value)

@@ -106,7 +106,7 @@ def test_bad_input_names_the_array_and_the_body(inertia, omega, orientation, rea
 def test_a_dispersed_campaign_in_several_stacked_groups_is_bit_for_bit_the_loop(
     monkeypatch, attitude_path
 ):
-    from torquefree_ros.core import batch
+    from torquefree_ros.core.propagators import batch
 
     monkeypatch.setattr(batch, 'GROUP_BODIES', 7)  # several groups, one short
     rng = np.random.default_rng(11)
@@ -140,8 +140,8 @@ def test_passes_and_groups_of_one_kind_are_bit_for_bit_the_loop(
     evaluated in passes of a few samples, is the loop of ``propagate``; so is one body's long
     request evaluated in passes against the same request whole.
     """
-    from torquefree_ros.core import batch
-    from torquefree_ros.core.polhode import PolhodeAttitude
+    from torquefree_ros.core.propagators import batch
+    from torquefree_ros.core.exact.polhode import PolhodeAttitude
 
     rng = np.random.default_rng(5)
     count = 30

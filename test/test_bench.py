@@ -29,7 +29,7 @@ from torquefree_ros.bench.methods import all_methods, mujoco_available
 from torquefree_ros.bench.report import read_csv
 from torquefree_ros.bench.sweep import Measurement
 from torquefree_ros.cli import bench as cli
-from torquefree_ros.core.accuracy import trajectory_errors
+from torquefree_ros.core.run.accuracy import trajectory_errors
 
 
 @pytest.fixture(scope='module')

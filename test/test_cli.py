@@ -307,4 +307,5 @@ def test_sweep_bag_holds_every_member_in_its_own_namespace(tmp_path):
     assert topics == sorted(
         f'/member_{j}/{name}' for j in range(9) for name in ('angular_velocity', 'attitude')
     )
+    # 1 s at 10 Hz: samples k = 0 ... 10, both ends included (CONTRACT, torquefree_bag)
     assert all(len(messages[topic]) == 11 for topic in topics)

@@ -276,7 +276,7 @@ def test_a_best_effort_and_a_reliable_controller_both_drive_the_lockstep_loop(
 
 def test_a_triaxial_body_loses_energy_every_sample_within_the_closed_loop_bounds(tmp_path):
     from sim_harness import connected_harness
-    from torquefree_ros.core.rigid_body import RigidBody
+    from torquefree_ros.core.body.rigid_body import RigidBody
 
     scene = _scene(tmp_path, inertia=(1.0, 2.0, 3.0))
     with connected_harness(
@@ -399,8 +399,85 @@ def test_lockstep_is_read_only():
         assert not result.successful and 'read-only' in result.reason
 
 
+def _wait_for_a_sample(process, namespace: str) -> None:
+    """
+    Wait until the node process publishes a sample (it records each sample it publishes).
+
+    A client of its own in the session's domain (conftest.py); the node's namespace keeps other
+    tests' nodes out.
+    """
+    import time
+
+    from geometry_msgs.msg import Vector3Stamped
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.signals import SignalHandlerOptions
+
+    context = rclpy.Context()
+    rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+    try:
+        node = rclpy.create_node('closing_watch', namespace=namespace, context=context)
+        executor = SingleThreadedExecutor(context=context)
+        executor.add_node(node)
+        received = []
+        node.create_subscription(Vector3Stamped, 'angular_velocity', received.append, 10)
+        deadline = time.monotonic() + 30.0  # only keeps a broken run from hanging the suite
+        while not received:
+            assert process.poll() is None, process.communicate()
+            assert time.monotonic() < deadline, 'no sample from the node within 30 s'
+            executor.spin_once(timeout_sec=0.1)
+        executor.shutdown()
+        node.destroy_node()
+    finally:
+        context.try_shutdown()
+
+
+def _threads(pid: int) -> set:
+    import os
+
+    return set(os.listdir(f'/proc/{pid}/task'))
+
+
+def _pending(pid: int, signum: int) -> bool:
+    """Return whether signal ``signum`` waits to be taken by a thread of process ``pid``."""
+    with open(f'/proc/{pid}/status') as status:
+        masks = [
+            int(line.split()[1], 16)
+            for line in status
+            if line.startswith(('SigPnd:', 'ShdPnd:'))  # the main thread's own, the process's
+        ]
+    return any(mask >> (signum - 1) & 1 for mask in masks)
+
+
+def _stop(pid: int) -> None:
+    """SIGSTOP ``pid`` and wait until every thread of it has stopped (state T in proc(5))."""
+    import os
+    import signal
+    import time
+
+    os.kill(pid, signal.SIGSTOP)
+    while True:
+        with open(f'/proc/{pid}/stat') as stat:
+            state = stat.read().rsplit(')', 1)[1].split()[0]
+        assert state != 'Z', 'the node process ended while the test was stopping it'
+        if state in 'Tt':
+            return
+        time.sleep(0.001)
+
+
 @pytest.mark.parametrize('lockstep', [True, False], ids=['lockstep', 'paced'])
 def test_a_second_ctrl_c_while_closing_still_closes_the_bag_and_exits_cleanly(tmp_path, lockstep):
+    """
+    A second Ctrl-C while the node is closing still lets it close its bag and exit cleanly.
+
+    Decided by events, not times: the first SIGINT goes out once the node publishes (and records)
+    samples; the second while the node is closing. Closing begins (``process.shut_down``, its
+    signals already ignored) by stopping the executor's thread: the first of the running node's
+    threads to end (none ends before it; a run has no other). Once a thread has taken the first
+    signal, the test checks for that with the process stopped (SIGSTOP), and sends the second
+    SIGINT before it continues, so the signal reaches a process that is closing, never one that
+    has exited.
+    """
     import os
     from pathlib import Path
     import signal
@@ -411,12 +488,15 @@ def test_a_second_ctrl_c_while_closing_still_closes_the_bag_and_exits_cleanly(tm
     from bag_checks import metadata
 
     bag = tmp_path / 'closing'
+    namespace = '/closing_test'
     process = subprocess.Popen(
         [
             sys.executable,
             '-m',
             'torquefree_ros.cli.sim',
             '--ros-args',
+            '-r',
+            f'__ns:={namespace}',
             '-p',
             'scene:=detumble',
             '-p',
@@ -436,10 +516,26 @@ def test_a_second_ctrl_c_while_closing_still_closes_the_bag_and_exits_cleanly(tm
         for line in process.stderr:
             if 'start: ' in line:
                 break
-        time.sleep(1.0)
+        _wait_for_a_sample(process, namespace)
+        running = _threads(process.pid)
         process.send_signal(signal.SIGINT)
-        time.sleep(0.02)  # the first one is being handled: the node is closing
-        process.send_signal(signal.SIGINT)
+        deadline = time.monotonic() + 30.0  # only keeps a broken run from hanging the suite
+        # not stopped before a thread took it: a signal pending across a stop is taken, when the
+        # process continues, by whichever thread runs first, and only the main thread's wait is
+        # interrupted by it (the kernel gives it to the main thread, which sleeps, when running)
+        while _pending(process.pid, signal.SIGINT):
+            assert time.monotonic() < deadline, 'the first SIGINT was not taken within 30 s'
+            time.sleep(0.001)
+        while True:
+            _stop(process.pid)
+            closing = not running <= _threads(process.pid)
+            if closing:
+                process.send_signal(signal.SIGINT)  # pending until it continues, closing
+            os.kill(process.pid, signal.SIGCONT)
+            if closing:
+                break
+            assert time.monotonic() < deadline, 'the node did not begin closing within 30 s'
+            time.sleep(0.01)  # the process runs between two looks
         _, stderr = process.communicate(timeout=30)
     finally:
         process.kill()
@@ -453,7 +549,7 @@ def test_outputs_failing_after_the_rates_went_out_stop_the_run_until_a_reset(
     tmp_path, monkeypatch
 ):
     from sim_harness import connected_harness
-    from torquefree_ros.core.simulation import Simulation
+    from torquefree_ros.core.run.simulation import Simulation
 
     with_outputs = Simulation.with_outputs
 

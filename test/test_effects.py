@@ -22,12 +22,12 @@ held to a stated tolerance; the references never go through the code under test.
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
-from torquefree_ros.core import quaternion
 from torquefree_ros.core.effects import Effect, EFFECTS
 from torquefree_ros.core.effects.outputs import IMU_ROW, roll_pitch_yaw
+from torquefree_ros.core.frames import quaternion
 from torquefree_ros.core.propagators import make_propagator
-from torquefree_ros.core.scene import scene_from_mapping
-from torquefree_ros.core.simulation import Simulation
+from torquefree_ros.core.run.simulation import Simulation
+from torquefree_ros.core.scene.loader import scene_from_mapping
 
 # every check here runs on both paths of the numerical propagators (compiled kernels, scipy/numpy
 # reference)

@@ -30,7 +30,7 @@ from hypothesis import strategies as st
 import mpmath as mp
 import numpy as np
 import pytest
-from torquefree_ros.core.elliptic import JacobiElliptic
+from torquefree_ros.core.exact.elliptic import JacobiElliptic
 
 EPS = np.finfo(float).eps
 TOLERANCE_FACTOR = 8.0

@@ -29,7 +29,7 @@ import numpy as np
 import pytest
 from torquefree_ros import propagate
 from torquefree_ros.bench.cases import REFERENCE_FILE
-from torquefree_ros.core.accuracy import trajectory_errors
+from torquefree_ros.core.run.accuracy import trajectory_errors
 
 REFERENCE = json.loads(REFERENCE_FILE.read_text())
 CASES = {case['name']: case for case in REFERENCE['cases']}

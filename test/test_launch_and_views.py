@@ -25,7 +25,12 @@ Tested as far as they can be without ``launch``, ``launch_ros`` and RViz (none i
   the node exactly the parameter file and overrides it should, and the node in process starts from
   them.
 * Both views parse, and every topic and frame they name is one the node publishes under its
-  defaults or with a library scene naming that output (asked of the node itself, in process).
+  defaults or with a library scene naming that output (asked of the node itself, in process); their
+  frame and pose axes are thinner than the w and H arrows.
+* The layout's user script is the file beside it; its output type has named numeric fields, the
+  ones the plot names; compiled with TypeScript as Foxglove and Lichtblick compile it, it has no
+  error and defines its output as they would, and run on the node's /diagnostics it gives the
+  node's numbers.
 """
 
 from __future__ import annotations
@@ -34,7 +39,10 @@ import ast
 import json
 import os
 from pathlib import Path
+import re
 import runpy
+import shutil
+import subprocess
 import sys
 import types
 
@@ -373,7 +381,7 @@ def published():
     """
     from sim_harness import connected_harness
     from torquefree_ros import load_scene
-    from torquefree_ros.core.library import library_scenes
+    from torquefree_ros.core.scene.library import library_scenes
 
     topics = set()
     with connected_harness(publish_rate=50.0) as harness:
@@ -487,10 +495,49 @@ def test_the_foxglove_layout_names_only_what_the_node_publishes(published):
     assert named_frames == frames
 
 
+# Foxglove's and Lichtblick's 3-D panel draws an axis (a frame's, a pose's) 0.2 m long with a shaft
+# 0.02 m across (their Axis), scaled: a frame's by the scene's transforms axisScale, a pose's to
+# axisScale m long
+PANEL_AXIS_LENGTH, PANEL_AXIS_SHAFT = 0.2, 0.02
+MARKER_SIZE = 1.0  # m: the markers output's default box, every library scene's
+
+
+def test_the_views_draw_axes_thinner_than_the_w_and_h_arrows():
+    """
+    The views draw frame and pose axes thinner than the w and H arrows.
+
+    An arrow along a body axis (a spin about a principal axis) inside a thicker axis is hidden.
+    """
+    from torquefree_ros.bag.markers import ANGULAR_MOMENTUM, ANGULAR_VELOCITY
+
+    thinnest = MARKER_SIZE * min(ANGULAR_VELOCITY.size[0], ANGULAR_MOMENTUM.size[0])
+    panels = json.loads(FOXGLOVE_FILE.read_text())['configById']
+    three_d = next(config for name, config in panels.items() if name.startswith('3D!'))
+    pose_scale = three_d['topics']['/pose']['axisScale']
+    displays = {
+        d['Class'].rsplit('/', 1)[-1]: d
+        for d in yaml.safe_load(RVIZ_FILE.read_text())['Visualization Manager']['Displays']
+    }
+    shafts = {
+        'Foxglove /pose': pose_scale * PANEL_AXIS_SHAFT / PANEL_AXIS_LENGTH,
+        'Foxglove frames': three_d['scene']['transforms']['axisScale'] * PANEL_AXIS_SHAFT,
+        'RViz Pose': 2 * displays['Pose']['Axes Radius'],
+        'RViz Axes': 2 * displays['Axes']['Radius'],
+    }
+    thick = {view: shaft for view, shaft in shafts.items() if not shaft < thinnest}
+    assert not thick, f'axes as thick as the arrows ({thinnest} m) hide them: {thick}'
+
+
 INVARIANTS_SCRIPT = ROOT / 'foxglove' / 'torquefree_invariants.ts'
-# the script's TypeScript annotations, removed to run it in node.js (a new annotation fails the
-# run)
-_ANNOTATIONS = (': { message: { status: Status[] } }', ': Invariants | undefined', ': Invariants')
+SCRIPT_OUTPUT = '/studio_script/torquefree_invariants'
+INVARIANTS = [
+    'kinetic_energy',
+    'angular_momentum',
+    'kinetic_energy_drift',
+    'angular_momentum_drift',
+]
+# what the script's type declared before it had named fields: the apps rejected the script
+INDEX_SIGNATURE = 'type Invariants = { [key: string]: number };'
 
 
 def test_the_layout_embeds_the_invariants_script_file():
@@ -500,23 +547,116 @@ def test_the_layout_embeds_the_invariants_script_file():
     )
 
 
-@pytest.mark.skipif(
-    not any(os.access(Path(d) / 'node', os.X_OK) for d in os.environ['PATH'].split(os.pathsep)),
-    reason="node.js runs the layout's user script",
-)
-def test_the_invariants_script_turns_the_nodes_diagnostics_into_numbers():
+def _output_fields(source: str) -> dict[str, str]:
+    """
+    Return the fields of the type a user script's default export returns: name -> type.
+
+    A structural reading of what the apps' type extraction needs: the return type (without
+    ``| undefined``) is a type alias of a type literal, each member ``name: type``. Anything else
+    raises AssertionError; an index signature with the apps' own words.
+    """
+    returned = re.search(
+        r'^export default function \w*\([^)]*\): (\w+)(?: \| undefined)? \{$', source, re.M
+    )
+    assert returned, 'the default export must be a function returning a named type'
+    literal = re.search(rf'^type {returned[1]} = \{{(.*?)\}};?$', source, re.M | re.S)
+    assert literal, f'{returned[1]}: must be a type alias of a type literal'
+    body = re.sub(r'//[^\n]*', '', literal[1])
+    fields = {}
+    for member in filter(None, (m.strip() for m in re.split(r'[;,\n]', body))):
+        assert not member.startswith('['), f'Encountered type member with no name: {member}'
+        named = re.fullmatch(r'([A-Za-z_]\w*)\s*:\s*(\w+)', member)
+        assert named, f'{member}: not a named field of a plain type'
+        fields[named[1]] = named[2]
+    return fields
+
+
+def test_the_invariants_script_returns_named_numbers_and_the_plot_names_them():
+    """
+    The invariants script returns named numbers, and the plot names them.
+
+    Lichtblick and Foxglove make the output's message definition from the type the script's
+    default export returns; an index signature (``{ [key: string]: number }``) is refused
+    ("Encountered type member with no name") and the plot stays empty.
+    """
+    source = INVARIANTS_SCRIPT.read_text()
+    assert _output_fields(source) == dict.fromkeys(INVARIANTS, 'number')
+    with pytest.raises(AssertionError, match='Encountered type member with no name'):
+        _output_fields(_with_index_signature(source))
+    layout = json.loads(FOXGLOVE_FILE.read_text())
+    plotted = [
+        path['value']
+        for name, config in layout['configById'].items()
+        if name.startswith('Plot!')
+        for path in config['paths']
+        if path['value'].startswith(SCRIPT_OUTPUT + '.')
+    ]
+    assert plotted and {p[len(SCRIPT_OUTPUT) + 1:] for p in plotted} <= set(INVARIANTS)
+
+
+def _with_index_signature(source: str) -> str:
+    """Return the script with its output type replaced by the index signature the apps refuse."""
+    declared = re.search(r'^type Invariants = \{.*?^\};$', source, re.M | re.S)
+    return source.replace(declared[0], INDEX_SIGNATURE)
+
+
+def _typescript() -> tuple[str, Path]:
+    """
+    Return node.js and the TypeScript compiler ``make test`` installs beside the virtualenv.
+
+    Without them the test is skipped, except on CI, where it fails.
+    """
+    typescript = Path(sys.prefix) / 'npm' / 'node_modules' / 'typescript'
+    node = shutil.which('node')
+    if node is None or not (typescript / 'package.json').is_file():
+        reason = f'node.js and TypeScript in {typescript} check the user script'
+        if os.environ.get('CI'):
+            pytest.fail(f'{reason}: make test installs TypeScript (npm)')
+        pytest.skip(reason)
+    return node, typescript
+
+
+def _check_user_script(script: Path, event: dict | None = None, tmp_path: Path | None = None):
+    """
+    Check a user script as the apps do (test/check_user_script.js) and run it on ``event``.
+
+    Returns what the check prints: the compiler's diagnostics, the type extraction's problems, the
+    output topic, the inputs, the output's fields and the script's result.
+    """
+    node, typescript = _typescript()
+    arguments = [node, str(ROOT / 'test' / 'check_user_script.js'), str(typescript), str(script)]
+    if event is not None:
+        (tmp_path / 'event.json').write_text(json.dumps(event))
+        arguments.append(str(tmp_path / 'event.json'))
+    result = subprocess.run(arguments, capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    return json.loads(result.stdout)
+
+
+def test_the_invariants_script_compiles_and_defines_its_output_as_the_apps_do(tmp_path):
+    checked = _check_user_script(INVARIANTS_SCRIPT)
+    assert checked['diagnostics'] == [] and checked['problems'] == []
+    assert checked['output'] == SCRIPT_OUTPUT and checked['inputs'] == ['/diagnostics']
+    assert checked['fields'] == [[name, 'float64'] for name in INVARIANTS]
+    # the check finds what the apps found in the script with an index signature
+    refused = tmp_path / 'index_signature.ts'
+    refused.write_text(_with_index_signature(INVARIANTS_SCRIPT.read_text()))
+    checked = _check_user_script(refused)
+    assert checked['problems'] == ['Encountered type member with no name']
+
+
+def test_the_invariants_script_turns_the_nodes_diagnostics_into_numbers(tmp_path):
     """
     The invariants script turns the node's diagnostics into numbers.
 
-    The user script run (node.js, its type annotations stripped) on a /diagnostics message the node
-    published gives the very numbers the node wrote as text.
+    The user script, compiled by TypeScript as the apps compile it and run in node.js on a
+    /diagnostics message the node published, gives the very numbers the node wrote as text.
     """
-    import subprocess
-
     from diagnostic_msgs.msg import DiagnosticArray
     from rclpy.qos import QoSProfile
     from sim_harness import connected_harness
 
+    _typescript()
     arrays = []
     with connected_harness(publish_rate=50.0) as harness:
         harness.client.create_subscription(
@@ -545,27 +685,7 @@ def test_the_invariants_script_turns_the_nodes_diagnostics_into_numbers():
             ]
         }
     }
-    source = INVARIANTS_SCRIPT.read_text()
-    for annotation in _ANNOTATIONS:
-        assert annotation in source
-        source = source.replace(annotation, '')
-    source = '\n'.join(line for line in source.splitlines() if not line.startswith('type '))
-    source = source.replace('export const', 'const').replace('export default function', 'function')
-    program = (
-        f'{source}\nconsole.log(JSON.stringify([inputs, output, script({json.dumps(event)})]));\n'
-    )
-    result = subprocess.run(['node', '-e', program], capture_output=True, text=True, timeout=60)
-    assert result.returncode == 0, result.stderr
-    inputs, output, numbers = json.loads(result.stdout)
+    numbers = _check_user_script(INVARIANTS_SCRIPT, event, tmp_path)['result']
     text = {p.key: p.value for s in array.status for p in s.values}
-    assert inputs == ['/diagnostics'] and output == '/studio_script/torquefree_invariants'
-    assert numbers == {
-        key: float(text[key])
-        for key in (
-            'kinetic_energy',
-            'angular_momentum',
-            'kinetic_energy_drift',
-            'angular_momentum_drift',
-        )
-    }
+    assert numbers == {key: float(text[key]) for key in INVARIANTS}
     assert numbers['kinetic_energy'] > 0.0

@@ -28,8 +28,9 @@ from ament_pep257.main import main as pep257_main
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
-# what is ours to lint: the package, its tests, tools, examples, launch file and setup script
-LINTED_DIRECTORIES = ['torquefree_ros', 'test', 'tools', 'examples', 'launch']
+# what is ours to lint: the package, its tests, tools, examples, launch file, the API reference's
+# Sphinx configuration (docs/api/conf.py) and setup script
+LINTED_DIRECTORIES = ['torquefree_ros', 'test', 'tools', 'examples', 'launch', 'docs']
 LINTED = [*LINTED_DIRECTORIES, 'setup.py']
 COPYRIGHT = 'Copyright 2026 torquefree_ros maintainers'
 APACHE_HEADER = (
@@ -87,6 +88,7 @@ def test_every_source_file_carries_the_copyright_and_license_header():
         ]
         if lines[: len(expected)] != expected:
             missing.append(str(path.relative_to(REPO)))
+    # the glob found the package, tests and tools (about 190 files), not an empty or partial tree
     assert len(_sources()) > 150
     assert missing == [], f'without the copyright and license header: {missing}'
 

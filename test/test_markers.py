@@ -13,12 +13,13 @@
 # limitations under the License.
 
 """
-The ``markers`` output: the body's box and the arrows w and H.
+The ``markers`` output: the body's box, the arrows w and H and their labels.
 
 The box's geometry is the uniform box of the body's principal moments on its principal axes; the
-arrows are w and H in the inertial frame, all three markers in every message (a viewer that seeks
-shows the latest message alone); the encoding decodes in rclpy and is rosbags' own byte for byte;
-bags (both independent readers) and the live node carry what the core computes.
+arrows are w and H in the inertial frame, in colours no frame axis has, each labelled past its tip;
+all five markers are in every message (a viewer that seeks shows the latest message alone); the
+encoding decodes in rclpy and is rosbags' own byte for byte; bags (both independent readers) and
+the live node carry what the core computes.
 """
 
 from __future__ import annotations
@@ -27,13 +28,28 @@ import math
 
 import numpy as np
 import pytest
-from torquefree_ros.bag.markers import encode_markers
-from torquefree_ros.core import quaternion
+from torquefree_ros.bag.markers import (
+    ANGULAR_MOMENTUM,
+    ANGULAR_MOMENTUM_LABEL,
+    ANGULAR_VELOCITY,
+    ANGULAR_VELOCITY_LABEL,
+    BODY,
+    encode_markers,
+)
 from torquefree_ros.core.effects.outputs import MARKER_ROW
-from torquefree_ros.core.scene import scene_from_mapping, SceneError
-from torquefree_ros.core.simulation import Simulation
+from torquefree_ros.core.frames import quaternion
+from torquefree_ros.core.run.simulation import Simulation
+from torquefree_ros.core.scene.loader import scene_from_mapping, SceneError
 
 RATE = 50.0
+# every MarkerArray's namespaces, in order
+NAMESPACES = [
+    'body',
+    'angular_velocity',
+    'angular_momentum',
+    'angular_velocity_label',
+    'angular_momentum_label',
+]
 # Ixx, Iyy, Izz, Ixy, Ixz, Iyz: principal axes tilted
 GENERIC_TENSOR = [4.0, 3.0, 2.5, 0.3, -0.2, 0.4]
 ORIENTATION = [0.1, -0.3, 0.2, math.sqrt(0.86)]
@@ -186,6 +202,40 @@ def test_marker_parameters_are_checked_with_the_field_path(parameters, reason):
         _simulation({'inertia': [2.0, 3.0, 4.0]}, [0.0, 1.0, 0.0], {'markers': parameters})
 
 
+# the frame and pose axes the views draw: RViz's red, green and blue, then Foxglove's and
+# Lichtblick's shades of them (their 3-D panel's Axis)
+AXIS_COLOURS = [
+    (1.0, 0.0, 0.0),
+    (0.0, 1.0, 0.0),
+    (0.0, 0.0, 1.0),
+    (0x9C / 255, 0x39 / 255, 0x48 / 255),
+    (0x88 / 255, 0xDD / 255, 0x04 / 255),
+    (0x2B / 255, 0x90 / 255, 0xFB / 255),
+]
+
+
+def test_w_and_h_have_colours_no_axis_has_and_read_apart_where_they_are_parallel():
+    w, h = ANGULAR_VELOCITY.color[:3], ANGULAR_MOMENTUM.color[:3]
+    for colour in (w, h):
+        assert min(math.dist(colour, axis) for axis in AXIS_COLOURS) > 0.5, colour
+        assert math.dist(colour, BODY.color[:3]) > 0.5, colour
+    assert math.dist(w, h) > 0.5
+    assert ANGULAR_VELOCITY.color[3] == ANGULAR_MOMENTUM.color[3] == 1.0
+    # where w and H are parallel (a spin about a principal axis), the thinner H, longer by
+    # default, comes out of the w arrow rather than hiding it
+    (w_shaft, w_head), (h_shaft, h_head) = ANGULAR_VELOCITY.size, ANGULAR_MOMENTUM.size
+    assert w_shaft > h_shaft and w_head > h_head
+    # labels: each arrow's name in its colour
+    assert (ANGULAR_VELOCITY_LABEL.text, ANGULAR_VELOCITY_LABEL.color) == (
+        'w',
+        ANGULAR_VELOCITY.color,
+    )
+    assert (ANGULAR_MOMENTUM_LABEL.text, ANGULAR_MOMENTUM_LABEL.color) == (
+        'H',
+        ANGULAR_MOMENTUM.color,
+    )
+
+
 def _decoded_fields(marker):
     return (
         marker.header.frame_id,
@@ -208,6 +258,10 @@ def _decoded_fields(marker):
     )
 
 
+def _rgba(marker):
+    return [marker.color.r, marker.color.g, marker.color.b, marker.color.a]
+
+
 def _rows(count=4):
     simulation = _simulation({'inertia': GENERIC_TENSOR}, [0.4, -1.0, 0.7], {'markers': {}})
     block = simulation.samples(0, count)
@@ -226,9 +280,9 @@ def test_the_encoding_decodes_in_rclpy_and_is_byte_for_byte_rosbags_own(frame_id
     assert len(messages) == len(rows)
     for stamp, row, message in zip(stamps, rows, messages):
         markers = deserialize_message(message, MarkerArray).markers
-        assert [m.ns for m in markers] == ['body', 'angular_velocity', 'angular_momentum']
+        assert [m.ns for m in markers] == NAMESPACES
         assert {m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in markers} == {stamp}
-        box, arrows = markers[0], markers[1:]
+        box, arrows, labels = markers[0], markers[1:3], markers[3:]
         longest = row[4:7].max()
         assert _decoded_fields(box) == (
             frame_id,
@@ -244,9 +298,10 @@ def test_the_encoding_decodes_in_rclpy_and_is_byte_for_byte_rosbags_own(frame_id
             0,
             False,
         )
-        for arrow, tip, (shaft, head) in zip(
-            arrows, (row[7:10], row[10:13]), ((0.03, 0.07), (0.02, 0.05))
+        for arrow, tip, style in zip(
+            arrows, (row[7:10], row[10:13]), (ANGULAR_VELOCITY, ANGULAR_MOMENTUM)
         ):
+            shaft, head = style.size
             assert _decoded_fields(arrow) == (
                 frame_id,
                 arrow.ns,
@@ -267,6 +322,30 @@ def test_the_encoding_decodes_in_rclpy_and_is_byte_for_byte_rosbags_own(frame_id
                 and not arrow.mesh_resource
                 and not arrow.colors
             )
+            assert _rgba(arrow) == pytest.approx(style.color, abs=1e-7)  # float32
+        for label, tip, style in zip(
+            labels, (row[7:10], row[10:13]), (ANGULAR_VELOCITY_LABEL, ANGULAR_MOMENTUM_LABEL)
+        ):
+            place, orientation, scale = _decoded_fields(label)[5:8]
+            assert _decoded_fields(label)[:5] == (
+                frame_id,
+                style.namespace,
+                0,
+                Marker.TEXT_VIEW_FACING,
+                Marker.ADD,
+            )
+            assert _decoded_fields(label)[8:] == ([], 0, 0, False)
+            # a tenth of the longest side past the tip, on the arrow's line; a tenth high
+            np.testing.assert_allclose(
+                place, tip * (1.0 + 0.1 * longest / np.linalg.norm(tip)), rtol=1e-15, atol=0
+            )
+            assert orientation == [0.0, 0.0, 0.0, 1.0] and scale == [0.0, 0.0, 0.1 * longest]
+            assert label.text == style.text and not label.points and not label.colors
+        # each label in its arrow's colour
+        assert [(m.text, _rgba(m)) for m in labels] == [
+            ('w', _rgba(arrows[0])),
+            ('H', _rgba(arrows[1])),
+        ]
         assert 0.0 < box.color.a < 1.0  # see-through: the arrows inside stay visible
         decoded = store.deserialize_cdr(message, 'visualization_msgs/msg/MarkerArray')
         assert store.serialize_cdr(decoded, 'visualization_msgs/msg/MarkerArray') == message
@@ -303,9 +382,7 @@ def test_a_bag_carries_markers_as_the_core_computes_them_in_both_independent_rea
     assert connections['/markers'].msgtype == 'visualization_msgs/msg/MarkerArray'
     arrays = [m.markers for _, m in messages['/markers']]
     assert [stamp_ns(a[0].header) for a in arrays] == block.stamps_ns.tolist()
-    assert {tuple(m.ns for m in a) for a in arrays} == {
-        ('body', 'angular_velocity', 'angular_momentum')
-    }
+    assert {tuple(m.ns for m in a) for a in arrays} == {tuple(NAMESPACES)}
     assert {m.header.frame_id for a in arrays for m in a} == {'odom'}
     np.testing.assert_array_equal(
         [
@@ -323,11 +400,7 @@ def test_a_bag_carries_markers_as_the_core_computes_them_in_both_independent_rea
         [[a[1].points[1].x, a[1].points[1].y, a[1].points[1].z] for a in arrays], rows[:, 7:10]
     )
     decoded = read_with_mcap(bag)['/markers']  # mcap-ros2 decodes from the bag's own schema text
-    assert [m.ns for m in decoded[50][2].markers] == [
-        'body',
-        'angular_velocity',
-        'angular_momentum',
-    ]
+    assert [m.ns for m in decoded[50][2].markers] == NAMESPACES
     assert decoded[50][2].markers[2].points[1].z == rows[50, 12]
 
 
@@ -360,7 +433,7 @@ def test_one_marker_array_at_a_random_sample_of_a_bag_is_the_whole_picture(tmp_p
             reader.iter_decoded_messages(topics=['/markers'], starting_at=stamp, ending_at=stamp)
         )
     markers = {m.ns: m for m in found.decoded_message.markers}
-    assert sorted(markers) == ['angular_momentum', 'angular_velocity', 'body']
+    assert sorted(markers) == sorted(NAMESPACES)
     assert all(
         m.header.stamp.sec * 10**9 + m.header.stamp.nanosec == stamp for m in markers.values()
     )
@@ -375,6 +448,9 @@ def test_one_marker_array_at_a_random_sample_of_a_bag_is_the_whole_picture(tmp_p
     for namespace, tip in (('angular_velocity', row[7:10]), ('angular_momentum', row[10:13])):
         end = markers[namespace].points[1]
         assert [end.x, end.y, end.z] == tip.tolist(), namespace
+        label = markers[f'{namespace}_label'].pose.position
+        # past the tip, on the arrow's line
+        assert np.dot([label.x, label.y, label.z], tip) > np.dot(tip, tip), namespace
 
 
 def test_the_node_publishes_markers_as_the_core_computes_them():
@@ -406,9 +482,7 @@ def test_the_node_publishes_markers_as_the_core_computes_them():
     (rows,) = [
         rows for output, rows in zip(scene.outputs, block.outputs) if output.name == 'markers'
     ]
-    assert {tuple(m.ns for m in a.markers) for a in arrays} == {
-        ('body', 'angular_velocity', 'angular_momentum')
-    }
+    assert {tuple(m.ns for m in a.markers) for a in arrays} == {tuple(NAMESPACES)}
     np.testing.assert_array_equal(
         [
             [a.markers[2].points[1].x, a.markers[2].points[1].y, a.markers[2].points[1].z]

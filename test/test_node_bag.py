@@ -35,7 +35,7 @@ from sim_harness import SimHarness
 from torquefree_ros.bag import BagReader
 from torquefree_ros.bag.offline import write_scene_bag
 from torquefree_ros.cli.bag import main as bag_main
-from torquefree_ros.core.scene import default_scene
+from torquefree_ros.core.scene.loader import default_scene
 from torquefree_ros.ros.parameters import ConfigurationError
 
 REPO = Path(__file__).resolve().parent.parent

@@ -28,7 +28,7 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Imu
 from sim_harness import connected_harness, reset_epoch_ns, stamp_ns
 from torquefree_ros import load_scene
-from torquefree_ros.core.simulation import Simulation
+from torquefree_ros.core.run.simulation import Simulation
 
 
 @pytest.fixture

@@ -35,8 +35,8 @@ import pytest
 from torquefree_ros.bag import message_definition
 from torquefree_ros.bag.cdr import encode_odometry
 from torquefree_ros.core.effects.outputs import ODOMETRY_ROW
-from torquefree_ros.core.scene import scene_from_mapping, SceneError
-from torquefree_ros.core.simulation import Simulation
+from torquefree_ros.core.run.simulation import Simulation
+from torquefree_ros.core.scene.loader import scene_from_mapping, SceneError
 
 RATE = 50.0
 SCENE = {

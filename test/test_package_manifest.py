@@ -41,6 +41,7 @@ KEYS = {
     'mcap': ('mcap-ros2-support', RUNTIME),
     'numba': ('python3-numba', RUNTIME),
     'pyarrow': None,
+    'sgp4': None,  # no rosdep key: TLE orbits (core/environment/tle.py), from PyPI
     'dask': None,
     'pytest': ('python3-pytest', TEST),
     'coverage': ('python3-coverage', TEST),
@@ -65,6 +66,13 @@ KEYS = {
     'flake8-docstrings': ('ament_flake8', TEST),  # installed with ament_flake8
     'flake8-import-order': ('ament_flake8', TEST),  # installed with ament_flake8
     'flake8-quotes': ('ament_flake8', TEST),  # installed with ament_flake8
+    'sphinx': ('python3-sphinx', TEST),
+    'myst-parser': ('python3-myst-parser-pip', TEST),
+    'import-linter': None,  # no rosdep key: the architecture test's tool, from PyPI
+    'ppigrf': None,  # no rosdep key: IGRF-14's reference implementation in the tests
+    'astropy': ('python3-astropy', TEST),
+    'pyerfa': ('python3-astropy', TEST),  # installed with astropy (Debian's python3-astropy too)
+    'allantools': None,  # no rosdep key: the Allan deviations of test/test_sensor_errors.py
 }
 # the rosidl/ament_cmake wheels that build tf2_msgs where it is missing stand for these ROS
 # packages

@@ -34,7 +34,7 @@ import numpy as np
 import pytest
 from sim_harness import connected_harness, reset_epoch_ns, stamp_ns
 from torquefree_ros import propagate
-from torquefree_ros.core.scene import default_scene
+from torquefree_ros.core.scene.loader import default_scene
 
 DEFAULT = default_scene()
 RATE = 100.0

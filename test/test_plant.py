@@ -23,8 +23,8 @@ refused torque changes nothing.
 import numpy as np
 import pytest
 from torquefree_ros import load_scene, Plant
-from torquefree_ros.core.scene import scene_from_mapping
-from torquefree_ros.core.simulation import Simulation
+from torquefree_ros.core.run.simulation import Simulation
+from torquefree_ros.core.scene.loader import scene_from_mapping
 
 RATE = 10.0
 
@@ -140,6 +140,154 @@ def test_a_rate_damping_loop_on_a_sphere_meets_its_sampled_data_closed_form():
     # and within the sampling's first-order error of the continuous law
     continuous = np.outer(np.exp(-K * np.arange(101) / RATE / J), [0.4, -0.3, 0.5])
     assert np.abs(np.array(omega) - continuous).max() < 0.5 * (K / (RATE * J)) ** 2 * 100 * 0.5
+
+
+# -- against independent references ---------------------------------------------------------------
+EXPLORER1_INERTIA = np.array([0.4, 4.6, 4.95])  # kg m^2, the body of explorer1.yaml
+DAMPER_J = 0.05  # kg m^2: explorer1's damper rotor
+
+
+def _inertial_momentum(state) -> np.ndarray:
+    """
+    Return the total angular momentum of body and damper in the inertial frame.
+
+    ``R(q) (I w + J nu)`` (the damper's state ``nu`` is its rotor's absolute rate, body frame),
+    rotated by scipy's Rotation, not by the package's quaternions.
+    """
+    from scipy.spatial.transform import Rotation
+
+    body_frame = state.omega_B * EXPLORER1_INERTIA + DAMPER_J * state.internal
+    return Rotation.from_quat(state.q_NB).apply(body_frame)
+
+
+def _explorer1_with_commands(timeout=1.0, accuracy=1e-10):
+    return scene_from_mapping(
+        {
+            'body': {'inertia': EXPLORER1_INERTIA.tolist()},
+            'initial': {'angular_velocity': [6.0, 0.05, 0.0]},
+            'effects': [
+                {'damper': {'inertia': DAMPER_J, 'damping': 0.01}},
+                {'torque_command': {'frame': 'inertial', 'timeout': timeout, 'max_torque': 0.5}},
+            ],
+            'accuracy': accuracy,
+        }
+    )
+
+
+def test_the_plant_conserves_the_inertial_momentum_of_body_and_damper():
+    """
+    Without commands the plant conserves body plus damper's momentum in the inertial frame.
+
+    Over 600 s explorer1 goes from its spin about the minor axis to its flat spin (the energy falls
+    by 90 %), so the body's own momentum changes by order 1 while the total must not: the damper's
+    torque is internal.
+    """
+    accuracy = 1e-10
+    plant = Plant(_explorer1_with_commands(accuracy=accuracy), 1.0)
+    initial = _inertial_momentum(plant.state)
+    run = plant.run(600.0)
+    energy = 0.5 * (
+        np.einsum('ij,j,ij->i', run.omega_B, EXPLORER1_INERTIA, run.omega_B)
+        + DAMPER_J * np.einsum('ij,ij->i', run.internal, run.internal)
+    )
+    assert energy[-1] < 0.1 * energy[0]  # the damper did its work: a real test of the sum
+    drift = np.abs(_inertial_momentum(run) - initial).max() / np.linalg.norm(initial)
+    # DOP853 holds each step's local error under the accuracy (relative); the drift of an
+    # invariant sums such errors over the run's steps: about 7x the accuracy here, so 100x is
+    # room for rounding elsewhere, and still 1e7 times under the body's own change
+    assert drift < 100 * accuracy, drift
+
+
+def _held_rule(k: int, stamp_k: int | None, timeout_ns: int, rate: float) -> bool:
+    """
+    Return whether the command given at sample ``stamp_k`` holds over ``[t_k, t_k+1)``.
+
+    hold.py's rule, written out: zero from the sample where ``now - stamp >= timeout`` (stamps in
+    integer nanoseconds, ``t_k = k / rate``).
+    """
+    if stamp_k is None:
+        return False
+    return round(k * 1e9 / rate) - round(stamp_k * 1e9 / rate) < timeout_ns
+
+
+def test_inertial_commands_change_the_inertial_momentum_by_their_impulses():
+    """
+    Inertial-frame commands change body plus damper's inertial momentum by their impulses.
+
+    ``dH_N/dt = tau_N``, constant over each interval: ``H_N(t_k+1) = H_N(t_k) + tau_k h``, with the
+    held torque zero once the command timed out (gaps of several samples here).
+    """
+    rate, timeout = 10.0, 0.35
+    plant = Plant(_explorer1_with_commands(timeout=timeout), rate)
+    torques = 0.05 * np.random.default_rng(3).standard_normal((60, 3))
+    torques[10:20] = np.nan  # no new command: the last one holds 4 intervals (0.3 < 0.35), then 0
+    torques[30:33] = np.nan
+    expected = [_inertial_momentum(plant.state)]
+    momentum = [expected[0]]
+    in_force, stamp_k = None, None
+    for k, torque in enumerate(torques):
+        given = None if np.isnan(torque[0]) else torque
+        if given is not None:
+            in_force, stamp_k = given, k
+        held = _held_rule(k, stamp_k, round(timeout * 1e9), rate)
+        expected.append(expected[-1] + (in_force if held else 0.0) / rate)
+        momentum.append(_inertial_momentum(plant.step(given)))
+    momentum, expected = np.array(momentum), np.array(expected)
+    assert np.abs(expected - expected[0]).max() > 0.01  # the impulses are far above the tolerance
+    # the integrator's drift over 6 s at accuracy 1e-10 (3e-11 observed), with room
+    np.testing.assert_allclose(momentum, expected, rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    'timeout, held_intervals',
+    [
+        (0.3, 3),  # the timeout on a sample: now - stamp == timeout there, zero from that sample
+        (0.35, 4),  # between samples: held over the interval it falls in
+    ],
+)
+def test_a_held_body_torque_on_a_sphere_follows_its_closed_form_up_to_the_timeout(
+    timeout, held_intervals
+):
+    """
+    A body torque held on a sphere gives ``w(t) = w0 + tau t / J`` until the timeout, then stays.
+
+    A sphere has ``w x J w = 0`` and a body-frame torque is constant in the body frame, so ``w``
+    is linear in ``t`` while the command holds (DOP853 integrates it to rounding). The command is
+    given at sample 2 and none after it: it holds on the intervals whose start is less than
+    ``timeout`` after its stamp, the last one included, and is zero from the sample where
+    ``now - stamp >= timeout`` (hold.py's ``timed_out``).
+    """
+    from torquefree_ros.core.commands.hold import timed_out
+
+    J, rate, given_at = 2.0, 10.0, 2
+    omega0, torque = np.array([0.4, -0.3, 0.5]), np.array([0.1, -0.2, 0.05])
+    scene = scene_from_mapping(
+        {
+            'body': {'inertia': [J, J, J]},
+            'initial': {'angular_velocity': omega0.tolist()},
+            'effects': [{'torque_command': {'timeout': timeout, 'max_torque': 1.0}}],
+            'accuracy': 1e-12,
+        }
+    )
+    # the boundary sample, by the rule in integer nanoseconds and by hold.py's function
+    timeout_ns, stamp = round(timeout * 1e9), round(given_at * 1e9 / rate)
+    boundary = given_at + held_intervals
+    assert not _held_rule(boundary, given_at, timeout_ns, rate)
+    assert _held_rule(boundary - 1, given_at, timeout_ns, rate)
+    assert timed_out(round(boundary * 1e9 / rate), stamp, timeout_ns)
+    assert not timed_out(round((boundary - 1) * 1e9 / rate), stamp, timeout_ns)
+    plant = Plant(scene, rate)
+    omega = [plant.state.omega_B]
+    for k in range(boundary + 5):
+        omega.append(plant.step(torque if k == given_at else None).omega_B)
+    held_time = np.clip(np.arange(len(omega)) - given_at, 0, held_intervals) / rate
+    expected = omega0 + np.outer(held_time, torque / J)
+    # a linear w integrated to rounding: a few rounding units of |w| ~ 0.5 rad/s
+    np.testing.assert_allclose(omega, expected, rtol=0, atol=1e-14)
+    # held on the last interval before the timeout, zero from the boundary sample on
+    step = np.diff(omega, axis=0)
+    np.testing.assert_allclose(step[boundary - 1], torque / (J * rate), rtol=0, atol=1e-14)
+    np.testing.assert_array_equal(step[boundary:], 0.0)
 
 
 @pytest.mark.parametrize(

@@ -29,8 +29,8 @@ import numpy as np
 import pytest
 from torquefree_ros.bag.samples import encode_block
 from torquefree_ros.cli.bag import main as bag_main
-from torquefree_ros.core.scene import scene_from_mapping
-from torquefree_ros.core.simulation import Simulation
+from torquefree_ros.core.run.simulation import Simulation
+from torquefree_ros.core.scene.loader import scene_from_mapping
 
 POSITION = (2.5, -1.0, 0.75)
 SCENE = {
@@ -119,13 +119,19 @@ def test_a_bag_places_every_output_at_the_position_and_changes_nothing_else(tmp_
             and xyz(b.twist.twist.linear) == [0.0] * 3
         )
     for (_, a), (_, b) in zip(origin['/markers'], placed['/markers']):
-        box, *arrows = b.markers
+        box, arrows, labels = b.markers[0], b.markers[1:3], b.markers[3:]
         assert xyz(box.pose.position) == list(POSITION)
         assert xyzw(box.pose.orientation) == xyzw(a.markers[0].pose.orientation)
-        for before, after in zip(a.markers[1:], arrows):
+        for before, after in zip(a.markers[1:3], arrows):
             assert xyz(after.points[0]) == list(POSITION)
             # the tip moves by the position: the same arrow, drawn from the body's centre
             assert xyz(after.points[1]) == [t + p for t, p in zip(xyz(before.points[1]), POSITION)]
+        assert [m.ns for m in labels] == ['angular_velocity_label', 'angular_momentum_label']
+        for before, after in zip(a.markers[3:], labels):
+            # and so does each arrow's label
+            assert xyz(after.pose.position) == [
+                t + p for t, p in zip(xyz(before.pose.position), POSITION)
+            ]
     assert [xyz(m.vector) for _, m in origin['/angular_velocity']] == [
         xyz(m.vector) for _, m in placed['/angular_velocity']
     ]

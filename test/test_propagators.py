@@ -30,7 +30,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 from torquefree_ros import make_propagator, propagate, RigidBody
 from torquefree_ros.bench.cases import REFERENCE_FILE
-from torquefree_ros.core import quaternion
+from torquefree_ros.core.frames import quaternion
 
 INERTIA = [1.0, 2.0, 3.0]
 OMEGA = [0.4, -0.3, 0.9]
@@ -323,7 +323,7 @@ def test_core_imports_no_ros_module():
     [(2.3, 100.0, 231), (0.7, 10.0, 8), (1.0, 3.0, 4), (0.0, 50.0, 1), (0.99, 1.0, 1)],
 )
 def test_contract_sample_times_include_both_ends(duration, rate, count):
-    from torquefree_ros.core.timing import sample_times
+    from torquefree_ros.core.timing.grid import sample_times
 
     times = sample_times(duration, rate)
     assert times.size == count  # k = 0 ... floor(duration * rate)
@@ -335,7 +335,7 @@ def test_contract_sample_times_include_both_ends(duration, rate, count):
     [(-1.0, 10.0, '^duration: '), (1.0, 0.0, '^rate: '), (float('nan'), 1.0, '^duration: ')],
 )
 def test_contract_sample_times_refuse_bad_input(duration, rate, message):
-    from torquefree_ros.core.timing import sample_times
+    from torquefree_ros.core.timing.grid import sample_times
 
     with pytest.raises(ValueError, match=message):
         sample_times(duration, rate)

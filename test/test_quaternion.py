@@ -20,7 +20,7 @@ from hypothesis.extra.numpy import arrays
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
-from torquefree_ros.core import quaternion
+from torquefree_ros.core.frames import quaternion
 
 
 # no values so small that their squares underflow (the tests raise on every float exception)

@@ -167,6 +167,10 @@ def test_recorder_gets_every_sample_the_node_publishes(tmp_path):
         )
         # at most 0.1 s of samples at 200 Hz in flight
         assert len(published) - (first + len(got)) <= 20
+    # /diagnostics (the invariants the Foxglove layout plots) is in what the recorder took from the
+    # live node, not in the node's own bag of its samples
+    assert '/diagnostics' in {t.name for t in BagReader(recorded).topics}
+    assert '/diagnostics' not in {t.name for t in BagReader(node_bag).topics}
 
 
 def test_recorder_resolves_relative_names_and_duration_is_recorded_time(tmp_path):

@@ -14,11 +14,19 @@
 
 """Scene files: the built-in default, and errors naming the file, the field path and the reason."""
 
+from fractions import Fraction
 from pathlib import Path
+import sys
 
 import numpy as np
 import pytest
-from torquefree_ros.core.scene import default_scene, load_scene, scene_from_mapping, SceneError
+from torquefree_ros.core.propagators import make_propagator
+from torquefree_ros.core.scene.loader import (
+    default_scene,
+    load_scene,
+    scene_from_mapping,
+    SceneError,
+)
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -164,7 +172,7 @@ def test_an_orientation_unit_to_rounding_is_used_bit_for_bit():
     (here |q| may compute as 1 - 1 ulp) is not divided by its norm, so sample 0 equals the input.
     """
     from torquefree_ros import propagate
-    from torquefree_ros.core.validation import unit_quaternion
+    from torquefree_ros.core.checks.validation import unit_quaternion
 
     for angle in np.linspace(0.0, 6.0, 61):
         q = [0.0, 0.0, float(np.sin(angle)), float(np.cos(angle))]
@@ -395,3 +403,81 @@ def test_yaml_1_2_numbers_are_numbers(tmp_path):
     scene = load_scene(path)
     assert scene.angular_velocity == (0.001, 0.0, 2.0) and scene.accuracy == 1e-9
     assert scene.effects[0].mean_motion == pytest.approx(np.sqrt(3.986e14 / 7e6**3), rel=1e-15)
+
+
+# -- initial states float64 cannot hold -----------------------------------------------------------
+def exact_scale(moments, rates) -> Fraction:
+    """Return ``|H|^2 I_max^2`` in exact rational arithmetic, for a body in its principal frame."""
+    moments = [Fraction(m) for m in moments]
+    momentum = [m * Fraction(w) for m, w in zip(moments, rates)]
+    return sum(h * h for h in momentum) * max(moments) ** 2
+
+
+FLOAT64_MAX = Fraction(sys.float_info.max)
+
+OVERFLOWING = [
+    ([3, 2, 1], [1e154, 0, 0]),  # a fuzzed file's rate: |H|^2 I_max^2 = 8.1e309
+    ([3, 2, 1], [0, 0, 1e154]),  # about the minor axis: 9e308, just past 1.8e308
+    ([3, 2, 1], [1e308, 0, 0]),  # |H| = 3e308 itself overflows
+    ([3, 2, 1], [1e200, 1e200, 1e200]),  # and the energy w.I.w = 6e400
+    ([1e100, 1e100, 1e100], [1, 0, 0]),  # the largest inertia allowed, at 1 rad/s: 1e400
+    ([1e100, 1e100, 1e100, 0, 0, 0], [0, 1e250, 0]),  # a tensor: |H| = 1e350
+]
+
+
+@pytest.mark.parametrize('inertia, rates', OVERFLOWING)
+def test_an_initial_state_that_overflows_is_refused_when_the_scene_loads(tmp_path, inertia, rates):
+    """
+    An initial state that overflows is refused when the scene loads, as a propagator refuses it.
+
+    Each case is far past float64's largest number in exact arithmetic (the reference); the file,
+    the mapping and a scene with effects all name ``initial.angular_velocity``.
+    """
+    assert exact_scale(inertia[:3], rates) > FLOAT64_MAX
+    path = tmp_path / 'fast.yaml'
+    path.write_text(f'body: {{inertia: {inertia}}}\ninitial: {{angular_velocity: {rates}}}\n')
+    with pytest.raises(SceneError) as error:
+        load_scene(path)
+    message = str(error.value)
+    assert message.startswith(f'{path}: initial.angular_velocity: the state '), message
+    assert 'overflows float64' in message, message
+    damped = {
+        'body': {'inertia': inertia},
+        'initial': {'angular_velocity': rates},
+        'effects': [{'damper': {'inertia': 0.05, 'damping': 0.01}}],
+    }
+    with pytest.raises(SceneError, match=r'^s\.yaml: initial\.angular_velocity: .*overflows'):
+        scene_from_mapping(damped, source='s.yaml')
+    with pytest.raises(ValueError, match=r'^angular_velocity: .*overflows float64'):
+        make_propagator(inertia, rates, [0, 0, 0, 1])
+
+
+# |H|^2 I_max^2 of [0.5, 0.1, 0.1] rad/s on [3, 2, 1] kg m^2, times 2^1018: 5.8e307, the largest
+# power-of-two scale float64 holds (2^1020 times it, 2.3e308, is over 1.8e308)
+SCALE = 2.0**509
+
+
+def test_an_extreme_state_that_float64_holds_loads_and_moves_as_at_unit_scale(tmp_path):
+    """
+    An extreme state float64 holds loads, and moves as the same body at unit scale.
+
+    Torque-free motion scales: ``w(t; s w0) = s w(s t; w0)``; a power-of-two ``s`` is exact in
+    float64, so the two solutions differ by the solution's own rounding at most.
+    """
+    rates = [0.5, 0.1, 0.1]
+    fast = [SCALE * w for w in rates]
+    twice = [2 * w for w in fast]
+    assert exact_scale([3, 2, 1], fast) < FLOAT64_MAX < exact_scale([3, 2, 1], twice)
+    path = tmp_path / 'extreme.yaml'
+    path.write_text(f'body: {{inertia: [3, 2, 1]}}\ninitial: {{angular_velocity: {fast}}}\n')
+    scene = load_scene(path)
+    assert scene.angular_velocity == tuple(fast)
+    times = np.linspace(0.0, 20.0, 41)  # over a turn at about 0.5 rad/s (at unit scale)
+    omega, q = scene.propagator()(times / SCALE)
+    omega_unit, q_unit = make_propagator([3, 2, 1], rates, [0, 0, 0, 1])(times)
+    # 1e-14 on rates of order 1 (rad/s at unit scale) and unit quaternions: a few rounding units
+    np.testing.assert_allclose(omega / SCALE, omega_unit, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(q, q_unit, rtol=0, atol=1e-14)
+    doubled = {'body': {'inertia': [3, 2, 1]}, 'initial': {'angular_velocity': twice}}
+    with pytest.raises(SceneError, match=r'initial\.angular_velocity: .*overflows float64'):
+        scene_from_mapping(doubled)

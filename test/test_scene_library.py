@@ -24,9 +24,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 from torquefree_ros import load_scene
-from torquefree_ros.core import quaternion
-from torquefree_ros.core.library import library_scenes
-from torquefree_ros.core.simulation import Simulation
+from torquefree_ros.core.frames import quaternion
+from torquefree_ros.core.run.simulation import Simulation
+from torquefree_ros.core.scene.library import library_scenes
 
 LIBRARY = Path(__file__).resolve().parents[1] / 'torquefree_ros' / 'scenes'
 NAMES = [

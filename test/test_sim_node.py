@@ -34,8 +34,8 @@ import numpy as np
 import pytest
 from sim_harness import connected_harness, reset_epoch_ns, SimHarness
 from torquefree_ros import propagate, RigidBody
-from torquefree_ros.core.quaternion import to_matrix
-from torquefree_ros.core.scene import default_scene
+from torquefree_ros.core.frames.quaternion import to_matrix
+from torquefree_ros.core.scene.loader import default_scene
 from torquefree_ros.ros.node import LATE_WARNING_FRACTION
 from torquefree_ros.ros.parameters import ConfigurationError
 

@@ -21,8 +21,8 @@ Modules tested: core.simulation and core.timing.
 import numpy as np
 import pytest
 from torquefree_ros import make_propagator, propagate
-from torquefree_ros.core.simulation import Simulation
-from torquefree_ros.core.timing import check_rate, restart_epoch_ns, stamps_ns
+from torquefree_ros.core.run.simulation import Simulation
+from torquefree_ros.core.timing.grid import check_rate, restart_epoch_ns, stamps_ns
 
 INERTIA, OMEGA, Q0 = [3.0, 2.0, 1.0], [0.3, 0.2, 1.0], [0.0, 0.0, 0.0, 1.0]
 
@@ -93,7 +93,7 @@ def test_a_state_outside_float64_is_refused_before_a_sample_goes_out():
 def test_a_too_stiff_scene_stops_within_a_bounded_budget_with_its_reason():
     import time
 
-    from torquefree_ros.core.scene import scene_from_mapping
+    from torquefree_ros.core.scene.loader import scene_from_mapping
 
     scene = scene_from_mapping(
         {
@@ -121,7 +121,7 @@ def test_a_step_budget_per_sample_bounds_the_work_before_it_is_done(method):
     import time
 
     from torquefree_ros.core.propagators import MAX_STEPS_PER_SAMPLE, StepBudgetExceeded
-    from torquefree_ros.core.scene import load_scene
+    from torquefree_ros.core.scene.loader import load_scene
 
     scene = load_scene('gyrostat')
     free, bounded = scene.propagator(method), scene.propagator(method)
@@ -141,7 +141,7 @@ def test_a_step_budget_per_sample_bounds_the_work_before_it_is_done(method):
 
 
 def test_an_accuracy_estimate_over_its_step_bound_says_so():
-    from torquefree_ros.core.scene import scene_from_mapping
+    from torquefree_ros.core.scene.loader import scene_from_mapping
 
     # a stiff damper: dop853 at 1e-12 takes ~10^4 steps over the estimate's two turns
     scene = scene_from_mapping(

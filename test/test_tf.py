@@ -32,8 +32,8 @@ import numpy as np
 import pytest
 from torquefree_ros.bag.cdr import encode_transforms
 from torquefree_ros.bag.definitions import message_definition
-from torquefree_ros.core.scene import scene_from_mapping
-from torquefree_ros.core.simulation import Simulation
+from torquefree_ros.core.run.simulation import Simulation
+from torquefree_ros.core.scene.loader import scene_from_mapping
 
 REPO = Path(__file__).resolve().parents[1]
 # what `ros2 topic info /tf --verbose` shows on a Jazzy install (and rosbag2's metadata.yaml of a

@@ -40,7 +40,7 @@ def test_the_node_publishes_tf_that_a_tf2_msgs_subscriber_receives_bit_for_bit(t
     from sim_harness import connected_harness, reset_epoch_ns, stamp_ns
     from tf2_msgs.msg import TFMessage
     from torquefree_ros import load_scene
-    from torquefree_ros.core.simulation import Simulation
+    from torquefree_ros.core.run.simulation import Simulation
 
     scene_file = tmp_path / 'tf_scene.yaml'
     scene_file.write_text(

@@ -27,9 +27,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
-from torquefree_ros.core import quaternion
-from torquefree_ros.core.scene import scene_from_mapping, SceneError
-from torquefree_ros.core.simulation import Simulation
+from torquefree_ros.core.frames import quaternion
+from torquefree_ros.core.run.simulation import Simulation
+from torquefree_ros.core.scene.loader import scene_from_mapping, SceneError
 
 # the hold drives both paths of the numerical propagators (compiled kernels, scipy/numpy reference)
 pytestmark = pytest.mark.usefixtures('integrator_path')
@@ -150,7 +150,7 @@ def test_malformed_commands_are_refused_counted_and_never_reach_the_state(
 
 @pytest.mark.parametrize('rate', [0.3, 7.0, 100.0, 1000.0, 999_999.0])
 def test_the_hold_stamps_samples_as_the_simulation_does(rate):
-    from torquefree_ros.core.timing import stamps_ns
+    from torquefree_ros.core.timing.grid import stamps_ns
 
     scene = scene_from_mapping(
         {

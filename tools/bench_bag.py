@@ -55,7 +55,7 @@ DAY_BAG = (86_400.0, 1_000.0)
 
 def _ours(duration: float, output: Path, rate: float = RATE) -> float:
     from torquefree_ros.bag.offline import write_scene_bag
-    from torquefree_ros.core.scene import default_scene
+    from torquefree_ros.core.scene.loader import default_scene
 
     started = time.perf_counter()
     write_scene_bag(default_scene(), output, duration, rate)

@@ -25,10 +25,15 @@ Basilisk's figures.
   beside the bare compute (the same drawn bodies through ``propagate_batch`` plus the same metrics
   in one process, in the engine's blocks of runs; no draws, no engine, no table);
 - 1 000 dispersed explorer1 runs (``explorer1_damper``: inertia, rates, attitude and the damper's
-  damping dispersed), 900 s at 1 Hz, on 2 local workers, end to end as ``torquefree_campaign run``
-  does it (the cluster started and closed inside the time);
+  damping dispersed), 900 s at 1 Hz, on 2 local workers, end to end as ``torquefree_campaign run
+  --scheduler local --workers 2`` does it (the cluster started and closed inside the time);
 - what the engine costs: a local cluster's start-up, a worker's first chunk (imports and kernels),
-  the per-chunk overhead (in this process and on a worker), the memory (RSS) of a worker.
+  the per-chunk overhead (in this process and on a worker), the memory (RSS) of a worker;
+- both sides of the default engine's switch (``engine.choose_engine``): campaigns below and above
+  the compute a local cluster's start-up outweighs, each in-process, on a local cluster started
+  within the time, and with the default (which says what it picked), in this process and from the
+  command line in a fresh process; and a local cluster's start-up, warm-up and close measured
+  beside ``engine.LOCAL_CLUSTER_STARTUP``. ``--switch-only`` measures this part alone.
 
 Wall time (``perf_counter``), and beside it the CPU time of this process and the workers (which
 shows the work done when other processes share the cores); ``--rounds`` rounds give median
@@ -41,6 +46,7 @@ import argparse
 import os
 from pathlib import Path
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -53,6 +59,9 @@ from bench_report import Report, spread  # noqa: E402
 RUNS = 10_000
 DURATION, RATE = 100.0, 10.0
 OVERHEAD_TASKS = 400  # one-run, one-sample chunks: the engine's cost per chunk
+# the default engine's switch: (runs, duration s) at RATE, from little compute to much
+SWITCH_CASES = ((10_000, 1.0), (10_000, 100.0), (60_000, 100.0))
+ENGINES = ('in-process', 'local', None)  # None: the default
 BASILISK = (
     "Basilisk 2.12's Monte Carlo `Controller` (2 threads) runs 40 torque-free runs of 100 s at "
     '**1.5–1.7 runs/s** (it sleeps 1 s per run and builds a process pool per pair of runs); a '
@@ -233,7 +242,11 @@ def measure_round(directory: Path) -> dict:
     )
     result['explorer'] = timed(
         lambda: run_campaign(
-            'explorer1_damper', workers=2, output=directory / 'explorer', overwrite=True
+            'explorer1_damper',
+            scheduler='local',
+            workers=2,
+            output=directory / 'explorer',
+            overwrite=True,
         )
     )
     return result
@@ -287,10 +300,123 @@ def engine_costs(clusters: dict, directory: Path) -> dict:
     }
 
 
+def engine_name(engine) -> str:
+    return 'default' if engine is None else engine
+
+
+def switch_round(directory: Path) -> dict:
+    """
+    Time each switch case with each engine, in this process (warm) and from the command line.
+
+    In this process the kernels are loaded beforehand; a local cluster is started and closed
+    within its time, as a campaign does. From the command line: a fresh interpreter per campaign,
+    timed end to end (what a user waits for). The default's choice is kept.
+    """
+    from torquefree_ros.campaigns import run_campaign
+
+    import yaml
+
+    run_campaign(torque_free_campaign(10), scheduler='in-process')  # this process's kernels
+    result = {}
+    for runs, duration in SWITCH_CASES:
+        data = torque_free_campaign(runs)
+        data.update(duration=duration)
+        for engine in ENGINES:
+            picked = []
+            result[('api', runs, duration, engine_name(engine))] = timed(
+                lambda: run_campaign(data, scheduler=engine, on_engine=picked.append)
+            )
+            if engine is None:
+                result[('api-picked', runs, duration)] = str(picked[0])
+        path = directory / f'switch-{runs}-{duration:g}.yaml'
+        path.write_text(yaml.safe_dump(data))
+        for engine in ENGINES:
+            command = [sys.executable, '-m', 'torquefree_ros.cli.campaign', 'run', str(path)]
+            command += ['--output', str(directory / 'switch-out'), '--overwrite']
+            command += [] if engine is None else ['--scheduler', engine]
+            started = time.perf_counter()
+            done = subprocess.run(command, capture_output=True, text=True, check=True)
+            result[('cli', runs, duration, engine_name(engine))] = time.perf_counter() - started
+            if engine is None:
+                said = [
+                    line.split('engine: ', 1)[1]
+                    for line in done.stderr.splitlines()
+                    if line.startswith('torquefree_campaign: engine: ')
+                ]
+                result[('cli-picked', runs, duration)] = said[0]
+    # what a local cluster adds: a campaign of two one-run, one-sample chunks on one, less the same
+    # in this process
+    tiny = torque_free_campaign(2)
+    tiny.update(duration=0.0, metrics=['final_rates'])
+    alone = timed(lambda: run_campaign(tiny, scheduler='in-process', chunk_size=1))
+    result['cluster_overhead'] = (
+        timed(lambda: run_campaign(tiny, scheduler='local', chunk_size=1)) - alone
+    )
+    return result
+
+
+def report_switch(report, rounds: list[dict]) -> None:
+    """Add the switch's tables: each case with each engine, and what the default picked."""
+    from torquefree_ros.campaigns import engine, load_campaign
+
+    workers = engine.expected_workers('local', None)
+    startup = engine.LOCAL_CLUSTER_STARTUP
+    report.add('')
+    report.add(
+        "The default engine's switch (`engine.choose_engine`): the first chunk runs in this "
+        'process, timed; the rest goes to a local cluster of a worker per core '
+        f'({workers} here) only when its estimated compute C exceeds `LOCAL_CLUSTER_STARTUP` '
+        f'({startup:g} s) + C / {workers}, that is C > {startup * workers / max(workers - 1, 1):g}'
+        f' s here. Each campaign is `dzhanibekov_rates` at {RATE:g} Hz; the local cluster is '
+        'started and closed within its time, as a campaign does.'
+    )
+    for where, title in (
+        (
+            'api',
+            'In this process (`run_campaign`, kernels loaded beforehand, no output directory):',
+        ),
+        (
+            'cli',
+            'From the command line in a fresh process (`torquefree_campaign run FILE --output '
+            'DIR`, end to end: the interpreter, imports, the campaign and its files):',
+        ),
+    ):
+        report.add('')
+        report.add(title)
+        report.add('')
+        report.add('| campaign | in-process | local cluster | default | the default picked |')
+        report.add('|---|---|---|---|---|')
+        for runs, duration in SWITCH_CASES:
+            samples = load_campaign(dict(torque_free_campaign(runs), duration=duration)).samples
+
+            def cell(engine, runs=runs, duration=duration):
+                values = [r[(where, runs, duration, engine)] for r in rounds]
+                speeds = spread([runs / value for value in values])
+                return f'{spread(values)} s ({speeds} runs/s)'
+
+            picked = {r[(f'{where}-picked', runs, duration)] for r in rounds}
+            report.add(
+                f'| {runs:,} runs of {samples:,} samples | {cell("in-process")} | '
+                f'{cell("local")} | {cell("default")} | {"; ".join(sorted(picked))} |'
+            )
+    report.add('')
+    report.add(
+        "A local cluster's start-up, its workers' first imports and kernels and its close, "
+        'measured (a campaign of two one-run chunks on a local cluster, less the same in this '
+        f'process): {spread([r["cluster_overhead"] for r in rounds])} s, beside '
+        f'`engine.LOCAL_CLUSTER_STARTUP` = {startup:g} s.'
+    )
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--output', help='write the report here (Markdown)')
     parser.add_argument('--rounds', type=int, default=3)
+    parser.add_argument(
+        '--switch-only',
+        action='store_true',
+        help="measure the default engine's switch alone (both sides of it)",
+    )
     args = parser.parse_args(argv)
 
     import dask
@@ -322,10 +448,20 @@ def main(argv=None) -> int:
     load = ' '.join(f'{x:.2f}' for x in os.getloadavg())
     report.add(f'- load average when it started: {load} (the cores are shared)')
     report.add('')
-    report.add(
+    rounds_line = (
         f'{args.rounds} round{"s" if args.rounds != 1 else ""}; each figure is the median '
-        '(min–max) over the rounds (wall time unless it says CPU), the ratios taken within each '
-        f'round. Torque-free: `dzhanibekov_rates` with {RUNS:,} runs of {DURATION:g} s at '
+        '(min–max) over the rounds (wall time unless it says CPU)'
+    )
+    if args.switch_only:
+        report.add(rounds_line + '.')
+        with tempfile.TemporaryDirectory(prefix='bench_campaign_') as temporary:
+            switches = [switch_round(Path(temporary)) for _ in range(args.rounds)]
+        report_switch(report, switches)
+        report.save(args.output)
+        return 0
+    report.add(
+        rounds_line + ', the ratios taken within each round. Torque-free: `dzhanibekov_rates` '
+        f'with {RUNS:,} runs of {DURATION:g} s at '
         f'{RATE:g} Hz ({campaign.samples:,} samples a run; metrics '
         f'{", ".join(use.metric.name for use in campaign.metrics)}), written to a directory '
         '(part files, then `runs.parquet`) on a local cluster started and warmed before the '
@@ -338,6 +474,7 @@ def main(argv=None) -> int:
         directory = Path(temporary)
         try:
             rounds = [measure_round(directory) for _ in range(args.rounds)]
+            switches = [switch_round(directory) for _ in range(args.rounds)]
             memory = rounds[-1]['memory']
             for workers in (1, 2):
                 cluster, client, up, first = start_cluster(workers)
@@ -466,6 +603,7 @@ def main(argv=None) -> int:
             f'| worker {index} of 2 after a campaign: RSS (peak) | '
             f'{rss:.0f} MiB ({peak:.0f} MiB) |'
         )
+    report_switch(report, switches)
     report.save(args.output)
     return 0
 

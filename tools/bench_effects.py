@@ -23,7 +23,7 @@ accuracy / 100, what ``auto`` builds), the CPU time (``time.process_time``) per 
 a 100 Hz output, side by side in one process:
 
 - **compiled**: the default path (numba kernels, ``core/integrators``);
-- **reference**: the same propagator with ``compiled.ENABLED = False`` (scipy's DOP853, Python
+- **reference**: the same propagator with ``kernels.ENABLED = False`` (scipy's DOP853, Python
   right-hand side; what ``TORQUEFREE_ROS_KERNELS=numpy`` selects);
 - **cyrk**: the ``cyrk`` library's C++ DOP853 (``nbsolve2_ivp``, its numba entry point) on a numba
   ``cfunc`` right-hand side that calls ``motion_kernels.derivative`` (the compiled path's own), at
@@ -74,6 +74,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from bench_report import fastest as fastest_of  # noqa: E402
 from bench_report import Report, spread  # noqa: E402
+from torquefree_ros.core.numerics import kernels as switch  # noqa: E402
 
 RATE = 100.0  # Hz
 TIGHT_RTOL, TIGHT_ATOL = 1e-13, 1e-15
@@ -129,7 +130,7 @@ def _cases() -> list[Case]:
     import numpy as np
     from torquefree_ros import load_scene
     from torquefree_ros.core.propagators import ATOL_PER_RTOL, DEFAULT_ACCURACY
-    from torquefree_ros.core.scene import scene_from_mapping
+    from torquefree_ros.core.scene.loader import scene_from_mapping
 
     def case(name, effect, scene, duration, rtol=None):
         rtol = rtol if rtol is not None else (scene.accuracy or DEFAULT_ACCURACY)
@@ -178,7 +179,7 @@ def _cyrk_setup():
     from CyRK.nb.numba_solver import cyjit_sig
     from numba import carray
     import numba as nb
-    from torquefree_ros.core.integrators import motion_kernels
+    from torquefree_ros.core.compiled import motion_kernels
 
     motion_kernels.compile_kernels()
     derivative = motion_kernels.derivative
@@ -218,13 +219,13 @@ def _cyrk_run(case: Case, times=None):
     model, then cyrk piece by piece.
     """
     import numpy as np
-    from torquefree_ros.core.integrators import compiled
+    from torquefree_ros.core.compiled import drivers
 
     cy = _CYRK
-    compiled.ENABLED = False
+    switch.ENABLED = False
     p = case.propagator()
     dynamics = p.dynamics
-    model = compiled.build_model(dynamics)
+    model = drivers.build_model(dynamics)
     y = np.concatenate([p.omega0_B, p.q0_NB, p.x0])
     n = y.size
     args = np.empty(11 + model.size)
@@ -237,7 +238,7 @@ def _cyrk_run(case: Case, times=None):
         t1 = min(dynamics.next_breakpoint(t0), float(times[-1]))
         # a sample on the breakpoint ends this piece
         last = int(np.searchsorted(times, t1, side='right'))
-        compiled.held_torques(dynamics, t0, args[5:11])
+        drivers.held_torques(dynamics, t0, args[5:11])
         status, taken = cy['solve'](
             cy['address'],
             t0,
@@ -267,9 +268,7 @@ def _cyrk_run(case: Case, times=None):
 
 
 def _ours(case: Case, path: str):
-    from torquefree_ros.core.integrators import compiled
-
-    compiled.ENABLED = path == 'compiled'
+    switch.ENABLED = path == 'compiled'
     p = case.propagator()
     if p.compiled != (path == 'compiled'):
         raise AssertionError(f'{case.name}: asked for the {path} path, got compiled={p.compiled}')
@@ -286,7 +285,7 @@ def _run(case: Case, path: str):
 
 def _errors(case: Case, w, q) -> tuple[float, float]:
     import numpy as np
-    from torquefree_ros.core import quaternion
+    from torquefree_ros.core.frames import quaternion
 
     w_ref, q_ref = case.reference
     return (
@@ -301,11 +300,9 @@ def _tight_references(cases: list[Case]) -> None:
 
     And the compiled path there beside it, in ``case.floor`` (how far the error measure can see).
     """
-    from torquefree_ros.core.integrators import compiled
-
     for case in cases:
         for path in ('reference', 'compiled'):
-            compiled.ENABLED = path == 'compiled'
+            switch.ENABLED = path == 'compiled'
             p = case.scene.propagator('dop853', rtol=TIGHT_RTOL, atol=TIGHT_ATOL)
             w, q, _ = p.states(case.times)
             if path == 'reference':
@@ -363,14 +360,14 @@ def _diagnostics(cases: list[Case], calls: int) -> dict:
     from CyRK import pysolve_ivp
     import numpy as np
     from scipy.integrate import solve_ivp
-    from torquefree_ros.core.integrators import compiled, motion_kernels
+    from torquefree_ros.core.compiled import drivers, motion_kernels
 
     def fastest(function):
         return fastest_of(function, calls, time.process_time)
 
     rows = {}
     for case in cases:
-        compiled.ENABLED = True
+        switch.ENABLED = True
         build = evaluate = total = float('inf')
         for _ in range(calls):
             started = time.process_time()
@@ -395,7 +392,7 @@ def _diagnostics(cases: list[Case], calls: int) -> dict:
         cyrk_stepping = fastest(lambda: _cyrk_run(case, stops))
         _, _, cyrk_steps = _cyrk_run(case)
 
-        model = compiled.build_model(p.dynamics)
+        model = drivers.build_model(p.dynamics)
         held = np.zeros(6)
 
         def f(t, y):
@@ -415,7 +412,7 @@ def _diagnostics(cases: list[Case], calls: int) -> dict:
         y_cyrk = y.copy()
         while t0 < end:
             t1 = min(p.dynamics.next_breakpoint(t0), end)
-            compiled.held_torques(p.dynamics, t0, held)
+            drivers.held_torques(p.dynamics, t0, held)
             sol = solve_ivp(f, (t0, t1), y, method='DOP853', rtol=case.rtol, atol=case.atol)
             steps += sol.t.size - 1
             evaluations += sol.nfev
@@ -442,7 +439,7 @@ def _diagnostics(cases: list[Case], calls: int) -> dict:
             'kernel_output_ns': (evaluate - kernel_stepping) / samples * 1e9,
             'cyrk_output_ns': (cyrk_all - cyrk_stepping) / samples * 1e9,
         }
-    compiled.ENABLED = True
+    switch.ENABLED = True
     return rows
 
 
@@ -703,9 +700,7 @@ def main() -> int:
     parser.add_argument('--output', help='also write the report to this Markdown file')
     args = parser.parse_args()
 
-    from torquefree_ros.core.integrators import compiled
-
-    if not compiled.AVAILABLE:
+    if not switch.AVAILABLE:
         raise SystemExit('numba is not installed: there is no compiled path to measure')
     if importlib.util.find_spec('CyRK') is None:
         raise SystemExit(f'cyrk is not installed: {sys.executable} -m pip install cyrk==0.20.0')
@@ -739,7 +734,7 @@ def main() -> int:
         "DOP853 with scipy's tableau and step control."
     )
     report.add(
-        '- **reference**: the same propagator with `compiled.ENABLED = False` (= '
+        '- **reference**: the same propagator with `kernels.ENABLED = False` (= '
         "`TORQUEFREE_ROS_KERNELS=numpy`): scipy's `DOP853` stepping on the Python right-hand side "
         '`Dynamics.derivative`.'
     )

@@ -33,7 +33,7 @@ Then ``propagate_batch`` for 1 000 dispersed bodies x 100 samples, per body-samp
 body's stream of 100 000 samples and against the loop of ``propagate`` calls a user would write.
 
 Everything twice when numba is installed: the exact attitude compiled (the ``fast`` extra, what
-propagators use then) and with numpy (``attitude_kernels.ENABLED`` switched in the same process);
+propagators use then) and with numpy (``switch.ENABLED`` switched in the same process);
 and the kernels' first call in a new process, compiling them and loading them from numba's cache.
 
 Each timing is the fastest of several calls (the least disturbed by a shared machine); a round
@@ -54,15 +54,14 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from bench_report import fastest, Report, spread  # noqa: E402
+from torquefree_ros.core.numerics import kernels as switch  # noqa: E402
 
 BLOCK, SMALL_BLOCK = 10_000, 256
 BODIES, BODY_SAMPLES = 1_000, 100
 
 
 def _use(path: str) -> None:
-    from torquefree_ros.core import attitude_kernels
-
-    attitude_kernels.ENABLED = path == 'compiled'
+    switch.ENABLED = path == 'compiled'
 
 
 def _first_call_s(cache_dir: str) -> float:
@@ -162,11 +161,10 @@ def main() -> int:
     import json
 
     from torquefree_ros.bench.cases import load_cases, REFERENCE_FILE
-    from torquefree_ros.core import attitude_kernels
 
     names = [case['name'] for case in json.loads(REFERENCE_FILE.read_text())['cases']]
     cases = load_cases(names)
-    paths = ('compiled', 'numpy') if attitude_kernels.ENABLED else ('numpy',)
+    paths = ('compiled', 'numpy') if switch.ENABLED else ('numpy',)
     started = time.monotonic()
     rounds = {(path, case.name): [] for path in paths for case in cases}
     batch = {path: [] for path in paths}

@@ -195,7 +195,7 @@ def step_costs(steps: int = 2000) -> dict:
     from rclpy.qos import QoSProfile, ReliabilityPolicy
     from torquefree_ros import load_scene
     from torquefree_ros.bag.samples import encode_block, encode_leading, encode_trailing
-    from torquefree_ros.core.simulation import Simulation
+    from torquefree_ros.core.run.simulation import Simulation
 
     scene = load_scene('detumble')
     simulation = Simulation(scene.propagator(), 100.0, outputs=scene.outputs)

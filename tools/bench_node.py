@@ -175,8 +175,8 @@ def message_object_cost(samples: int = 20000) -> float:
     from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
     import rclpy
     from rosgraph_msgs.msg import Clock
-    from torquefree_ros.core.scene import default_scene
-    from torquefree_ros.core.simulation import Simulation
+    from torquefree_ros.core.scene.loader import default_scene
+    from torquefree_ros.core.run.simulation import Simulation
 
     block = Simulation(default_scene().propagator(), 100.0).samples(0, samples)
     context = rclpy.Context()

@@ -49,7 +49,7 @@ LONE = 20  # of the dispersed explorer1 bodies, each run alone: the per-body ref
 
 
 def _commanded_scene(inertia, omega):
-    from torquefree_ros.core.scene import scene_from_mapping
+    from torquefree_ros.core.scene.loader import scene_from_mapping
 
     return scene_from_mapping(
         {

@@ -22,7 +22,8 @@ float64 floor of each sample.
 Independence: the reference integrates Euler's equations in the principal frame and
 ``q' = 1/2 q ⊗ (w, 0)`` with a Taylor-series method in mpmath (45 significant digits, order 40,
 step at most a fifth of the estimated radius of convergence so the truncation is below 1e-27). It
-shares nothing with the closed form in ``torquefree_ros.core.polhode`` but the equations of motion.
+shares nothing with the closed form in ``torquefree_ros.core.exact.polhode`` but the equations of
+motion.
 
 The floor of a sample is what float64 itself allows: the change of the exact solution when an input
 moves by one rounding unit (2**-53 relative). Each of the six dynamic inputs (moments, rates) is

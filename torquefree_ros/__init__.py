@@ -19,10 +19,10 @@ Importing the package does not import rclpy: the dynamics core is usable without
 """
 
 from .core import make_propagator, MotionRegime, propagate, propagate_batch, PROPAGATORS, RigidBody
-from .core.scene import load_scene, Scene, SceneError
+from .core.scene.loader import load_scene, Scene, SceneError
 from .plant import Plant, PlantState
+from .version import __version__
 
-__version__ = '0.1.0'
 __all__ = [
     'PROPAGATORS',
     'MotionRegime',

@@ -37,8 +37,8 @@ import numpy as np
 from .bag.cdr import decode_stamped_doubles
 from .bag.reader import bag_information, BagReader
 from .bag.samples import INERTIA_KEY
-from .core.rigid_body import RigidBody
-from .core.simulation import Simulation
+from .core.body.rigid_body import RigidBody
+from .core.run.simulation import Simulation
 
 MAX_SAMPLES = 200_000
 

@@ -19,9 +19,10 @@ No rclpy import: the offline tools write bags without DDS.
 """
 
 from .definitions import DefinitionError, message_definition, MessageDefinition
+from .files import BagError
 from .qos import BagQos
-from .reader import BagMessage, BagReader, BagTopic, reindex
-from .writer import BagError, BagWriter
+from .reader import BagMessage, BagReader, BagTopic
+from .writer import BagWriter, reindex
 
 __all__ = [
     'BagError',

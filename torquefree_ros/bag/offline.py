@@ -44,9 +44,9 @@ from .samples import (
     SampleRecorder,
 )
 from .writer import BagError, BagWriter
-from ..core.simulation import MAX_STAMP_S, Simulation
-from ..core.timing import sample_count
-from ..core.validation import finite_vector
+from ..core.checks.validation import finite_vector
+from ..core.run.simulation import MAX_STAMP_S, Simulation
+from ..core.timing.grid import sample_count
 
 WRENCH_STAMPED = 'geometry_msgs/msg/WrenchStamped'
 

@@ -30,7 +30,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 import os
 from pathlib import Path
-import shutil
 import struct
 from typing import Iterator, NamedTuple
 import zlib
@@ -42,10 +41,10 @@ from mcap.stream_reader import CRCValidationError, StreamReader
 from mcap.writer import MCAP0_MAGIC
 
 from .definitions import MessageDefinition
-from .metadata import BagMetadata, METADATA_FILE, metadata_file_text, TopicRecord
+from .files import BagError
+from .metadata import METADATA_FILE
 from .qos import BagQos
-from .writer import BagError, BagWriter, write_atomically
-from ..core.safe_files import check_regular_file, clip, load_yaml, read_regular_file
+from ..files.safe_files import check_regular_file, clip, load_yaml, read_regular_file
 
 
 @dataclass
@@ -423,80 +422,3 @@ class BagReader:
             self.damage = (
                 f'{type(error).__name__} at byte {stream.tell():,}: {clip(str(error), 100)}'
             )
-
-
-class Reindexed(NamedTuple):
-    metadata: BagMetadata
-    damage: str  # where the file was damaged and what was lost; "" when nothing was
-    repaired: str = ''  # damage that lost no message, now repaired; "" when there was none
-
-
-def reindex(path) -> Reindexed:
-    """
-    Make a bag whose recorder died or whose file was damaged complete again.
-
-    A recorder that died leaves no summary, maybe a cut-off chunk. The readable messages are
-    copied, with their schemas, QoS and times, into a complete MCAP file that replaces the old one,
-    and ``metadata.yaml`` is written. A complete, undamaged bag (every CRC is checked) only gets
-    ``metadata.yaml``.
-    """
-    bag = Path(path)
-    reader = BagReader(bag)
-    damage = ''
-    repaired = reader.repairable
-    if reader.complete:
-        try:
-            for _ in reader.messages():
-                pass
-        except BagError as error:
-            damage = str(error)
-        if not damage:
-            repaired = reader.check_data_section()
-    if reader.complete and not damage and not repaired:
-        metadata = BagMetadata(reader.file_path.name)
-        for topic in reader.topics:
-            metadata.topics.append(
-                TopicRecord(
-                    topic.name,
-                    topic.type_name,
-                    topic.offered_qos_profiles,
-                    topic.type_description_hash,
-                    message_count=topic.message_count,
-                )
-            )
-        if reader.span_ns is not None:
-            metadata.first_time_ns, metadata.last_time_ns = reader.span_ns
-        write_atomically(bag / METADATA_FILE, metadata_file_text(metadata))
-        return Reindexed(metadata, '')
-    if damage:
-        reader = BagReader(bag, scan=True)
-    if reader.file_path.parent != bag:
-        raise BagError(f"bag '{bag}': give the bag directory to reindex, not the file")
-    staging = bag.parent / f'.{bag.name}.reindex'
-    try:
-        with BagWriter(staging, overwrite=True, file_name=reader.file_path.name) as writer:
-            channels = {
-                topic.name: writer.add_topic(
-                    topic.name, topic.type_name, topic.offered_qos_profiles, topic.definition
-                )
-                for topic in reader.topics
-            }
-            for message in reader.messages():
-                writer.write(
-                    channels[message.topic],
-                    message.log_time_ns,
-                    message.data,
-                    message.publish_time_ns,
-                )
-    except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)  # the original file is untouched
-        raise
-    os.replace(staging / reader.file_path.name, reader.file_path)
-    os.replace(staging / METADATA_FILE, bag / METADATA_FILE)
-    staging.rmdir()
-    if reader.damage:
-        damage = (
-            f'damaged ({reader.damage}): {writer.metadata.message_count} messages before it '
-            'were kept, everything after it is lost'
-        )
-    return Reindexed(writer.metadata, damage, '' if damage else repaired or reader.repairable)

@@ -29,8 +29,9 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from .cdr import encode_odometry, encode_stamped_doubles, encode_times, encode_transforms
-from .markers import body_offset, encode_markers
+from .cdr import encode_stamped_doubles, encode_times
+from .layouts import LAYOUTS
+from .markers import body_offset
 from .qos import BagQos
 from .writer import BagWriter
 
@@ -69,7 +70,7 @@ def encode_block(
     block, body_frame: str, inertial_frame: str, outputs=(), clock: bool = False, position=None
 ) -> tuple:
     """
-    Encode a :class:`~torquefree_ros.core.simulation.SampleBlock`'s messages, a column per topic.
+    Encode a :class:`~torquefree_ros.core.run.simulation.SampleBlock`'s messages, a column a topic.
 
     The columns are in publishing order: :func:`encode_leading` then :func:`encode_trailing`.
     ``outputs``: the simulation's output effects (their rows are in the block). ``position`` (x,
@@ -87,7 +88,7 @@ def encode_leading(block, body_frame: str, clock: bool = False) -> tuple:
     Encode the columns that go out first: ``/clock`` (when ``clock``), then ``angular_velocity``.
 
     Apart so that a closed loop publishes the rates its controller answers before it computes
-    and encodes the rest (:meth:`~torquefree_ros.core.simulation.Simulation.with_outputs`).
+    and encodes the rest (:meth:`~torquefree_ros.core.run.simulation.Simulation.with_outputs`).
     """
     stamps = block.stamps_ns
     rates = SampleColumn(
@@ -134,14 +135,7 @@ def _encode_output(
         rows = rows.copy()
         # these rows start with the body's position (zero: the core moves no body)
         rows[:, 0:3] = place
-    if output.layout == 'transform':  # parent: the output's frame; child: the body
-        return encode_transforms(stamps, frame, body_frame, rows)
-    # header.frame_id: the output's frame; child_frame_id: the body
-    if output.layout == 'odometry':
-        return encode_odometry(stamps, frame, body_frame, rows)
-    if output.layout == 'markers':
-        return encode_markers(stamps, frame, rows, place)
-    return encode_stamped_doubles(stamps, frame, rows)
+    return LAYOUTS[output.layout](stamps, frame, body_frame, rows, place)
 
 
 def encode_command(command) -> bytes:

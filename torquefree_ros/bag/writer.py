@@ -34,15 +34,18 @@ import os
 from pathlib import Path
 import shutil
 import time
+from typing import NamedTuple
 
 from mcap.writer import CompressionType, Writer
 import numpy as np
 
 from . import bulk
 from .definitions import DefinitionError, message_definition, MessageDefinition
+from .files import BagError, mcap_file_name, prepare_bag_directory, write_atomically
 from .metadata import BagMetadata, dump, METADATA_FILE, metadata_file_text, TopicRecord
 from .qos import BagQos
-from .. import __version__
+from .reader import BagReader
+from ..version import __version__
 
 CHUNK_BYTES = 1024 * 1024
 # a batch of at least this many messages goes in through ``bulk`` (numpy); fewer, one by one
@@ -50,64 +53,6 @@ BULK_MESSAGES = 64
 CHUNK_SECONDS = 1.0
 COMPRESSIONS = {'none': CompressionType.NONE, 'zstd': CompressionType.ZSTD}
 LIBRARY = f'torquefree_ros {__version__} (python mcap writer, rosbag2_storage_mcap layout)'
-
-
-class BagError(RuntimeError):
-    """A bag that cannot be created, written or read; the message names the path and the reason."""
-
-
-def mcap_file_name(bag_dir: Path) -> str:
-    """rosbag2's name for the first (only) storage file of a bag directory."""
-    return f'{bag_dir.name}_0.mcap'
-
-
-def prepare_bag_directory(path, overwrite: bool = False) -> Path:
-    """
-    Check that a bag can be created at ``path`` and create its (empty) directory.
-
-    An existing path is refused unless ``overwrite``; even then only a bag directory
-    (``metadata.yaml`` and ``.mcap`` files) is replaced, never another directory or a file.
-    """
-    path = Path(path)
-    if not path.name or path.name in ('.', '..'):
-        raise BagError(f"bag '{path}': give a directory name for the bag")
-    try:
-        exists = path.exists() or path.is_symlink()
-    except OSError as error:  # a name too long for the file system
-        raise BagError(
-            f"bag '{str(path)[:120]}…': cannot be created: {error.strerror or error}"
-        ) from None
-    if exists:
-        if not overwrite:
-            raise BagError(
-                f"bag '{path}': already exists; choose another name or overwrite it explicitly"
-            )
-        if not _is_bag_directory(path):
-            raise BagError(
-                f"bag '{path}': exists and is not a bag directory (only metadata.yaml and .mcap "
-                f'files), so it is not overwritten'
-            )
-        shutil.rmtree(path)
-    try:
-        path.mkdir(parents=True)
-    except OSError as error:
-        raise BagError(
-            f"bag '{path}': cannot create the directory: {error.strerror or error}"
-        ) from None
-    if not os.access(path, os.W_OK | os.X_OK):
-        path.rmdir()
-        raise BagError(f"bag '{path}': the directory is not writable")
-    return path
-
-
-def _is_bag_directory(path: Path) -> bool:
-    if not path.is_dir() or path.is_symlink():
-        return False
-    entries = list(path.iterdir())
-    return bool(entries) and all(
-        entry.is_file() and (entry.name == METADATA_FILE or entry.suffix == '.mcap')
-        for entry in entries
-    )
 
 
 class BagWriter:
@@ -335,8 +280,6 @@ class BagWriter:
             self._stream.close()
         except OSError:
             pass  # the buffered tail is lost; the chunks already in the file stay readable
-        from .reader import reindex  # noqa: PLC0415 - only on this failure path
-
         try:
             reindex(self.path)
         except (BagError, OSError) as error:
@@ -381,7 +324,78 @@ class BagWriter:
 _REPAIR = 'free some space, then run `torquefree_bag --reindex {}` to make it a complete bag'
 
 
-def write_atomically(path: Path, text: str) -> None:
-    temporary = path.with_name(path.name + '.tmp')
-    temporary.write_text(text, encoding='utf-8')
-    os.replace(temporary, path)
+class Reindexed(NamedTuple):
+    metadata: BagMetadata
+    damage: str  # where the file was damaged and what was lost; "" when nothing was
+    repaired: str = ''  # damage that lost no message, now repaired; "" when there was none
+
+
+def reindex(path) -> Reindexed:
+    """
+    Make a bag whose recorder died or whose file was damaged complete again.
+
+    A recorder that died leaves no summary, maybe a cut-off chunk. The readable messages are
+    copied, with their schemas, QoS and times, into a complete MCAP file that replaces the old one,
+    and ``metadata.yaml`` is written. A complete, undamaged bag (every CRC is checked) only gets
+    ``metadata.yaml``.
+    """
+    bag = Path(path)
+    reader = BagReader(bag)
+    damage = ''
+    repaired = reader.repairable
+    if reader.complete:
+        try:
+            for _ in reader.messages():
+                pass
+        except BagError as error:
+            damage = str(error)
+        if not damage:
+            repaired = reader.check_data_section()
+    if reader.complete and not damage and not repaired:
+        metadata = BagMetadata(reader.file_path.name)
+        for topic in reader.topics:
+            metadata.topics.append(
+                TopicRecord(
+                    topic.name,
+                    topic.type_name,
+                    topic.offered_qos_profiles,
+                    topic.type_description_hash,
+                    message_count=topic.message_count,
+                )
+            )
+        if reader.span_ns is not None:
+            metadata.first_time_ns, metadata.last_time_ns = reader.span_ns
+        write_atomically(bag / METADATA_FILE, metadata_file_text(metadata))
+        return Reindexed(metadata, '')
+    if damage:
+        reader = BagReader(bag, scan=True)
+    if reader.file_path.parent != bag:
+        raise BagError(f"bag '{bag}': give the bag directory to reindex, not the file")
+    staging = bag.parent / f'.{bag.name}.reindex'
+    try:
+        with BagWriter(staging, overwrite=True, file_name=reader.file_path.name) as writer:
+            channels = {
+                topic.name: writer.add_topic(
+                    topic.name, topic.type_name, topic.offered_qos_profiles, topic.definition
+                )
+                for topic in reader.topics
+            }
+            for message in reader.messages():
+                writer.write(
+                    channels[message.topic],
+                    message.log_time_ns,
+                    message.data,
+                    message.publish_time_ns,
+                )
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)  # the original file is untouched
+        raise
+    os.replace(staging / reader.file_path.name, reader.file_path)
+    os.replace(staging / METADATA_FILE, bag / METADATA_FILE)
+    staging.rmdir()
+    if reader.damage:
+        damage = (
+            f'damaged ({reader.damage}): {writer.metadata.message_count} messages before it '
+            'were kept, everything after it is lost'
+        )
+    return Reindexed(writer.metadata, damage, '' if damage else repaired or reader.repairable)

@@ -31,10 +31,10 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from .cases import Case
+from ..core.body.rigid_body import RigidBody
 from ..core.propagators import ATOL_PER_RTOL, make_propagator, PROPAGATORS
 from ..core.propagators.dynamics import Dynamics
 from ..core.propagators.numerical import FixedStepPropagator
-from ..core.rigid_body import RigidBody
 
 #: relative tolerances of the adaptive methods (``atol = rtol * ATOL_PER_RTOL``, as ``auto`` uses)
 TOLERANCES = (1e-4, 1e-6, 1e-8, 1e-10, 1e-12, 1e-13)

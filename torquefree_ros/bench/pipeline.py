@@ -38,8 +38,8 @@ def sample_costs(samples: int = 20000) -> dict:
     from ..bag import BagWriter
     from ..bag.cdr import encode_times
     from ..bag.samples import encode_block, SampleRecorder
-    from ..core.scene import default_scene
-    from ..core.simulation import Simulation
+    from ..core.scene.loader import default_scene
+    from ..core.run.simulation import Simulation
 
     simulation = Simulation(default_scene().propagator(), RATE)
     t0 = time.process_time()

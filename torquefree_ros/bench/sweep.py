@@ -34,8 +34,8 @@ import numpy as np
 
 from .cases import Case
 from .methods import Method, OUTPUT_PERIOD
-from ..core.accuracy import trajectory_errors
 from ..core.propagators import make_propagator
+from ..core.run.accuracy import trajectory_errors
 
 WINDOW_LIMITS = (1.0, 100.0)  # s
 #: a sweep stops tightening a method on a case once a run takes longer than this (CPU s)

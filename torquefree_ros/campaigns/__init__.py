@@ -21,17 +21,18 @@ The room, in the order a campaign flows through it:
   the field path): the base scene, the runs, the seed, the time grid, the dispersions, what to do
   with an impossible body, the metrics.
 * :mod:`.dispersions` — **dispersions** (Basilisk's vocabulary): per target of the scene (the
-  body's moments or tensor, the initial rate per axis, the attitude, any number parameter of an
-  effect), a mode (relative, absolute, replace) and a distribution (normal, uniform, truncated
-  normal, a list of values for a sweep). Run ``i`` draws from ``SeedSequence(seed).spawn(runs)[i]``
-  only.
+  body's moments or tensor, the initial rate, the attitude, any number or vector of an effect by
+  its path, list items by index), a mode (relative, absolute, replace) and a distribution (normal,
+  uniform, truncated normal, a list of values for a sweep); a vector per component or as a whole
+  (its direction turned within a cone or by a small rotation, its magnitude dispersed). Run ``i``
+  draws from ``SeedSequence(seed).spawn(runs)[i]`` only.
 * :mod:`.metrics` — **metrics**: what a run keeps (final rates, settle time, cone angle, flips,
   energy and momentum drift, attitude error from the nominal run), one registry and a decorator
   (:func:`metric`) for adding one as a Python function.
 * :mod:`.engine` — the **engine**: chunks of runs through the batch paths (``propagate_batch``, the
-  batched ``Plant``), in this process or on Dask workers (a local cluster by default, or an
-  existing cluster by address); a run that fails is a row with its reason, never the end of the
-  campaign.
+  batched ``Plant``), in this process or on Dask workers (by default whichever finishes first:
+  the first chunk timed here against a local cluster's start-up; or an existing cluster by
+  address); a run that fails is a row with its reason, never the end of the campaign.
 * :mod:`.results` — **results**: one table (pyarrow, written as Parquet), a row per run with its
   drawn inputs, metrics and status, and the campaign file and versions in its metadata.
 
@@ -63,20 +64,26 @@ def run_campaign(
     overwrite: bool = False,
     resume: bool = False,
     progress=None,
+    on_engine=None,
 ):
     """
     Run a campaign and return its table (``pyarrow.Table``, see :mod:`.results`).
 
     The campaign is a file, a library campaign's name, a mapping or a :class:`Campaign`.
 
-    ``scheduler``: ``None`` (a local cluster, or this process for a campaign of one chunk),
-    ``"in-process"``, ``"local"``, a Dask scheduler's address or a ``distributed.Client``;
-    ``workers``: the local cluster's worker processes (default: one per core); ``chunk_size``: runs
-    per chunk, a part file and a progress step (default: ``engine.chunk_runs``, by the number of
-    workers; the table does not depend on it; on Dask a task runs several consecutive chunks);
-    ``progress(done_runs, total_runs)``: called once
-    before the first chunk (``done_runs`` = the runs a resumed campaign already holds) and after
-    each chunk.
+    ``scheduler``: ``None`` (whichever finishes first, this process or a local cluster: the first
+    chunk is timed here, and the rest goes to a local cluster only when its estimated compute
+    outweighs the cluster's start-up, see ``engine.choose_engine``), ``"in-process"``,
+    ``"local"``, a Dask scheduler's address or a ``distributed.Client``; ``workers``: the local
+    cluster's worker processes (default: one per core); ``chunk_size``: runs per chunk, a part
+    file and a progress step (default: ``engine.chunk_runs``, by the number of workers; the table
+    does not depend on it; on Dask a task runs several consecutive chunks);
+    ``progress(done_runs, total_runs)``: called once before the first chunk (``done_runs`` = the
+    runs a resumed campaign already holds) and after each chunk; ``on_engine(choice)``: called
+    once, when the engine is settled, with an ``engine.EngineChoice`` (``engine``:
+    ``"in-process"``, ``"local"`` or ``"cluster"``; ``workers``; ``reason``; ``str(choice)`` says
+    it in a line); not called when nothing is left to compute. The table does not depend on the
+    engine.
 
     ``output``: a directory (see :mod:`.store`) that keeps each finished chunk as it completes and
     then the table as ``runs.parquet``. It must not hold a campaign yet, unless ``overwrite``
@@ -126,7 +133,7 @@ def run_campaign(
             progress(done, campaign.runs)
 
     if ranges:
-        execute(computed, ranges, scheduler, workers, finished)
+        execute(computed, ranges, scheduler, workers, finished, on_engine)
     if store:
         for start in store.parts:
             if start not in parts:

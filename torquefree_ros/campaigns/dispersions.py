@@ -28,13 +28,28 @@ A campaign file maps a **target** (a path into the scene) to a **dispersion**::
         - null
       initial.orientation: {small_rotation: {sigma: 0.01}}  # or {uniform: {}}: uniform on SO(3)
       effects[0].damper.damping: {relative: {truncated_normal: {sigma: 0.2, low: -0.5, high: 0.5}}}
+      effects[1].external_torque.torque:                    # a vector as a whole
+        direction: {cone: {half_angle: 0.05}}               # rad: uniform within the cone
+        magnitude: {relative: {normal: {sigma: 0.1}}}       # |torque|, a number
+      effects[2].external_torque.schedule[2].torque: {absolute: {normal: {sigma: 0.001}}}
 
 Targets: ``body.moments`` (principal moments; a scene given as a tensor keeps its principal axes),
 ``body.inertia`` (the scene's own 3 or 6 inertia numbers, each dispersed),
-``initial.angular_velocity`` (rad/s, body frame, per axis), ``initial.orientation`` and
-``effects[i].NAME.PARAMETER`` (a number parameter of the scene's ``i``-th effect, which must be
-``NAME``). A vector target takes one dispersion (every component, independently) or a list with one
-per component.
+``initial.angular_velocity`` (rad/s, body frame), ``initial.orientation``, and any number or list
+of numbers of an effect: ``effects[i].NAME.PARAMETER`` (the scene's ``i``-th effect, which must be
+``NAME``), followed by list items by index and mapping keys down to a number or a vector
+(``effects[0].external_torque.schedule[2].torque``, ``effects[0].external_torque.torque[1]``,
+``effects[0].rotor.axis``).
+
+A **vector** takes one dispersion (every component, independently), a list with one per component
+(``null``: that component kept), or, for a vector in space (``initial.angular_velocity``, a
+3-vector of an effect), a dispersion of the vector **as a whole**: ``direction`` (the vector
+turned, its magnitude kept) and ``magnitude`` (``|v|`` dispersed as a number, its direction kept),
+either or both. Directions: ``cone {half_angle}`` (rad, in [0, pi]: uniform on the cap of
+directions within ``half_angle`` of the nominal one) or ``small_rotation {sigma}`` (the attitude's:
+the vector turned by ``exp(w)``, ``w ~ N(0, sigma^2 I)`` rad). A whole-vector dispersion of a zero
+vector is refused (it has no direction); a run whose drawn magnitude is negative fails
+(``invalid_scene``, with the drawn value).
 
 Modes: ``relative`` (``x0 (1 + d)``), ``absolute`` (``x0 + d``), ``replace`` (``d``). Distributions
 of ``d``: ``normal {sigma, mean: 0}``, ``uniform {low, high}``,
@@ -48,7 +63,8 @@ away from the nominal run's.
 **Seeds.** Run ``i`` draws from ``Generator(PCG64(SeedSequence(seed, spawn_key=(i,))))``, which is
 ``SeedSequence(seed).spawn(runs)[i]``: a run's inputs depend only on ``(seed, i)``, never on chunks
 or workers. Within a run the targets draw in a fixed order: the non-body targets sorted by path,
-then the body (so that redrawing an impossible body does not move the other draws).
+then the body (so that redrawing an impossible body does not move the other draws); a vector's
+components in order; a whole vector its direction, then its magnitude.
 """
 
 from __future__ import annotations
@@ -61,8 +77,17 @@ import re
 import numpy as np
 from scipy import special
 
-from ..core import quaternion
-from ..core.schema import child, FieldError, fields, number, one_key, Param, shown
+from ..core.checks.schema import (
+    check_keys,
+    child,
+    FieldError,
+    fields,
+    number,
+    one_key,
+    Param,
+    shown,
+)
+from ..core.frames import quaternion
 
 MODES = ('relative', 'absolute', 'replace')
 
@@ -220,7 +245,31 @@ def parse_dispersion(value, path, *, nominal_known: bool = True) -> Dispersion:
     return Dispersion(mode, parse_distribution(distribution, child(path, mode)))
 
 
+class RefusedDraw(ValueError):
+    """A draw that makes no run (a negative magnitude): the drawn values and the reason."""
+
+    def __init__(self, values: np.ndarray, reason: str):
+        super().__init__(reason)
+        self.values, self.reason = values, reason
+
+
 # -- targets --------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class NumberTarget:
+    """One number: its dispersion of the nominal (``None`` when the scene gives none)."""
+
+    path: str
+    nominal: float | None
+    dispersion: Dispersion
+
+    @property
+    def columns(self) -> tuple:
+        return (self.path,)
+
+    def draw(self, rng, run) -> np.ndarray:
+        return np.array([self.dispersion.draw(self.nominal, rng, run)])
+
+
 @dataclass(frozen=True)
 class VectorTarget:
     """A vector of numbers, each component with its own dispersion or none."""
@@ -240,6 +289,65 @@ class VectorTarget:
                 for x0, d in zip(self.nominal, self.dispersions)
             ]
         )
+
+
+@dataclass(frozen=True)
+class Direction:
+    """How a whole vector's direction is turned: ``cone`` (half-angle) or ``small_rotation``."""
+
+    kind: str  # cone | small_rotation
+    angle: float  # rad: the cone's half-angle, or the rotation vector's sigma
+
+    def turn(self, unit: np.ndarray, rng) -> np.ndarray:
+        """Return the unit vector ``unit`` turned by a drawn rotation."""
+        if self.kind == 'small_rotation':
+            rotation = quaternion.exp_rotation(self.angle * rng.standard_normal(3))
+            turned = quaternion.rotate(rotation, unit)
+            return turned / math.sqrt(float(turned @ turned))
+        # uniform on the cap: the cosine of the angle from the axis is uniform on [cos A, 1]
+        cosine = 1.0 - float(rng.random()) * (1.0 - math.cos(self.angle))
+        azimuth = 2.0 * math.pi * float(rng.random())
+        sine = math.sqrt(max(0.0, 1.0 - cosine * cosine))
+        first, second = _normal_pair(unit)
+        turned = cosine * unit + sine * (math.cos(azimuth) * first + math.sin(azimuth) * second)
+        return turned / math.sqrt(float(turned @ turned))
+
+
+def _normal_pair(unit: np.ndarray) -> tuple:
+    """Two unit vectors normal to ``unit`` and to each other, a function of ``unit`` only."""
+    axis = np.zeros(3)
+    axis[int(np.argmin(np.abs(unit)))] = 1.0
+    first = quaternion.cross(unit, axis)
+    first = first / math.sqrt(float(first @ first))
+    return first, quaternion.cross(unit, first)
+
+
+@dataclass(frozen=True)
+class WholeVectorTarget:
+    """A 3-vector dispersed as a whole: its direction turned, its magnitude dispersed."""
+
+    path: str
+    nominal: tuple
+    direction: Direction | None
+    magnitude: Dispersion | None
+
+    @property
+    def columns(self) -> tuple:
+        return tuple(f'{self.path}[{k}]' for k in range(len(self.nominal)))
+
+    def draw(self, rng, run) -> np.ndarray:
+        nominal = np.asarray(self.nominal, dtype=float)
+        size = math.sqrt(float(nominal @ nominal))
+        unit = nominal / size
+        if self.direction is not None:
+            unit = self.direction.turn(unit, rng)
+        if self.magnitude is not None:
+            size = self.magnitude.draw(size, rng, run)
+        if size < 0.0:
+            raise RefusedDraw(
+                size * unit, f'{self.path}: the drawn magnitude must be >= 0, got {size:.6g}'
+            )
+        return size * unit
 
 
 @dataclass(frozen=True)
@@ -268,39 +376,79 @@ class OrientationTarget:
 
 @dataclass(frozen=True)
 class EffectTarget:
-    path: str  # effects[i].NAME.PARAMETER
+    """A number or a vector of an effect: where it sits in the scene, and how it is drawn."""
+
+    path: str  # effects[i].NAME.PARAMETER, then [k] and .KEY down to the dispersed value
     index: int
     effect: str
-    parameter: str
-    nominal: float | None
-    dispersion: Dispersion
+    keys: tuple  # the parameter, then the list indices and mapping keys down to the value
+    inner: NumberTarget | VectorTarget | WholeVectorTarget
+
+    @property
+    def parameter(self) -> str:
+        return self.keys[0]
 
     @property
     def columns(self) -> tuple:
-        return (self.path,)
+        return self.inner.columns
 
     def draw(self, rng, run) -> np.ndarray:
-        return np.array([self.dispersion.draw(self.nominal, rng, run)])
+        return self.inner.draw(rng, run)
+
+    def overlaps(self, other: EffectTarget) -> bool:
+        """Tell whether the two targets reach the same number (one holds the other)."""
+        shorter = min(len(self.keys), len(other.keys))
+        return self.index == other.index and self.keys[:shorter] == other.keys[:shorter]
+
+    def place(self, effects: list, values: np.ndarray) -> None:
+        """
+        Write drawn ``values`` into ``effects``, a run's own copy of the scene file's effects.
+
+        A number is written as a number, a vector as a list.
+        """
+        entry = effects[self.index]
+        parameters = entry[self.effect] = dict(entry[self.effect] or {})
+        holder = parameters
+        for key in self.keys[:-1]:
+            holder = holder[key]
+        holder[self.keys[-1]] = (
+            float(values[0])
+            if isinstance(self.inner, NumberTarget)
+            else [float(x) for x in values]
+        )
 
 
+_NAME = r'[A-Za-z_][A-Za-z0-9_]*'
 _EFFECT_PATH = re.compile(
-    r'^effects\[(\d+)\]\.([A-Za-z_][A-Za-z0-9_]*)\.([A-Za-z_][A-Za-z0-9_]*)$'
+    rf'^effects\[(\d+)\]\.({_NAME})\.({_NAME})((?:\[\d+\]|\.{_NAME})*)$'
 )
+_STEP = re.compile(rf'\[(\d+)\]|\.({_NAME})')
 TARGETS = (
     'body.moments',
     'body.inertia',
     'initial.angular_velocity',
     'initial.orientation',
-    'effects[i].NAME.PARAMETER',
+    'effects[i].NAME.PARAMETER (then [k] and .KEY down to a number or a list of numbers)',
 )
+WHOLE = ('direction', 'magnitude')
+_DIRECTIONS = {
+    'cone': Param(
+        number(minimum=0.0, maximum=math.pi, unit='rad'),
+        description="the cone's half-angle about the nominal direction, rad, in [0, pi]",
+    ),
+    'small_rotation': Param(
+        number(minimum=0.0, unit='rad'),
+        description='standard deviation of each rotation-vector component, rad',
+    ),
+}
+_DIRECTION_PARAMETER = {'cone': 'half_angle', 'small_rotation': 'sigma'}
 
 
 def parse_target(
     key, value, path: str, scene, document
-) -> VectorTarget | OrientationTarget | EffectTarget:
+) -> VectorTarget | WholeVectorTarget | OrientationTarget | EffectTarget:
     """Parse the dispersion of ``key`` in ``scene`` (its raw ``document`` names the effects)."""
-    from ..core.effects import EFFECTS
-    from ..core.rigid_body import RigidBody
+    from ..core.body.rigid_body import RigidBody
 
     if key in ('body.moments', 'body.inertia'):
         nominal = (
@@ -308,11 +456,11 @@ def parse_target(
             if key == 'body.moments'
             else scene.inertia
         )
-        return VectorTarget(
-            key, tuple(float(x) for x in nominal), _per_component(value, path, len(nominal))
-        )
+        return _vector_target(key, tuple(float(x) for x in nominal), value, path, in_space=False)
     if key == 'initial.angular_velocity':
-        return VectorTarget(key, tuple(scene.angular_velocity), _per_component(value, path, 3))
+        return _vector_target(
+            key, tuple(float(x) for x in scene.angular_velocity), value, path, in_space=True
+        )
     if key == 'initial.orientation':
         kind, parameters = one_key(
             value, path, ('uniform', 'small_rotation'), 'attitude dispersion'
@@ -332,10 +480,17 @@ def parse_target(
             },
         )
         return OrientationTarget(key, tuple(scene.orientation), 'small_rotation', values['sigma'])
+    return _effect_target(key, value, path, document)
+
+
+def _effect_target(key, value, path: str, document) -> EffectTarget:
+    from ..core.effects import EFFECTS
+
     match = _EFFECT_PATH.match(str(key))
     if not match:
         raise FieldError(path, f'not a target; expected one of {", ".join(TARGETS)}')
     index, name, parameter = int(match.group(1)), match.group(2), match.group(3)
+    steps = tuple(int(item) if item else name_ for item, name_ in _STEP.findall(match.group(4)))
     effects = document.get('effects') or []
     if index >= len(effects):
         raise FieldError(
@@ -350,28 +505,154 @@ def parse_target(
         )
     declared = EFFECTS[actual].parameters
     if parameter not in declared:
-        import difflib
-
-        close = difflib.get_close_matches(parameter, tuple(declared), n=1)
-        hint = f'; did you mean {close[0]!r}?' if close else ''
         raise FieldError(
             path,
-            f'outside the scene: {actual} has no parameter {shown(parameter)}{hint} '
-            f'(parameters: {", ".join(declared)})',
-        )
-    nominal = (given or {}).get(parameter, declared[parameter].default)
-    if nominal is not None and not (
-        isinstance(nominal, (int, float)) and not isinstance(nominal, bool)
-    ):
-        raise FieldError(
-            path, f'only a number can be dispersed; {actual}.{parameter} is {shown(nominal)}'
+            f'outside the scene: {actual} has no parameter {shown(parameter)}'
+            f'{_hint(parameter, declared)} (parameters: {", ".join(declared)})',
         )
     if actual in ('imu', 'star_tracker') and parameter == 'seed':
         raise FieldError(path, 'a seed is not a physical parameter')
-    dispersion = parse_dispersion(value, path, nominal_known=nominal is not None)
-    return EffectTarget(
-        key, index, actual, parameter, None if nominal is None else float(nominal), dispersion
+    where = f'{actual}.{parameter}'
+    if parameter in (given or {}):
+        nominal = given[parameter]
+    elif steps:
+        raise FieldError(
+            path,
+            f'the scene does not give {where} (its default is used): write it in the scene file '
+            'to disperse a part of it, or disperse it whole',
+        )
+    else:
+        nominal = declared[parameter].default
+    for step in steps:
+        nominal, where = _step(nominal, step, where, path)
+    if nominal is None:  # a parameter the scene leaves out, without a default
+        if _takes_vector(declared[parameter].check):
+            raise FieldError(path, f'the scene gives no {where}: write one in it to disperse it')
+        inner = NumberTarget(key, None, parse_dispersion(value, path, nominal_known=False))
+    elif _is_number(nominal):
+        inner = NumberTarget(key, float(nominal), parse_dispersion(value, path))
+    elif _is_vector(nominal):
+        inner = _vector_target(
+            key, tuple(float(x) for x in nominal), value, path, in_space=len(nominal) == 3
+        )
+    elif isinstance(nominal, list) and nominal and all(isinstance(x, dict) for x in nominal):
+        raise FieldError(
+            path,
+            f'only a number or a list of numbers can be dispersed; {where} is a list of '
+            f'{len(nominal)} mappings: disperse a number of one by its index, such as '
+            f'{where}[0].{next(iter(nominal[0]), "KEY")}',
+        )
+    else:
+        raise FieldError(
+            path,
+            f'only a number or a list of numbers can be dispersed; {where} is {shown(nominal)}',
+        )
+    return EffectTarget(key, index, actual, (parameter, *steps), inner)
+
+
+def _step(value, step, where: str, path: str) -> tuple:
+    """Go one index or key into ``value`` (at ``where`` in the scene); return it and its place."""
+    if isinstance(step, int):
+        if not isinstance(value, list):
+            raise FieldError(
+                path, f'outside the scene: {where} is {shown(value)}, not a list to index with [k]'
+            )
+        if step >= len(value):
+            raise FieldError(
+                path,
+                f'outside the scene: {where} has {len(value)} item'
+                f'{"s" if len(value) != 1 else ""} ({where}[0] to {where}[{len(value) - 1}])',
+            )
+        return value[step], f'{where}[{step}]'
+    if not isinstance(value, dict):
+        raise FieldError(
+            path, f'outside the scene: {where} is {shown(value)}, not a mapping with a key .{step}'
+        )
+    if step not in value:
+        raise FieldError(
+            path,
+            f'outside the scene: {where} has no key {shown(step)}{_hint(step, value)} '
+            f'(keys: {", ".join(str(k) for k in value)})',
+        )
+    return value[step], f'{where}.{step}'
+
+
+def _hint(name: str, known) -> str:
+    import difflib
+
+    close = difflib.get_close_matches(name, [str(k) for k in known], n=1)
+    return f'; did you mean {close[0]!r}?' if close else ''
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _is_vector(value) -> bool:
+    return (
+        isinstance(value, (list, tuple, np.ndarray))
+        and len(value) > 0
+        and all(_is_number(x) for x in value)
     )
+
+
+def _takes_vector(check) -> bool:
+    """Tell whether a parameter's checker takes a 3-vector (and so is no single number)."""
+    try:
+        check([1.0, 1.0, 1.0], '')
+    except (FieldError, TypeError, ValueError):
+        return False
+    return True
+
+
+def _vector_target(
+    key: str, nominal: tuple, value, path: str, *, in_space: bool
+) -> VectorTarget | WholeVectorTarget:
+    """
+    Parse a vector's dispersion: one for every component, one per component, or as a whole.
+
+    As a whole (``direction``, ``magnitude``) only a vector in space (``in_space``: 3 components
+    of a physical vector).
+    """
+    if isinstance(value, dict) and any(k in WHOLE for k in value):
+        if not in_space:
+            raise FieldError(
+                path,
+                f'a direction or a magnitude is for a vector in space; {key} takes one '
+                f'dispersion (every component) or a list of {len(nominal)} (one per component)',
+            )
+        check_keys(value, WHOLE, path)
+        return _whole_vector(key, nominal, value, path)
+    if in_space and isinstance(value, dict) and len(value) == 1:
+        one_key(
+            value,
+            path,
+            MODES + WHOLE,
+            'mode or whole-vector key',
+        )
+    return VectorTarget(key, nominal, _per_component(value, path, len(nominal)))
+
+
+def _whole_vector(key: str, nominal: tuple, value: dict, path: str) -> WholeVectorTarget:
+    if not math.sqrt(sum(x * x for x in nominal)) > 0.0:
+        raise FieldError(
+            path,
+            'the nominal vector is zero: it has no direction or magnitude to disperse; '
+            'disperse it per component',
+        )
+    direction = None
+    if 'direction' in value:
+        where = child(path, 'direction')
+        kind, parameters = one_key(value['direction'], where, _DIRECTIONS, 'direction dispersion')
+        name = _DIRECTION_PARAMETER[kind]
+        angle = fields(parameters, child(where, kind), {name: _DIRECTIONS[kind]})[name]
+        direction = Direction(kind, angle)
+    magnitude = (
+        parse_dispersion(value['magnitude'], child(path, 'magnitude'))
+        if 'magnitude' in value
+        else None
+    )
+    return WholeVectorTarget(key, nominal, direction, magnitude)
 
 
 def _per_component(value, path: str, size: int) -> tuple:

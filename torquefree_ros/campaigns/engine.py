@@ -26,27 +26,32 @@ the failure is pinned on its run and the table does not depend on chunking.
 Engines (:func:`execute`): ``"in-process"`` runs the chunks one after the other here; ``"local"``
 starts a ``distributed.LocalCluster`` of worker processes on this machine (one per core by default,
 one thread each, loopback only) for the campaign and closes it after; an address
-(``tcp://host:port``) or a ``distributed.Client`` uses an existing cluster. ``None`` is
-``"local"``, or ``"in-process"`` for a campaign of one chunk (a cluster would only add its
-start-up). On Dask, consecutive chunks go as one task (:func:`tasks`: fewer tasks the more chunks a
-worker, smaller ones near the end), each chunk's columns coming back apart. A worker process loads
+(``tcp://host:port``) or a ``distributed.Client`` uses an existing cluster. ``None`` picks the
+one that finishes first: it times the first chunk here and sends the rest to a local cluster only
+when their estimated compute outweighs what the cluster adds (:func:`choose_engine`,
+:data:`LOCAL_CLUSTER_STARTUP`); :class:`EngineChoice` says which ran and why. On Dask,
+consecutive chunks go as one task (:func:`tasks`: fewer tasks the more chunks a worker, smaller
+ones near the end), each chunk's columns coming back apart. A worker process loads
 the compiled kernels once (they are module state), not once per chunk. Inside a chunk the runs go a
 block at a time (:data:`BLOCK_SAMPLES`): the arrays stay small.
 """
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
+import math
 import os
+import time
 import uuid
 
 import numpy as np
 
-from .dispersions import EffectTarget, run_generator
+from .dispersions import EffectTarget, RefusedDraw, run_generator
 from .metrics import Samples
 from ..core import propagate_batch
-from ..core.rigid_body import RigidBody
-from ..core.scene import scene_from_mapping, SceneError
+from ..core.body.rigid_body import RigidBody
+from ..core.scene.loader import scene_from_mapping, SceneError
 
 # A chunk's runs by default (chunk_runs): DEFAULT_CHUNK_RUNS, or more (up to MAX_CHUNK_RUNS) while
 # every one of a known number of workers still gets CHUNKS_PER_WORKER chunks. Each chunk costs the
@@ -167,7 +172,12 @@ def draw_run(campaign, run: int) -> Draw:
     scene = campaign.scene
     draw = Draw(run, {})
     for target in campaign.targets:
-        draw.values[target.path] = target.draw(rng, run)
+        try:
+            draw.values[target.path] = target.draw(rng, run)
+        except RefusedDraw as refused:  # the run fails; its other targets still draw theirs
+            draw.values[target.path] = refused.values
+            if draw.status == OK:
+                draw.status, draw.reason = INVALID_SCENE, refused.reason
     draw.omega = draw.values.get(
         'initial.angular_velocity', np.asarray(scene.angular_velocity, dtype=float)
     )
@@ -185,6 +195,8 @@ def draw_run(campaign, run: int) -> Draw:
             draw.body = RigidBody.from_inertia(draw.inertia, 'inertia')
             return draw
         except ValueError as error:
+            if draw.status != OK:  # failed already: no redraw
+                return draw
             if campaign.invalid_body == 'fail' or draw.redraws >= campaign.max_redraws:
                 draw.status, draw.reason = INVALID_BODY, str(error)
                 if campaign.invalid_body == 'redraw':
@@ -207,12 +219,11 @@ def _scene_of(campaign, draw: Draw):
         'angular_velocity': [float(x) for x in draw.omega],
         'orientation': [float(x) for x in draw.q],
     }
-    effects = [dict(entry) for entry in campaign.scene_document.get('effects') or []]
+    # the run's own copy: a target may write into a list or a mapping inside an effect
+    effects = copy.deepcopy(campaign.scene_document.get('effects') or [])
     for target in campaign.targets:
         if isinstance(target, EffectTarget):
-            parameters = dict(effects[target.index][target.effect] or {})
-            parameters[target.parameter] = float(draw.values[target.path][0])
-            effects[target.index] = {target.effect: parameters}
+            target.place(effects, draw.values[target.path])
     document['effects'] = effects
     return scene_from_mapping(document, source=f'run {draw.run}')
 
@@ -410,8 +421,70 @@ def _metric_one_by_one(use, ok, stacked, times, nominal) -> dict:
 
 
 # -- engines --------------------------------------------------------------------------------------
+# What a local cluster adds to a campaign's wall time besides its share of the compute: starting
+# its worker processes, each worker's first imports and kernels, and closing it. The default engine
+# weighs it against the compute it would share (choose_engine); tools/bench_campaign.py measures
+# it on the machine at hand (docs/bench/campaign.md).
+LOCAL_CLUSTER_STARTUP = 3.0  # s
+
+
+@dataclass(frozen=True)
+class EngineChoice:
+    """The engine that runs a campaign's chunks, and why: what a campaign reports once."""
+
+    engine: str  # 'in-process', 'local' (a local cluster) or 'cluster' (an existing one)
+    reason: str
+    workers: int | None = None  # a cluster's worker threads (one per local worker process)
+
+    @property
+    def label(self) -> str:
+        """Return the engine in a few words: ``in-process``, ``local cluster of 2 workers``."""
+        if self.engine == 'in-process':
+            return 'in-process'
+        count = f'{self.workers} worker{"s" if self.workers != 1 else ""}'
+        return f'local cluster of {count}' if self.engine == 'local' else f'cluster of {count}'
+
+    def __str__(self) -> str:
+        return f'{self.label}: {self.reason}'
+
+
+def _seconds(value: float) -> str:
+    return f'{value:.2g} s' if value < 10 else f'{value:,.0f} s'
+
+
+def choose_engine(
+    estimated_compute_s: float, cluster_startup_s: float, workers: int
+) -> EngineChoice:
+    """
+    Pick the engine that finishes first: this process, or a local cluster of ``workers``.
+
+    This process takes ``estimated_compute_s``; a local cluster ``cluster_startup_s`` (start-up,
+    warm-up and close), then the compute shared by its workers, at best ``estimated_compute_s /
+    workers``. A tie stays in this process: a cluster would bring nothing.
+    """
+    if workers <= 1:
+        return EngineChoice(
+            'in-process', 'a local cluster of 1 worker is never faster than this process'
+        )
+    share = estimated_compute_s / workers
+    on_cluster = cluster_startup_s + share
+    what = (
+        f'about {_seconds(estimated_compute_s)} of compute left, against '
+        f'{_seconds(on_cluster)} on a local cluster of {workers} workers '
+        f'({_seconds(cluster_startup_s)} to start and close, then {_seconds(share)})'
+    )
+    if estimated_compute_s <= on_cluster:
+        return EngineChoice('in-process', what)
+    return EngineChoice('local', what, workers)
+
+
 def execute(
-    campaign, ranges=None, scheduler=None, workers: int | None = None, on_chunk=None
+    campaign,
+    ranges=None,
+    scheduler=None,
+    workers: int | None = None,
+    on_chunk=None,
+    on_engine=None,
 ) -> list[dict]:
     """
     Run the chunks; return every chunk's columns, in the order of ``ranges``.
@@ -420,23 +493,76 @@ def execute(
     :func:`chunk_runs`. ``on_chunk(start, stop, columns)`` is called in this process as each chunk
     completes (in completion order; on Dask, a task's chunks one after the other in run order as
     the task completes), once per chunk, even when Dask runs a chunk again because its worker was
-    lost (a chunk's columns depend only on the campaign and its runs).
+    lost (a chunk's columns depend only on the campaign and its runs). ``on_engine(choice)`` is
+    called once with the :class:`EngineChoice`, when the engine is settled.
+
+    ``scheduler=None`` runs the first chunk here, timed (CPU time): when its time per run, over
+    the runs left, comes to more than a local cluster would take (:func:`choose_engine`), the rest
+    goes to a local cluster, else it stays here. A first chunk in a process also loads the
+    kernels, so a choice of the cluster is confirmed by a second chunk timed here. The chunks
+    timed count: none is computed twice.
     """
     if ranges is None:
         parts = chunks(campaign, chunk_runs(campaign, None, expected_workers(scheduler, workers)))
     else:
         parts = list(ranges)
-    if scheduler is None:
-        scheduler = 'in-process' if len(parts) <= 1 else 'local'
     check_workers(workers)
+    if scheduler is None:
+        return _automatic(campaign, parts, workers, on_chunk, on_engine)
     if scheduler == 'in-process':
-        results = []
-        for start, stop in parts:
-            results.append(run_chunk(campaign, start, stop))
-            if on_chunk:
-                on_chunk(start, stop, results[-1])
-        return results
-    return _on_dask(campaign, parts, scheduler, workers, on_chunk)
+        if on_engine:
+            on_engine(EngineChoice('in-process', 'as asked'))
+        return _in_process(campaign, parts, on_chunk)
+    return _on_dask(campaign, parts, scheduler, workers, on_chunk, on_engine)
+
+
+def _in_process(campaign, parts, on_chunk) -> list[dict]:
+    results = []
+    for start, stop in parts:
+        results.append(run_chunk(campaign, start, stop))
+        if on_chunk:
+            on_chunk(start, stop, results[-1])
+    return results
+
+
+def _automatic(campaign, parts, workers, on_chunk, on_engine) -> list[dict]:
+    """Run the first chunks here, timed, then the rest where it finishes first."""
+    if not parts:
+        return []
+    workers = expected_workers('local', workers)
+    # the fastest chunk's CPU seconds per run: CPU time, like the cluster's start-up (a constant),
+    # does not grow with the load other processes put on the machine
+    results, per_run = [], math.inf
+    for index, (start, stop) in enumerate(parts):
+        began = time.process_time()
+        results.append(run_chunk(campaign, start, stop))
+        per_run = min(per_run, (time.process_time() - began) / (stop - start))
+        if on_chunk:
+            on_chunk(start, stop, results[-1])
+        rest = parts[index + 1:]
+        if not rest:
+            break
+        choice = choose_engine(
+            per_run * sum(b - a for a, b in rest), LOCAL_CLUSTER_STARTUP, workers
+        )
+        if choice.engine == 'in-process':
+            if on_engine:
+                on_engine(choice)
+            return results + _in_process(campaign, rest, on_chunk)
+        if index >= 1:
+            if on_engine:
+                on_engine(choice)
+            return results + _on_dask(campaign, rest, 'local', workers, on_chunk)
+    if on_engine:
+        on_engine(
+            EngineChoice(
+                'in-process',
+                'one chunk to compute'
+                if len(parts) == 1
+                else 'two chunks to compute, both timed here',
+            )
+        )
+    return results
 
 
 def run_chunks(campaign, ranges) -> list[dict]:
@@ -498,7 +624,7 @@ def local_cluster(workers: int):
         )
 
 
-def _on_dask(campaign, parts, scheduler, workers, on_chunk) -> list[dict]:
+def _on_dask(campaign, parts, scheduler, workers, on_chunk, on_engine=None) -> list[dict]:
     from distributed import as_completed, Client
 
     cluster = None
@@ -523,6 +649,12 @@ def _on_dask(campaign, parts, scheduler, workers, on_chunk) -> list[dict]:
         token = uuid.uuid4().hex[:12]
         if cluster is None:  # an existing cluster: its worker threads now
             workers = sum(client.nthreads().values())
+        if on_engine:
+            on_engine(
+                EngineChoice('local', 'as asked', workers)
+                if cluster is not None
+                else EngineChoice('cluster', f'as asked ({client.scheduler.address})', workers)
+            )
         groups = tasks(parts, workers)
         # one message for the whole campaign; a task's key names its first run (zero-padded: the
         # keys sort in run order, which is the order the tasks are given out)

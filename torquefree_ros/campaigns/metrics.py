@@ -22,7 +22,7 @@ Adding a metric::
 
     import numpy as np
     from torquefree_ros.campaigns import metric
-    from torquefree_ros.core.schema import Param, number
+    from torquefree_ros.core.checks.schema import Param, number
 
     @metric("peak_rate", unit="rad/s", parameters={"scale": Param(number(positive=True), 1.0)})
     def peak_rate(samples, scale):
@@ -49,8 +49,18 @@ from typing import Callable
 
 import numpy as np
 
-from ..core import quaternion
-from ..core.schema import child, choice, FieldError, fields, number, one_key, Param, shown, vector
+from ..core.checks.schema import (
+    child,
+    choice,
+    FieldError,
+    fields,
+    number,
+    one_key,
+    Param,
+    shown,
+    vector,
+)
+from ..core.frames import quaternion
 
 
 @dataclass(frozen=True)

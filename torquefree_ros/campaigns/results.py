@@ -42,7 +42,7 @@ _VERSIONED = ('numpy', 'scipy', 'numba', 'pyarrow', 'dask', 'distributed', 'PyYA
 
 
 def versions() -> dict:
-    from .. import __version__
+    from ..version import __version__
 
     found = {'torquefree_ros': __version__, 'python': platform.python_version()}
     for name in _VERSIONED:

@@ -64,13 +64,10 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from .dispersions import parse_target, run_generator, VectorTarget
+from .dispersions import EffectTarget, parse_target, RefusedDraw, run_generator, VectorTarget
 from .metrics import DEFAULT_METRICS, parse_metrics
-from ..core import library
-from ..core.rigid_body import RigidBody
-from ..core.safe_files import clip
-from ..core.scene import DEFAULT_SCENE_DATA, load_scene, read_document, Scene, SceneError
-from ..core.schema import (
+from ..core.body.rigid_body import RigidBody
+from ..core.checks.schema import (
     check_keys,
     child,
     choice,
@@ -82,7 +79,10 @@ from ..core.schema import (
     shown,
     text,
 )
-from ..core.timing import MAX_RATE
+from ..core.scene import library
+from ..core.scene.loader import DEFAULT_SCENE_DATA, load_scene, read_document, Scene, SceneError
+from ..core.timing.grid import MAX_RATE
+from ..files.safe_files import clip
 
 LIBRARY_DIRECTORY = Path(__file__).resolve().parent / 'library'
 MAX_RUNS = 10_000_000
@@ -332,11 +332,20 @@ def _dispersions(value, scene: Scene, document: dict):
             'dispersions.body.inertia', 'disperse either body.moments or body.inertia, not both'
         )
     for key, entry in value.items():
-        target = parse_target(key, entry, child('dispersions', key), scene, document)
+        where = child('dispersions', key)
+        target = parse_target(key, entry, where, scene, document)
         if key in ('body.moments', 'body.inertia'):
             body = target
-        else:
-            targets.append(target)
+            continue
+        for other in targets:  # one number dispersed once (a vector and one of its components)
+            if isinstance(target, EffectTarget) and isinstance(other, EffectTarget):
+                if target.overlaps(other):
+                    raise FieldError(
+                        where,
+                        f'disperses what dispersions.{other.path} disperses already; '
+                        'disperse a number once',
+                    )
+        targets.append(target)
     return tuple(sorted(targets, key=lambda t: t.path)), body
 
 
@@ -353,7 +362,10 @@ def _with_acceptance(campaign: Campaign) -> Campaign:
     for run in range(probe):
         rng = run_generator(campaign.seed, run)
         for target in campaign.targets:  # the body draws after them: the same numbers as the run's
-            target.draw(rng, run)
+            try:
+                target.draw(rng, run)
+            except RefusedDraw:
+                pass
         try:
             RigidBody.from_inertia(
                 body_from_draw(campaign, campaign.body_target.draw(rng, run)), 'inertia'

@@ -32,8 +32,8 @@ from ..bag import BagError, reindex
 from ..bag.offline import write_scene_bag
 from ..bag.writer import COMPRESSIONS
 from ..core import PROPAGATORS
-from ..core.library import library_scenes
-from ..core.scene import load_scene, SceneError
+from ..core.scene.library import library_scenes
+from ..core.scene.loader import load_scene, SceneError
 
 
 def _seconds(text: str) -> Decimal:

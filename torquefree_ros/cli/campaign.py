@@ -17,8 +17,10 @@
 
 ``torquefree_campaign run FILE --output DIR`` runs a campaign file (or a library campaign's name)
 and writes ``DIR/runs.parquet`` (a row per run: inputs, metrics, status) and ``DIR/campaign.yaml``;
-by default on a local Dask cluster of this machine's cores (a campaign of one chunk runs in this
-process), ``--scheduler ADDRESS`` on an existing cluster, ``--scheduler in-process`` without Dask.
+by default in this process or on a local Dask cluster of this machine's cores, whichever finishes
+first (the first chunk is timed here and weighed against the cluster's start-up; the engine and
+why are printed), ``--scheduler local`` on a local cluster, ``--scheduler ADDRESS`` on an existing
+cluster, ``--scheduler in-process`` without Dask.
 Finished chunks are kept in ``DIR/parts/`` as they complete: ``--resume`` continues an interrupted
 campaign, ``--overwrite`` starts over. A campaign file with ``trajectories: {every: N}`` (or
 ``{rate: HZ}``) also keeps its runs' decimated samples in ``DIR/trajectories/`` (Parquet parts).
@@ -69,7 +71,8 @@ def _parser() -> argparse.ArgumentParser:
         '--scheduler',
         metavar='ADDRESS',
         help="a Dask scheduler's address (tcp://HOST:PORT); 'local' for a local cluster, "
-        "'in-process' for no Dask (default: a local cluster, or in-process for one chunk)",
+        "'in-process' for no Dask (default: whichever finishes first, in-process or a local "
+        'cluster, by the first chunk timed in-process against the start-up of a cluster)',
     )
     run.add_argument(
         '--workers',
@@ -139,12 +142,14 @@ def _positive(text: str) -> int:
 
 class RunProgress:
     """
-    A campaign's progress line on stderr: runs done, runs/s, ETA.
+    A campaign's progress line on stderr: runs done, runs/s, ETA and the engine.
 
     The ``progress(done_runs, total_runs)`` for :func:`run_campaign`: one line on stderr,
     rewritten at most every ``period`` s, only on a terminal unless ``enabled`` is forced. The
     first call gives the runs already done (a resumed campaign's). The speed is taken from the
-    first chunk in on, so that a cluster's start-up does not weigh on the ETA.
+    first chunk in on, so that a cluster's start-up does not weigh on the ETA. :meth:`engine` is
+    the ``on_engine`` of :func:`run_campaign`: it says the engine and why on a line of its own
+    (always: it is no progress), and the progress line names the engine from then on.
     """
 
     def __init__(
@@ -159,6 +164,7 @@ class RunProgress:
         self.base = None  # (time, runs done) at the first chunk in
         self.start = self.last = None
         self.shown = False
+        self.choice = None  # the engine (an EngineChoice), once settled
 
     def __call__(self, done: int, total: int) -> None:
         now = self.clock()
@@ -172,9 +178,22 @@ class RunProgress:
         counted = self.base is not None and now > self.base[0] and done > self.base[1]
         since, base_done = self.base if counted else (self.start, self.first)
         speed = (done - base_done) / (now - since) if now > since else 0.0
-        self.stream.write('\r' + progress_line(done, total, speed, self.first) + '\033[K')
+        self.stream.write(
+            '\r'
+            + progress_line(
+                done, total, speed, self.first, self.choice.label if self.choice else None
+            )
+            + '\033[K'
+        )
         self.stream.flush()
         self.shown = True
+
+    def engine(self, choice) -> None:
+        """Take the engine the campaign runs on; say which and why, on a line of its own."""
+        self.choice = choice
+        line = f'torquefree_campaign: engine: {choice}'
+        self.stream.write(f'\r{line}\033[K\n' if self.shown else f'{line}\n')
+        self.stream.flush()
 
     def close(self) -> None:
         if self.shown:
@@ -183,16 +202,22 @@ class RunProgress:
             self.shown = False
 
 
-def progress_line(done: int, total: int, speed: float, resumed: int = 0) -> str:
+def progress_line(
+    done: int, total: int, speed: float, resumed: int = 0, engine: str | None = None
+) -> str:
     """
     Format the progress line's text: ``done`` of ``total`` runs at ``speed`` runs/s, and the ETA.
 
-    ``resumed`` of the runs done were kept from an earlier run.
+    ``resumed`` of the runs done were kept from an earlier run; ``engine`` names the engine, once
+    it is settled.
     """
     eta = _duration((total - done) / speed if speed > 0 else math.inf)
     percent = 100.0 * done / total if total else 100.0
     kept = f', {resumed:,} resumed' if resumed else ''
-    return f'{done:,}/{total:,} runs ({percent:.0f} %{kept}), {speed:,.1f} runs/s, ETA {eta}'
+    where = f', {engine}' if engine else ''
+    return (
+        f'{done:,}/{total:,} runs ({percent:.0f} %{kept}), {speed:,.1f} runs/s, ETA {eta}{where}'
+    )
 
 
 @console_command('torquefree_campaign')
@@ -242,6 +267,7 @@ def _run(args) -> int:
             overwrite=args.overwrite,
             resume=args.resume,
             progress=progress,
+            on_engine=progress.engine,
         )
     except (FileExistsError, NotADirectoryError, ResumeError) as error:
         print(f'torquefree_campaign: {error}', file=sys.stderr)
@@ -265,8 +291,13 @@ def _run(args) -> int:
     ok = sum(1 for status in table.column('status').to_pylist() if status == 'ok')
     resumed = progress.first or 0
     computed = table.num_rows - resumed
+    choice = progress.choice
+    where = ''
+    if choice is not None:
+        where = ' in-process' if choice.engine == 'in-process' else f' on a {choice.label}'
     what = (
-        f'{computed:,} computed in {elapsed:.2f} s, {computed / max(elapsed, 1e-9):,.0f} runs/s'
+        f'{computed:,} computed{where} in {elapsed:.2f} s, '
+        f'{computed / max(elapsed, 1e-9):,.0f} runs/s'
         if computed
         else 'finished before, nothing computed'
     )

@@ -24,8 +24,8 @@ import sys
 from .common import console_command
 from .. import plot
 from ..bag import BagError
-from ..core.rigid_body import RigidBody
-from ..core.scene import load_scene, SceneError
+from ..core.body.rigid_body import RigidBody
+from ..core.scene.loader import load_scene, SceneError
 
 
 @console_command('torquefree_plot')

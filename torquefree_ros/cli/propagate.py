@@ -23,8 +23,8 @@ import numpy as np
 
 from .common import console_command
 from ..core import make_propagator, PROPAGATORS
-from ..core.simulation import Simulation
-from ..core.timing import sample_count
+from ..core.run.simulation import Simulation
+from ..core.timing.grid import sample_count
 
 BLOCK = 1024  # samples computed and printed at a time
 

@@ -14,9 +14,9 @@
 
 """The dynamics core: numpy and scipy only, no ROS (a test enforces it)."""
 
-from .batch import propagate_batch
+from .body.rigid_body import MotionRegime, RigidBody
 from .propagators import make_propagator, Propagator, PROPAGATORS
-from .rigid_body import MotionRegime, RigidBody
+from .propagators.batch import propagate_batch
 
 
 def propagate(inertia, angular_velocity, orientation, times, propagator='auto', **options):

@@ -111,8 +111,8 @@ except ImportError as error:  # pragma: no cover - the extra is not installed
     ) from error
 
 from .plant import _as_scene, Plant, PlantState
-from ..core.rigid_body import RigidBody
-from ..core.scene import Scene
+from ..core.body.rigid_body import RigidBody
+from ..core.scene.loader import Scene
 
 __all__ = ['ENV_ID', 'AttitudeEnv', 'AttitudeVectorEnv', 'DetumbleReward']
 

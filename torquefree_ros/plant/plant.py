@@ -24,7 +24,7 @@ torques and one compiled call advances every body. A body of a batch is bit for 
 alone: both run the same kernel (``motion_kernels.dop853_outputs_batch``) with the same numbers.
 
 The plant integrates with DOP853 at the scene's ``accuracy`` (``auto``'s settings) through
-``compiled.DOP853Bodies``, the engine the ``dop853`` propagator runs with one body: the node's
+``drivers.DOP853Bodies``, the engine the ``dop853`` propagator runs with one body: the node's
 closed loop and its offline replay run the same object (the stepping starts again at every sample
 when the scene takes commands, and at every switch of a torque schedule, each body of a batch at
 its own).
@@ -37,12 +37,13 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..core.effects.commands import command_inputs, sample_stamp_ns, timed_out
-from ..core.integrators import compiled
-from ..core.integrators import motion_kernels as kernels
+from ..core.commands.hold import timed_out, torque_refusals
+from ..core.compiled import drivers
+from ..core.compiled import motion_kernels as kernels
+from ..core.effects.commands import command_inputs
 from ..core.propagators import ATOL_PER_RTOL, DEFAULT_ACCURACY, MAX_STEPS_PER_SAMPLE
-from ..core.scene import load_scene, Scene
-from ..core.timing import check_rate
+from ..core.scene.loader import load_scene, Scene
+from ..core.timing.grid import check_rate, sample_stamp_ns
 
 
 class PlantState(NamedTuple):
@@ -162,7 +163,7 @@ class Plant:
                     'bodies of one kind (make one plant per kind)'
                 )
         count = len(propagators)
-        self._bodies = compiled.DOP853Bodies(propagators, MAX_STEPS_PER_SAMPLE)
+        self._bodies = drivers.DOP853Bodies(propagators, MAX_STEPS_PER_SAMPLE)
         self._command_helds = np.zeros((count, 6))
         self._sample = self._bodies.ys.copy()[:, None, :]
         self.k = 0
@@ -200,11 +201,10 @@ class Plant:
         if values.shape != shape:
             raise ValueError(f'torque: expected shape {shape}, got {values.shape}')
         values = values.reshape(self.size, 3)
-        finite = np.all(np.isfinite(values), axis=1)
-        if not finite.all():
-            b = int(np.argmin(finite))
+        not_finite, over = torque_refusals(values, commands.max_torque)
+        if not_finite.any():
+            b = int(np.argmax(not_finite))
             raise ValueError(f'torque: not finite (body {b}): {values[b].tolist()}')
-        over = np.max(np.abs(values), axis=1) > commands.max_torque
         if over.any():
             b = int(np.argmax(over))
             raise ValueError(
@@ -258,7 +258,7 @@ class Plant:
         """
         bodies = self._bodies
         t = float(times[min(int(bodies.reached[body]), times.size - 1)])
-        error = compiled.dop853_error(
+        error = drivers.dop853_error(
             int(bodies.status[body]), bodies.propagators[body], t, bodies.solvers[body]
         )
         self._failed = f'{"body %d: " % body if self.batch else ""}{error}'

@@ -31,7 +31,7 @@ from rclpy.exceptions import ParameterNotDeclaredException
 from rclpy.parameter import Parameter
 from rclpy.parameter_service import ParameterService
 
-from ..core.safe_files import clip
+from ..files.safe_files import clip
 
 MAX_NAME_LENGTH = 256  # characters of a parameter name; ours are a dozen
 MAX_REASON_LENGTH = 400  # characters of a refusal sent back: one readable line, never megabytes

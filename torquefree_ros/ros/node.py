@@ -47,7 +47,7 @@ from .parameters import (
 )
 from .pause import seconds_text
 from .qos import message_class, publisher_warnings, sample_profile
-from .sample_loop import RunRequest, SampleLoop
+from .sample_loop import RunRequest, SampleLoop, Stepping
 from ..bag import BagError, BagWriter
 from ..bag.samples import (
     ANGULAR_VELOCITY,
@@ -57,8 +57,8 @@ from ..bag.samples import (
     sample_qos,
     SampleRecorder,
 )
-from ..core.bodies import tensor_elements
-from ..core.safe_files import clip
+from ..core.body.composite import tensor_elements
+from ..files.safe_files import clip
 
 DIAGNOSTICS_PERIOD = 1.0  # s
 _INERTIA_CHANGED = 'torquefree_ros.inertia_changed_at_a_reset'
@@ -123,7 +123,7 @@ class TorqueFreeSim(Node):
     Publishes ``angular_velocity`` and ``attitude`` from the moment it is constructed; the
     caller spins it (services, parameters, diagnostics). Raises :class:`ConfigurationError` when
     the start-up parameters do not describe a usable simulation. ``stepped``: a sample goes out
-    only when ``sample_loop.step(n)`` lets it (``torquefree_ros.testing`` steps the node so).
+    only when :attr:`stepping` lets it (``torquefree_ros.testing`` steps the node so).
     """
 
     def __init__(self, node_name: str = 'torquefree', *, stepped: bool = False, **node_options):
@@ -137,6 +137,7 @@ class TorqueFreeSim(Node):
         )
         self._declared = False
         self._loop: SampleLoop | None = None
+        self._stepping: Stepping | None = None
         self._commands: CommandInputs | None = None
         self._bag: SampleRecorder | None = None
         try:
@@ -184,6 +185,7 @@ class TorqueFreeSim(Node):
         self._loop = SampleLoop(
             self._outputs, self.context.ok, self.get_logger(), self._bag, stepped=stepped
         )
+        self._stepping = Stepping(self._loop, self.resolve_topic_name)
         simulation = self._loop.prepare(request)
         if not request.free_running:
             self._loop.start()  # its first sample is due now
@@ -229,6 +231,15 @@ class TorqueFreeSim(Node):
     @property
     def sample_loop(self) -> SampleLoop:
         return self._loop
+
+    @property
+    def stepping(self) -> Stepping:
+        """
+        Return the interface a caller steps and follows the node through.
+
+        ``torquefree_ros.testing`` uses this alone.
+        """
+        return self._stepping
 
     def _command_accepted(self) -> None:
         if self._loop is not None:

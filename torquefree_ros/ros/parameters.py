@@ -42,15 +42,15 @@ from .guarded_parameters import refusal
 from .qos import message_class
 from .sample_loop import RunRequest
 from ..core import PROPAGATORS
-from ..core.library import is_scene_name, library_scenes
+from ..core.body.rigid_body import RigidBody
+from ..core.checks.schema import shown
+from ..core.checks.validation import finite_vector, unit_quaternion
 from ..core.propagators import MAX_STEPS_PER_SAMPLE
-from ..core.rigid_body import RigidBody
-from ..core.safe_files import clip
-from ..core.scene import default_scene, load_scene, MAX_PATH_LENGTH, SceneError
-from ..core.schema import shown
-from ..core.simulation import Simulation
-from ..core.timing import check_rate, MAX_RATE, MIN_RATE
-from ..core.validation import finite_vector, unit_quaternion
+from ..core.run.simulation import Simulation
+from ..core.scene.library import is_scene_name, library_scenes
+from ..core.scene.loader import default_scene, load_scene, MAX_PATH_LENGTH, SceneError
+from ..core.timing.grid import check_rate, MAX_RATE, MIN_RATE
+from ..files.safe_files import clip
 
 _NUMBER = (Parameter.Type.INTEGER, Parameter.Type.DOUBLE)
 _ARRAY = (Parameter.Type.INTEGER_ARRAY, Parameter.Type.DOUBLE_ARRAY, Parameter.Type.BYTE_ARRAY)

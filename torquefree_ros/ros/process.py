@@ -28,6 +28,7 @@ import os
 import signal
 import sys
 import threading
+import time
 
 import rclpy
 from rclpy.executors import ExternalShutdownException
@@ -71,8 +72,18 @@ class Spinner(threading.Thread):
             self.error = error
 
     def wait(self, timeout: float | None = None) -> None:
-        """Blocks the main thread (interruptibly) until the spin ends or ``timeout`` passes."""
-        self.join(timeout)
+        """
+        Block the main thread until the spin ends or ``timeout`` passes.
+
+        In slices: a signal the kernel delivers to another thread does not wake the main thread
+        from a blocking join, and Python runs its handler only in the main thread, once it wakes.
+        """
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while self.is_alive():
+            remaining = self.SLICE if deadline is None else deadline - time.monotonic()
+            if remaining <= 0.0:
+                return
+            self.join(min(remaining, self.SLICE))
 
     def stop(self) -> None:
         self._stopping.set()

@@ -48,10 +48,12 @@ resumes the same run: the samples that follow are those of a run never paused, w
 indices and values. On a clock of our own the stamps simply continue (the clock held); with
 wall-clock stamps the run's epoch moves on by the time paused (see :data:`.pause.WALL_CLOCK_RULE`).
 
-Stepped (``stepped=True``, for ``torquefree_ros.testing``): a sample goes out only once a caller
-has let it (:meth:`SampleLoop.step`), on top of the rules above; meanwhile the loop waits between
-two samples, taking restarts, pauses and a stop as usual. Sample 0 of every run waits too, so a
-test misses none.
+Stepped (``stepped=True``): a sample goes out only once a caller has let it
+(:meth:`SampleLoop.let_out`), on top of the rules above; meanwhile the loop waits between two
+samples, taking restarts, pauses and a stop as usual. Sample 0 of every run waits too, so a caller
+misses none. :class:`Stepping` is the whole of it a caller needs (``torquefree_ros.testing`` uses
+nothing else): let samples out, take them back, and one consistent look at the run
+(:class:`StepState`).
 """
 
 from __future__ import annotations
@@ -66,11 +68,18 @@ import numpy as np
 
 from .pause import PauseReport, where
 from ..bag.cdr import encode_times
-from ..bag.samples import CLOCK, encode_command, encode_leading, encode_trailing
+from ..bag.samples import (
+    ANGULAR_VELOCITY,
+    ATTITUDE,
+    CLOCK,
+    encode_command,
+    encode_leading,
+    encode_trailing,
+)
 from ..bag.writer import BagError
 from ..core.propagators import Propagator
-from ..core.simulation import SampleBlock, Simulation
-from ..core.timing import restart_epoch_ns
+from ..core.run.simulation import SampleBlock, Simulation
+from ..core.timing.grid import restart_epoch_ns
 
 # Samples computed ahead in one vectorised call: at most MAX_BLOCK, and at most this much wall time
 # of samples (a reset discards the rest). When paced, the block is also kept small enough that
@@ -349,8 +358,8 @@ class SampleLoop:
         self._turn = threading.Condition()
         self._awaiting: _Run | None = None
         self._answer_due = 0.0
-        # stepped: how many more samples may go out (step() adds, each sample sent takes one);
-        # None: not stepped
+        # stepped: how many more samples may go out (let_out() adds, each sample sent takes one,
+        # hold() takes back the rest); None: not stepped
         self._steps: int | None = 0 if stepped else None
 
     # -- called from the executor thread ---------------------------------------------------------
@@ -432,19 +441,26 @@ class SampleLoop:
             if run.stopped_by:
                 self._turn.notify_all()
 
-    def step(self, count: int) -> None:
-        """
-        Let ``count`` more samples go out of a stepped loop.
-
-        A negative count takes back those not sent yet.
-        """
+    def let_out(self, count: int) -> None:
+        """Let ``count`` (>= 0) more samples go out of a stepped loop."""
+        if count < 0:
+            raise ValueError(f'let_out: count must be >= 0, got {count}')
         with self._lock:
             if self._steps is None:
                 raise RuntimeError('the sample loop is not stepped')
-            self._steps = max(0, self._steps + int(count))
+            self._steps += int(count)
             # lock-step: the wait for the answer starts now (the loop was held)
             if self._run is not None:
                 self._answer_due = time.monotonic() + self._run.request.lockstep_timeout
+        self._signal()
+
+    def hold(self) -> None:
+        """Take back every sample a stepped loop was let send and has not sent yet."""
+        with self._lock:
+            if self._steps is None:
+                raise RuntimeError('the sample loop is not stepped')
+            self._steps = 0
+        # the signal ends a lock-step wait for an answer, after which the loop would send
         self._signal()
 
     @property
@@ -589,7 +605,7 @@ class SampleLoop:
             if self.paused:
                 self._while_paused()
                 continue
-            # stepped, and no sample let out yet: wait for step() (or a request)
+            # stepped, and no sample let out yet: wait for let_out() (or a request)
             if self._steps == 0:
                 if self._wake.wait(MAX_WAIT):
                     self._wake.clear()
@@ -790,6 +806,72 @@ class SampleLoop:
         while not self._take_pending():
             self._wake.wait()
             self._wake.clear()
+
+
+class StepState(NamedTuple):
+    """One consistent look at the sample loop's run (:meth:`Stepping.state`)."""
+
+    simulation: Simulation  # the running run's
+    request: RunRequest  # what the running run was started from
+    sent: int  # how many of the run's samples have gone out: the index of the next one
+    missed_steps: int  # lock-step: how many of them went out without the controller's answer
+    failure: str  # why the run stopped publishing ('' while it can publish)
+    paused_at: str  # while paused: the sample that goes out on resuming ('' when not paused)
+    running: bool  # whether the loop's thread is alive
+
+
+class Stepping:
+    """
+    The node's interface for a caller that steps it (``torquefree_ros.testing``): the whole of it.
+
+    :meth:`let_out` and :meth:`hold` work on a stepped node (``TorqueFreeSim(..., stepped=True)``;
+    otherwise ``RuntimeError``): a sample goes out only once let out, on top of the rules of
+    pacing, pause, reset and lock-step, and sample 0 of every run waits too. :meth:`state` and
+    :meth:`topics` work on any node.
+    """
+
+    def __init__(self, loop: SampleLoop, resolve: Callable[[str], str]):
+        self._loop = loop
+        self._resolve = resolve  # a topic's name as the node resolves it
+
+    def let_out(self, count: int = 1) -> None:
+        """Let ``count`` (>= 0) more samples go out, one after the other, as each is due."""
+        self._loop.let_out(count)
+
+    def hold(self) -> None:
+        """Take back every sample let out that has not gone out yet."""
+        self._loop.hold()
+
+    def state(self) -> StepState:
+        """Return the running run and where it stands, read together."""
+        loop = self._loop
+        run, last = loop._run, loop.last  # one run: its simulation and request belong together
+        sent = last.index + 1 if last is not None and last.simulation is run.simulation else 0
+        return StepState(
+            simulation=run.simulation,
+            request=run.request,
+            sent=sent,
+            missed_steps=loop.missed_steps,
+            failure=loop.failure,
+            paused_at=loop.paused_at if loop.paused else '',
+            running=loop.running,
+        )
+
+    def topics(self, index: int) -> dict[str, bool]:
+        """
+        Map each topic the running run publishes to whether its sample ``index`` goes out on it.
+
+        Topics by their resolved names: ``angular_velocity``, ``attitude`` and ``/clock`` carry
+        every sample, an output at a rate of its own every n-th (``k % n == 0``).
+        """
+        request = self._loop.request
+        topics = {self._resolve(ANGULAR_VELOCITY[0]): True, self._resolve(ATTITUDE[0]): True}
+        if request.clock:
+            topics[self._resolve(CLOCK[0])] = True
+        for output in request.outputs:
+            every = output.every(request.publish_rate, 'publish_rate')
+            topics[self._resolve(output.topic)] = index % every == 0
+        return topics
 
 
 def _publish(publishers, columns, index: int) -> None:

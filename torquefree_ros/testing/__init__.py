@@ -18,27 +18,26 @@ Test kit: the simulator node in process, stepped by your test, with the exact tr
     from torquefree_ros.testing import simulator
 
     with simulator(scene="estimator") as sim:
-        estimator = MyEstimator(context=sim.context, namespace=sim.namespace)
+        estimator = MyEstimator(context=sim.context)
         sim.add_node(estimator)
         sim.advance(100)            # 100 samples out, each processed by every node added
         truth = sim.truth(sim.t)    # the exact state at the last sample's time
 
+Each simulator has a ROS domain of its own, so its node publishes in the root namespace
+(``/angular_velocity``, ...) and a node made without a namespace finds its topics; ``namespace=``
+puts it in one (several simulators in one domain), and then the nodes added go there too
+(``namespace=sim.namespace``).
+
 The pytest plugin (``torquefree_ros.testing.pytest_plugin``, registered as a ``pytest11`` entry
 point) gives the same as the ``torquefree_sim`` fixture. The contract: docs/CONTRACT.md, "Test
-kit".
+kit". The modules: ``kit`` (the simulator's life and stepping), ``delivery`` (what the nodes added
+processed), ``failures`` (what a failure says), ``truth`` (the run followed: samples, truth,
+reset), ``samples`` (the values handed out), ``domains`` (a ROS domain per simulator).
 """
 
-from .kit import (
-    DEFAULT_TIMEOUT,
-    message_stamp_ns,
-    Sample,
-    Simulator,
-    simulator,
-    SimulatorTimeout,
-    stamp_ns,
-    State,
-    Tap,
-)
+from .failures import SimulatorTimeout
+from .kit import DEFAULT_TIMEOUT, Simulator, simulator, Tap
+from .samples import message_stamp_ns, Sample, stamp_ns, State
 
 __all__ = [
     'DEFAULT_TIMEOUT',

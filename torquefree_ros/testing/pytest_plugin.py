@@ -27,8 +27,9 @@ scene's name)::
     )
 
 Both may be given: the parametrization's values win. Each test gets a fresh simulator in a ROS
-domain and namespace of its own, closed after the test (every node added to it destroyed), so tests
-can run in parallel under pytest-xdist. rclpy is imported only when a test asks for the fixture.
+domain of its own (its node in the root namespace, unless ``namespace=...`` names one), closed
+after the test (every node added to it destroyed), so tests can run in parallel under pytest-xdist.
+rclpy is imported only when a test asks for the fixture.
 """
 
 from __future__ import annotations

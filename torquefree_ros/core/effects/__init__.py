@@ -14,7 +14,8 @@
 
 """The effects catalogue: every effect behind one interface (:mod:`.base`), in one registry."""
 
-from . import commands, internal, outputs, torques  # noqa: F401  (registers the effects)
+# (importing the modules registers their effects)
+from . import actuators, commands, internal, outputs, sensors, torques  # noqa: F401
 from .base import (
     Effect,
     EFFECTS,
@@ -25,6 +26,7 @@ from .base import (
     OutputEffect,
     OutputStream,
     parse_effect,
+    remaining_inertia_problem,
 )
 
 __all__ = [
@@ -37,4 +39,5 @@ __all__ = [
     'OutputStream',
     'invariants_conserved',
     'parse_effect',
+    'remaining_inertia_problem',
 ]

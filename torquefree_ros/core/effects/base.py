@@ -21,21 +21,25 @@ An effect is named in a scene as ``- NAME: {parameters}``. Two kinds share the r
   ``I w' + w x I w = sum(torque_B)`` and may carry a state of its own (a damper's rate) with its
   own derivative. ``uses_attitude`` says whether it needs ``q`` (then integrators must supply stage
   attitudes), ``conserves`` which invariants survive it, ``breakpoints`` where its torque jumps.
+  An effect whose state carries the momentum of a part of the body's inertia (reaction wheels'
+  absolute axial momenta) returns that part from ``spin_inertia_B``: Euler's equations are then
+  integrated with the inertia less it.
 * an :class:`OutputEffect` only derives a topic from the samples (an IMU, Euler angles); it never
   changes the motion, so a scene with outputs alone keeps the exact propagator.
 
-Parameters are declared as :class:`~torquefree_ros.core.schema.Param` and checked before the class
-is built, so every error carries the field path (``effects[1].torque``).
+Parameters are declared as :class:`~torquefree_ros.core.checks.schema.Param` and checked before the
+class is built, so every error carries the field path (``effects[1].torque``).
 """
 
 from __future__ import annotations
 
 import abc
+import math
 from typing import ClassVar
 
 import numpy as np
 
-from ..schema import child, FieldError, fields, number, one_key, Param
+from ..checks.schema import child, FieldError, fields, number, one_key, Param
 
 #: effect name -> class; filled by the modules that define effects
 EFFECTS: dict[str, type['Effect']] = {}
@@ -74,6 +78,14 @@ class Effect(abc.ABC):
     def __hash__(self) -> int:
         return hash((type(self), tuple(self.values)))
 
+    #: the hold of the commands this effect takes, once bound to a propagator (None: it takes none)
+    hold = None
+
+    @property
+    def takes_commands(self) -> bool:
+        """Whether this effect, bound to a propagator, takes commands: it has a hold of its own."""
+        return self.hold is not None
+
     def describe(self) -> str:
         shown = ', '.join(
             f'{key}={_short(value)}' for key, value in self.values.items() if value is not None
@@ -88,7 +100,7 @@ class MotionEffect(Effect):
     holds_per_sample: ClassVar[bool] = False
     state_size: ClassVar[int] = 0
     conserves: ClassVar[frozenset] = frozenset()
-    #: its torque's compiled form: a code of ``integrators/motion_kernels.py`` (whose section
+    #: its torque's compiled form: a code of ``compiled/motion_kernels.py`` (whose section
     #: there reads :meth:`kernel_parameters`), or None for a torque held constant on each smooth
     #: piece, which the compiled integrators take from :meth:`held_torque` where the piece starts
     kernel_code: ClassVar[int | None] = None
@@ -122,8 +134,14 @@ class MotionEffect(Effect):
         """
 
     def state_rate(
-        self, t: float, omega_B: np.ndarray, q_NB: np.ndarray, state: np.ndarray
+        self,
+        t: float,
+        omega_B: np.ndarray,
+        q_NB: np.ndarray,
+        state: np.ndarray,
+        segment_start: float,
     ) -> np.ndarray:
+        """Return the rate of the effect's own state (``segment_start`` as in :meth:`torque_B`)."""
         return np.empty(0)
 
     def breakpoints(self) -> tuple[float, ...]:
@@ -141,6 +159,29 @@ class MotionEffect(Effect):
         frame (else the body frame).
         """
         raise NotImplementedError(f'{self.name}: neither a kernel code nor a held torque')
+
+    def held_inputs(self, segment_start: float) -> np.ndarray | None:
+        """
+        Return the numbers its kernel reads from ``held`` on the piece from ``segment_start``.
+
+        One per component of the effect's own state (a wheel's motor torque), or None (none): the
+        compiled path reads them at ``held[6 + s]``, ``s`` the state component's index in the
+        effects' flat state, so an input held per piece (a schedule now, a command hold later)
+        reaches a kernel without a new model.
+        """
+        return None
+
+    def spin_inertia_B(self) -> np.ndarray:
+        """
+        Return the inertia ``J`` (3 x 3, body frame) whose momentum the effect's own state carries.
+
+        Reaction wheels: ``sum Js g g^T``; the scene's inertia ``I`` includes them locked. Euler's
+        equations are then integrated with ``I - J`` (the momentum ``J w`` lives in the effect's
+        absolute state; Schaub & Junkins, *Analytical Mechanics of Space Systems*, ch. 4, momentum
+        exchange devices), and the invariants count ``I w - J w + momentum_B(state)``. Zero for
+        most effects.
+        """
+        return np.zeros((3, 3))
 
     def momentum_B(self, state: np.ndarray) -> np.ndarray:
         """
@@ -239,6 +280,31 @@ def parse_effect(entry, path: str) -> Effect:
     return cls.from_parameters(values, where)
 
 
+def remaining_inertia_problem(tensor: np.ndarray, spin: np.ndarray) -> str | None:
+    """
+    Say why ``tensor - spin`` cannot be integrated with, or return None when it can.
+
+    ``spin`` is the inertia effects carry in their own states
+    (:meth:`MotionEffect.spin_inertia_B`); what is left, the body with its wheels' spin removed,
+    must be positive definite: its smallest eigenvalue above 1e-12 of the largest moment, a margin
+    over the eigen-solver's rounding (a wheel's ``Js`` equal to the body's whole moment about its
+    axis leaves a zero there).
+    """
+    with np.errstate(all='ignore'):
+        remaining = np.asarray(tensor, float) - spin
+        finite = bool(np.all(np.isfinite(remaining)))
+        smallest = float(np.linalg.eigvalsh(remaining).min()) if finite else math.nan
+        largest = float(np.abs(np.linalg.eigvalsh(tensor)).max()) if finite else math.nan
+    if finite and smallest > 1e-12 * largest:
+        return None
+    return (
+        'the wheels leave I - sum(Js g g^T) not positive definite (smallest eigenvalue '
+        f"{smallest:.6g} kg m^2, largest moment {largest:.6g} kg m^2): each wheel's spin "
+        "inertia is part of the body's inertia, so Js must stay below the body's moment about "
+        'its axis'
+    )
+
+
 def invariants_conserved(effects) -> frozenset:
     """Return what stays constant under all ``effects`` (torque-free: energy and momentum)."""
     kept = frozenset({ENERGY, MOMENTUM})
@@ -269,4 +335,5 @@ __all__ = [
     'invariants_conserved',
     'parse_effect',
     'register',
+    'remaining_inertia_problem',
 ]

@@ -24,9 +24,9 @@ from __future__ import annotations
 import numpy as np
 
 from .base import ENERGY, MOMENTUM, MotionEffect, register
-from .. import quaternion
-from ..integrators import motion_kernels
-from ..schema import FieldError, number, Param, vector
+from ..checks.schema import FieldError, number, Param, vector
+from ..compiled import motion_kernels
+from ..frames import quaternion
 
 
 @register
@@ -78,7 +78,7 @@ class Damper(MotionEffect):
     def torque_B(self, t, omega_B, q_NB, state, segment_start):
         return self.c * (state - omega_B)
 
-    def state_rate(self, t, omega_B, q_NB, state):
+    def state_rate(self, t, omega_B, q_NB, state, segment_start):
         return -self.c / self.J * (state - omega_B) - quaternion.cross(omega_B, state)
 
     def momentum_B(self, state):

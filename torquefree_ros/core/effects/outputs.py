@@ -15,12 +15,8 @@
 """
 Output effects: topics derived from the samples, never changing the motion.
 
-``imu`` is a gyro on the body: ``w_meas = w + b + n`` with white noise ``n`` of density ``N``
-(rad/s/sqrt(Hz): per-sample standard deviation ``N sqrt(rate)``) and a bias random walk
-``b_k = b_(k-1) + K sqrt(1/rate) m_k`` (``K`` in rad/s/sqrt(s)). Its Allan deviation is
-``N / sqrt(tau)`` at short ``tau`` and ``K sqrt(tau / 3)`` at long ``tau`` (IEEE Std 952). The
-draws come from a seeded PCG64 stream consumed in sample order, so sample ``k`` is the same however
-the samples are cut into blocks, live or offline.
+The sensors, ``imu`` (a gyro with its datasheet errors) and ``star_tracker``, are in
+:mod:`.sensors`.
 
 ``tf`` is the attitude as ``tf2_msgs/TFMessage`` on ``/tf``: one transform per sample, parent the
 inertial frame, child the body frame, rotation ``q_NB``, zero translation (REP 105).
@@ -35,19 +31,14 @@ frame as REP 105 wants, zero linear velocity: bit for bit the numbers ``attitude
 ``angular_velocity`` carry. Both covariances are zero: the values are exact, not estimates (zero,
 not REP 145's ``-1``, which would say "not provided").
 
-``star_tracker`` measures the attitude: ``q_meas = q_NB ⊗ exp(n / 2)`` with ``n`` a rotation vector
-in the body frame, ``n = sigma_cross (g1 e1 + g2 e2) + sigma_about g3 b`` (``b`` the boresight,
-``e1, e2`` across it, ``g`` standard normal), published as ``sensor_msgs/Imu`` with only the
-orientation filled and its covariance ``E[n n^T]`` (rad^2, body axes), the others ``-1`` (REP 145).
-Its draws are seeded and consumed in sample order like the ``imu``'s.
-
 ``markers`` draws the motion for RViz/Foxglove as ``visualization_msgs/MarkerArray`` in the
 inertial frame (no ``/tf`` needed): the uniform box with the body's principal moments (sides
 ``d_i ~ sqrt(J_j + J_k - J_i)``, the longest ``size`` m), oriented by its principal axes, and
-arrows from its centre along ``w`` and ``H``. Every message carries all three markers, even when
+arrows from its centre along ``w`` and ``H``, each labelled past its tip. Every message carries all
+five markers, even when
 ``H`` is constant: a viewer shows the latest MarkerArray, so one that joins late or seeks in a bag
-shows the whole picture at every sample (``momentum_interval``, which thinned the ``H`` arrow out,
-is refused).
+shows the whole picture at every sample (``momentum_interval``, which would thin the ``H`` arrow
+out, is refused).
 
 ``euler_angles`` are the 3-2-1 angles of seed 000 (yaw psi about z, then pitch theta about the new
 y, then roll phi about the new x) of ``[BN] = R(q_NB)^T``, published as Vector3Stamped
@@ -56,113 +47,12 @@ y, then roll phi about the new x) of ``[BN] = R(q_NB)^T``, published as Vector3S
 
 from __future__ import annotations
 
-import abc
-import math
-
 import numpy as np
 
 from .base import OutputEffect, OutputStream, register
-from .. import quaternion
-from ..schema import child, FieldError, integer, number, Param, retired, topic_name, vector
-
-# sensor_msgs/Imu after its header: orientation [0:4], its covariance [4:13], angular_velocity
-# [13:16], its covariance [16:25], linear_acceleration [25:28], its covariance [28:37]
-IMU_ROW = 37
-NOT_PROVIDED = -1.0  # REP 145: element 0 of a covariance is -1 when the quantity is not provided
-
-
-@register
-class Imu(OutputEffect):
-    name = 'imu'
-    summary = (
-        'sensor_msgs/Imu gyro on the body: white noise and bias random walk, seeded '
-        '(REP 145 covariances)'
-    )
-    message_type = 'sensor_msgs/msg/Imu'
-    frame = 'body'
-    parameters = {
-        'gyro_noise_density': Param(number(minimum=0.0, unit='rad/s/sqrt(Hz)'), 0.0),
-        'gyro_bias_random_walk': Param(number(minimum=0.0, unit='rad/s/sqrt(s)'), 0.0),
-        'initial_bias': Param(vector(3, unit='rad/s'), np.zeros(3)),
-        'seed': Param(integer(0, 2**63 - 1), 0),
-        'topic': Param(topic_name, 'imu'),
-        'rate': OutputEffect.RATE,
-    }
-
-    def stream(self, rate, propagator):
-        return _ImuStream(self, rate)
-
-
-class _SeededStream(OutputStream):
-    """
-    Draws from a seeded PCG64 stream consumed in sample order.
-
-    A sample's draws are the same however samples are requested (skipped samples consume theirs;
-    asking earlier restarts).
-    """
-
-    def __init__(self, seed: int):
-        self.seed = seed
-        self._restart()
-
-    def _restart(self):
-        self.rng = np.random.Generator(np.random.PCG64(self.seed))
-        self.next_index = 0
-
-    def _seek(self, first: int) -> None:
-        """Make sample ``first`` the next to draw for."""
-        if first < self.next_index:
-            self._restart()
-        if first > self.next_index:
-            self._draw(first - self.next_index)
-
-    @abc.abstractmethod
-    def _draw(self, count: int):
-        """Return the draws of the next ``count`` samples (advances ``next_index``)."""
-
-
-class _ImuStream(_SeededStream):
-
-    def __init__(self, imu: Imu, rate: float):
-        values = imu.values
-        self.white_sigma = values['gyro_noise_density'] * np.sqrt(rate)
-        self.walk_sigma = values['gyro_bias_random_walk'] / np.sqrt(rate)
-        self.initial_bias = np.asarray(values['initial_bias'], float)
-        self.template = np.zeros(IMU_ROW)
-        self.template[4] = NOT_PROVIDED  # orientation not provided
-        self.template[16:25] = np.diag(np.full(3, self.white_sigma**2)).ravel()
-        self.template[28] = NOT_PROVIDED  # linear acceleration not provided
-        super().__init__(values['seed'])
-
-    def _restart(self):
-        super()._restart()
-        self.bias = self.initial_bias.copy()  # b_(k-1) of the next sample
-
-    def _draw(self, count: int):
-        """
-        Return the white noise and bias of the next ``count`` samples.
-
-        Sample 0 carries the initial bias.
-        """
-        normals = self.rng.standard_normal((count, 6))
-        steps = self.walk_sigma * normals[:, 3:]
-        if self.next_index == 0:
-            steps[0] = 0.0
-        # accumulate is sequential: ((b + s1) + s2) + ..., the same floats however blocks are cut
-        bias = np.cumsum(np.vstack([self.bias, steps]), axis=0)[1:]
-        self.bias = bias[-1].copy()
-        self.next_index += count
-        return self.white_sigma * normals[:, :3], bias
-
-    def rows(self, first, times, omega_B, q_NB, internal):
-        count = times.shape[0]
-        self._seek(first)
-        if count == 0:
-            return np.empty((0, IMU_ROW))
-        white, bias = self._draw(count)
-        rows = np.tile(self.template, (count, 1))
-        rows[:, 13:16] = omega_B + bias + white
-        return rows
+from .sensors import ARCSEC, IMU_ROW, NOT_PROVIDED  # noqa: F401  (their old home: kept importable)
+from ..checks.schema import number, Param, retired, topic_name
+from ..frames import quaternion
 
 
 @register
@@ -269,92 +159,12 @@ class _OdometryStream(OutputStream):
         return rows
 
 
-ARCSEC = math.pi / (180.0 * 3600.0)
-
-
-@register
-class StarTracker(OutputEffect):
-    name = 'star_tracker'
-    summary = (
-        'sensor_msgs/Imu with only the orientation: '
-        'the attitude turned by a seeded noise rotation, '
-        '1-sigma across and about the boresight (arcsec), covariance filled (REP 145)'
-    )
-    message_type = 'sensor_msgs/msg/Imu'
-    frame = 'body'
-    parameters = {
-        'cross_boresight_noise': Param(number(minimum=0.0, unit='arcsec'), 0.0),
-        'about_boresight_noise': Param(number(minimum=0.0, unit='arcsec'), 0.0),
-        'boresight': Param(vector(3), np.array([0.0, 0.0, 1.0])),
-        'seed': Param(integer(0, 2**63 - 1), 0),
-        'topic': Param(topic_name, 'star_tracker'),
-        'rate': OutputEffect.RATE,
-    }
-
-    @classmethod
-    def from_parameters(cls, values, path):
-        length = float(np.linalg.norm(values['boresight']))
-        if not length > 0.0:
-            raise FieldError(child(path, 'boresight'), 'must not be the zero vector')
-        return cls(**{**values, 'boresight': values['boresight'] / length})
-
-    def noise_axes(self) -> np.ndarray:
-        """
-        Return the columns ``e1, e2, b`` of a right-handed body-frame basis.
-
-        The third axis is the boresight.
-        """
-        b = self.values['boresight']
-        helper = np.eye(3)[int(np.argmin(np.abs(b)))]  # the body axis least aligned with b
-        e1 = np.cross(b, helper)
-        e1 /= np.linalg.norm(e1)
-        return np.column_stack([e1, np.cross(b, e1), b])
-
-    def noise_sigmas(self) -> np.ndarray:
-        """1-sigma (rad) along ``e1, e2, b``."""
-        cross, about = self.values['cross_boresight_noise'], self.values['about_boresight_noise']
-        return np.array([cross, cross, about]) * ARCSEC
-
-    def covariance(self) -> np.ndarray:
-        """``E[n n^T]`` (rad^2) in body axes."""
-        axes = self.noise_axes()
-        return axes @ np.diag(self.noise_sigmas() ** 2) @ axes.T
-
-    def stream(self, rate, propagator):
-        return _StarTrackerStream(self)
-
-
-class _StarTrackerStream(_SeededStream):
-
-    def __init__(self, tracker: StarTracker):
-        self.scaled_axes = tracker.noise_axes() * tracker.noise_sigmas()  # n = scaled_axes @ g
-        self.template = np.zeros(IMU_ROW)
-        self.template[4:13] = tracker.covariance().ravel()
-        self.template[16] = NOT_PROVIDED  # angular velocity not provided
-        self.template[28] = NOT_PROVIDED  # linear acceleration not provided
-        super().__init__(tracker.values['seed'])
-
-    def _draw(self, count: int):
-        self.next_index += count
-        return self.rng.standard_normal((count, 3))
-
-    def rows(self, first, times, omega_B, q_NB, internal):
-        self._seek(first)
-        normals = self._draw(times.shape[0])
-        rows = np.tile(self.template, (times.shape[0], 1))
-        if times.shape[0]:
-            rows[:, 0:4] = quaternion.multiply(
-                q_NB, quaternion.exp_rotation(normals @ self.scaled_axes.T)
-            )
-        return rows
-
-
 @register
 class Markers(OutputEffect):
     name = 'markers'
     summary = (
         "visualization_msgs/MarkerArray in the inertial frame: the body's inertia box "
-        'on its principal axes, arrows along w and H, all three in every message'
+        'on its principal axes, arrows along w and H with their labels, all in every message'
     )
     message_type = 'visualization_msgs/msg/MarkerArray'
     frame = 'inertial'

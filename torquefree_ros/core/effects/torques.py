@@ -27,9 +27,9 @@ import math
 import numpy as np
 
 from .base import MotionEffect, register
-from .. import quaternion
-from ..integrators import motion_kernels
-from ..schema import child, choice, FieldError, listing, mapping, number, Param, vector
+from ..checks.schema import child, choice, FieldError, listing, mapping, number, Param, vector
+from ..compiled import motion_kernels
+from ..frames import quaternion
 
 EARTH_MU = 3.986004418e14  # m^3/s^2 (WGS 84 / IERS)
 

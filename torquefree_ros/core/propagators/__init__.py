@@ -15,14 +15,8 @@
 """Propagator registry: every propagator behind one interface, looked up by name."""
 
 from . import analytic, numerical  # noqa: F401  (registers the propagators)
-from .base import (
-    MAX_STEPS_PER_SAMPLE,
-    Propagator,
-    propagator_class,
-    PROPAGATORS,
-    StepBudgetExceeded,
-    StepTooSmall,
-)
+from .base import Propagator, propagator_class, PROPAGATORS
+from ..numerics.steps import MAX_STEPS_PER_SAMPLE, StepBudgetExceeded, StepTooSmall
 
 __all__ = [
     'MAX_STEPS_PER_SAMPLE',

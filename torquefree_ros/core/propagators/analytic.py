@@ -13,7 +13,7 @@
 # limitations under the License.
 
 """
-The exact torque-free propagator (see :mod:`torquefree_ros.core.polhode` for the equations).
+The exact torque-free propagator (see :mod:`torquefree_ros.core.exact.polhode` for the equations).
 
 The regime and every constant are chosen once in the constructor; evaluation is a pure, vectorised
 function of time whose cost per sample does not depend on ``t``.
@@ -27,8 +27,8 @@ import math
 import numpy as np
 
 from .base import Propagator, register
-from .. import quaternion
-from ..polhode import body_polhode, exact_attitude, Polhode
+from ..exact.polhode import body_polhode, exact_attitude, Polhode
+from ..frames import quaternion
 
 
 @register

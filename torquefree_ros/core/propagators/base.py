@@ -28,14 +28,9 @@ from typing import ClassVar
 import numpy as np
 
 from .dynamics import Dynamics
-from ..rigid_body import RigidBody
-from ..validation import finite_vector, initial_samples, sample_times, unit_quaternion
-
-#: integrator steps one sample (one requested time after the previous) may take: about a second of
-#: the slowest path (rk4 in Python with effects), ~10 ms compiled. The node, the offline tools and
-#: the API all refuse more, with the same reason, so no call can hang on a scene that needs
-#: ~forever
-MAX_STEPS_PER_SAMPLE = 10_000
+from ..body.rigid_body import RigidBody
+from ..checks.validation import finite_vector, initial_samples, sample_times, unit_quaternion
+from ..numerics.steps import MAX_STEPS_PER_SAMPLE
 
 
 class Propagator(abc.ABC):
@@ -65,7 +60,9 @@ class Propagator(abc.ABC):
         self.body = RigidBody.from_inertia(body)
         self.omega0_B = finite_vector(angular_velocity, 'angular_velocity', (3,))
         self.q0_NB = unit_quaternion(orientation, 'orientation')
-        _check_representable(self.body, self.omega0_B)
+        problem = unrepresentable_state(self.body, self.omega0_B)
+        if problem is not None:
+            raise ValueError(f'angular_velocity: {problem}')
         unknown = sorted(set(options) - set(self.options))
         if unknown:
             known = ', '.join(sorted(self.options)) or 'none'
@@ -157,34 +154,6 @@ class Propagator(abc.ABC):
         return f'{self.name}({settings})' if settings else self.name
 
 
-class StepBudgetExceeded(RuntimeError):
-    """A sample needs more integrator steps than ``Propagator.max_steps_per_sample``."""
-
-    def __init__(self, propagator: Propagator, t: float, step: float):
-        super().__init__(
-            f'{propagator.name}: reaching t = {t:.6g} s needs more than '
-            f'{propagator.max_steps_per_sample:,} steps from the sample before '
-            f'(the step is {step:.2g} s), the bound per sample that keeps the node responsive: '
-            'raise the sample rate, or relax the accuracy (a longer step, looser tolerances)'
-        )
-
-
-class StepTooSmall(RuntimeError):
-    """
-    The adaptive step fell below what float64 resolves at ``t``.
-
-    This is scipy's "Required step size is less than spacing between numbers": the motion is too
-    fast there, or has overflowed.
-    """
-
-    def __init__(self, propagator: Propagator, t: float):
-        super().__init__(
-            f'{propagator.name}: at t = {t:.6g} s the step fell under 10 rounding units of t: '
-            'the motion there is too fast or too stiff for float64 steps, or has overflowed '
-            "(check the scene's rates, torques and effect parameters)"
-        )
-
-
 def overflowing_message(effect) -> str:
     return (
         f"{effect.describe()}: its torque or its own state's rate overflows float64 "
@@ -196,19 +165,25 @@ _NO_EFFECT_STATE = np.empty(0)
 _NO_EFFECT_STATE.flags.writeable = False
 
 
-def _check_representable(body: RigidBody, omega_B: np.ndarray) -> None:
-    # The solvers form products like I_max * |H|^2; they must stay finite in float64. (Plain
-    # floats, which overflow to inf in products; every propagator built runs this.)
-    w = omega_B.tolist()
-    # overflow gives inf
+def unrepresentable_state(body: RigidBody, omega_B) -> str | None:
+    """
+    Say why a body at ``omega_B`` overflows float64, or return None when it does not.
+
+    The solvers form products like ``I_max * |H|^2``; they must stay finite in float64. Every
+    propagator built runs this, and scenes run it when they load (a field path before the reason).
+    """
+    # plain floats: three numbers, checked on every propagator built; a product that overflows is
+    # inf, never an OverflowError (only ** and math functions raise)
+    w = [float(x) for x in omega_B]
     h = [row[0] * w[0] + row[1] * w[1] + row[2] * w[2] for row in body.tensor.tolist()]
     largest = max(body.moments.tolist())
     scale = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]) * largest * largest
-    if not math.isfinite(scale):
-        raise ValueError(
-            f'angular_velocity: the state {omega_B.tolist()} with moments {body.moments.tolist()} '
-            'overflows float64 (|H|^2 * I_max^2 is not finite)'
-        )
+    if math.isfinite(scale):
+        return None
+    return (
+        f'the state {w} with moments {body.moments.tolist()} '
+        'overflows float64 (|H|^2 * I_max^2 is not finite)'
+    )
 
 
 #: name -> class; filled by the modules that define propagators

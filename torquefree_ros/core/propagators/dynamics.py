@@ -18,10 +18,15 @@ The equations of motion a numerical propagator integrates.
 Euler's equations with the torques of a scene's motion effects, the attitude kinematics, and the
 effects' own states.
 
-    I w' = I w x w + sum(torque_B),   q' = 1/2 q ⊗ (w, 0),   x_e' = effect_e.state_rate
+    I' w' = I' w x w + sum(torque_B),   q' = 1/2 q ⊗ (w, 0),   x_e' = effect_e.state_rate
 
-in the user's body frame with the full inertia tensor, on one flat state ``y = (w, q, x)``. Without
-effects this is the torque-free right-hand side alone (no loop over effects).
+in the user's body frame, on one flat state ``y = (w, q, x)``. ``I'`` is the full inertia tensor
+``I`` less the inertia the effects carry in their own states (``spin_inertia_B``: reaction
+wheels' ``sum Js g g^T``, whose momentum ``Js (Omega + g . w)`` each wheel's state holds; Schaub &
+Junkins, *Analytical Mechanics of Space Systems*, ch. 4): ``I' = I`` for every other scene, bit for
+bit. The invariants count the whole system: ``H_B = I' w + sum(momentum_B(x_e))`` and
+``T = w . I' w / 2 + sum(energy(x_e))``. Without effects this is the torque-free right-hand side
+alone (no loop over effects).
 """
 
 from __future__ import annotations
@@ -31,17 +36,29 @@ import math
 
 import numpy as np
 
-from ..effects import ENERGY, invariants_conserved, MOMENTUM
-from ..rigid_body import RigidBody
+from ..body.rigid_body import RigidBody
+from ..effects import ENERGY, invariants_conserved, MOMENTUM, remaining_inertia_problem
 
 
 class Dynamics:
 
     def __init__(self, body: RigidBody, effects=()):
         self.body = body
-        self._tensor_rows = tuple(map(tuple, body.tensor.tolist()))
-        self._inverse_rows = tuple(map(tuple, np.linalg.inv(body.tensor).tolist()))
         self.effects = tuple(effects)
+        spin = np.zeros((3, 3))
+        for effect in self.effects:
+            spin = spin + effect.spin_inertia_B()
+        #: the inertia the effects carry in their own states (wheels' spin), body frame
+        self.spin_inertia_B = spin
+        self._spin = bool(spin.any())
+        if self._spin:
+            problem = remaining_inertia_problem(body.tensor, spin)
+            if problem is not None:  # (each effect alone passed this when bound to the body)
+                raise ValueError(f'effects: {problem}')
+        #: the inertia Euler's equations are integrated with: the body's less ``spin_inertia_B``
+        self.tensor = body.tensor - spin if self._spin else body.tensor
+        self._tensor_rows = tuple(map(tuple, self.tensor.tolist()))
+        self._inverse_rows = tuple(map(tuple, np.linalg.inv(self.tensor).tolist()))
         self.uses_attitude = any(effect.uses_attitude for effect in self.effects)
         self.slices = []
         offset = 0
@@ -90,13 +107,13 @@ class Dynamics:
         numpy's per-call cost would dominate.
         """
         w1, w2, w3, qx, qy, qz, qw = y[:7].tolist()
-        (a11, a12, a13), (a21, a22, a23), (a31, a32, a33) = self._tensor_rows
+        (a11, a12, a13), (a21, a22, a23), (a31, a32, a33) = self._tensor_rows  # I'
         h1, h2, h3 = (
             a11 * w1 + a12 * w2 + a13 * w3,
             a21 * w1 + a22 * w2 + a23 * w3,
             a31 * w1 + a32 * w2 + a33 * w3,
         )
-        m1, m2, m3 = h2 * w3 - h3 * w2, h3 * w1 - h1 * w3, h1 * w2 - h2 * w1  # (I w) x w
+        m1, m2, m3 = h2 * w3 - h3 * w2, h3 * w1 - h1 * w3, h1 * w2 - h2 * w1  # (I' w) x w
         if self.effects:
             torque, x_dot = self._effect_terms(t, y, segment_start)
             e1, e2, e3 = torque.tolist()
@@ -124,7 +141,7 @@ class Dynamics:
             state = x[part]
             torque = torque + effect.torque_B(t, omega, q, state, segment_start)
             if effect.state_size:
-                x_dot[part] = effect.state_rate(t, omega, q, state)
+                x_dot[part] = effect.state_rate(t, omega, q, state, segment_start)
         return torque, x_dot
 
     def overflowing_effect(
@@ -141,8 +158,8 @@ class Dynamics:
                 try:
                     terms = [effect.torque_B(0.0, omega_B, q_NB, state, 0.0)]
                     if effect.state_size:
-                        terms.append(effect.state_rate(0.0, omega_B, q_NB, state))
-                    terms.append(np.linalg.solve(self.body.tensor, terms[0]))
+                        terms.append(effect.state_rate(0.0, omega_B, q_NB, state, 0.0))
+                    terms.append(np.linalg.solve(self.tensor, terms[0]))
                 except OverflowError:  # Python floats raise where numpy gives inf
                     return index
                 if not all(np.all(np.isfinite(term)) for term in terms):
@@ -152,12 +169,17 @@ class Dynamics:
     # -- invariants of the whole system (body + effects' own momentum and energy) -----------------
     def momentum_B(self, omega_B: np.ndarray, x: np.ndarray) -> np.ndarray:
         total = self.body.angular_momentum(omega_B)
+        if self._spin:  # that momentum is in the effects' states
+            total = total - np.einsum('ij,...j->...i', self.spin_inertia_B, omega_B)
         for effect, part in zip(self.effects, self.slices):
             total = total + effect.momentum_B(x[..., part])
         return total
 
     def energy(self, omega_B: np.ndarray, x: np.ndarray) -> np.ndarray:
         total = self.body.kinetic_energy(omega_B)
+        if self._spin:
+            spin_w = np.einsum('ij,...j->...i', self.spin_inertia_B, omega_B)
+            total = total - 0.5 * np.einsum('...i,...i->...', omega_B, spin_w)
         for effect, part in zip(self.effects, self.slices):
             total = total + effect.energy(x[..., part])
         return total

@@ -38,9 +38,11 @@ import math
 import numpy as np
 from scipy.integrate import DOP853
 
-from .base import Propagator, register, StepBudgetExceeded, StepTooSmall
-from .. import quaternion
-from ..integrators import compiled
+from .base import Propagator, register
+from ..compiled import drivers
+from ..frames import quaternion
+from ..numerics import kernels
+from ..numerics.steps import StepBudgetExceeded, StepTooSmall
 
 
 def _positive_option(settings: dict, key: str) -> float:
@@ -79,7 +81,7 @@ class FixedStepPropagator(Propagator):
         super().__init__(body, angular_velocity, orientation, effects, **options)
         self.step = _positive_option(self.settings, 'step')
         self._kernel = (
-            compiled.FixedStepKernel(self, self.kernel_method) if compiled.ENABLED else None
+            drivers.FixedStepKernel(self, self.kernel_method) if kernels.ENABLED else None
         )
         self._restart()
 
@@ -161,7 +163,7 @@ class RK4Propagator(FixedStepPropagator):
     """Classical fourth-order Runge-Kutta on ``(w, q, x)``; ``q`` is normalised only on output."""
 
     name = 'rk4'
-    kernel_method = compiled.kernels.RK4
+    kernel_method = drivers.kernels.RK4
 
     def advance(self, t, y, h):
         f = self.dynamics.derivative
@@ -185,7 +187,7 @@ class LieRK4Propagator(FixedStepPropagator):
     """
 
     name = 'lie_rk4'
-    kernel_method = compiled.kernels.LIE_RK4
+    kernel_method = drivers.kernels.LIE_RK4
     geometric = True
 
     def advance(self, t, y, h):
@@ -245,7 +247,7 @@ class DOP853Propagator(Propagator):
         self.min_step = self.MIN_STEP_PER_TURN * min(
             1.0, 2.0 * math.pi / speed if speed > 0 else 1.0
         )
-        self._kernel = compiled.DOP853Kernel(self) if compiled.ENABLED else None
+        self._kernel = drivers.DOP853Kernel(self) if kernels.ENABLED else None
         self._restart()
 
     @property

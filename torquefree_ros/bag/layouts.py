@@ -1,0 +1,68 @@
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The message layouts of the outputs: one encoder per ``OutputEffect.layout``, by name.
+
+An encoder takes ``(stamps_ns, frame_id, body_frame, rows, place)`` — the samples' stamps, the
+output's frame id, the body frame's id, the output's rows (its numbers, as its layout reads them)
+and where the body is drawn (None: the origin) — and returns the messages' CDR bytes. A new
+message shape is its encoder here under :func:`layout` (built from :mod:`.cdr`'s pieces) and the
+output that names it.
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+from .cdr import encode_odometry, encode_stamped_doubles, encode_transforms, MessageBlock
+from .markers import encode_markers
+
+#: encoders by layout name
+LAYOUTS: dict[str, Callable[..., MessageBlock]] = {}
+
+
+def layout(*names: str):
+    """Register the decorated encoder under each of ``names``."""
+
+    def register(encoder):
+        for name in names:
+            LAYOUTS[name] = encoder
+        return encoder
+
+    return register
+
+
+@layout('doubles', 'pose')
+def _doubles(stamps_ns, frame_id, body_frame, rows, place) -> MessageBlock:
+    """Encode a Header, then the row's float64s (header.frame_id: the output's frame)."""
+    return encode_stamped_doubles(stamps_ns, frame_id, rows)
+
+
+@layout('transform')
+def _transform(stamps_ns, frame_id, body_frame, rows, place) -> MessageBlock:
+    """Encode a TransformStamped: parent the output's frame, child the body frame."""
+    return encode_transforms(stamps_ns, frame_id, body_frame, rows)
+
+
+@layout('odometry')
+def _odometry(stamps_ns, frame_id, body_frame, rows, place) -> MessageBlock:
+    """Encode a nav_msgs/Odometry: frame_id the output's frame, child_frame_id the body's."""
+    return encode_odometry(stamps_ns, frame_id, body_frame, rows)
+
+
+@layout('markers')
+def _markers(stamps_ns, frame_id, body_frame, rows, place) -> MessageBlock:
+    """Encode a MarkerArray drawn from the row, the body's centre at ``place``."""
+    return encode_markers(stamps_ns, frame_id, rows, place)

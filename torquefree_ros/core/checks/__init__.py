@@ -1,0 +1,23 @@
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Checks on input values, each error naming the field and the reason.
+
+- :mod:`.validation`: numbers, finite vectors, unit quaternions, sorted sample times.
+- :mod:`.schema`: the field-path vocabulary scene, effect and campaign files are checked with
+  (``Param``, ``number``, ``vector``, ``FieldError``, ...).
+
+May import: :mod:`torquefree_ros.files` and numpy.
+"""

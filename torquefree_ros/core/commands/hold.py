@@ -1,0 +1,284 @@
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The hold of a run's commands: which command is in force on each sample interval, and the rules.
+
+A command ``(stamp, torque)`` holds from the first sample ``k`` with ``t_k >= stamp`` (and not
+before the first interval still to be computed when it arrives) until the next command's start: the
+torque over ``[t_k, t_k+1)`` is the one in force at ``t_k``. So the torque only changes at sample
+times, and an interval is integrated the same way whether it is computed live, one sample at a
+time, or offline from a recorded command stream, which makes the replay bit for bit.
+
+Rules: a command stamped before the latest accepted one is dropped (stale); one with a non-finite
+or over-``max_torque`` component, or whose ``frame_id`` is not the frame the effect expects, is
+refused; each is counted by reason and never reaches the state. With no command for ``timeout``
+simulated seconds (since the stamp of the one in force, or since the start), the torque is zero.
+:func:`torque_refusal` and :func:`timed_out` are the rules on one command; the plant applies the
+same two to a batch of bodies at once (:func:`torque_refusals`).
+"""
+
+from __future__ import annotations
+
+import bisect
+from collections import Counter
+import math
+import threading
+import time
+from typing import NamedTuple
+
+import numpy as np
+
+from ..timing.grid import sample_stamp_ns
+from ...files.safe_files import clip
+
+
+class Command(NamedTuple):
+    """An accepted command: it holds from sample ``start`` on."""
+
+    start: int
+    stamp_ns: int
+    torque: np.ndarray  # N m, in the effect's frame
+    force: np.ndarray  # as received (ignored)
+    frame_id: str
+
+
+def torque_refusal(torque_values: list, max_torque: float) -> str:
+    """
+    Return why a commanded torque is refused, or ``""``.
+
+    ``torque_values``: its components (and any other components that must be finite, such as the
+    wrench's force) as Python floats; only the first three are held to ``max_torque``.
+    """
+    if not all(map(math.isfinite, torque_values)):
+        return 'not finite: wrench has a NaN or infinite component'
+    if max(map(abs, torque_values[:3])) > max_torque:
+        return f'too large: a torque component exceeds max_torque {max_torque:g} N m'
+    return ''
+
+
+def torque_refusals(values: np.ndarray, max_torque: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """
+    Apply :func:`torque_refusal`'s rules to a torque per body: ``(not_finite, too_large)``.
+
+    ``values (N, 3)``, ``max_torque (N,)``; each a boolean ``(N,)``.
+    """
+    not_finite = ~np.all(np.isfinite(values), axis=1)
+    with np.errstate(invalid='ignore'):
+        too_large = ~not_finite & (np.max(np.abs(values), axis=1) > max_torque)
+    return not_finite, too_large
+
+
+def timed_out(now_ns, since_ns, timeout_ns):
+    """
+    Apply the timeout rule: no command for ``timeout`` since ``since_ns``.
+
+    Integers, or arrays of them.
+    """
+    return now_ns - since_ns >= timeout_ns
+
+
+_ZERO = np.zeros(3)
+_ZERO.flags.writeable = False
+
+
+class CommandHold:
+    """
+    The commands of one run and the torque they hold on each sample interval.
+
+    ``start(rate, epoch_ns)`` puts it on the run's sample grid. Thread-safe: commands arrive on one
+    thread while the samples are computed on another; :meth:`seal` fixes the torque of the
+    intervals about to be computed, so a command arriving meanwhile holds from the next interval.
+    """
+
+    def __init__(self, timeout: float, max_torque: float):
+        self.timeout_ns = round(timeout * 1e9)
+        self.max_torque = max_torque
+        self.rate = 1.0
+        self.epoch_ns = 0
+        self.frame_id = ''  # the frame_id commands must carry ("" until the run sets it)
+        # accepted, in order; sealing forgets those no longer in force
+        self.commands: list[Command] = []
+        self._starts: list[int] = []
+        self.accepted = 0
+        self.sealed = -1  # intervals 0 .. sealed have their torque fixed
+        self.refused: Counter = Counter()
+        self.force_seen = False
+        self._lock = threading.Lock()
+        self._arrived = threading.Condition(self._lock)
+
+    def start(self, rate: float, epoch_ns: int, frame_id: str = '') -> None:
+        self.rate, self.epoch_ns, self.frame_id = float(rate), int(epoch_ns), frame_id
+
+    def shift(self, offset_ns: int) -> None:
+        """
+        Move the grid and the commands kept by ``offset_ns``.
+
+        For a paused run resuming on wall-clock stamps: its epoch moved on, and a command's timeout
+        counts simulated time, which stood still.
+        """
+        with self._lock:  # commands arrive on another thread meanwhile
+            self.epoch_ns += int(offset_ns)
+            self.commands[:] = [
+                command._replace(stamp_ns=command.stamp_ns + int(offset_ns))
+                for command in self.commands
+            ]
+
+    # -- the grid -------------------------------------------------------------------------------
+    def stamp_ns(self, k: int) -> int:
+        """Return the stamp of sample ``k``, as the simulation stamps it."""
+        return sample_stamp_ns(k, self.rate, self.epoch_ns)
+
+    def index_at_or_after(self, stamp_ns: int) -> int:
+        """Return the first sample ``k >= 0`` whose stamp is at or after ``stamp_ns``."""
+        k = max(0, math.ceil((stamp_ns - self.epoch_ns) * 1e-9 * self.rate))
+        while k > 0 and self.stamp_ns(k - 1) >= stamp_ns:
+            k -= 1
+        while self.stamp_ns(k) < stamp_ns:
+            k += 1
+        return k
+
+    def interval_at(self, t: float) -> int:
+        """
+        Return the sample interval ``[t_k, t_k+1)`` holding ``t``.
+
+        ``t`` in s since the start; ``t_k = k / rate``.
+        """
+        k = math.floor(t * self.rate)
+        if (k + 1) / self.rate <= t:
+            k += 1
+        elif k / self.rate > t:
+            k -= 1
+        return max(k, 0)
+
+    # -- commands in ----------------------------------------------------------------------------
+    def receive(
+        self,
+        stamp_ns: int,
+        torque,
+        force=(0.0, 0.0, 0.0),
+        frame_id: str = '',
+        arrival_ns: int | None = None,
+    ) -> tuple[bool, str]:
+        """
+        Accept a command or refuse it; return ``(accepted, reason)``.
+
+        The reason's first words name the rule. ``arrival_ns``: replaying a recording, the stamp it
+        was logged at stands for the moment it arrived (the samples before it had been computed).
+        """
+        torque = np.array(torque, dtype=float)
+        force = np.array(force, dtype=float)
+        with self._lock:
+            if arrival_ns is not None:
+                self.sealed = max(self.sealed, self.index_at_or_after(arrival_ns) - 1)
+            reason = self._refusal(stamp_ns, torque, force, frame_id)
+            if reason:
+                self.refused[reason.split(':', 1)[0]] += 1
+                return False, reason
+            start = max(self.index_at_or_after(stamp_ns), self.sealed + 1)
+            self._append(Command(start, int(stamp_ns), torque, force, frame_id))
+            return True, ''
+
+    def _refusal(self, stamp_ns, torque, force, frame_id) -> str:
+        # on Python floats: one command at a time, where numpy's per-call cost is most of the work
+        reason = torque_refusal(torque.ravel().tolist() + force.ravel().tolist(), self.max_torque)
+        if reason:
+            return reason
+        if frame_id != self.frame_id:
+            return (
+                f'wrong frame: header.frame_id is {clip(repr(frame_id), 80)}, '
+                f"the command's frame is {self.frame_id!r}"
+            )
+        if self.commands and stamp_ns < self.commands[-1].stamp_ns:
+            return 'stale: stamped before the latest accepted command'
+        return ''
+
+    def _append(self, command: Command) -> None:
+        if self._starts and command.start < self._starts[-1]:
+            raise ValueError(
+                f'command holding from sample {command.start} after one from {self._starts[-1]}'
+            )
+        if any(command.force.ravel().tolist()):
+            self.force_seen = True
+        self.commands.append(command)
+        self._starts.append(command.start)
+        self.accepted += 1
+        self._arrived.notify_all()
+
+    # -- the torque out -------------------------------------------------------------------------
+    def seal(self, through: int) -> list[Command]:
+        """
+        Fix the torque of intervals ``0 .. through``.
+
+        Returns the commands that start holding in the newly sealed intervals (what a recorder
+        writes). Commands superseded before interval ``through - 1`` are forgotten, so a long run
+        keeps a bounded list.
+        """
+        with self._lock:
+            first = bisect.bisect_right(self._starts, self.sealed)
+            self.sealed = max(self.sealed, through)
+            sealed = self.commands[first: bisect.bisect_right(self._starts, self.sealed)]
+            # the one in force on through - 1
+            keep = bisect.bisect_right(self._starts, through - 1) - 1
+            if keep > 0:
+                del self.commands[:keep], self._starts[:keep]
+            return sealed
+
+    def in_force(self, k: int) -> Command | None:
+        """Return the command holding on interval ``k`` (None: none yet, or timed out)."""
+        with self._lock:  # sealing may trim the lists meanwhile
+            index = bisect.bisect_right(self._starts, k) - 1
+            command = self.commands[index] if index >= 0 else None
+        if command is None or timed_out(self.stamp_ns(k), command.stamp_ns, self.timeout_ns):
+            return None
+        return command
+
+    def timed_out(self, k: int) -> bool:
+        """
+        Tell whether interval ``k`` has had no command in force for ``timeout``.
+
+        Counted since the last command, or the start.
+        """
+        with self._lock:
+            index = bisect.bisect_right(self._starts, k) - 1
+            since = self.commands[index].stamp_ns if index >= 0 else self.epoch_ns
+        return timed_out(self.stamp_ns(k), since, self.timeout_ns)
+
+    def torque_at(self, t: float) -> np.ndarray:
+        command = self.in_force(self.interval_at(t))
+        return command.torque if command is not None else _ZERO
+
+    def answered(self, stamp_ns: int) -> bool:
+        """Lock-step: an accepted command is stamped at or after ``stamp_ns``."""
+        with self._lock:
+            return self._answered(stamp_ns)
+
+    def _answered(self, stamp_ns: int) -> bool:  # (under the lock)
+        return bool(self.commands) and self.commands[-1].stamp_ns >= stamp_ns
+
+    def wait_for(self, stamp_ns: int, timeout: float, interrupted) -> bool:
+        """
+        Wait (lock-step) for an accepted command stamped at or after ``stamp_ns``.
+
+        Wall clock, at most ``timeout`` s; ``interrupted()`` is polled so that a reset or a stop
+        need not wait.
+        """
+        deadline = time.monotonic() + timeout
+        with self._lock:
+            while not self._answered(stamp_ns):
+                remaining = deadline - time.monotonic()
+                if remaining <= 0.0 or interrupted():
+                    return False
+                self._arrived.wait(min(remaining, 0.05))
+            return True

@@ -1,0 +1,596 @@
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Sensor outputs: the ``imu`` gyro and the ``star_tracker``, with their datasheet error models.
+
+**Gyro** (``imu``, ``sensor_msgs/Imu`` with the angular velocity only). Sample ``k`` of the
+output (``dt = 1 / rate``, the output's own rate) measures the body rate of sample ``k - L``
+(``L = latency_samples``); per axis, with the terms of IEEE Std 952-1997 (Annex C)::
+
+    w_s   = (I + S + M) w_B(t_(k-L))           scale factor S = diag(ppm 1e-6), misalignment M
+    b_k   = b_0 + b_rw,k + beta_k               turn-on, rate random walk, bias instability
+    y_k   = w_s + b_k + n_k                     n_k white (angle random walk)
+    out_k = LSB clip(rint(y_k / LSB), +-n_max)  or clip(y_k, +-w_max) without quantization
+
+* angle random walk ``N`` (``angle_random_walk`` deg/sqrt(h), or ``gyro_noise_density``
+  rad/s/sqrt(Hz)): ``n_k = N sqrt(rate) g``, the mean of white rate noise over the sample, so the
+  Allan deviation is ``N / sqrt(tau)`` and ``ADEV(1 s) = N``;
+* rate random walk ``K`` (``rate_random_walk`` deg/h/sqrt(h), or ``gyro_bias_random_walk``
+  rad/s/sqrt(s)): ``b_rw,0 = initial_bias``, ``b_rw,k = b_rw,(k-1) + K sqrt(dt) g``, the Wiener
+  process's exact increments (variance ``K^2 dt``); Allan deviation ``K sqrt(tau / 3)``;
+* bias instability ``B`` (``bias_instability`` deg/h, IEEE 952's coefficient ``B``: a flicker
+  floor's Allan deviation is ``B sqrt(2 ln 2 / pi) = 0.664 B``) as a first-order Gauss-Markov
+  process of correlation time ``T`` (``bias_correlation_time``, s), the exact discretisation of
+  ``beta' = -beta / T + w``: ``beta_0 = sigma g``,
+  ``beta_k = phi beta_(k-1) + sigma sqrt(1 - phi^2) g``, ``phi = exp(-dt / T)``, stationary
+  variance ``sigma^2``. A single Gauss-Markov process has no flat floor: its Allan deviation
+  rises as ``sqrt(tau)`` below ``T``, peaks at ``0.6174 sigma`` at
+  ``tau = 1.8926 T`` (the maximum of IEEE 952's eq. C.16) and falls as ``1 / sqrt(tau)`` above.
+  ``sigma = 0.664 B / 0.6174`` puts that peak at the flicker floor's height: the bias wanders with
+  the datasheet's stability on the time scale ``T`` (choose ``T`` where the datasheet's Allan
+  curve has its floor). Gazebo's IMU noise model (``dynamic_bias_stddev``,
+  ``dynamic_bias_correlation_time``) and Basilisk's ``imuSensor`` (bounded Gauss-Markov walk) model
+  the same term;
+* turn-on bias (``turn_on_bias`` deg/h, 1-sigma): ``b_0 = sigma_on g``, drawn once per run;
+* scale factor (``scale_factor`` ppm, per axis) and misalignment (``misalignment``, 3 x 3 arcsec,
+  zero diagonal: row i, column j is how much of the body rate about j the sensor's axis i reads),
+  the small-angle sensor model ``(I + S + M)`` of Groves, *Principles of GNSS, Inertial, and
+  Multisensor Integrated Navigation Systems* (2nd ed., eq. 4.19);
+* saturation ``w_max`` (``saturation`` deg/s) clips each axis; quantization (``quantization``, one
+  LSB in deg/s) rounds to the nearest code (half to even), the codes ``n LSB`` with
+  ``|n| <= n_max = floor(w_max / LSB)`` under saturation;
+* latency (``latency_samples``, in samples of the output's own rate, a whole number: exact on the
+  sample grid): sample ``k`` carries the measurement of sample ``k - L``; the first ``L`` samples
+  carry none (zero angular velocity, ``angular_velocity_covariance[0] = -1``, REP 145's "no
+  estimate").
+
+``angular_velocity_covariance`` is ``diag(N^2 rate + LSB^2 / 12)`` (rad^2/s^2): the per-sample
+variance of the white noise and of the quantization's rounding error (uniform over one LSB); the
+biases are not per-sample noise and are left to the consumer's estimator (REP 145). All zero (no
+noise) is REP 145's "unknown". Orientation and linear acceleration are "not provided" (``-1``).
+
+**Star tracker** (``star_tracker``, ``sensor_msgs/Imu`` with the orientation only): ``q_meas =
+q_NB ⊗ exp(n / 2)``, ``n = sigma_cross (g1 e1 + g2 e2) + sigma_about g3 b`` (``b`` the boresight,
+``e1, e2`` across it), ``orientation_covariance = E[n n^T]`` (rad^2, body axes). It has no solution
+while the body's rate exceeds ``max_rate`` (deg/s): ``|w| > max_rate`` at the sample it images
+(after ``latency_samples``, as the gyro's). A sample without a solution carries
+``orientation_covariance[0] = -1`` (REP 145: no estimate; robot_localization's filter then ignores
+the orientation, ``ros_filter.cpp``'s IMU callback) and a zero quaternion (never a valid attitude,
+so a consumer that ignores the flag fails loudly rather than using a stale one); it is still
+published, on the output's grid, so the stamps stay regular.
+
+**Draws.** Every draw comes from the output's ``seed`` and is consumed in sample order, so a
+sample's values are the same however the samples are cut into blocks, live, offline, in the plant
+or a campaign (a skip forward draws the skipped samples' noise, a skip back starts over). The
+white noise and the rate random walk draw 6 normals a sample from ``PCG64(seed)`` (as before the
+datasheet terms: old scenes give the same numbers), the Gauss-Markov bias 3 a sample from
+``PCG64(SeedSequence(seed, spawn_key=(1,)))``, the turn-on bias 3 once from ``spawn_key=(2,)``;
+the star tracker 3 a sample from ``PCG64(seed)``.
+"""
+
+from __future__ import annotations
+
+import abc
+import math
+
+import numpy as np
+
+from .base import OutputEffect, OutputStream, register
+from ..checks.schema import child, FieldError, integer, listing, number, Param, topic_name, vector
+from ..frames import quaternion
+
+# sensor_msgs/Imu after its header: orientation [0:4], its covariance [4:13], angular_velocity
+# [13:16], its covariance [16:25], linear_acceleration [25:28], its covariance [28:37]
+IMU_ROW = 37
+NOT_PROVIDED = -1.0  # REP 145: element 0 of a covariance is -1 when the quantity is not provided
+
+DEG = math.pi / 180.0
+HOUR = 3600.0
+ARCSEC = DEG / 3600.0
+#: a datasheet unit -> its value in SI (rad, s): the one place the conversions are written
+SI = {
+    'deg/sqrt(h)': DEG / math.sqrt(HOUR),  # angle random walk -> rad/s/sqrt(Hz) = rad/sqrt(s)
+    'deg/h/sqrt(h)': DEG / HOUR / math.sqrt(HOUR),  # rate random walk -> rad/s/sqrt(s)
+    'deg/h': DEG / HOUR,  # biases -> rad/s
+    'deg/s': DEG,  # saturation, quantization -> rad/s
+    'ppm': 1e-6,
+    'arcsec': ARCSEC,  # -> rad
+}
+#: a flicker floor's Allan deviation per unit of IEEE 952's bias instability coefficient B
+FLICKER_FLOOR = math.sqrt(2.0 * math.log(2.0) / math.pi)  # 0.6643
+#: a first-order Gauss-Markov process's Allan deviation at its peak, per unit of its standard
+#: deviation, and where the peak is, per unit of its correlation time: the maximum over
+#: x = tau / T of (2 / x) (1 - (3 - 4 exp(-x) + exp(-2 x)) / (2 x)) (IEEE 952, eq. C.16)
+GM_PEAK = 0.6173642831
+GM_PEAK_TAU = 1.8926178601
+MAX_LATENCY = 100_000  # samples: the delay line holds as many rows (37 float64 each)
+SKIP_CHUNK = 65_536  # samples drawn at a time when skipping forward (bounded memory)
+
+
+def _matrix3(unit: str):
+    """Build a checker of a 3 x 3 matrix written as 3 rows of 3 numbers."""
+    rows = listing(vector(3, unit=unit))
+
+    def check(value, path):
+        checked = rows(value, path)
+        if len(checked) != 3:
+            raise FieldError(path, f'expected 3 rows of 3 numbers ({unit}), got {len(checked)}')
+        return np.array(checked)
+
+    return check
+
+
+def _latency():
+    return Param(
+        integer(0, MAX_LATENCY),
+        None,
+        "samples of the output's own rate between a measurement and its message",
+    )
+
+
+@register
+class Imu(OutputEffect):
+    name = 'imu'
+    summary = (
+        'sensor_msgs/Imu gyro on the body, datasheet errors: angle and rate random walk, bias '
+        'instability (Gauss-Markov), turn-on bias, scale factor, misalignment, saturation, '
+        'quantization, latency; seeded (REP 145 covariances)'
+    )
+    message_type = 'sensor_msgs/msg/Imu'
+    frame = 'body'
+    parameters = {
+        # the SI white noise and bias walk of the first imu, kept: angle_random_walk and
+        # rate_random_walk give the same terms in datasheet units
+        'gyro_noise_density': Param(number(minimum=0.0, unit='rad/s/sqrt(Hz)'), 0.0),
+        'gyro_bias_random_walk': Param(number(minimum=0.0, unit='rad/s/sqrt(s)'), 0.0),
+        'initial_bias': Param(vector(3, unit='rad/s'), np.zeros(3)),
+        'angle_random_walk': Param(number(minimum=0.0, unit='deg/sqrt(h)'), None),
+        'rate_random_walk': Param(number(minimum=0.0, unit='deg/h/sqrt(h)'), None),
+        'bias_instability': Param(
+            number(minimum=0.0, unit='deg/h'), None, "IEEE 952's B: the Allan floor is 0.664 B"
+        ),
+        'bias_correlation_time': Param(
+            number(positive=True, unit='s'), None, "the bias instability's Gauss-Markov time"
+        ),
+        'turn_on_bias': Param(
+            number(minimum=0.0, unit='deg/h'), None, '1-sigma, drawn once per run'
+        ),
+        'scale_factor': Param(vector(3, unit='ppm'), None),
+        'misalignment': Param(_matrix3('arcsec'), None, 'zero diagonal'),
+        'saturation': Param(number(positive=True, unit='deg/s'), None),
+        # at least 1e-9 deg/s: any rate a scene allows then stays finite in LSBs
+        'quantization': Param(number(minimum=1e-9, unit='deg/s'), None, 'one LSB'),
+        'latency_samples': _latency(),
+        'seed': Param(integer(0, 2**63 - 1), 0),
+        'topic': Param(topic_name, 'imu'),
+        'rate': OutputEffect.RATE,
+    }
+
+    @classmethod
+    def from_parameters(cls, values, path):
+        for new, old, unit in (
+            ('angle_random_walk', 'gyro_noise_density', 'rad/s/sqrt(Hz)'),
+            ('rate_random_walk', 'gyro_bias_random_walk', 'rad/s/sqrt(s)'),
+        ):
+            if values[new] is not None and values[old] > 0.0:
+                raise FieldError(
+                    child(path, new),
+                    f'the same term as {old} ({unit}), which the scene gives too: keep one',
+                )
+        if values['bias_instability'] is not None and values['bias_correlation_time'] is None:
+            raise FieldError(
+                child(path, 'bias_correlation_time'),
+                'missing: bias_instability needs the correlation time (s) of its Gauss-Markov '
+                'process',
+            )
+        if values['bias_instability'] is None and values['bias_correlation_time'] is not None:
+            raise FieldError(
+                child(path, 'bias_correlation_time'),
+                'does nothing without bias_instability (deg/h): give both or neither',
+            )
+        scale = values['scale_factor']
+        if scale is not None and np.any(scale <= -1e6):
+            raise FieldError(
+                child(path, 'scale_factor'),
+                f'every entry must be > -1e6 ppm (an axis reading nothing or reversed), '
+                f'got {scale.tolist()}',
+            )
+        misalignment = values['misalignment']
+        if misalignment is not None:
+            for i in range(3):
+                if misalignment[i, i] != 0.0:
+                    raise FieldError(
+                        child(child(child(path, 'misalignment'), i), i),
+                        "the diagonal must be 0: an axis's own gain error is its scale_factor "
+                        f'(ppm), got {misalignment[i, i]:g} arcsec',
+                    )
+        lsb, saturation = values['quantization'], values['saturation']
+        if lsb is not None and saturation is not None and lsb > saturation:
+            raise FieldError(
+                child(path, 'quantization'),
+                f'one LSB ({lsb:g} deg/s) must not exceed the saturation ({saturation:g} deg/s)',
+            )
+        return cls(**values)
+
+    def noise_density(self) -> float:
+        """Angle random walk ``N``, rad/s/sqrt(Hz)."""
+        arw = self.values['angle_random_walk']
+        return self.values['gyro_noise_density'] if arw is None else arw * SI['deg/sqrt(h)']
+
+    def rate_random_walk(self) -> float:
+        """Rate random walk ``K``, rad/s/sqrt(s)."""
+        rrw = self.values['rate_random_walk']
+        return (
+            self.values['gyro_bias_random_walk'] if rrw is None else rrw * SI['deg/h/sqrt(h)']
+        )
+
+    def sensor_matrix(self) -> np.ndarray | None:
+        """``I + S + M`` (None: the identity, no scale factor nor misalignment)."""
+        scale, misalignment = self.values['scale_factor'], self.values['misalignment']
+        if scale is None and misalignment is None:
+            return None
+        matrix = np.eye(3)
+        if scale is not None:
+            matrix += np.diag(scale * SI['ppm'])
+        if misalignment is not None:
+            matrix += misalignment * SI['arcsec']
+        return matrix
+
+    def codes(self) -> tuple[float | None, float | None, float | None]:
+        """
+        Return ``(w_max, LSB, n_max)`` in rad/s (None where not set).
+
+        ``n_max = floor(w_max / LSB)``, taken as the nearest whole number when within 1e-9 of
+        it (300 deg/s at 0.01 deg/s is 30 000 codes, though 300 / 0.01 rounds below it).
+        """
+        saturation, lsb = self.values['saturation'], self.values['quantization']
+        w_max = None if saturation is None else saturation * SI['deg/s']
+        if lsb is None:
+            return w_max, None, None
+        n_max = None
+        if saturation is not None:
+            ratio = saturation / lsb
+            nearest = round(ratio)
+            n_max = float(nearest if abs(ratio - nearest) <= 1e-9 * ratio else math.floor(ratio))
+        return w_max, lsb * SI['deg/s'], n_max
+
+    def stream(self, rate, propagator):
+        return _ImuStream(self, rate, propagator)
+
+
+class _SensorStream(OutputStream):
+    """
+    A sensor's rows: seeded draws in sample order and, with a latency, a delay line.
+
+    Subclasses draw the noise of the next samples (:meth:`_noise`) and turn states and noise into
+    rows (:meth:`_measure`); ``blank`` is the row of a sample without a measurement.
+    """
+
+    def __init__(self, rate: float, propagator, latency: int | None, blank: np.ndarray):
+        self.rate = rate
+        self.propagator = propagator
+        self.latency = latency or 0
+        self.blank = blank
+        self._restart()
+        self.next_out = None  # the output sample the delay line is ready for
+
+    @abc.abstractmethod
+    def _restart(self) -> None:
+        """Start the draws over: the next sample to draw for is 0 (``next_index``)."""
+
+    @abc.abstractmethod
+    def _noise(self, count: int):
+        """Draw the noise of the next ``count`` samples (advances ``next_index``)."""
+
+    @abc.abstractmethod
+    def _measure(self, omega_B: np.ndarray, q_NB: np.ndarray) -> np.ndarray:
+        """Return the rows of the next samples, whose states these are (draws their noise)."""
+
+    def _seek(self, first: int) -> None:
+        """Make sample ``first`` the next to draw for."""
+        if first < self.next_index:
+            self._restart()
+        while first > self.next_index:
+            self._noise(min(first - self.next_index, SKIP_CHUNK))
+
+    def rows(self, first, times, omega_B, q_NB, internal):
+        count = times.shape[0]
+        if not self.latency:
+            self._seek(first)
+            return self._measure(omega_B, q_NB) if count else np.empty((0, IMU_ROW))
+        if first != self.next_out:
+            self._fill_delay(first)
+        measured = self._measure(omega_B, q_NB) if count else np.empty((0, IMU_ROW))
+        line = np.vstack([self.delayed, measured])
+        self.delayed = line[count:]
+        self.next_out = first + count
+        return line[:count]
+
+    def _fill_delay(self, first: int) -> None:
+        """
+        Fill the delay line with the measurements of samples ``first - L .. first - 1``.
+
+        Blank rows before sample 0. Reached only when samples are not asked for in order (the
+        node, the bag writer, the plant and campaigns ask in order): the states of those samples
+        then come from the propagator at ``j / rate``, the times the simulation asks for at the
+        output's own rate.
+        """
+        start = max(first - self.latency, 0)
+        self._seek(start)
+        if first > start:
+            omega, q, _ = self.propagator.states(np.arange(start, first) / self.rate)
+            measured = self._measure(omega, q)
+        else:
+            measured = np.empty((0, IMU_ROW))
+        blanks = np.tile(self.blank, (self.latency - (first - start), 1))
+        self.delayed = np.vstack([blanks, measured])
+
+
+class _ImuStream(_SensorStream):
+
+    def __init__(self, imu: Imu, rate: float, propagator):
+        values = imu.values
+        dt = 1.0 / rate
+        self.seed = values['seed']
+        self.white_sigma = imu.noise_density() * math.sqrt(rate)
+        self.walk_sigma = imu.rate_random_walk() * math.sqrt(dt)
+        self.initial_bias = np.asarray(values['initial_bias'], float)
+        instability = values['bias_instability'] or 0.0
+        self.markov_sigma = FLICKER_FLOOR * instability * SI['deg/h'] / GM_PEAK
+        if self.markov_sigma > 0.0:
+            ratio = dt / values['bias_correlation_time']
+            self.markov_phi = math.exp(-ratio)  # math: an underflow to 0 is no error here
+            self.markov_drive = self.markov_sigma * math.sqrt(-math.expm1(-2.0 * ratio))
+            from scipy.signal import lfilter  # here, not at the first sample: 0.3 s the first time
+
+            self.lfilter = lfilter
+        self.turn_on_sigma = (values['turn_on_bias'] or 0.0) * SI['deg/h']
+        self.matrix = imu.sensor_matrix()
+        self.w_max, self.lsb, self.n_max = imu.codes()
+        variance = self.white_sigma**2 + (self.lsb**2 / 12.0 if self.lsb else 0.0)
+        template = np.zeros(IMU_ROW)
+        template[4] = NOT_PROVIDED  # orientation not provided
+        template[16:25] = np.diag(np.full(3, variance)).ravel()
+        template[28] = NOT_PROVIDED  # linear acceleration not provided
+        self.template = template
+        blank = template.copy()  # a sample before the first measurement: no estimate
+        blank[16:25] = 0.0
+        blank[16] = NOT_PROVIDED
+        super().__init__(rate, propagator, values['latency_samples'], blank)
+
+    def _restart(self):
+        self.rng = np.random.Generator(np.random.PCG64(self.seed))
+        self.next_index = 0
+        self.bias = self.initial_bias.tolist()  # the walk's b_(k-1) for the next sample
+        if self.turn_on_sigma > 0.0:
+            turn_on = _generator(self.seed, 2).standard_normal(3)
+            self.bias = (self.initial_bias + self.turn_on_sigma * turn_on).tolist()
+        if self.markov_sigma > 0.0:
+            self.markov_rng = _generator(self.seed, 1)
+            self.beta = [0.0, 0.0, 0.0]  # beta_(k-1); zero before sample 0
+
+    # Two paths give the same floats by the same operations in the same order: blocks (numpy)
+    # and one sample (Python floats, ~3x faster than 1-row arrays: a closed loop's lock-step).
+
+    def _noise(self, count: int):
+        """
+        Return the white noise and the bias of the next ``count`` samples.
+
+        Sample 0 carries the initial bias (with the turn-on draw) and a stationary Gauss-Markov
+        draw.
+        """
+        normals = self.rng.standard_normal((count, 6))
+        steps = self.walk_sigma * normals[:, 3:]
+        if self.next_index == 0:
+            steps[0] = 0.0
+        # accumulate is sequential: ((b + s1) + s2) + ..., the same floats however blocks are cut
+        bias = np.cumsum(np.vstack([self.bias, steps]), axis=0)[1:]
+        self.bias = bias[-1].tolist()
+        if self.markov_sigma > 0.0:
+            bias += self._markov(count)
+        self.next_index += count
+        return self.white_sigma * normals[:, :3], bias
+
+    def _markov(self, count: int) -> np.ndarray:
+        """
+        Return ``beta`` of the next ``count`` samples.
+
+        ``beta_k = phi beta_(k-1) + x_k`` by scipy's lfilter, sequential in its C loop: the floats
+        of the plain recursion, its state ``phi beta_(k-1)`` carried from block to block.
+        """
+        normals = self.markov_rng.standard_normal((count, 3))
+        drive = self.markov_drive * normals
+        if self.next_index == 0:  # beta_0 from the stationary distribution
+            drive[0] = self.markov_sigma * normals[0]
+        state = self.markov_phi * np.array([self.beta])
+        beta, _ = self.lfilter([1.0], [1.0, -self.markov_phi], drive, axis=0, zi=state)
+        self.beta = beta[-1].tolist()
+        return beta
+
+    def _measure(self, omega_B, q_NB):
+        if omega_B.shape[0] == 1:
+            return self._measure_one(omega_B[0].tolist())
+        white, bias = self._noise(omega_B.shape[0])
+        sensed = omega_B
+        if self.matrix is not None:  # element by element (not BLAS): the one-sample path's sums
+            C, w = self.matrix, omega_B
+            sensed = w[:, 0:1] * C[:, 0]
+            sensed += w[:, 1:2] * C[:, 1]
+            sensed += w[:, 2:3] * C[:, 2]
+        measured = np.add(sensed, bias, out=bias)  # in place: the same floats, fewer arrays
+        measured += white
+        if self.lsb is not None:
+            measured /= self.lsb
+            np.rint(measured, out=measured)  # half to even, as Python's round
+            if self.n_max is not None:
+                np.maximum(measured, -self.n_max, out=measured)
+                np.minimum(measured, self.n_max, out=measured)
+            measured *= self.lsb
+        elif self.w_max is not None:
+            np.maximum(measured, -self.w_max, out=measured)
+            np.minimum(measured, self.w_max, out=measured)
+        rows = np.tile(self.template, (omega_B.shape[0], 1))
+        rows[:, 13:16] = measured
+        return rows
+
+    def _measure_one(self, w: list) -> np.ndarray:
+        """Return the row of the next sample, whose body rates are ``w``: :meth:`_measure`."""
+        first = self.next_index == 0
+        self.next_index += 1
+        g = self.rng.standard_normal(6).tolist()
+        if first:  # b + 0.0, as the block's zero step adds
+            walk = [b + 0.0 for b in self.bias]
+        else:
+            walk = [b + self.walk_sigma * x for b, x in zip(self.bias, g[3:])]
+        self.bias = walk
+        bias = walk
+        if self.markov_sigma > 0.0:
+            drive = self.markov_sigma if first else self.markov_drive
+            h = self.markov_rng.standard_normal(3).tolist()
+            self.beta = [self.markov_phi * b + drive * x for b, x in zip(self.beta, h)]
+            bias = [b + beta for b, beta in zip(walk, self.beta)]
+        if self.matrix is not None:
+            w0, w1, w2 = w
+            w = [c0 * w0 + c1 * w1 + c2 * w2 for c0, c1, c2 in self.matrix.tolist()]
+        sigma = self.white_sigma
+        measured = [(s + b) + sigma * x for s, b, x in zip(w, bias, g[:3])]
+        if self.lsb is not None:
+            # half to even and the sign of a -0.0 kept, as np.rint
+            codes = [math.copysign(float(round(y / self.lsb)), y) for y in measured]
+            if self.n_max is not None:
+                codes = [min(max(c, -self.n_max), self.n_max) for c in codes]
+            measured = [c * self.lsb for c in codes]
+        elif self.w_max is not None:
+            measured = [min(max(y, -self.w_max), self.w_max) for y in measured]
+        row = self.template.copy()
+        row[13:16] = measured
+        return row[np.newaxis]
+
+
+def _generator(seed: int, process: int) -> np.random.Generator:
+    """Return the generator of a sensor's ``process``: ``SeedSequence(seed, spawn_key=(n,))``."""
+    return np.random.Generator(np.random.PCG64(np.random.SeedSequence(seed, spawn_key=(process,))))
+
+
+@register
+class StarTracker(OutputEffect):
+    name = 'star_tracker'
+    summary = (
+        'sensor_msgs/Imu with only the orientation: '
+        'the attitude turned by a seeded noise rotation, '
+        '1-sigma across and about the boresight (arcsec), covariance filled (REP 145); '
+        'no solution (orientation_covariance[0] = -1) over max_rate'
+    )
+    message_type = 'sensor_msgs/msg/Imu'
+    frame = 'body'
+    parameters = {
+        'cross_boresight_noise': Param(number(minimum=0.0, unit='arcsec'), 0.0),
+        'about_boresight_noise': Param(number(minimum=0.0, unit='arcsec'), 0.0),
+        'boresight': Param(vector(3), np.array([0.0, 0.0, 1.0])),
+        'max_rate': Param(
+            number(positive=True, unit='deg/s'), None, 'no solution while |w| exceeds it'
+        ),
+        'latency_samples': _latency(),
+        'seed': Param(integer(0, 2**63 - 1), 0),
+        'topic': Param(topic_name, 'star_tracker'),
+        'rate': OutputEffect.RATE,
+    }
+
+    @classmethod
+    def from_parameters(cls, values, path):
+        length = float(np.linalg.norm(values['boresight']))
+        if not length > 0.0:
+            raise FieldError(child(path, 'boresight'), 'must not be the zero vector')
+        return cls(**{**values, 'boresight': values['boresight'] / length})
+
+    def noise_axes(self) -> np.ndarray:
+        """
+        Return the columns ``e1, e2, b`` of a right-handed body-frame basis.
+
+        The third axis is the boresight.
+        """
+        b = self.values['boresight']
+        helper = np.eye(3)[int(np.argmin(np.abs(b)))]  # the body axis least aligned with b
+        e1 = np.cross(b, helper)
+        e1 /= np.linalg.norm(e1)
+        return np.column_stack([e1, np.cross(b, e1), b])
+
+    def noise_sigmas(self) -> np.ndarray:
+        """1-sigma (rad) along ``e1, e2, b``."""
+        cross, about = self.values['cross_boresight_noise'], self.values['about_boresight_noise']
+        return np.array([cross, cross, about]) * ARCSEC
+
+    def covariance(self) -> np.ndarray:
+        """``E[n n^T]`` (rad^2) in body axes."""
+        axes = self.noise_axes()
+        return axes @ np.diag(self.noise_sigmas() ** 2) @ axes.T
+
+    def stream(self, rate, propagator):
+        return _StarTrackerStream(self, rate, propagator)
+
+
+class _StarTrackerStream(_SensorStream):
+
+    def __init__(self, tracker: StarTracker, rate: float, propagator):
+        self.seed = tracker.values['seed']
+        self.scaled_axes = tracker.noise_axes() * tracker.noise_sigmas()  # n = scaled_axes @ g
+        max_rate = tracker.values['max_rate']
+        self.max_rate = None if max_rate is None else max_rate * SI['deg/s']
+        template = np.zeros(IMU_ROW)
+        template[4:13] = tracker.covariance().ravel()
+        template[16] = NOT_PROVIDED  # angular velocity not provided
+        template[28] = NOT_PROVIDED  # linear acceleration not provided
+        self.template = template
+        blank = template.copy()  # no solution: zero quaternion, orientation not provided
+        blank[4:13] = 0.0
+        blank[4] = NOT_PROVIDED
+        super().__init__(rate, propagator, tracker.values['latency_samples'], blank)
+
+    def _restart(self):
+        self.rng = np.random.Generator(np.random.PCG64(self.seed))
+        self.next_index = 0
+
+    def _noise(self, count: int):
+        self.next_index += count
+        return self.rng.standard_normal((count, 3))
+
+    def _no_solution(self, omega_B: np.ndarray, q_NB: np.ndarray) -> np.ndarray | None:
+        """
+        Return which samples have no solution (None: all have one).
+
+        Over ``max_rate`` the stars smear and the tracker loses its solution. The Sun and the
+        Earth in the field of view (issue 42) join this mask here once the environment gives their
+        inertial directions at the sample times: no solution while the angle between the
+        boresight in the inertial frame, ``R(q_NB) b``, and the Sun's direction is under a
+        ``sun_exclusion`` angle, likewise the Earth's limb.
+        """
+        if self.max_rate is None:
+            return None
+        return np.linalg.norm(omega_B, axis=1) > self.max_rate
+
+    def _measure(self, omega_B, q_NB):
+        count = omega_B.shape[0]
+        normals = self._noise(count)
+        rows = np.tile(self.template, (count, 1))
+        rows[:, 0:4] = quaternion.multiply(
+            q_NB, quaternion.exp_rotation(normals @ self.scaled_axes.T)
+        )
+        lost = self._no_solution(omega_B, q_NB)
+        if lost is not None:
+            rows[lost] = self.blank
+        return rows
+
+
+__all__ = ['ARCSEC', 'IMU_ROW', 'Imu', 'NOT_PROVIDED', 'SI', 'StarTracker']

@@ -1,0 +1,236 @@
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+A started simulation on the contract's sample grid, shared by the node and the offline tools.
+
+Sample ``k`` after a (re)start is the state at exactly ``t_k = k / rate``, stamped
+``epoch + t_k`` in integer nanoseconds. Samples come in vectorised blocks; for a given propagator a
+sample does not depend on how the blocks were cut. The scene's outputs (``imu``, ``pose``, ...)
+are computed with the samples, and only when the scene names them; an output with a ``rate`` of
+its own goes out on samples ``k = 0, n, 2n, ...`` (``n`` = rate / its rate), its stream seeing only
+those, numbered ``j = k / n``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from .accuracy import estimate_accuracy
+from ..effects.commands import command_inputs
+from ..propagators import Propagator
+from ..timing.grid import check_rate, sample_stamp_ns, stamps_ns
+
+MAX_STAMP_S = 2**31  # builtin_interfaces/Time.sec is an int32
+
+
+@dataclass(frozen=True)
+class SampleBlock:
+    first: int  # index k of the first sample
+    times: np.ndarray  # (N,) seconds since the (re)start
+    stamps_ns: np.ndarray  # (N,) int64, epoch + t_k
+    omega_B: np.ndarray  # (N, 3) rad/s, body frame
+    q_NB: np.ndarray  # (N, 4) (x, y, z, w), body in inertial
+    internal: np.ndarray  # (N, state_size): the effects' own states (a damper's rate)
+    outputs: tuple = ()  # one (n, width) float64 array per output, in Simulation.outputs order
+    # per output: the block positions its rows belong to (an output with a rate of its own goes out
+    # on every n-th sample only), None when it has a row for every sample
+    output_positions: tuple = ()
+
+    def __len__(self) -> int:
+        return self.times.shape[0]
+
+
+@dataclass(frozen=True)
+class Invariants:
+    kinetic_energy: float  # J, body + effects
+    momentum: float  # |H|, kg m^2/s, body + effects
+    energy_drift: float  # (T - T0) / T0 since the (re)start; 0 at rest
+    momentum_drift: float  # (|H| - |H|0) / |H|0
+    conserved: frozenset  # of "energy", "momentum": which drifts are errors rather than physics
+
+
+class Simulation:
+    """
+    A started simulation: ``propagator`` sampled at ``rate`` Hz from ``epoch_ns``.
+
+    ``outputs`` are its output effects.
+    """
+
+    def __init__(
+        self,
+        propagator: Propagator,
+        rate: float,
+        epoch_ns: int = 0,
+        rate_name: str = 'rate',
+        outputs=(),
+    ):
+        self.propagator = propagator
+        self.rate = check_rate(rate, rate_name)
+        self.epoch_ns = int(epoch_ns)
+        if propagator.dynamics.holds_per_sample:  # commands change the torque at sample times only
+            propagator.stop_at_samples(self.rate)
+        for _, hold in self.command_holds:
+            hold.start(self.rate, self.epoch_ns)
+        self.outputs = tuple(outputs)
+        self._every = tuple(output.every(self.rate, rate_name) for output in self.outputs)
+        self._streams = tuple(
+            output.stream(self.rate / every, propagator)
+            for output, every in zip(self.outputs, self._every)
+        )
+        omega0, x0 = propagator.omega0_B, propagator.x0
+        self.kinetic_energy0 = float(propagator.energy(omega0, x0))
+        self.momentum0 = float(np.linalg.norm(propagator.momentum_B(omega0, x0)))
+        self.regime = propagator.body.classify(omega0)
+
+    @property
+    def body(self):
+        return self.propagator.body
+
+    @property
+    def command_holds(self) -> tuple:
+        """
+        Return ``(effect, hold)`` of each effect that takes commands (``torque_command``).
+
+        In scene order.
+        """
+        return tuple((effect, effect.hold) for effect in command_inputs(self.propagator.effects))
+
+    def stamp_ns(self, k: int) -> int:
+        """Return the stamp of sample ``k``, as :meth:`samples` stamps it."""
+        return sample_stamp_ns(k, self.rate, self.epoch_ns)
+
+    def samples(self, first: int, count: int, outputs: bool = True) -> SampleBlock:
+        """
+        Return samples ``first .. first + count - 1``: their states and the outputs' rows.
+
+        ``outputs=False`` leaves the outputs' rows for :meth:`with_outputs`: a closed loop
+        publishes the rates its controller answers before it computes the rest.
+        """
+        times = np.arange(first, first + count) / self.rate
+        if count and self.epoch_ns / 1e9 + times[-1] >= MAX_STAMP_S:
+            raise ValueError(
+                f'sample {first + count - 1}: its stamp would pass 2^31 s, the end of '
+                'builtin_interfaces/Time (int32 seconds)'
+            )
+        omega, q, internal = self.propagator.states(times)
+        if not (np.isfinite(omega).all() and np.isfinite(q).all()):
+            bad = int(
+                np.argmin(np.all(np.isfinite(omega), axis=1) & np.all(np.isfinite(q), axis=1))
+            )
+            raise ValueError(
+                f'the state at t = {times[bad]:g} s is not finite: '
+                'this body and initial state leave '
+                f"float64's range (propagator {self.propagator.describe()})"
+            )
+        block = SampleBlock(first, times, stamps_ns(self.epoch_ns, times), omega, q, internal)
+        return self.with_outputs(block) if outputs else block
+
+    def with_outputs(self, block: SampleBlock) -> SampleBlock:
+        """Return ``block`` with the rows of the simulation's outputs."""
+        first, count, times = block.first, len(block), block.times
+        omega, q, internal = block.omega_B, block.q_NB, block.internal
+        outputs, positions = [], []
+        for stream, every in zip(self._streams, self._every):
+            if every == 1:
+                outputs.append(stream.rows(first, times, omega, q, internal))
+                positions.append(None)
+                continue
+            start = -(-first // every) * every  # the block's first sample k with k % every == 0
+            picked = np.arange(start - first, count, every)
+            outputs.append(
+                stream.rows(
+                    start // every, times[picked], omega[picked], q[picked], internal[picked]
+                )
+            )
+            positions.append(picked)
+        return SampleBlock(
+            first, times, block.stamps_ns, omega, q, internal, tuple(outputs), tuple(positions)
+        )
+
+    def invariants(self, omega_B, internal=None) -> Invariants:
+        """
+        Return a sample's energy and momentum (body + effects) and their drift since the (re)start.
+
+        Where the scene conserves them, the drift is the propagator's error (the exact one: zero up
+        to rounding); a torque or a damper changes them by physics.
+        """
+        if internal is None:
+            if self.propagator.dynamics.state_size:
+                raise ValueError(
+                    "internal: the scene's effects carry a state of their own; pass it"
+                )
+            internal = self.propagator.x0
+        energy = float(self.propagator.energy(omega_B, internal))
+        momentum = float(np.linalg.norm(self.propagator.momentum_B(omega_B, internal)))
+        return Invariants(
+            energy,
+            momentum,
+            _relative(energy, self.kinetic_energy0),
+            _relative(momentum, self.momentum0),
+            self.propagator.conserved,
+        )
+
+    def summary(self) -> str:
+        """
+        Describe the simulation in one line.
+
+        Inertia, initial state, invariants, regime with its period, propagator and the accuracy it
+        delivers, rate and the stamp of sample 0.
+        """
+        body, p = self.body, self.propagator
+        inertia = _fmt(body.moments)
+        if np.any(body.tensor - np.diag(np.diag(body.tensor))):
+            t = body.tensor
+            inertia = (
+                f'tensor {_fmt([t[0, 0], t[1, 1], t[2, 2], t[0, 1], t[0, 2], t[1, 2]])} '
+                f'-> principal moments {inertia}'
+            )
+        regime = 'regime' if p.dynamics.torque_free else 'torque-free regime of the initial state'
+        return (
+            f'inertia {inertia} kg m^2, w0 {_fmt(p.omega0_B)} rad/s, q0 {_fmt(p.q0_NB)}, '
+            f'T {self.kinetic_energy0:.9g} J, |H| {self.momentum0:.9g} kg m^2/s, '
+            f'{regime}: '
+            f'{self.regime.summary()}; effects {self.describe_effects()}; '
+            f'propagator {p.describe()}, accuracy: {self.accuracy}; {self.rate:g} Hz, '
+            f'first stamp {self.epoch_ns // 10**9}.{self.epoch_ns % 10**9:09d} s'
+        )
+
+    @cached_property
+    def accuracy(self) -> str:
+        """
+        Describe what the propagator's settings deliver from this initial state.
+
+        Measured once, on fresh propagators:
+        :func:`~torquefree_ros.core.run.accuracy.estimate_accuracy`.
+        """
+        try:
+            return estimate_accuracy(self.propagator).describe()
+        except Exception as error:  # noqa: BLE001 - the estimate informs; it must not stop a run
+            return f'not estimated ({error})'
+
+    def describe_effects(self) -> str:
+        named = [effect.describe() for effect in (*self.propagator.effects, *self.outputs)]
+        return ', '.join(named) if named else 'none (torque-free)'
+
+
+def _relative(value: float, reference: float) -> float:
+    return (value - reference) / reference if reference else value - reference
+
+
+def _fmt(values) -> str:
+    return '[' + ', '.join(f'{float(v):.9g}' for v in values) + ']'
