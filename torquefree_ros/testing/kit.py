@@ -38,20 +38,10 @@ from typing import Callable, Iterator
 from . import failures
 from .delivery import Delivery
 from .failures import SimulatorTimeout
-from .samples import message_stamp_ns, Sample, stamp_ns, State
+from .samples import Sample, State
 from .truth import Run
 
-__all__ = [
-    'DEFAULT_TIMEOUT',
-    'Sample',
-    'Simulator',
-    'SimulatorTimeout',
-    'State',
-    'Tap',
-    'message_stamp_ns',
-    'simulator',
-    'stamp_ns',
-]
+__all__ = ['DEFAULT_TIMEOUT', 'Simulator', 'Tap', 'simulator']
 
 #: seconds a single wait may take before it fails (generous: CI machines are shared and noisy)
 DEFAULT_TIMEOUT = 20.0
@@ -96,8 +86,8 @@ class Simulator:
 
     ``scene`` and ``parameters`` are the node's parameters (``scene``, ``publish_rate``,
     ``angular_velocity``, ...). Stepped (the default), the node runs on its own clock from 0
-    (``real_time_factor`` 0) and in lock-step (a scene with ``torque_command`` waits for the
-    controller's answer to each sample), unless ``parameters`` say otherwise, and a sample goes out
+    (``real_time_factor`` 0) and in lock-step (a scene taking commands, ``torque_command`` or
+    commanded ``reaction_wheels``, waits for the controller's answer to each sample), unless ``parameters`` say otherwise, and a sample goes out
     only when :meth:`advance` lets it. ``stepped=False``: the node paces itself as it would
     anywhere (no :meth:`advance`, no :attr:`samples`; the project's own tests of pacing use it).
 
@@ -342,8 +332,8 @@ class Simulator:
 
         It comes from a fresh propagator of the same scene and parameters: the exact solution, or
         the scene's propagator at its accuracy when an effect changes the motion (the node's
-        samples are its values at ``k / rate``, bit for bit). A scene that takes torque commands
-        has no truth without them: compare with :attr:`samples` instead.
+        samples are its values at ``k / rate``, bit for bit). A scene that takes commands (torque
+        or wheel commands) has no truth without them: compare with :attr:`samples` instead.
         """
         self._follow()
         return self._run.truth(t)
