@@ -25,7 +25,7 @@ setup(
     # the scene library ships inside the package, so load_scene("explorer1") works in every install
     package_data={
         'torquefree_ros': ['scenes/*.yaml', 'interfaces/*/msg/*'],
-        'torquefree_ros.bench': ['hard_cases.json'],
+        'torquefree_ros.bench': ['hard_cases.json', 'gyrostat_cases.json'],
         'torquefree_ros.campaigns': ['library/*.yaml'],
     },
     data_files=[

@@ -69,6 +69,7 @@ def integrator_path(request, monkeypatch):
 # (1e-8 rad over ~10 s of motion at |w| ~ 1 rad/s).
 ACCURATE_SETTINGS = {
     'analytic': {},
+    'gyrostat': {},
     'rk4': {'step': 1e-3},
     'lie_rk4': {'step': 1e-3},
     'dop853': {'rtol': 1e-12, 'atol': 1e-14},

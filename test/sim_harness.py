@@ -95,6 +95,7 @@ class SimHarness:
         self.omega: dict[int, np.ndarray] = {}
         self.q: dict[int, np.ndarray] = {}
         self.arrivals: list[int] = []  # angular_velocity stamps in order of arrival
+        self.complete: list[int] = []  # stamps received on both topics, in order of completion
         self.frames: set[tuple[str, str]] = set()
         self.clock: list[int] = []
         self.diagnostics: list[DiagnosticArray] = []
@@ -118,11 +119,16 @@ class SimHarness:
         stamp = stamp_ns(message.header.stamp)
         self.omega[stamp] = np.array([v.x, v.y, v.z])
         self.arrivals.append(stamp)
+        if stamp in self.q:
+            self.complete.append(stamp)
         self.frames.add(('angular_velocity', message.header.frame_id))
 
     def _on_q(self, message: QuaternionStamped) -> None:
         q = message.quaternion
-        self.q[stamp_ns(message.header.stamp)] = np.array([q.x, q.y, q.z, q.w])
+        stamp = stamp_ns(message.header.stamp)
+        self.q[stamp] = np.array([q.x, q.y, q.z, q.w])
+        if stamp in self.omega:
+            self.complete.append(stamp)
         self.frames.add(('attitude', message.header.frame_id))
 
     # -- driving ----------------------------------------------------------------------------------
@@ -139,12 +145,19 @@ class SimHarness:
 
     def wait_samples(self, count: int, after: int | None = None):
         """Wait for ``count`` complete samples with stamps after ``after``; return them."""
+        counted, found = 0, 0
 
-        def fresh():
-            return [p for p in self.pairs() if after is None or p[0] > after]
+        def enough() -> bool:
+            # only the samples completed since the last check: the check runs after every
+            # callback, and a paced node sends thousands a second
+            nonlocal counted, found
+            new = self.complete[counted:]
+            counted += len(new)
+            found += sum(1 for stamp in new if after is None or stamp > after)
+            return found >= count
 
-        self.spin_until(lambda: len(fresh()) >= count, what=f'{count} samples')
-        return fresh()
+        self.spin_until(enough, what=f'{count} samples')
+        return [p for p in self.pairs() if after is None or p[0] > after]
 
     def wait_connected(self):
         """Until the node's publishers see the test subscriptions (samples from then on arrive)."""

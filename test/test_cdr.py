@@ -23,9 +23,17 @@ from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
 from hypothesis import given, settings
 from hypothesis import strategies as st
 import numpy as np
+import pytest
 from rclpy.serialization import deserialize_message, serialize_message
 from rosgraph_msgs.msg import Clock
-from torquefree_ros.bag.cdr import encode_stamped_doubles, encode_times
+from sensor_msgs.msg import JointState
+from torquefree_ros.bag.cdr import (
+    decode_joint_state,
+    encode_joint_state,
+    encode_joint_states,
+    encode_stamped_doubles,
+    encode_times,
+)
 
 stamps = st.lists(st.integers(0, 2**31 * 10**9 - 1), min_size=1, max_size=20)
 frame_ids = st.text(
@@ -87,3 +95,67 @@ def test_clock_equals_rclpy(stamps):
         assert deserialize_message(ours, Clock) == message
         # alone: packed directly, the same
         assert encode_times(np.array([stamp], dtype=np.int64))[0] == ours
+
+
+names = st.lists(
+    st.text(
+        alphabet=st.characters(blacklist_characters='\x00', blacklist_categories=('Cs',)),
+        min_size=1,
+        max_size=9,
+    ),
+    max_size=5,
+)
+
+
+def _joint_state(stamp, frame_id, name, position, velocity, effort):
+    message = JointState()
+    message.header.stamp.sec, message.header.stamp.nanosec = divmod(stamp, 10**9)
+    message.header.frame_id, message.name = frame_id, name
+    message.position, message.velocity, message.effort = position, velocity, effort
+    return message
+
+
+@settings(max_examples=300, deadline=None)
+@given(stamp=stamps.map(lambda s: s[0]), frame_id=frame_ids, name=names, data=st.data())
+def test_joint_states_decode_and_encode_as_rclpy_does(stamp, frame_id, name, data):
+    """
+    A JointState of any names and any lengths (empty arrays too: no padding for those).
+
+    Decoded with struct from rclpy's bytes, and ours decoded by rclpy; ours equal rclpy's bytes
+    but for the padding (Fast-CDR leaves it uninitialised) and the bytes rclpy may leave after
+    the message's end.
+    """
+    arrays = [data.draw(st.lists(doubles, max_size=5)) for _ in range(3)]
+    theirs = serialize_message(_joint_state(stamp, frame_id, name, *arrays))
+    assert decode_joint_state(theirs) == (stamp, frame_id, name, *map(tuple, arrays))
+    ours = encode_joint_state(stamp, frame_id, name, *arrays)
+    decoded = deserialize_message(ours, JointState)
+    assert (decoded.header.stamp.sec, decoded.header.stamp.nanosec) == divmod(stamp, 10**9)
+    assert (decoded.header.frame_id, list(decoded.name)) == (frame_id, name)
+    for field, values in zip(('position', 'velocity', 'effort'), arrays):
+        assert list(getattr(decoded, field)) == values
+    assert len(theirs) >= len(ours)
+    differing = [i for i, (a, b) in enumerate(zip(ours, theirs)) if a != b]
+    assert all(ours[i] == 0 for i in differing)  # (our padding)
+    # a block of joint states (the wheel_states output), every row through rclpy
+    count, n = len(data.draw(stamps)), len(name)
+    rows = np.array(data.draw(st.lists(doubles, min_size=3 * n * count, max_size=3 * n * count)))
+    rows = rows.reshape(count, 3 * n)
+    times = np.arange(count, dtype=np.int64) + min(stamp, 2**31 * 10**9 - 1 - count)
+    for t, row, message in zip(times, rows, encode_joint_states(times, frame_id, name, rows)):
+        assert message == encode_joint_state(int(t), frame_id, name, *row.reshape(3, n))
+        decoded = deserialize_message(message, JointState)
+        assert list(decoded.effort) == row[2 * n:].tolist()
+
+
+def test_a_joint_state_cut_short_or_of_huge_lengths_is_refused():
+    message = encode_joint_state(5, 'body', ['a', 'b'], [], [1.0, 2.0], [])
+    for end in range(4, len(message)):
+        with pytest.raises(ValueError):
+            decode_joint_state(message[:end])
+    huge = bytearray(message)
+    huge[24:28] = (2**32 - 1).to_bytes(4, 'little')  # the count of names
+    with pytest.raises(ValueError, match='runs past the message'):
+        decode_joint_state(bytes(huge))
+    with pytest.raises(ValueError, match='little-endian'):
+        decode_joint_state(b'\x00\x00' + message[2:])

@@ -114,7 +114,7 @@ def test_commands_reach_the_hold_without_an_executor_and_the_thread_ends_with_th
             publisher.publish(_wrench(0, 0, 'body', (0.0, 0.0, 0.0), (0.001, -0.002, 0.003)))
             time.sleep(0.05)
         assert hold.accepted >= 1 and not hold.refused
-        assert hold.commands[-1].torque.tolist() == [0.001, -0.002, 0.003]
+        assert hold.commands[-1].values.tolist() == [0.001, -0.002, 0.003]
         assert len(_command_threads()) == before + 1
         controller.destroy_node()
         node.destroy_node()

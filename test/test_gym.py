@@ -68,7 +68,7 @@ MAX_TORQUE = 0.01  # detumble.yaml's torque_command.max_torque
 
 
 def _observation(state):
-    return np.concatenate([state.omega_B, state.q_NB, state.internal])
+    return np.concatenate([state.omega_B, state.q_NB, state.internal, state.wheel_speeds])
 
 
 def _damper_scene(frame='inertial'):
@@ -426,3 +426,81 @@ def test_the_default_reward_is_the_same_arithmetic_for_one_body_and_rows():
             None, torques[i], type('S', (), {'omega_B': rows[i]})()
         )
         assert batched[i] == alone
+
+
+# -- reaction wheels ------------------------------------------------------------------------------
+WHEEL_MAX_TORQUE, WHEEL_MAX_SPEED = 0.05, 200.0
+
+
+def _wheel_scene(mode):
+    axes = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 1.0, 1.0]]
+    wheels = [
+        {
+            'axis': axis,
+            'spin_inertia': 0.05,
+            'max_torque': WHEEL_MAX_TORQUE,
+            'max_speed': WHEEL_MAX_SPEED,
+            'coulomb': 1e-3,
+            'speed': 20.0 * i,
+        }
+        for i, axis in enumerate(axes)
+    ]
+    return scene_from_mapping(
+        {
+            'body': {'inertia': [3.0, 4.0, 5.0]},
+            'initial': {'angular_velocity': [0.1, -0.1, 0.05]},
+            'effects': [{'reaction_wheels': {'wheels': wheels, 'mode': mode}}],
+            'accuracy': 1e-10,
+        }
+    )
+
+
+@pytest.mark.parametrize('mode', ['torque', 'speed'])
+def test_a_wheel_scene_acts_with_the_wheels_and_observes_their_speeds(mode):
+    """
+    The action is the wheels' inputs, the observation ends with their speeds: the plant's, exactly.
+
+    check_env passes; every bound is finite (the energy the motors can add), so it warns of none,
+    but for speed set-points, whose box is not [-1, 1] (it recommends normalising). An episode at
+    the box's corners (its most energetic) stays in the observation space.
+    """
+    scene = _wheel_scene(mode)
+    env = AttitudeEnv(scene, RATE, max_steps=150, randomize=True)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter('always')
+        check_env(env)
+    expected = ['we recommend using a symmetric and normalized'] if mode == 'speed' else []
+    assert len(caught) == len(expected) and all(
+        text in str(w.message) for w, text in zip(caught, expected)
+    )
+    bound = WHEEL_MAX_SPEED if mode == 'speed' else WHEEL_MAX_TORQUE
+    assert env.action_space == gymnasium.spaces.Box(-bound, bound, (4,), np.float64)
+    assert env.observation_space.shape == (7 + 8 + 4,) and env.frame == 'wheels'
+    assert np.isfinite(env.observation_space.high).all()
+    plant = Plant(scene, RATE)
+    obs, _ = env.reset(seed=5, options={'randomize': False})
+    np.testing.assert_array_equal(obs, _observation(plant.state))
+    rng = np.random.default_rng(2)
+    for k in range(150):
+        action = bound * np.sign(rng.uniform(-1.0, 1.0, 4)) * (1.5 if k % 10 == 0 else 1.0)
+        obs, reward, _, truncated, info = env.step(action)
+        inputs = np.clip(action, -bound, bound)
+        state = plant.step(wheels=inputs)
+        np.testing.assert_array_equal(obs, _observation(state))
+        np.testing.assert_array_equal(info['wheels'], inputs)
+        assert info['clipped'] == (k % 10 == 0)
+        assert obs in env.observation_space
+        omega_ref = np.linalg.norm(scene.angular_velocity)
+        cost = np.sum(state.omega_B**2) / omega_ref**2 + 0.1 * np.sum((inputs / bound) ** 2)
+        assert reward == pytest.approx(-cost / RATE, rel=1e-14)
+    assert truncated
+    # the vector environment: each body the single one, bit for bit
+    vector = AttitudeVectorEnv(scene, 2, RATE, max_steps=150)
+    observations, _ = vector.reset(seed=5)
+    single = AttitudeEnv(scene, RATE, max_steps=150)
+    np.testing.assert_array_equal(observations[1], single.reset(seed=6)[0])
+    for _ in range(20):
+        actions = bound * rng.uniform(-1.0, 1.0, (2, 4))
+        observations, *_, info = vector.step(actions)
+        np.testing.assert_array_equal(observations[1], single.step(actions[1])[0])
+    np.testing.assert_array_equal(info['wheels'], actions)

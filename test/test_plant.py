@@ -395,3 +395,124 @@ def test_a_batch_of_bodies_with_their_own_schedules_is_each_body_alone():
         alone = Plant(scene, RATE).run(2.5)
         np.testing.assert_array_equal(batch.omega_B[b], alone.omega_B)
         np.testing.assert_array_equal(batch.q_NB[b], alone.q_NB)
+
+
+# -- reaction wheels ------------------------------------------------------------------------------
+def _wheel_scene(mode='torque', spin_inertia=0.05, torque=False, omega=(0.2, -0.1, 0.3)):
+    axes = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 1.0, 1.0]]
+    wheels = [
+        {
+            'axis': axis,
+            'spin_inertia': spin_inertia,
+            'max_torque': 0.05,
+            'max_speed': 200.0,
+            'viscous': 1e-4,
+            'coulomb': 1e-3,
+            'speed': 10.0 * i,
+        }
+        for i, axis in enumerate(axes)
+    ]
+    effects = [{'reaction_wheels': {'wheels': wheels, 'mode': mode, 'timeout': 0.35}}]
+    if torque:
+        effects.append({'torque_command': {'timeout': 0.35, 'max_torque': 0.5}})
+    return scene_from_mapping(
+        {
+            'body': {'inertia': [3.0, 4.0, 5.0]},
+            'initial': {'angular_velocity': list(omega)},
+            'effects': effects,
+            'accuracy': 1e-10,
+        }
+    )
+
+
+def _wheel_inputs(count, mode, seed=1):
+    rng = np.random.default_rng(seed)
+    inputs = 0.08 * rng.standard_normal((count, 4))  # (some beyond 0.05 N m: clipped)
+    if mode == 'speed':
+        inputs = 60.0 * rng.standard_normal((count, 4))
+    inputs[5:10] = np.nan  # no new command: the one in force until its timeout, then off
+    return inputs
+
+
+@pytest.mark.parametrize('mode', ['torque', 'speed'])
+def test_wheel_commands_step_as_the_node_does_bit_for_bit(mode):
+    """
+    The node's path without DDS (the hold, sealed, a Simulation) and the plant, under wheels.
+
+    Wheel inputs (motor torques or speed set-points) with a gap past the timeout (the motors off,
+    a speed drive coasting), beside a torque_command: the same samples, bit for bit, and
+    ``state.wheel_speeds`` the speeds of the effect's own state.
+    """
+    scene = _wheel_scene(mode, torque=True)
+    simulation = Simulation(scene.propagator(), RATE)
+    holds = dict(simulation.command_holds)
+    (wheels,) = [e for e in holds if e.name == 'reaction_wheels']
+    (torque_hold,) = [h for e, h in holds.items() if e.name == 'torque_command']
+    plant = Plant(scene, RATE)
+    assert plant.takes_wheels and plant.wheel_effect.mode == mode
+    # the scene's initial speeds, through h = Js (Omega + g . w) and back: to rounding
+    np.testing.assert_allclose(plant.state.wheel_speeds, [0, 10, 20, 30], rtol=1e-15, atol=1e-15)
+    torques = _commands(30)
+    for k, inputs in enumerate(_wheel_inputs(30, mode)):
+        given = None if np.isnan(inputs[0]) else inputs
+        torque = None if np.isnan(torques[k][0]) else torques[k]
+        if given is not None:
+            velocity, effort = (given, []) if mode == 'speed' else ([], given)
+            assert wheels.receive(torque_hold.stamp_ns(k), '', wheels.names, velocity, effort)[0]
+        if torque is not None:
+            assert torque_hold.receive(torque_hold.stamp_ns(k), torque)[0]
+        for hold in holds.values():
+            hold.seal(k)
+        block = simulation.samples(k + 1, 1)
+        state = plant.step(torque, wheels=given)
+        np.testing.assert_array_equal(state.omega_B, block.omega_B[0])
+        np.testing.assert_array_equal(state.q_NB, block.q_NB[0])
+        np.testing.assert_array_equal(state.internal, block.internal[0])
+        np.testing.assert_array_equal(
+            state.wheel_speeds, wheels.wheel_speeds(block.omega_B, block.internal)[0]
+        )
+    assert np.ptp(plant.state.wheel_speeds) > 1.0  # (the wheels moved)
+
+
+def test_a_batch_of_wheel_bodies_is_bit_for_bit_each_alone():
+    rng = np.random.default_rng(3)
+    scenes = [
+        _wheel_scene('speed', spin_inertia=0.05 * (1 + 0.1 * rng.random()), omega=omega)
+        for omega in 0.2 * rng.standard_normal((5, 3))
+    ]
+    batch = Plant(scenes, RATE)
+    alone = [Plant(scene, RATE) for scene in scenes]
+    inputs = 50.0 * rng.standard_normal((12, 5, 4))
+    for step in inputs:
+        states = batch.step(wheels=step)
+        for b, plant in enumerate(alone):
+            state = plant.step(wheels=step[b])
+            for got, expected in zip(states, state):
+                np.testing.assert_array_equal(got[b], expected)
+    assert batch.state.wheel_speeds.shape == (5, 4)
+    run = batch.run(0.5)
+    assert run.wheel_speeds.shape == (5, 5, 4) and run.internal.shape == (5, 5, 8)
+
+
+@pytest.mark.parametrize(
+    'wheels, reason',
+    [
+        ([np.nan, 0.0, 0.0, 0.0], 'wheels: not finite'),
+        ([0.0, 0.0, 0.0], r'wheels: expected shape \(4,\) \(one motor torque \(N m\) per wheel'),
+        ('abc', 'wheels: expected numbers of shape'),
+    ],
+)
+def test_a_refused_wheel_input_raises_and_changes_nothing(wheels, reason):
+    plant = Plant(_wheel_scene(torque=True), RATE)
+    plant.step(wheels=[0.01, 0.0, 0.0, 0.0])
+    before, k = plant.state, plant.k
+    with pytest.raises(ValueError, match=reason):
+        plant.step([0.1, 0.0, 0.0], wheels=wheels)  # (the torque is not taken either)
+    assert plant.k == k
+    for now, then in zip(plant.state, before):
+        np.testing.assert_array_equal(now, then)
+    again = Plant(_wheel_scene(torque=True), RATE)
+    again.step(wheels=[0.01, 0.0, 0.0, 0.0])
+    np.testing.assert_array_equal(plant.step().omega_B, again.step().omega_B)
+    with pytest.raises(ValueError, match='wheels: the scene takes no wheel commands'):
+        Plant(_plant_scene(), RATE).step(wheels=[0.0] * 4)

@@ -40,6 +40,7 @@ NAMES = [
     'gravity_gradient',
     'gyrostat',
     'imu',
+    'wheel_slew',
 ]
 TIGHT = {'rtol': 1e-12, 'atol': 1e-14}
 
@@ -181,3 +182,29 @@ def test_energy_sweep_spans_minimum_to_maximum_energy_at_constant_momentum():
     np.testing.assert_allclose(
         two_T, np.linspace(H0**2 / moments.max(), H0**2 / moments.min(), 9), rtol=1e-14
     )
+
+
+def test_wheel_slew_starts_at_rest_60_degrees_off_with_an_isotropic_biased_pyramid():
+    """
+    The slew's scene: at rest, 60 deg from the inertial frame, wheels taking motor torques.
+
+    The pyramid's ``sum Js g g^T`` is ``(4/3) Js I`` (every axis 54.7 deg from z); the wheels'
+    bias is in its null space, so the whole momentum is zero; left alone (no command: no motor
+    torque) the body stays at rest while friction slows the wheels (its torques cancel on the
+    body) to rounding.
+    """
+    scene = library('wheel_slew')
+    (wheels,) = scene.effects
+    assert wheels.mode == 'torque' and wheels.topic == 'wheel_command'
+    assert [o.name for o in scene.outputs] == ['wheel_states', 'markers']
+    np.testing.assert_allclose(
+        wheels.spin_inertia_B(), 4.0 / 3.0 * 0.01 * np.eye(3), rtol=0, atol=1e-17
+    )
+    q0 = np.array(scene.orientation)
+    assert 2.0 * np.degrees(np.arccos(q0[3])) == pytest.approx(60.0, rel=1e-14)
+    p = scene.propagator()
+    np.testing.assert_allclose(p.momentum_B(p.omega0_B, p.x0), 0.0, atol=1e-15)
+    omega, _, x = p.states(np.array([0.0, 30.0]))
+    np.testing.assert_allclose(omega, 0.0, atol=1e-15)
+    speeds = wheels.wheel_speeds(omega, x)
+    assert np.all(np.abs(speeds[1]) < 100.0) and np.all(np.abs(speeds[1]) > 98.0)

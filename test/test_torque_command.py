@@ -189,7 +189,7 @@ def test_live_one_sample_at_a_time_equals_the_replay_of_its_commands_bit_for_bit
             stamp = hold.stamp_ns(n - 1 + int(rng.integers(-1, 2)))
             hold.receive(stamp, rng.normal(0.0, 0.05, 3), frame_id='body')
         for command in hold.seal(n - 1):
-            log.append((hold.stamp_ns(command.start), command.stamp_ns, command.torque))
+            log.append((hold.stamp_ns(command.start), command.stamp_ns, command.values))
         rows.append(live.samples(n, 1))
     replayed, replay_hold = _simulation(timeout=0.35)
     for arrival, stamp, torque in log:

@@ -33,6 +33,7 @@ from torquefree_ros.core.compiled import drivers
 from torquefree_ros.core.effects import ENERGY, MOMENTUM
 from torquefree_ros.core.frames import quaternion
 from torquefree_ros.core.numerics import kernels as switch
+from torquefree_ros.core.run.simulation import Simulation
 from torquefree_ros.core.scene.loader import scene_from_mapping
 
 pytestmark = pytest.mark.usefixtures('integrator_path')
@@ -141,7 +142,8 @@ def reference_run(inertia, omega0, orientation, effect, times):
     LSODA on ``[I, G^T Js; Js G, Js] [w'; Omega'] = [-w x H; u - f]`` and ``q' = q ⊗ (w, 0) / 2``.
 
     ``H = I w + G^T Js Omega`` (Schaub & Junkins' balanced wheels in relative speeds), piece by
-    piece between the schedule's starts.
+    piece between the schedule's starts; the wheel angles ``theta' = Omega`` from 0. Returns the
+    rates, the attitudes, the speeds and the angles.
     """
     tensor = np.array(
         [
@@ -162,7 +164,7 @@ def reference_run(inertia, omega0, orientation, effect, times):
         schedule = [{'start': 0.0, 'torque': [0.0] * n}, *schedule]
 
     def rhs(t, y, commands):
-        w, q, speeds = y[:3], y[3:7], y[7:]
+        w, q, speeds = y[:3], y[3:7], y[7: 7 + n]
         H = tensor @ w + G.T @ (Js * speeds)
         net = [
             _law_motor(s, c, spec) - _law_friction(s, spec)
@@ -170,9 +172,9 @@ def reference_run(inertia, omega0, orientation, effect, times):
         ]
         rates = np.linalg.solve(M, np.concatenate([-np.cross(w, H), net]))
         q_dot = 0.5 * np.append(q[3] * w + np.cross(q[:3], w), -q[:3] @ w)
-        return np.concatenate([rates[:3], q_dot, rates[3:]])
+        return np.concatenate([rates[:3], q_dot, rates[3:], speeds])
 
-    y = np.concatenate([omega0, orientation, [w.get('speed', 0.0) for w in wheels]])
+    y = np.concatenate([omega0, orientation, [w.get('speed', 0.0) for w in wheels], np.zeros(n)])
     ends = [segment['start'] for segment in schedule[1:]] + [times[-1]]
     out = np.empty((times.size, y.size))
     for segment, end in zip(schedule, ends):
@@ -191,7 +193,7 @@ def reference_run(inertia, omega0, orientation, effect, times):
         out[inside] = solution.y.T[np.isin(t_eval, times[inside])]
         y = solution.y[:, -1]
     q = out[:, 3:7] / np.linalg.norm(out[:, 3:7], axis=1, keepdims=True)
-    return out[:, :3], q, out[:, 7:]
+    return out[:, :3], q, out[:, 7: 7 + n], out[:, 7 + n:]
 
 
 # -- conservation ---------------------------------------------------------------------------------
@@ -254,10 +256,12 @@ def test_the_pyramid_follows_an_independent_integration_in_relative_speeds():
     The effect (absolute momenta h, inertia I - sum Js g g^T) equals LSODA on the mass-matrix form.
 
     Both at rtol 1e-12 through clipped commands, three schedule pieces, both bands' edges: the
-    rates agree to 1e-10 rad/s, the wheel speeds (up to 60 rad/s) to 1e-8 rad/s, the attitudes
-    to 1e-12 in |q . q_ref| (measured: 5e-12, 2.4e-10, 4e-16): above either integrator's error
-    at kinks it meets at slightly different steps, far below any modelling difference (a sign,
-    a factor Js, a missed band would show at 1e-3 and up).
+    rates agree to 3e-10 rad/s, the wheel speeds (up to 60 rad/s) to 4e-8 rad/s, the angles (up
+    to 1400 rad) to 1e-8 rad, the attitudes to 1e-12 in |q . q_ref| (measured on the two paths:
+    1.1e-10, 1.9e-8, 1.5e-9, 4e-16): above either integrator's error at a kink it meets at
+    slightly different steps (the worst is the wheel in the Coulomb band, a stiff decay, at
+    t = 21 s), far below any modelling difference (a sign, a factor Js, a missed band would show
+    at 1e-3 and up).
     """
     times = np.linspace(0.0, PYRAMID_END, 126)
     p = pyramid().propagator('dop853', **TIGHT)
@@ -265,11 +269,13 @@ def test_the_pyramid_follows_an_independent_integration_in_relative_speeds():
     (wheels,) = p.effects
     speeds = wheels.wheel_speeds(omega, x)
     with np.errstate(under='ignore'):  # LSODA's norms of tiny numbers
-        ref_omega, ref_q, ref_speeds = reference_run(
+        ref_omega, ref_q, ref_speeds, ref_angles = reference_run(
             PYRAMID_INERTIA, PYRAMID_OMEGA, PYRAMID_ORIENTATION, PYRAMID, times
         )
-    np.testing.assert_allclose(omega, ref_omega, rtol=0, atol=1e-10)
-    np.testing.assert_allclose(speeds, ref_speeds, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(omega, ref_omega, rtol=0, atol=3e-10)
+    np.testing.assert_allclose(speeds, ref_speeds, rtol=0, atol=4e-8)
+    np.testing.assert_allclose(wheels.wheel_angles(x), ref_angles, rtol=0, atol=1e-8)
+    assert np.abs(ref_angles[-1]).max() > 500.0  # (turned many times)
     # the same rotation: q or -q
     np.testing.assert_allclose(np.abs(np.sum(q * ref_q, axis=1)), 1.0, rtol=0, atol=1e-12)
     # what the scene was built to show: a wheel in its speed band, one crossing zero, one stopped
@@ -475,6 +481,236 @@ def test_the_speed_limit_fades_the_motor_out_and_the_wheel_never_passes_max_spee
     assert wheels.wheel_speeds(omega, x)[0, 0] == pytest.approx(settled, rel=1e-9)
 
 
+# -- commands: torque and speed modes -------------------------------------------------------------
+COMMAND_RATE = 10.0
+SECOND = 1_000_000_000
+
+
+def commanded(mode, wheels, inertia=BODY, omega=(0.0, 0.0, 0.0), extra=None, settings=TIGHT):
+    """Return a simulation of a commanded wheel scene at COMMAND_RATE, and its wheels effect."""
+    s = scene_from_mapping(
+        {
+            'body': {'inertia': list(inertia)},
+            'initial': {'angular_velocity': list(omega)},
+            'effects': [
+                {'reaction_wheels': {'wheels': wheels, 'mode': mode, 'timeout': 0.5}},
+                *(extra or []),
+            ],
+        }
+    )
+    simulation = Simulation(s.propagator('dop853', **settings), COMMAND_RATE)
+    (effect,) = [e for e, _ in simulation.command_holds if e.name == 'reaction_wheels']
+    return simulation, effect
+
+
+def test_torque_commands_hold_merge_and_time_out_as_an_independent_integration():
+    """
+    Motor torques commanded by name follow the hold's rules, against LSODA with those torques.
+
+    The pyramid's wheels (friction, clipping) in torque mode, timeout 0.5 s: a command at t = 0
+    naming the wheels in another order, zero torque from its timeout (sample 5); one at 0.75 s
+    naming one wheel (the others keep the latest command's values), holding from sample 8; a stale
+    one refused; none after it, so zero torque from t = 1.25 s (sample 13); one at 2 s until its
+    timeout (sample 25). The inputs per interval, written out here from the rules, drive the
+    reference (``reference_run``'s schedule); the tolerances are the pyramid test's (both at rtol
+    1e-12, kinks met at other steps).
+    """
+    wheels = [dict(w, name=f'rw{i}') for i, w in enumerate(PYRAMID['wheels'])]
+    simulation, effect = commanded('torque', wheels, PYRAMID_INERTIA, PYRAMID_OMEGA)
+    hold = effect.hold
+    assert effect.receive(0, 'any', ['rw3', 'rw1', 'rw0', 'rw2'], [], [0.15, -0.05, 0.1, 0.5])[0]
+    assert effect.receive(750_000_000, '', ['rw2'], [], [-0.2])[0]
+    assert effect.receive(500_000_000, '', ['rw0'], [], [1.0]) == (
+        False,
+        'stale: stamped before the latest accepted command',
+    )
+    assert effect.receive(2 * SECOND, '', ['rw0', 'rw1', 'rw2', 'rw3'], [], [0, 0.1, 0, -0.1])[0]
+    a, b, zero, c = [0.1, -0.05, 0.5, 0.15], [0.1, -0.05, -0.2, 0.15], [0.0] * 4, [0, 0.1, 0, -0.1]
+    starts = {0: a, 5: zero, 8: b, 13: zero, 20: c, 25: zero}
+    times = np.arange(31) / COMMAND_RATE
+    block = simulation.samples(0, 31)
+    for k, inputs in starts.items():  # the hold gives exactly these inputs
+        np.testing.assert_array_equal(effect.inputs(k / COMMAND_RATE), inputs)
+    reference = {
+        'wheels': wheels,
+        'schedule': [{'start': k / COMMAND_RATE, 'torque': u} for k, u in starts.items()],
+    }
+    with np.errstate(under='ignore'):  # LSODA's norms of tiny numbers
+        ref_omega, ref_q, ref_speeds, ref_angles = reference_run(
+            PYRAMID_INERTIA, PYRAMID_OMEGA, [0.0, 0.0, 0.0, 1.0], reference, times
+        )
+    np.testing.assert_allclose(block.omega_B, ref_omega, rtol=0, atol=3e-10)
+    speeds = effect.wheel_speeds(block.omega_B, block.internal)
+    np.testing.assert_allclose(speeds, ref_speeds, rtol=0, atol=4e-8)
+    np.testing.assert_allclose(effect.wheel_angles(block.internal), ref_angles, rtol=0, atol=1e-8)
+    assert dict(hold.refused) == {'stale': 1} and hold.accepted == 3
+
+
+def test_a_speed_command_is_held_by_the_drives_proportional_loop_then_the_wheel_coasts():
+    """
+    Speed mode: ``Js_eff Omega' = K (Omega_ref - Omega) - b Omega``, ``K = Js speed_bandwidth``.
+
+    Body at rest, wheel on its principal axis z: ``Omega = Omega_inf + (Omega_0 - Omega_inf)
+    exp(-(K + b) t / Js_eff)``, ``Omega_inf = K Omega_ref / (K + b)`` (a proportional loop stops
+    short under friction), inside the torque limit throughout; after the command's timeout (0.5 s
+    after its stamp 0.2 s, so from sample 7) the drive is off and the wheel coasts,
+    ``Omega(t_7) exp(-b (t - t_7) / Js_eff)``. Exponentials: DOP853 at rtol 1e-12 to 1e-9 rad/s.
+    """
+    Js, bw, b, speed0, ref = 0.2, 2.0, 0.01, 10.0, 30.0
+    wheels = [wheel([0.0, 0.0, 1.0], spin_inertia=Js, max_torque=10.0, speed=speed0, viscous=b)]
+    wheels[0]['name'] = 'z'
+    s = scene_from_mapping(
+        {
+            'body': {'inertia': BODY},
+            'initial': {'angular_velocity': [0.0, 0.0, 0.0]},
+            'effects': [
+                {
+                    'reaction_wheels': {
+                        'wheels': wheels,
+                        'mode': 'speed',
+                        'speed_bandwidth': bw,
+                        'timeout': 0.5,
+                    }
+                }
+            ],
+        }
+    )
+    simulation = Simulation(s.propagator('dop853', **TIGHT), COMMAND_RATE)
+    ((effect, hold),) = simulation.command_holds
+    assert effect.command_field == 'velocity'
+    # no command yet: the drive is off (NaN set-point), the wheel coasts
+    assert math.isnan(effect.inputs(0.0)[0])
+    assert effect.receive(200_000_000, '', ['z'], [ref], [])[0]  # holds from sample 2
+    block = simulation.samples(0, 21)
+    t = block.times
+    speed = effect.wheel_speeds(block.omega_B, block.internal)[:, 0]
+    K, effective = Js * bw, _effective(Js)
+    coast0 = speed0 * np.exp(-b * np.minimum(t, 0.2) / effective)  # until sample 2
+    settle = K * ref / (K + b)
+    loop = settle + (coast0 - settle) * np.exp(-(K + b) * np.clip(t - 0.2, 0.0, 0.5) / effective)
+    expected = np.where(t <= 0.7, loop, loop * np.exp(-b * np.maximum(t - 0.7, 0.0) / effective))
+    np.testing.assert_allclose(speed, expected, rtol=0, atol=1e-9)
+    assert np.abs(K * (ref - speed)).max() < 10.0  # inside the torque limit
+    # the momentum went to the body: I_a w = Js (Omega_0 - Omega)
+    np.testing.assert_allclose(
+        block.omega_B[:, 2], Js * (speed0 - speed) / I_A, rtol=1e-10, atol=1e-15
+    )
+    # the motor torque the drive applies at each sample (its set-point on the interval before)
+    u, torque_limited, speed_limited = effect.applied(
+        speed[:, None], effect.inputs_before(t)
+    )
+    on = (t > 0.2) & (t <= 0.7)
+    np.testing.assert_allclose(u[on, 0], K * (ref - speed[on]), rtol=1e-15)
+    assert not u[~on].any() and not torque_limited.any() and not speed_limited.any()
+
+
+BAD_COMMANDS = {
+    'unknown name': ((['rw0', 'rw9'], [], [0.1, 0.2]), "unknown name: 'rw9' (wheels: rw0, rw1)"),
+    'repeated name': ((['rw0', 'rw0'], [], [0.1, 0.2]), "repeated name: 'rw0'"),
+    'fewer values': ((['rw0', 'rw1'], [], [0.1]), 'wrong length: 2 names and 1 effort values'),
+    'no names': (([], [], [0.1]), 'wrong length: 0 names and 1 effort values'),
+    'no values': ((['rw0'], [], []), 'wrong length: 1 names and 0 effort values'),
+    'both fields': ((['rw0'], [1.0], [0.1]), 'both fields: effort and velocity both given'),
+    'wrong mode': ((['rw0'], [1.0], []), 'wrong mode: velocity given to wheels in torque mode'),
+    'NaN': ((['rw1', 'rw0'], [], [0.1, math.nan]), 'not finite: a NaN or infinite component'),
+    'infinite': ((['rw1'], [], [-math.inf]), 'not finite: a NaN or infinite component'),
+}
+
+
+def test_bad_wheel_commands_are_refused_counted_and_never_reach_the_state():
+    wheels = [wheel([1.0, 0.0, 0.0], name='rw0'), wheel([0.0, 1.0, 0.0], name='rw1')]
+    simulation, effect = commanded('torque', wheels, omega=(0.1, 0.0, 0.0))
+    hold = effect.hold
+    for label, (message, reason) in BAD_COMMANDS.items():
+        accepted, said = effect.receive(0, '', *message)
+        assert not accepted and said.startswith(reason), (label, said)
+    assert hold.commands == [] and hold.accepted == 0
+    assert dict(hold.refused) == {
+        'unknown name': 1,
+        'repeated name': 1,
+        'wrong length': 3,
+        'both fields': 1,
+        'wrong mode': 1,
+        'not finite': 2,
+    }
+    # the state is the torque-free one's (no motor torque ever held): the wheels stay as they are
+    block = simulation.samples(0, 11)
+    np.testing.assert_array_equal(block.omega_B, np.broadcast_to([0.1, 0.0, 0.0], (11, 3)))
+    # a speed-mode drive refuses effort
+    _, speedy = commanded('speed', wheels)
+    assert speedy.receive(0, '', ['rw0'], [], [0.1])[1].startswith(
+        'wrong mode: effort given to wheels in speed mode, which take velocity (rad/s)'
+    )
+
+
+def test_wheels_and_a_torque_command_in_one_scene_each_take_their_own_commands():
+    """
+    The inertial momentum changes by exactly the commanded body torque, whatever the wheels do.
+
+    ``torque_command`` in the inertial frame beside commanded wheels: ``R(q) H_B(t_k) = H_N(0) +
+    sum_j tau_j / rate`` (the wheels' torques are internal). DOP853 at rtol 1e-12 over 2 s: to
+    1e-11 of |H| (~0.6 N m s).
+    """
+    wheels = [wheel(axis, spin_inertia=0.05, name=f'rw{i}') for i, axis in enumerate(np.eye(3))]
+    simulation, effect = commanded(
+        'torque',
+        wheels,
+        PYRAMID_INERTIA,
+        (0.05, -0.03, 0.02),
+        extra=[{'torque_command': {'frame': 'inertial', 'timeout': 10.0}}],
+    )
+    holds = dict(simulation.command_holds)
+    assert {e.name for e in holds} == {'reaction_wheels', 'torque_command'}
+    (torque_hold,) = [h for e, h in holds.items() if e.name == 'torque_command']
+    torque_hold.frame_id = 'world'
+    assert effect.receive(0, '', ['rw0', 'rw1', 'rw2'], [], [0.2, -0.1, 0.05])[0]
+    assert torque_hold.receive(0, [0.01, 0.0, -0.02], frame_id='world')[0]
+    assert effect.receive(SECOND, '', ['rw1'], [], [0.3])[0]
+    assert torque_hold.receive(SECOND // 2, [0.0, 0.03, 0.0], frame_id='world')[0]
+    block = simulation.samples(0, 21)
+    propagator = simulation.propagator
+    H_N = quaternion.rotate(block.q_NB, propagator.momentum_B(block.omega_B, block.internal))
+    k = np.arange(21)[:, None]
+    expected = H_N[0] + np.where(
+        k <= 5, k * [0.01, 0.0, -0.02], [0.05, 0.0, -0.1] + (k - 5) * np.array([0.0, 0.03, 0.0])
+    ) / COMMAND_RATE
+    np.testing.assert_allclose(H_N, expected, rtol=0, atol=1e-11 * np.linalg.norm(H_N[0]))
+    # the wheels did move (the test is not vacuous)
+    speeds = effect.wheel_speeds(block.omega_B, block.internal)
+    assert np.abs(speeds[-1]).min() > 1.0
+
+
+def test_the_compiled_right_hand_side_equals_the_python_one_in_speed_mode():
+    """
+    The speed loop (and a drive that is off: a NaN set-point) on random states, both ways.
+
+    Same operations, other order of the torques' sum: within 16 eps of the terms' size.
+    """
+    if not switch.AVAILABLE:
+        pytest.skip('numba is not installed')
+    wheels = [dict(w, name=f'rw{i}') for i, w in enumerate(PYRAMID['wheels'])]
+    simulation, effect = commanded('speed', wheels, PYRAMID_INERTIA, PYRAMID_OMEGA)
+    dynamics = simulation.propagator.dynamics
+    rng = np.random.default_rng(41)
+    count = 200
+    omega = rng.normal(size=(count, 3)) * 10.0 ** rng.uniform(-3, 0, size=(count, 1))
+    q = Rotation.random(count, random_state=rng).as_quat()
+    speeds = rng.uniform(-70.0, 70.0, size=(count, 4)) * 10.0 ** rng.uniform(-4, 0, (count, 1))
+    h = effect.spin_inertias * (speeds + omega @ effect.axes.T)
+    angles = rng.uniform(-1e3, 1e3, size=(count, 4))
+    states = np.hstack([omega, q, np.stack([h, angles], axis=2).reshape(count, 8)])
+    # set-points on [1 s, ...): the first half of the times sees the drive off
+    assert effect.receive(SECOND, '', effect.names[:3], [50.0, -20.0, 0.5], [])[0]
+    times = np.concatenate([rng.uniform(0.0, 0.9, count // 2), rng.uniform(1.0, 2.0, count // 2)])
+    expected = np.array([dynamics.derivative(t, y, t) for t, y in zip(times, states)])
+    got = drivers.derivatives(dynamics, times, states)
+    size = 10.0 * (1.0 + np.abs(states[:, :9]).max(axis=1, keepdims=True) ** 2)
+    assert np.all(np.abs(got - expected) <= 16 * EPS * size), np.abs(got - expected).max()
+    # the drive is on in the second half only: the torques differ there
+    off = [dynamics.derivative(0.5, y, 0.5) for y in states[count // 2:]]
+    assert np.abs(expected[count // 2:, 7] - np.array(off)[:, 7]).max() > 1e-3
+
+
 # -- the compiled path ----------------------------------------------------------------------------
 def test_the_compiled_right_hand_side_equals_the_python_one_for_several_wheels():
     """
@@ -494,7 +730,8 @@ def test_the_compiled_right_hand_side_equals_the_python_one_for_several_wheels()
     speeds = rng.uniform(-70.0, 70.0, size=(count, 4)) * 10.0 ** rng.uniform(-4, 0, (count, 1))
     (wheels,) = dynamics.effects
     h = wheels.spin_inertias * (speeds + omega @ wheels.axes.T)
-    states = np.hstack([omega, q, h])
+    angles = rng.uniform(-1e3, 1e3, size=(count, 4))  # (no part of the rates: any value)
+    states = np.hstack([omega, q, np.stack([h, angles], axis=2).reshape(count, 8)])
     times = rng.uniform(0.0, 10.0, size=count)
     expected = np.array([dynamics.derivative(t, y, t) for t, y in zip(times, states)])
     got = drivers.derivatives(dynamics, times, states)
@@ -508,9 +745,10 @@ def test_the_compiled_run_equals_the_reference_run(monkeypatch):
 
     At the default accuracy (rtol 1e-10, atol 1e-12) over 25 s through the bands' kinks, each
     path's error against a run at rtol 1e-13 is ~1e-8 in the wheels' momenta (~4 N m s), ~1e-9 in
-    the rates (measured: 8e-9 and 6e-10). Rounding in a few sums moves a step's acceptance at a
-    kink, so their steps part there: they differ by up to the sum of their errors, bounded here
-    by 3e-8 (N m s), 3e-9 (rad/s, and the attitude's components).
+    the rates, ~3e-8 in the angles (up to 1200 rad; measured: 8e-9, 6e-10, 2.7e-8). Rounding in a
+    few sums moves a step's acceptance at a kink, so their steps part there: they differ by up to
+    the sum of their errors, bounded here by 3e-8 (N m s), 3e-9 (rad/s, and the attitude's
+    components), 1e-7 (rad).
     """
     if not switch.AVAILABLE:
         pytest.skip('numba is not installed')
@@ -522,10 +760,16 @@ def test_the_compiled_run_equals_the_reference_run(monkeypatch):
         assert p.compiled is enabled and p.settings == {'rtol': 1e-10, 'atol': 1e-12}
         runs.append(p.states(times))
     tight = pyramid().propagator('dop853', rtol=1e-13, atol=1e-15).states(times)
-    for part, bound in zip(range(3), (3e-9, 3e-9, 3e-8)):
-        np.testing.assert_allclose(runs[0][part], runs[1][part], rtol=0, atol=bound)
+
+    def parts(run):  # rates, attitudes, momenta, angles
+        return run[0], run[1], run[2][:, 0::2], run[2][:, 1::2]
+
+    for part, bound in zip(range(4), (3e-9, 3e-9, 3e-8, 1e-7)):
+        np.testing.assert_allclose(parts(runs[0])[part], parts(runs[1])[part], rtol=0, atol=bound)
         for run in runs:
-            np.testing.assert_allclose(run[part], tight[part], rtol=0, atol=bound / 2)
+            np.testing.assert_allclose(
+                parts(run)[part], parts(tight)[part], rtol=0, atol=bound / 2
+            )
 
 
 # -- refused input --------------------------------------------------------------------------------
@@ -624,6 +868,28 @@ BAD = {
         lambda e: e.update(torque=[0.0, float('inf')]),
         r'\.torque\[1\]: expected a finite number',
     ),
+    'a commanded mode with a torque': (
+        lambda e: e.update(mode='torque'),
+        r"\.torque: mode torque: the motors take their torque commands on 'wheel_command'; leave "
+        'out torque and schedule',
+    ),
+    'an unknown mode': (
+        lambda e: e.update(mode='velocity'),
+        r'\.mode: expected one of schedule, torque, speed',
+    ),
+    'a zero speed bandwidth': (
+        lambda e: e.update(speed_bandwidth=0.0),
+        r'\.speed_bandwidth: must be > 0',
+    ),
+    'a zero timeout': (lambda e: e.update(timeout=0.0), r'\.timeout: must be > 0'),
+    'two wheels of one name': (
+        lambda e: e['wheels'][1].update(name='wheel_0'),
+        r"\.wheels\[1\]\.name: 'wheel_0' names wheels\[0\] already",
+    ),
+    'an empty name': (
+        lambda e: e['wheels'][0].update(name=''),
+        r'\.wheels\[0\]\.name: expected a non-empty string',
+    ),
     'spin inertia beyond the body': (
         lambda e: e['wheels'][0].update(spin_inertia=3.5),
         r'\.wheels: the wheels leave I - sum\(Js g g\^T\) not positive definite',
@@ -663,3 +929,57 @@ def test_wheels_that_together_take_the_whole_moment_are_refused_when_the_propaga
 def test_scenes_with_the_same_wheels_compare_equal():
     assert pyramid().effects == pyramid().effects
     assert pyramid().effects != scene(BODY, [0.0, 0.0, 0.1], _with(lambda e: None)).effects
+
+
+def test_wheel_states_report_every_wheel_of_every_effect_and_need_one():
+    """
+    The wheel_states rows: angles, speeds, then motor torques applied, every wheel in scene order.
+
+    Two effects, one scheduled (a torque of 3 max_torque: clipped) and one commanded; the rows
+    are the effects' own state and laws (``wheel_speeds``, ``wheel_angles``, ``applied``), the
+    effort the input of the interval ending at each sample. A scene without wheels is refused.
+    """
+    s = scene_from_mapping(
+        {
+            'body': {'inertia': BODY},
+            'initial': {'angular_velocity': [0.01, 0.02, 0.03]},
+            'effects': [
+                {'reaction_wheels': {'wheels': [wheel([1.0, 0, 0], name='a')], 'torque': [3.0]}},
+                {
+                    'reaction_wheels': {
+                        'wheels': [wheel([0, 1.0, 0], name='b'), wheel([0, 0, 1.0], name='c')],
+                        'mode': 'torque',
+                    }
+                },
+                {'wheel_states': {'rate': 5.0}},
+            ],
+        }
+    )
+    simulation = Simulation(s.propagator(), COMMAND_RATE, outputs=s.outputs)
+    (output,) = simulation.outputs
+    assert output.names == ('a', 'b', 'c') and output.layout_options == {'names': ('a', 'b', 'c')}
+    ((commanded, _),) = simulation.command_holds
+    assert commanded.receive(0, '', ['c', 'b'], [], [0.5, -0.25])[0]
+    block = simulation.samples(0, 9)
+    rows, picked = block.outputs[0], block.output_positions[0]
+    assert picked.tolist() == [0, 2, 4, 6, 8]
+    scheduled = simulation.propagator.effects[0]
+    x = block.internal[picked]
+    speeds = np.hstack(
+        [scheduled.wheel_speeds(block.omega_B[picked], x[:, :2]),
+         commanded.wheel_speeds(block.omega_B[picked], x[:, 2:])]
+    )
+    np.testing.assert_array_equal(rows[:, 0:3], x[:, 1::2])
+    np.testing.assert_array_equal(rows[:, 3:6], speeds)
+    # clipped to max_torque 1; the commanded ones from their first interval (none at sample 0)
+    np.testing.assert_array_equal(
+        rows[:, 6:9], [[1.0, 0.0, 0.0]] + [[1.0, -0.25, 0.5]] * 4
+    )
+    with pytest.raises(ValueError, match=r'effects\[0\]\.wheel_states: reports on a '):
+        scene_from_mapping(
+            {
+                'body': {'inertia': BODY},
+                'initial': {'angular_velocity': [0.0, 0.0, 0.1]},
+                'effects': [{'wheel_states': {}}],
+            }
+        )

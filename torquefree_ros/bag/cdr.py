@@ -399,3 +399,131 @@ def decode_stamped_doubles(message: bytes, width: int) -> tuple[int, str, np.nda
     values = struct.unpack_from(f'<{width}d', message, start)
     frame = message[16: 16 + length - 1].decode('utf-8')
     return sec * 1_000_000_000 + nanosec, frame, np.array(values)
+
+
+# -- sensor_msgs/JointState: a Header, string[] name, float64[] position, velocity, effort ------
+_UINT32 = struct.Struct('<I')
+
+
+def _joint_state_layout(frame_id: str, names, lengths) -> tuple[bytearray, list[int]]:
+    """
+    Return a JointState's bytes with zero stamp and values, and where each float64 array starts.
+
+    Fast-CDR's layout: each sequence's ``uint32`` length on a 4-byte boundary, its doubles on an
+    8-byte one (an empty sequence has no doubles, hence no padding), boundaries counted from the
+    end of the encapsulation header.
+    """
+    buffer = bytearray(CDR_LE)
+
+    def align(size: int) -> None:
+        buffer.extend(bytes(-(len(buffer) - 4) % size))
+
+    def string(value: str, field: str) -> None:
+        data = _frame_bytes(value, field)
+        align(4)
+        buffer.extend(_UINT32.pack(len(data) + 1) + data + b'\x00')
+
+    buffer.extend(struct.pack('<iI', 0, 0))
+    string(frame_id, 'frame_id')
+    align(4)
+    buffer.extend(_UINT32.pack(len(names)))
+    for name in names:
+        string(name, 'name')
+    offsets = []
+    for length in lengths:
+        align(4)
+        buffer.extend(_UINT32.pack(length))
+        if length:
+            align(8)
+        offsets.append(len(buffer))
+        buffer.extend(bytes(8 * length))
+    return buffer, offsets
+
+
+def encode_joint_state(stamp_ns: int, frame_id: str, names, position, velocity, effort) -> bytes:
+    """Encode one ``sensor_msgs/JointState`` (any of its arrays may be empty)."""
+    arrays = [[float(x) for x in values] for values in (position, velocity, effort)]
+    buffer, offsets = _joint_state_layout(frame_id, names, [len(a) for a in arrays])
+    sec, nanosec = _stamp_fields([stamp_ns])
+    struct.pack_into('<iI', buffer, 4, int(sec[0]), int(nanosec[0]))
+    for offset, values in zip(offsets, arrays):
+        struct.pack_into(f'<{len(values)}d', buffer, offset, *values)
+    return bytes(buffer)
+
+
+def encode_joint_states(stamps_ns, frame_id: str, names, values) -> MessageBlock:
+    """
+    Encode a ``sensor_msgs/JointState`` per row: position, velocity and effort of every joint.
+
+    A row of ``values`` is ``3 n`` float64s for the ``n`` joints ``names``: the positions, then
+    the velocities, then the efforts.
+    """
+    values = np.asarray(values, dtype=np.float64)
+    count, n = values.shape[0], len(names)
+    if values.ndim != 2 or values.shape[1] != 3 * n:
+        raise ValueError(
+            f'joint state rows: expected {3 * n} float64s per row (position, velocity and '
+            f'effort of {n} joints), got shape {values.shape}'
+        )
+    buffer, offsets = _joint_state_layout(frame_id, names, [n, n, n])
+    sec, nanosec = _stamp_fields(stamps_ns)
+    if count == 1:  # a closed loop's one sample at a time: packed directly, the same bytes
+        struct.pack_into('<iI', buffer, 4, int(sec[0]), int(nanosec[0]))
+        row = values[0].tolist()
+        for j, offset in enumerate(offsets):
+            struct.pack_into(f'<{n}d', buffer, offset, *row[j * n: (j + 1) * n])
+        return MessageBlock(bytes(buffer), len(buffer))
+    messages = np.empty((count, len(buffer)), dtype=np.uint8)
+    messages[:] = np.frombuffer(bytes(buffer), dtype=np.uint8)
+    messages[:, 4:8].view('<i4')[:, 0] = sec
+    messages[:, 8:12].view('<u4')[:, 0] = nanosec
+    for j, offset in enumerate(offsets):
+        messages[:, offset: offset + 8 * n].view('<f8')[:] = values[:, j * n: (j + 1) * n]
+    return MessageBlock(messages.tobytes(), messages.shape[1])
+
+
+def decode_joint_state(message: bytes) -> tuple[int, str, list, tuple, tuple, tuple]:
+    """
+    Decode ``(stamp_ns, frame_id, names, position, velocity, effort)`` from a JointState.
+
+    Little-endian CDR, with struct (the node decodes its wheel commands one at a time with it); a
+    message that is not one, or is cut short, raises ``ValueError``.
+    """
+    if message[:4] != CDR_LE:
+        raise ValueError('not a little-endian CDR message (encapsulation header)')
+    size = len(message)
+
+    def aligned(at: int, to: int) -> int:
+        return at + (-(at - 4) % to)
+
+    def length(at: int, item: int) -> tuple[int, int]:
+        at = aligned(at, 4)
+        (count,) = _UINT32.unpack_from(message, at)
+        if count * item > size - at - 4:
+            raise ValueError(f'a sequence of {count} items runs past the message ({size} bytes)')
+        return count, at + 4
+
+    def string(at: int) -> tuple[str, int]:
+        count, at = length(at, 1)
+        if count < 1:
+            raise ValueError('a string without its terminating NUL')
+        return message[at: at + count - 1].decode('utf-8'), at + count
+
+    try:
+        sec, nanosec = struct.unpack_from('<iI', message, 4)
+        frame_id, at = string(12)
+        names_count, at = length(at, 5)  # (a name is at least its length and NUL)
+        names = []
+        for _ in range(names_count):
+            name, at = string(at)
+            names.append(name)
+        arrays = []
+        for _ in range(3):
+            count, at = length(at, 8)
+            if count:
+                at = aligned(at, 8)
+            arrays.append(struct.unpack_from(f'<{count}d', message, at))
+            at += 8 * count
+    except struct.error as error:
+        raise ValueError(f'a JointState cut short ({size} bytes): {error}') from None
+    return sec * 1_000_000_000 + nanosec, frame_id, names, *arrays

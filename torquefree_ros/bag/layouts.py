@@ -17,7 +17,8 @@ The message layouts of the outputs: one encoder per ``OutputEffect.layout``, by 
 
 An encoder takes ``(stamps_ns, frame_id, body_frame, rows, place)`` — the samples' stamps, the
 output's frame id, the body frame's id, the output's rows (its numbers, as its layout reads them)
-and where the body is drawn (None: the origin) — and returns the messages' CDR bytes. A new
+and where the body is drawn (None: the origin) — and the output's ``layout_options`` as keywords
+(``joint_states``: the joints' ``names``), and returns the messages' CDR bytes. A new
 message shape is its encoder here under :func:`layout` (built from :mod:`.cdr`'s pieces) and the
 output that names it.
 """
@@ -26,7 +27,13 @@ from __future__ import annotations
 
 from typing import Callable
 
-from .cdr import encode_odometry, encode_stamped_doubles, encode_transforms, MessageBlock
+from .cdr import (
+    encode_joint_states,
+    encode_odometry,
+    encode_stamped_doubles,
+    encode_transforms,
+    MessageBlock,
+)
 from .markers import encode_markers
 
 #: encoders by layout name
@@ -66,3 +73,9 @@ def _odometry(stamps_ns, frame_id, body_frame, rows, place) -> MessageBlock:
 def _markers(stamps_ns, frame_id, body_frame, rows, place) -> MessageBlock:
     """Encode a MarkerArray drawn from the row, the body's centre at ``place``."""
     return encode_markers(stamps_ns, frame_id, rows, place)
+
+
+@layout('joint_states')
+def _joint_states(stamps_ns, frame_id, body_frame, rows, place, names=()) -> MessageBlock:
+    """Encode a sensor_msgs/JointState of the joints ``names``: positions, velocities, efforts."""
+    return encode_joint_states(stamps_ns, frame_id, names, rows)

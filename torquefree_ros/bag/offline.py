@@ -20,10 +20,10 @@ holds what the node would publish for that scene and rate (sample ``k = 0 … fl
 ``epoch + k / HZ``). An energy sweep writes every member, member ``j`` under
 ``NAMESPACE/member_j``.
 
-A scene that takes torque commands can be re-simulated under the commands a bag recorded (the node
-records them, each logged at the sample it held from): each is offered to the run's hold as if it
-had arrived at its log time, under the node's rules, so the samples equal the recorded ones bit for
-bit.
+A scene that takes commands (body torques, wheel torques or speeds) can be re-simulated under the
+commands a bag recorded (the node records them, each logged at the sample it held from): each is
+offered to the run's hold as if it had arrived at its log time, under the node's rules, so the
+samples equal the recorded ones bit for bit.
 """
 
 from __future__ import annotations
@@ -33,12 +33,13 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from .cdr import decode_stamped_doubles
+from .cdr import decode_joint_state, decode_stamped_doubles
 from .reader import BagReader
 from .samples import (
     encode_block,
     encode_command,
     INERTIA_KEY,
+    JOINT_STATE,
     resolve_topic,
     sample_qos,
     SampleRecorder,
@@ -59,17 +60,49 @@ class RecordedCommand(NamedTuple):
     torque: np.ndarray
 
 
-def read_commands(bag, topic: str) -> list[RecordedCommand]:
-    """Read a bag's ``geometry_msgs/WrenchStamped`` messages of ``topic``, in log-time order."""
+class RecordedJointCommand(NamedTuple):
+    log_time_ns: int
+    stamp_ns: int
+    frame_id: str
+    names: list
+    velocity: tuple
+    effort: tuple
+
+
+def _command_reader(bag, topic: str, type_name: str) -> BagReader:
     reader = bag if isinstance(bag, BagReader) else BagReader(bag)
     types = {t.name: t.type_name for t in reader.topics}
     if topic not in types:
         known = ', '.join(sorted(types)) or 'none'
         raise BagError(f"bag '{reader.path}': no topic '{topic}' (topics: {known})")
-    if types[topic] != WRENCH_STAMPED:
+    if types[topic] != type_name:
         raise BagError(
-            f"bag '{reader.path}': topic '{topic}' is {types[topic]}, not {WRENCH_STAMPED}"
+            f"bag '{reader.path}': topic '{topic}' is {types[topic]}, not {type_name}"
         )
+    return reader
+
+
+def read_joint_commands(bag, topic: str) -> list[RecordedJointCommand]:
+    """Read a bag's ``sensor_msgs/JointState`` messages of ``topic``, in log-time order."""
+    reader = _command_reader(bag, topic, JOINT_STATE)
+    commands = []
+    for message in reader.messages([topic]):
+        try:
+            stamp, frame, names, _, velocity, effort = decode_joint_state(message.data)
+        except ValueError as error:
+            raise BagError(
+                f"bag '{reader.path}': a message on '{topic}' at {message.log_time_ns} ns "
+                f'is not a JointState ({error})'
+            ) from None
+        commands.append(
+            RecordedJointCommand(message.log_time_ns, stamp, frame, names, velocity, effort)
+        )
+    return commands
+
+
+def read_commands(bag, topic: str) -> list[RecordedCommand]:
+    """Read a bag's ``geometry_msgs/WrenchStamped`` messages of ``topic``, in log-time order."""
+    reader = _command_reader(bag, topic, WRENCH_STAMPED)
     commands = []
     for message in reader.messages([topic]):
         try:
@@ -121,8 +154,9 @@ def write_scene_bag(
     created, before the first sample is computed. ``progress(samples_done, samples_total)`` is
     called after each block; when ``stop()`` turns true the bag is closed there, complete, with the
     samples written so far. ``commands_bag``: the commands it recorded on each ``torque_command``
-    effect's topic (in ``namespace``) drive the scene; those logged before ``epoch_ns`` belong to
-    an earlier run and are left out. The commands that hold go into the bag too. ``position``:
+    effect's topic and each commanded ``reaction_wheels``' topic (in ``namespace``) drive the
+    scene; those logged before ``epoch_ns`` belong to an earlier run and are left out. The
+    commands that hold go into the bag too. ``position``:
     where the outputs place the body's centre (x, y, z, m, in the inertial frame; see
     ``encode_block``).
     """
@@ -186,7 +220,7 @@ def write_scene_bag(
                                 effect.topic,
                                 effect.message_type,
                                 hold.stamp_ns(command.start),
-                                encode_command(command),
+                                encode_command(command, effect),
                             )
             if progress is not None:
                 progress((first + size) * len(simulations), total)
@@ -205,11 +239,25 @@ def _drive(
     holds = simulation.command_holds
     if not holds:
         raise ValueError(
-            'commands: the scene takes no commands (it names no torque_command effect)'
+            'commands: the scene takes no commands (it names no torque_command effect and no '
+            'commanded reaction_wheels)'
         )
     for effect, hold in holds:
         hold.frame_id = effect.frame_id(body_frame, inertial_frame)
-        for command in read_commands(bag, resolve_topic(effect.topic, namespace)):
+        topic = resolve_topic(effect.topic, namespace)
+        if effect.message_type == JOINT_STATE:
+            for joint in read_joint_commands(bag, topic):
+                if joint.log_time_ns >= simulation.epoch_ns:
+                    effect.receive(
+                        joint.stamp_ns,
+                        joint.frame_id,
+                        joint.names,
+                        joint.velocity,
+                        joint.effort,
+                        arrival_ns=joint.log_time_ns,
+                    )
+            continue
+        for command in read_commands(bag, topic):
             if command.log_time_ns >= simulation.epoch_ns:
                 hold.receive(
                     command.stamp_ns,

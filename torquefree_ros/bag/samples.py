@@ -29,7 +29,7 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from .cdr import encode_stamped_doubles, encode_times
+from .cdr import encode_joint_state, encode_stamped_doubles, encode_times
 from .layouts import LAYOUTS
 from .markers import body_offset
 from .qos import BagQos
@@ -38,6 +38,7 @@ from .writer import BagWriter
 ANGULAR_VELOCITY = ('angular_velocity', 'geometry_msgs/msg/Vector3Stamped')
 ATTITUDE = ('attitude', 'geometry_msgs/msg/QuaternionStamped')
 CLOCK = ('/clock', 'rosgraph_msgs/msg/Clock')
+JOINT_STATE = 'sensor_msgs/msg/JointState'
 #: output layouts whose rows start with the body's position (x, y, z)
 PLACED = ('transform', 'pose', 'odometry')
 #: custom_data key of the body's inertia (3 or 6 numbers, space-separated) in offline bags
@@ -135,16 +136,28 @@ def _encode_output(
         rows = rows.copy()
         # these rows start with the body's position (zero: the core moves no body)
         rows[:, 0:3] = place
-    return LAYOUTS[output.layout](stamps, frame, body_frame, rows, place)
+    return LAYOUTS[output.layout](
+        stamps, frame, body_frame, rows, place, **output.layout_options
+    )
 
 
-def encode_command(command) -> bytes:
+def encode_command(command, effect=None) -> bytes:
     """
-    Encode a received torque command as ``geometry_msgs/WrenchStamped``, for the bag.
+    Encode a received command as its effect's message, for the bag.
 
-    The message has the command's own stamp, frame, force and torque.
+    ``torque_command`` (or no ``effect``): a ``geometry_msgs/WrenchStamped`` with the command's own
+    stamp, frame, force (zero when none came) and torque. ``reaction_wheels``: a
+    ``sensor_msgs/JointState`` with its stamp and frame, every wheel named in the effect's order,
+    the values that hold (a command naming some wheels, merged) in ``effort`` or ``velocity``.
     """
-    values = np.concatenate([command.force, command.torque])[np.newaxis]
+    if effect is not None and effect.message_type == JOINT_STATE:
+        values = command.values.tolist()
+        velocity, effort = (values, ()) if effect.command_field == 'velocity' else ((), values)
+        return encode_joint_state(
+            command.stamp_ns, command.frame_id, effect.names, (), velocity, effort
+        )
+    force = command.force if command.force.size else np.zeros(3)
+    values = np.concatenate([force, command.values])[np.newaxis]
     return encode_stamped_doubles([command.stamp_ns], command.frame_id, values)[0]
 
 

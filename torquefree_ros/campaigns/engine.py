@@ -359,7 +359,10 @@ def _batch(campaign, draws: list, scenes: dict, times: np.ndarray):
     plant = Plant([scenes[d.run] for d in draws], campaign.rate)
     first = plant.state
     rest = plant.run(campaign.duration)
-    return tuple(np.concatenate([a0[:, None, :], a], axis=1) for a0, a in zip(first, rest))
+    # the rates, attitudes and effects' states (the wheels' speeds are in the last)
+    return tuple(
+        np.concatenate([a0[:, None, :], a], axis=1) for a0, a in zip(first[:3], rest[:3])
+    )
 
 
 def _nominal(campaign, times) -> Samples:

@@ -125,10 +125,11 @@ def _parser() -> argparse.ArgumentParser:
     options.add_argument(
         '--commands',
         metavar='BAG_DIR',
-        help='re-simulate a scene with a torque_command effect under the commands this bag '
-        "recorded on its topic (in --namespace), each offered at its log time under the node's "
-        "rules: with the recording's --rate and --start-time (its first stamp), the samples equal "
-        'the recorded ones bit for bit; commands logged before --start-time are left out',
+        help='re-simulate a scene with a torque_command effect or commanded reaction_wheels '
+        'under the commands this bag recorded on their topics (in --namespace), each offered at '
+        "its log time under the node's rules: with the recording's --rate and --start-time (its "
+        'first stamp), the samples equal the recorded ones bit for bit; commands logged before '
+        '--start-time are left out',
     )
     options.add_argument(
         '--reindex',

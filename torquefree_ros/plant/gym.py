@@ -37,24 +37,36 @@ observes the state at ``k + 1``.
   ``info["clipped"]`` says whether it differs from the action. An action that is not finite (NaN,
   inf), not numbers, or of the wrong shape raises ``ValueError`` naming ``action`` and changes
   nothing.
+* **Wheels**: on a scene with commanded ``reaction_wheels`` (mode ``torque`` or ``speed``) the
+  action is the wheels' inputs instead, one per wheel in the effect's order: motor torques in
+  ``Box(-max_torque_i, max_torque_i, (n,))`` (N m) or speed set-points in ``Box(-max_speed_i,
+  max_speed_i, (n,))`` (rad/s), clipped to the box as above and reported as ``info["wheels"]``
+  (a ``torque_command`` beside them gets no command: zero torque). The observation then ends with
+  the wheel speeds, and ``tau_k / max_torque`` in the reward is the action over its bound, wheel
+  by wheel.
 * **Observation**: ``[omega_B (3, rad/s, body frame), q_NB (4, x y z w), the effects' own
-  states]``, float64 (the plant's state, bit for bit). Bounds: the quaternion's components in
+  states, the wheels' speeds relative to the body (n, rad/s; none without wheels)]``, float64
+  (the plant's state, bit for bit). Bounds: the quaternion's components in
   ``[-1, 1]``; when the scene's only motion effect is ``torque_command``, each rate within
   ``(|H_0| + sqrt(3) max_torque max_steps / rate) / I_min`` (the momentum the box can add in an
-  episode, ``|H_0| <= I_max |omega_0|`` over the initial rates ``reset`` can draw), else unbounded
-  (Gymnasium's checker then warns about the infinite bounds: none is known for other effects); the
-  effects' own states are unbounded.
+  episode, ``|H_0| <= I_max |omega_0|`` over the initial rates ``reset`` can draw) and the
+  effects' own states unbounded; when its only motion effects are reaction wheels, every entry
+  within the bounds the kinetic energy puts on it (the motors add at most ``sum max_torque_i
+  max_speed_i`` watts, friction only takes energy out: ``_wheel_bounds``); else unbounded
+  (Gymnasium's checker then warns about the infinite bounds: none is known for other effects).
+  With speed set-points for actions the checker also recommends a normalised action space.
 * **Reward** (:class:`DetumbleReward`, the default; ``h = 1 / rate``)::
 
       r_k = -h * ( |omega_B(t_k+1)|^2 / omega_ref^2 + c * |tau_k|^2 / max_torque^2 )
 
   ``omega_ref = |omega_0|`` of the scene (its own initial rate; 1 rad/s if that is zero), ``c =
-  torque_weight`` (default 0.1), ``tau_k`` the torque held. The return is a right Riemann sum of
-  the quadratic cost ``-integral (|omega|^2 / omega_ref^2 + c |tau|^2 / max_torque^2) dt``: about
-  the same for any rate, ``-T`` for ``T`` seconds of the initial tumble left alone. ``reward`` may
-  be any callable ``reward(state, torque, next_state)`` of two :class:`~torquefree_ros.PlantState`
-  and the torque held, returning a float (the vector environment calls it once a step on the whole
-  batch: rows of bodies, returning ``(N,)``).
+  torque_weight`` (default 0.1), ``tau_k`` the torque held (wheels: ``|tau_k|^2 / max_torque^2`` is
+  ``sum_i (a_i / a_max_i)^2``, ``a`` the inputs held, ``a_max`` the action's bound). The return is
+  a right Riemann sum of the quadratic cost ``-integral (|omega|^2 / omega_ref^2 + c |tau|^2 /
+  max_torque^2) dt``: about the same for any rate, ``-T`` for ``T`` seconds of the initial tumble
+  left alone. ``reward`` may be any callable ``reward(state, torque, next_state)`` of two
+  :class:`~torquefree_ros.PlantState` and the torque held, returning a float (the vector
+  environment calls it once a step on the whole batch: rows of bodies, returning ``(N,)``).
 * **terminated**: ``|omega_B(t_k+1)| < omega_tol`` (default 1e-3 rad/s, 0.057 deg/s).
   **truncated**: ``k + 1 >= max_steps`` (default 1000, 100 s at 10 Hz). Stepping a truncated
   episode again raises ``RuntimeError`` (``reset()`` first); a terminated one may go on until
@@ -72,12 +84,12 @@ The vector environment
 ----------------------
 :class:`AttitudeVectorEnv` holds N such bodies (one scene for all, or a list of scenes with the
 same kinds of motion effects and the same ``max_torque``), observations ``(N, 7 + m)``, actions
-``(N, 3)``, with Gymnasium 1.x's **next-step autoreset** (``metadata["autoreset_mode"] ==
-AutoresetMode.NEXT_STEP``): a body whose episode ended on step ``k`` is reset on step ``k + 1``
-(its action is ignored, its reward 0, terminated and truncated False, its observation the new
-episode's first). Body ``i`` is bit for bit an :class:`AttitudeEnv` of its scene reset with seed
-``seed + i`` (``reset(seed=seed)``; a list gives each its own) under the same actions, episode
-after episode: the same plant, the same draws.
+``(N, 3)`` (wheels: ``(N, n)``), with Gymnasium 1.x's **next-step autoreset**
+(``metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP``): a body whose episode ended on step
+``k`` is reset on step ``k + 1`` (its action is ignored, its reward 0, terminated and truncated
+False, its observation the new episode's first). Body ``i`` is bit for bit an :class:`AttitudeEnv`
+of its scene reset with seed ``seed + i`` (``reset(seed=seed)``; a list gives each its own) under
+the same actions, episode after episode: the same plant, the same draws.
 
 Bodies that begin their episodes on the same step share one batched :class:`~torquefree_ros.Plant`
 (a *cohort*), advanced by one compiled call a step; a plant's bodies share its clock, and a body's
@@ -143,6 +155,11 @@ class DetumbleReward:
 
     def __call__(self, state: PlantState, torque: np.ndarray, next_state: PlantState):
         w2 = _squared_norm(next_state.omega_B)
+        if np.ndim(self.max_torque):  # a bound per input (wheels): sum (a_i / a_max_i)^2
+            shares = np.asarray(torque) / self.max_torque
+            return -self.dt * (
+                w2 / self._omega_ref2 + self.torque_weight * np.sum(shares * shares, axis=-1)
+            )
         t2 = _squared_norm(torque)
         return -self.dt * (w2 / self._omega_ref2 + self.torque_weight * (t2 / self._torque_max2))
 
@@ -158,11 +175,11 @@ class AttitudeEnv(gymnasium.Env):
     One body of a scene that takes torque, as a Gymnasium environment (the module's docstring).
 
     ``scene``: a :class:`~torquefree_ros.Scene`, a scene file's path or a library scene's name,
-    with a ``torque_command`` effect (else ``ValueError``); ``rate``: Hz; ``max_steps``: the
-    episode's length (truncation); ``reward``: ``reward(state, torque, next_state) -> float``,
-    default :class:`DetumbleReward`; ``omega_tol``: rad/s, the rate below which the episode
-    terminates; ``randomize``, ``spread``: the initial rate drawn at every reset (see ``reset``);
-    ``torque_weight``: ``c`` of the default reward.
+    with a ``torque_command`` effect or commanded ``reaction_wheels`` (else ``ValueError``);
+    ``rate``: Hz; ``max_steps``: the episode's length (truncation); ``reward``: ``reward(state,
+    torque, next_state) -> float``, default :class:`DetumbleReward`; ``omega_tol``: rad/s, the rate
+    below which the episode terminates; ``randomize``, ``spread``: the initial rate drawn at every
+    reset (see ``reset``); ``torque_weight``: ``c`` of the default reward.
     """
 
     metadata = {'render_modes': []}
@@ -190,7 +207,12 @@ class AttitudeEnv(gymnasium.Env):
         self.spread = _non_negative(spread, 'spread')
         self.randomize = bool(randomize)
         self.max_torque = _max_torque(plant, 'scene')
-        self.frame = 'inertial' if _command_effect(plant.scenes[0]).inertial else 'body'
+        self.wheels = plant.takes_wheels
+        self.frame = (
+            'wheels'
+            if self.wheels
+            else 'inertial' if _command_effect(plant.scenes[0]).inertial else 'body'
+        )
         self.reward = (
             DetumbleReward(_omega_ref(self.scene), self.max_torque, 1.0 / self.rate, torque_weight)
             if reward is None
@@ -199,10 +221,13 @@ class AttitudeEnv(gymnasium.Env):
         if not callable(self.reward):
             text = f'reward: expected a callable reward(state, torque, next_state), got {reward!r}'
             raise ValueError(text[:300])
-        self.action_space = spaces.Box(-self.max_torque, self.max_torque, (3,), np.float64)
+        self._shape = np.shape(self.max_torque) or (3,)
+        self.action_space = spaces.Box(
+            -self.max_torque, self.max_torque, self._shape, np.float64
+        )
         self.observation_space = _observation_space(
             self.scene,
-            plant.state.internal.size,
+            plant.state.internal.size + plant.state.wheel_speeds.size,
             self.max_torque,
             self.max_steps / self.rate,
             self.spread,
@@ -256,18 +281,19 @@ class AttitudeEnv(gymnasium.Env):
             raise RuntimeError(
                 f'step: the episode was truncated at max_steps = {self.max_steps}; call reset()'
             )
-        torque, clipped = _clip(action, (3,), self.max_torque)
+        torque, clipped = _clip(action, self._shape, self.max_torque)
         before = self._state
-        self._state = plant.step(torque)
+        self._state = plant.step(wheels=torque) if self.wheels else plant.step(torque)
         reward = float(self.reward(before, torque, self._state))
         terminated = bool(_squared_norm(self._state.omega_B) < self._tol2)
         truncated = plant.k >= self.max_steps
+        held = 'wheels' if self.wheels else 'torque'
         return (
             _observation(self._state),
             reward,
             terminated,
             truncated,
-            {'t': plant.t, 'torque': torque, 'clipped': bool(clipped)},
+            {'t': plant.t, held: torque, 'clipped': bool(clipped)},
         )
 
 
@@ -276,15 +302,16 @@ class AttitudeVectorEnv(VectorEnv):
     N bodies in batched plants, with next-step autoreset (the module's docstring).
 
     ``scene``: one scene (a Scene, path or library name) for ``num_envs`` bodies, or a list of
-    scenes (one body each; their motion effects of the same kinds and their ``max_torque`` equal).
+    scenes (one body each; their motion effects of the same kinds and their action bounds equal).
     The other arguments are :class:`AttitudeEnv`'s; a ``reward`` is called once a step with the
     batch's rows and returns ``(N,)``.
 
     ``reset(seed=..., options=...)``: ``seed`` an int (body ``i`` gets ``seed + i``), a list of N
     seeds or ``None`` (each body keeps its generator); ``options``: ``randomize`` (bool, this
     reset) and Gymnasium's ``reset_mask`` (``(N,)`` bool: reset only these bodies).
-    ``step(actions)``: ``(N, 3)``; ``info``: ``t``, ``torque`` and ``clipped`` per body, each with
-    Gymnasium's ``_key`` mask (False for a body reset on this step).
+    ``step(actions)``: ``(N, 3)`` (wheels: ``(N, n)``); ``info``: ``t``, ``torque`` (wheels:
+    ``wheels``) and ``clipped`` per body, each with Gymnasium's ``_key`` mask (False for a body
+    reset on this step).
     """
 
     metadata = {'autoreset_mode': AutoresetMode.NEXT_STEP, 'render_modes': []}
@@ -325,12 +352,14 @@ class AttitudeVectorEnv(VectorEnv):
         self.max_torque = _max_torque(
             plant, 'scene[0]' if isinstance(scene, (list, tuple)) else 'scene'
         )
-        limits = [float(_command_effect(s).values['max_torque']) for s in scenes]
+        self.wheels = plant.takes_wheels
+        limits = [_action_bound(s) for s in scenes]
         for index, limit in enumerate(limits):
-            if limit != self.max_torque:
+            if not np.array_equal(limit, self.max_torque):
+                what = 'wheel bounds' if self.wheels else 'max_torque'
                 raise ValueError(
-                    f"scene[{index}]: its max_torque {limit:g} N m differs from scene[0]'s "
-                    f'{self.max_torque:g}: the bodies of a vector environment share one '
+                    f"scene[{index}]: its {what} {_shown(limit)} differs from scene[0]'s "
+                    f'{_shown(self.max_torque)}: the bodies of a vector environment share one '
                     'action space'
                 )
         self.reward = (
@@ -346,8 +375,12 @@ class AttitudeVectorEnv(VectorEnv):
         if not callable(self.reward):
             text = f'reward: expected a callable reward(state, torque, next_state), got {reward!r}'
             raise ValueError(text[:300])
-        self._width = 7 + plant.state.internal.shape[1]
-        self.single_action_space = spaces.Box(-self.max_torque, self.max_torque, (3,), np.float64)
+        self._internal = plant.state.internal.shape[1]
+        self._width = 7 + self._internal + plant.state.wheel_speeds.shape[1]
+        self._shape = np.shape(self.max_torque) or (3,)
+        self.single_action_space = spaces.Box(
+            -self.max_torque, self.max_torque, self._shape, np.float64
+        )
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         bounds = [
             _observation_space(
@@ -425,14 +458,14 @@ class AttitudeVectorEnv(VectorEnv):
         if not self._started:
             raise RuntimeError('step: call reset() before the first step')
         n = self.num_envs
-        torques, clipped = _clip(actions, (n, 3), self.max_torque)
+        torques, clipped = _clip(actions, (n, *self._shape), self.max_torque)
         resetting = self._autoreset.copy()
-        before = _split(self._obs)
+        before = _split(self._obs, self._internal)
         for cohort in list(self._cohorts):
             self._advance(cohort, torques)
         stepped = ~resetting
         self._steps[stepped] += 1
-        after = _split(self._obs)
+        after = _split(self._obs, self._internal)
         held = np.where(stepped[:, None], torques, 0.0)
         rewards = np.where(
             stepped, np.asarray(self.reward(before, held, after), dtype=np.float64), 0.0
@@ -443,11 +476,12 @@ class AttitudeVectorEnv(VectorEnv):
         if resetting.any():
             self._begin(np.flatnonzero(resetting), self.randomize)
         self._autoreset = terminated | truncated
+        key = 'wheels' if self.wheels else 'torque'
         info = {
             't': self._t.copy(),
             '_t': np.ones(n, dtype=bool),
-            'torque': held,
-            '_torque': stepped.copy(),
+            key: held,
+            f'_{key}': stepped.copy(),
             'clipped': clipped & stepped,
             '_clipped': stepped.copy(),
         }
@@ -480,9 +514,10 @@ class AttitudeVectorEnv(VectorEnv):
         alive = cohort.alive & ~self._autoreset[cohort.bodies]
         if not alive.any():
             return
-        held = np.zeros((cohort.bodies.size, 3))
+        held = np.zeros((cohort.bodies.size, *self._shape))
         held[alive] = torques[cohort.bodies[alive]]
-        rows = cohort.rows(cohort.plant.step(held))
+        plant = cohort.plant
+        rows = cohort.rows(plant.step(wheels=held) if self.wheels else plant.step(held))
         self._obs[cohort.bodies[alive]] = rows[alive]
         self._t[cohort.bodies[alive]] = cohort.plant.t
 
@@ -501,7 +536,9 @@ class _Cohort:
 
     @staticmethod
     def rows(state: PlantState) -> np.ndarray:
-        return np.concatenate([state.omega_B, state.q_NB, state.internal], axis=1)
+        return np.concatenate(
+            [state.omega_B, state.q_NB, state.internal, state.wheel_speeds], axis=1
+        )
 
 
 # -- helpers -------------------------------------------------------------------------------------
@@ -516,11 +553,14 @@ def _squared_norm(v):
 
 
 def _observation(state: PlantState) -> np.ndarray:
-    return np.concatenate([state.omega_B, state.q_NB, state.internal])
+    return np.concatenate([state.omega_B, state.q_NB, state.internal, state.wheel_speeds])
 
 
-def _split(rows: np.ndarray) -> PlantState:
-    return PlantState(rows[:, :3].copy(), rows[:, 3:7].copy(), rows[:, 7:].copy())
+def _split(rows: np.ndarray, internal: int) -> PlantState:
+    end = 7 + internal
+    return PlantState(
+        rows[:, :3].copy(), rows[:, 3:7].copy(), rows[:, 7:end].copy(), rows[:, end:].copy()
+    )
 
 
 def _mask(n: int, bodies: np.ndarray) -> np.ndarray:
@@ -529,9 +569,11 @@ def _mask(n: int, bodies: np.ndarray) -> np.ndarray:
     return mask
 
 
-def _clip(action, shape: tuple, max_torque: float) -> tuple[np.ndarray, np.ndarray]:
+def _clip(action, shape: tuple, max_torque) -> tuple[np.ndarray, np.ndarray]:
     """
     Return the action clipped to ``[-max_torque, max_torque]``, and whether each body's was.
+
+    ``max_torque``: a number, or one per component (wheels).
 
     The action as float64 of ``shape``, clipped to ``[-max_torque, max_torque]``; and whether
     each body's was clipped. Not numbers, the wrong shape or not finite: ``ValueError``.
@@ -558,13 +600,32 @@ def _command_effect(scene: Scene):
     return commands[0] if commands else None
 
 
-def _max_torque(plant: Plant, where: str) -> float:
-    if not plant.takes_torque:
+def _max_torque(plant: Plant, where: str):
+    """
+    Return the action's bound: ``max_torque`` of the torque, or one per wheel (an array).
+
+    Wheels: their ``max_torque`` (mode ``torque``) or ``max_speed`` (mode ``speed``).
+    """
+    if not (plant.takes_torque or plant.takes_wheels):
         raise ValueError(
-            f'{where}: {plant.scenes[0].source} takes no torque '
-            '(it names no torque_command effect); an attitude environment needs one'
+            f'{where}: {plant.scenes[0].source} takes no torque (it names no torque_command '
+            'effect and no commanded reaction_wheels); an attitude environment needs one'
         )
-    return float(_command_effect(plant.scenes[0]).values['max_torque'])
+    return _action_bound(plant.scenes[0])
+
+
+def _action_bound(scene: Scene):
+    wheels = [e for e in scene.effects if e.name == 'reaction_wheels' and e.mode != 'schedule']
+    if wheels:
+        column = 5 if wheels[0].mode == 'speed' else 4  # (the kernel row's max speed, torque)
+        return np.array([row[column] for row in wheels[0].rows])
+    return float(_command_effect(scene).values['max_torque'])
+
+
+def _shown(bound) -> str:
+    if np.ndim(bound):
+        return '[' + ', '.join(f'{x:g}' for x in bound) + ']'
+    return f'{bound:g} N m'
 
 
 def _omega_ref(scene: Scene) -> float:
@@ -590,17 +651,57 @@ def _observation_space(
     Return the observation space with the module's bounds.
 
     The rates within what the box can add to the initial momentum in ``duration`` when
-    ``torque_command`` is the only motion effect (|omega| <= |H| / I_min), else unbounded.
+    ``torque_command`` is the only motion effect (|omega| <= |H| / I_min); every entry within
+    :func:`_wheel_bounds` when reaction wheels are the only ones; else unbounded.
     """
+    omega0 = float(np.linalg.norm(np.asarray(scene.angular_velocity, dtype=float)))
+    omega0 *= 1.0 + math.sqrt(3.0) * spread  # the largest rate reset can draw
+    if scene.effects and all(e.name == 'reaction_wheels' for e in scene.effects):
+        bounds = _wheel_bounds(scene, omega0, duration)
+        high = np.concatenate([bounds[:3], np.ones(4), bounds[3:]])
+        return spaces.Box(-high, high, dtype=np.float64)
     rate = math.inf
     if all(e.name == 'torque_command' for e in scene.effects):
         moments = RigidBody.from_inertia(scene.inertia).moments
-        omega0 = float(np.linalg.norm(np.asarray(scene.angular_velocity, dtype=float)))
-        omega0 *= 1.0 + math.sqrt(3.0) * spread  # the largest rate reset can draw
         momentum = float(moments.max()) * omega0 + math.sqrt(3.0) * max_torque * duration
         rate = momentum / float(moments.min()) * (1.0 + 1e-6)
     high = np.concatenate([np.full(3, rate), np.ones(4), np.full(internal, np.inf)])
     return spaces.Box(-high, high, dtype=np.float64)
+
+
+def _wheel_bounds(scene: Scene, omega0: float, duration: float) -> np.ndarray:
+    """
+    Return bounds of the rates, the wheels' states and speeds over an episode of ``duration``.
+
+    The kinetic energy ``T = w . I_s w / 2 + sum h_i^2 / (2 Js_i)`` changes at ``dT/dt = sum
+    (u_i - f_i) Omega_i``: friction only takes energy out (``f`` has the sign of ``Omega``), and
+    a motor puts it in only while speeding its wheel up below ``max_speed`` (the speed limit), at
+    most ``max_torque max_speed``. So ``T <= T_0 + duration sum max_torque_i max_speed_i``, with
+    ``T_0`` at most the initial state's for rates up to ``omega0``; then ``|w| <= sqrt(2 T /
+    min eig I_s)``, ``|h_i| <= sqrt(2 Js_i T)``, ``|Omega_i| <= |h_i| / Js_i + |w|`` and the
+    angle ``|theta_i| <= duration max |Omega_i|``. Returned in the observation's order but for
+    the attitude: the rates (3), each effect's ``(h_i, theta_i)`` pairs, the speeds; with a margin
+    of 1e-6 of each for rounding and the integrator's error.
+    """
+    body = RigidBody.from_inertia(scene.inertia)
+    spin = sum(effect.spin_inertia_B() for effect in scene.effects)
+    remaining = np.linalg.eigvalsh(body.tensor - spin)
+    energy = 0.5 * float(remaining.max()) * omega0 * omega0
+    power = 0.0
+    for effect in scene.effects:
+        for row, wheel in zip(effect.rows, effect.values['wheels']):
+            Js = row[3]
+            energy += 0.5 * Js * (abs(wheel['speed']) + omega0) ** 2
+            power += row[4] * row[5]
+    energy += power * duration
+    rate = math.sqrt(2.0 * energy / float(remaining.min()))
+    states, speeds = [], []
+    for effect in scene.effects:
+        for Js in effect.spin_inertias.tolist():
+            speed = math.sqrt(2.0 * energy / Js) + rate
+            states += [math.sqrt(2.0 * energy * Js), duration * speed]
+            speeds.append(speed)
+    return np.array([rate] * 3 + states + speeds) * (1.0 + 1e-6)
 
 
 def _distinct(scenes: list) -> list:

@@ -18,10 +18,13 @@ A scene as a plant a controller steps in process: one body, or a batch advanced 
 ``Plant(scene, rate)`` holds the body at sample ``k`` (time ``t_k = k / rate``); ``step(torque)``
 holds ``torque`` over ``[t_k, t_k+1)`` under the ``torque_command`` effect's rules (its frame,
 ``max_torque``, ``timeout``: a command holds until ``timeout`` simulated seconds after its sample,
-then the torque is zero) and returns the state at ``k + 1``. ``Plant([scene, ...], rate)`` holds N
-bodies, each with its own inertia, initial state and effect parameters; ``step`` takes ``(N, 3)``
-torques and one compiled call advances every body. A body of a batch is bit for bit the same body
-alone: both run the same kernel (``motion_kernels.dop853_outputs_batch``) with the same numbers.
+then the torque is zero) and returns the state at ``k + 1``; ``step(wheels=...)`` holds the
+commanded ``reaction_wheels``' inputs the same way (a motor torque, N m, or a speed set-point,
+rad/s, per wheel by the effect's ``mode``; after ``timeout`` the motors are off). ``Plant([scene,
+...], rate)`` holds N bodies, each with its own inertia, initial state and effect parameters;
+``step`` takes ``(N, 3)`` torques and ``(N, n)`` wheel inputs and one compiled call advances every
+body. A body of a batch is bit for bit the same body alone: both run the same kernel
+(``motion_kernels.dop853_outputs_batch``) with the same numbers.
 
 The plant integrates with DOP853 at the scene's ``accuracy`` (``auto``'s settings) through
 ``drivers.DOP853Bodies``, the engine the ``dop853`` propagator runs with one body: the node's
@@ -40,6 +43,7 @@ import numpy as np
 from ..core.commands.hold import timed_out, torque_refusals
 from ..core.compiled import drivers
 from ..core.compiled import motion_kernels as kernels
+from ..core.effects.actuators import ReactionWheels
 from ..core.effects.commands import command_inputs
 from ..core.propagators import ATOL_PER_RTOL, DEFAULT_ACCURACY, MAX_STEPS_PER_SAMPLE
 from ..core.scene.loader import load_scene, Scene
@@ -48,15 +52,19 @@ from ..core.timing.grid import check_rate, sample_stamp_ns
 
 class PlantState(NamedTuple):
     """
-    A sample: body rates, attitude and the effects' own states.
+    A sample: body rates, attitude, the effects' own states and the wheels' speeds.
 
-    Body rates (rad/s, body frame), attitude ``q_NB`` (x, y, z, w) and the effects' own states (a
-    damper's rate); a batch has a leading axis of bodies.
+    Body rates (rad/s, body frame), attitude ``q_NB`` (x, y, z, w), the effects' own states (a
+    damper's rate; reaction wheels: a pair per wheel, its absolute axial momentum ``Js (Omega +
+    g . w)`` N m s and its angle rad) and each reaction wheel's speed ``Omega`` relative to the
+    body (rad/s, the wheels of every ``reaction_wheels`` effect in scene order; none without
+    wheels); a batch has a leading axis of bodies.
     """
 
     omega_B: np.ndarray
     q_NB: np.ndarray
     internal: np.ndarray
+    wheel_speeds: np.ndarray | None = None
 
 
 class Plant:
@@ -99,17 +107,39 @@ class Plant:
     def takes_torque(self) -> bool:
         return self._commands is not None
 
+    @property
+    def takes_wheels(self) -> bool:
+        """Whether the scene has commanded ``reaction_wheels`` (``step``'s ``wheels``)."""
+        return self._wheels is not None
+
+    @property
+    def wheel_effect(self) -> ReactionWheels | None:
+        """Return the commanded ``reaction_wheels`` of scene 0 (names, mode, limits), or None."""
+        return self._wheels.effect if self._wheels is not None else None
+
     # -- stepping --------------------------------------------------------------------------------
-    def step(self, torque=None) -> PlantState:
+    def step(self, torque=None, wheels=None) -> PlantState:
         """
-        Hold ``torque`` over ``[t_k, t_k+1)`` and return the state at ``k + 1``.
+        Hold ``torque`` and ``wheels`` over ``[t_k, t_k+1)`` and return the state at ``k + 1``.
 
         ``torque``: N m, in the ``torque_command`` effect's frame; ``(3,)``, or ``(N, 3)`` for a
-        batch. ``None``: no new command (the one in force holds until its timeout). A refused
-        torque raises ``ValueError`` and changes nothing.
+        batch. ``wheels``: the commanded ``reaction_wheels``' input per wheel in its order, a motor
+        torque (N m, mode ``torque``; clipped by the wheel) or a speed set-point (rad/s, mode
+        ``speed``); ``(n,)``, or ``(N, n)`` for a batch. ``None``: no new command (the one in force
+        holds until its timeout). A refused torque or wheel input raises ``ValueError`` and
+        changes nothing.
         """
         if torque is not None:
-            self._accept(torque)
+            torque = self._checked_torque(torque)
+        if wheels is not None:
+            wheels = self._checked_wheels(wheels)
+        stamp = sample_stamp_ns(self.k, self.rate)
+        if torque is not None:
+            self._commands.torque[:] = torque
+            self._commands.stamp_ns[:] = stamp
+        if wheels is not None:
+            self._wheels.values[:] = wheels
+            self._wheels.stamp_ns[:] = stamp
         self._advance(np.array([(self.k + 1) / self.rate]))
         return self.state
 
@@ -129,7 +159,7 @@ class Plant:
             )
         count = int(np.floor(duration * self.rate + 1e-9))
         # the hold's timeout may end within the run: one interval a call
-        if self._commands is not None:
+        if self._commanded:
             samples = [self._advance(np.array([(self.k + 1) / self.rate])) for _ in range(count)]
             rows = (
                 np.concatenate(samples, axis=1)
@@ -164,15 +194,33 @@ class Plant:
                 )
         count = len(propagators)
         self._bodies = drivers.DOP853Bodies(propagators, MAX_STEPS_PER_SAMPLE)
-        self._command_helds = np.zeros((count, 6))
         self._sample = self._bodies.ys.copy()[:, None, :]
         self.k = 0
         self._failed: str | None = None
-        commands = [command_inputs(p.effects) for p in propagators]
+        self._speeds = _WheelSpeeds.of(propagators)
+        commands = [
+            [e for e in command_inputs(p.effects) if e.name == 'torque_command']
+            for p in propagators
+        ]
+        wheels = [
+            [e for e in command_inputs(p.effects) if isinstance(e, ReactionWheels)]
+            for p in propagators
+        ]
         if any(len(c) > 1 for c in commands):
             raise ValueError(
                 'scene: more than one torque_command effect; the plant takes one torque per body'
             )
+        if any(len(w) > 1 for w in wheels):
+            raise ValueError(
+                'scene: more than one commanded reaction_wheels effect; the plant takes one '
+                'input per wheel of one'
+            )
+        # the commanded wheels' inputs go after the torques, at their momenta's places
+        width = drivers.held_width(propagators[0].dynamics) if wheels[0] else 6
+        self._command_helds = np.zeros((count, width))
+        self._wheels = (
+            _WheelCommands.of([w[0] for w in wheels], propagators[0]) if wheels[0] else None
+        )
         if commands[0]:
             effects = [c[0] for c in commands]
             self._commands = _Commands(
@@ -184,8 +232,9 @@ class Plant:
             )
         else:
             self._commands = None
+        self._commanded = self._commands is not None or self._wheels is not None
 
-    def _accept(self, torque) -> None:
+    def _checked_torque(self, torque) -> np.ndarray:
         commands = self._commands
         if commands is None:
             raise ValueError(
@@ -211,28 +260,59 @@ class Plant:
                 f'torque: a component exceeds max_torque {commands.max_torque[b]:g} N m '
                 f'(body {b}): {values[b].tolist()}'
             )
-        commands.torque[:] = values
-        commands.stamp_ns[:] = sample_stamp_ns(self.k, self.rate)
+        return values
+
+    def _checked_wheels(self, wheels) -> np.ndarray:
+        commands = self._wheels
+        if commands is None:
+            raise ValueError(
+                'wheels: the scene takes no wheel commands (it has no reaction_wheels in mode '
+                'torque or speed)'
+            )
+        n = commands.columns.size
+        shape = (self.size, n) if self.batch else (n,)
+        try:
+            values = np.array(wheels, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(
+                f'wheels: expected numbers of shape {shape}, got {wheels!r}'[:300]
+            ) from None
+        if values.shape != shape:
+            raise ValueError(
+                f'wheels: expected shape {shape} (one {commands.unit} per wheel: '
+                f'{", ".join(commands.effect.names)}), got {values.shape}'
+            )
+        values = values.reshape(self.size, n)
+        not_finite = ~np.all(np.isfinite(values), axis=1)
+        if not_finite.any():
+            b = int(np.argmax(not_finite))
+            raise ValueError(f'wheels: not finite (body {b}): {values[b].tolist()}')
+        return values
 
     def _hold(self) -> None:
         """
-        Set the commanded torque over ``[t_k, t_k+1)`` for every body.
+        Set the commanded inputs over ``[t_k, t_k+1)`` for every body.
 
-        The command in force (zero once it timed out), in its frame, added to the scene's constant
-        torques (CommandHold's rule, for every body at once).
+        The torque in force (zero once it timed out), in its frame, added to the scene's constant
+        torques; the wheels' inputs in force (``off`` once timed out: zero torque, a drive off) at
+        their places (CommandHold's rule, for every body at once).
         """
+        now = sample_stamp_ns(self.k, self.rate)
         commands = self._commands
-        if commands is None:
-            return
-        in_force = ~timed_out(
-            sample_stamp_ns(self.k, self.rate), commands.stamp_ns, commands.timeout_ns
-        )
-        held = np.where(in_force[:, None], commands.torque, 0.0)
-        self._command_helds[:] = 0.0
-        if commands.inertial:
-            self._command_helds[:, 3:] = held
-        else:
-            self._command_helds[:, :3] = held
+        if commands is not None:
+            in_force = ~timed_out(now, commands.stamp_ns, commands.timeout_ns)
+            held = np.where(in_force[:, None], commands.torque, 0.0)
+            self._command_helds[:, :6] = 0.0
+            if commands.inertial:
+                self._command_helds[:, 3:6] = held
+            else:
+                self._command_helds[:, :3] = held
+        wheels = self._wheels
+        if wheels is not None:
+            in_force = ~timed_out(now, wheels.stamp_ns, wheels.timeout_ns)
+            self._command_helds[:, wheels.columns] = np.where(
+                in_force[:, None], wheels.values, wheels.off
+            )
 
     def _advance(self, times: np.ndarray) -> np.ndarray:
         if self._failed is not None:
@@ -240,7 +320,7 @@ class Plant:
                 f'plant: stopped at sample {self.k} ({self._failed}); reset() starts it again'
             )
         self._hold()
-        sample_rate = self.rate if self._commands is not None else 0.0
+        sample_rate = self.rate if self._commanded else 0.0
         out = self._bodies.advance(times, self._command_helds, sample_rate)
         failed = np.flatnonzero(self._bodies.status != kernels.DONE)
         if failed.size:
@@ -266,9 +346,12 @@ class Plant:
 
     def _shaped(self, rows: np.ndarray, samples_axis: bool = False) -> PlantState:
         rows = rows if samples_axis else rows[:, -1, :]
+        speeds = self._speeds(rows)
         if not self.batch:
-            rows = rows[0]
-        return PlantState(rows[..., :3].copy(), rows[..., 3:7].copy(), rows[..., 7:].copy())
+            rows, speeds = rows[0], speeds[0]
+        return PlantState(
+            rows[..., :3].copy(), rows[..., 3:7].copy(), rows[..., 7:].copy(), speeds
+        )
 
 
 class _Commands(NamedTuple):
@@ -277,6 +360,68 @@ class _Commands(NamedTuple):
     max_torque: np.ndarray
     torque: np.ndarray  # the last accepted command per body
     stamp_ns: np.ndarray  # the stamp of the sample it was given at
+
+
+class _WheelCommands(NamedTuple):
+    effect: ReactionWheels  # scene 0's (names, mode)
+    columns: np.ndarray  # where each wheel's input goes in the held inputs
+    off: np.ndarray  # the input while none is in force: zero torque, or a drive off (NaN)
+    unit: str
+    timeout_ns: np.ndarray
+    values: np.ndarray  # the last accepted inputs per body
+    stamp_ns: np.ndarray
+
+    @classmethod
+    def of(cls, effects, propagator) -> '_WheelCommands':
+        effect = effects[0]
+        dynamics = propagator.dynamics
+        (part,) = [p for e, p in zip(dynamics.effects, dynamics.slices) if e is effect]
+        # the momentum h_i of wheel i is state 2 i of its effect: its input goes there
+        columns = kernels.HELD_TORQUES + part.start + 2 * np.arange(effect.count)
+        return cls(
+            effect,
+            columns,
+            np.array(effect.off),
+            'speed set-point (rad/s)' if effect.mode == 'speed' else 'motor torque (N m)',
+            np.array([e.hold.timeout_ns for e in effects], dtype=np.int64),
+            np.zeros((len(effects), effect.count)),
+            np.full(len(effects), np.iinfo(np.int64).min // 2, dtype=np.int64),
+        )
+
+
+class _WheelSpeeds:
+    """Each body's wheel speeds from its rows: ``Omega_i = h_i / Js_i - g_i . w``."""
+
+    def __init__(self, index, spin_inertias, axes):
+        self.index, self.spin_inertias, self.axes = index, spin_inertias, axes
+
+    @classmethod
+    def of(cls, propagators) -> '_WheelSpeeds':
+        index, spin, axes = [], [], []
+        for body, propagator in enumerate(propagators):
+            dynamics = propagator.dynamics
+            wheels = [
+                (e, p)
+                for e, p in zip(dynamics.effects, dynamics.slices)
+                if isinstance(e, ReactionWheels)
+            ]
+            if body == 0:
+                index = [7 + p.start + 2 * i for e, p in wheels for i in range(e.count)]
+            spin.append(np.concatenate([e.spin_inertias for e, _ in wheels] or [np.empty(0)]))
+            axes.append(np.concatenate([e.axes for e, _ in wheels] or [np.empty((0, 3))]))
+        return cls(np.array(index, dtype=np.int64), np.array(spin), np.array(axes))
+
+    def __call__(self, rows: np.ndarray) -> np.ndarray:
+        """Return the speeds of ``rows`` (``(N, n)``, or ``(N, M, n)`` with a samples axis)."""
+        if not self.index.size:
+            return np.empty(rows.shape[:-1] + (0,))
+        if rows.ndim == 2:
+            return rows[:, self.index] / self.spin_inertias - np.einsum(
+                'bij,bj->bi', self.axes, rows[:, :3]
+            )
+        return rows[..., self.index] / self.spin_inertias[:, None, :] - np.einsum(
+            'bij,bmj->bmi', self.axes, rows[..., :3]
+        )
 
 
 def _as_scene(scene, where: str) -> Scene:
@@ -298,5 +443,6 @@ def _layout(propagator) -> tuple:
     """
     return tuple(
         f'{e.name}{"(inertial)" if getattr(e, "inertial", False) else ""}'
+        + (f'({e.count} wheels, mode {e.mode})' if isinstance(e, ReactionWheels) else '')
         for e in propagator.effects
     )

@@ -13,19 +13,22 @@
 # limitations under the License.
 
 """
-The node's command inputs: a subscription per ``torque_command`` effect the scene names.
+The node's command inputs: a subscription per effect of the scene that takes commands.
 
-None otherwise. Each hands every ``geometry_msgs/WrenchStamped`` to the running simulation's hold
-(``core.effects.commands``), which accepts it or refuses it with a counted reason.
+None otherwise. A ``torque_command`` effect's subscription hands every
+``geometry_msgs/WrenchStamped`` to the running simulation's hold (``core.effects.commands``);
+commanded ``reaction_wheels``' every ``sensor_msgs/JointState`` to the effect, which reads the
+wheels' names and values (``ReactionWheels.receive``): the hold accepts each or refuses it with a
+counted reason.
 
-The command subscriptions are served by a thread of their own, not by the node's executor: it
-waits on them alone (an rclpy wait set), takes each command as CDR bytes and decodes it as the
-bag tools do (``bag.cdr``). The executor rebuilds its wait set from every entity of the node
-for each callback and deserializes into Python messages: about 60 µs a command, a fifth of a
-lock-step round trip (docs/bench/lockstep.md). The subscriptions' QoS event handlers (the
-incompatible-QoS warnings) are served by the same thread: with rmw_fastrtps, a subscription's
-events wake a wait set while its messages wait to be taken, so an executor holding the events but
-not the subscription would spin.
+The command subscriptions are served by a thread of their own, not by the node's executor: it waits
+on them alone (an rclpy wait set), takes each command as CDR bytes and decodes it as the bag tools
+do (``bag.cdr``, with struct; a variable-length JointState too). The executor rebuilds its wait set
+from every entity of the node for each callback and deserializes into Python messages: about 60 µs
+a command, a fifth of a lock-step round trip (docs/bench/lockstep.md). The subscriptions' QoS event
+handlers (the incompatible-QoS warnings) are served by the same thread: with rmw_fastrtps, a
+subscription's events wake a wait set while its messages wait to be taken, so an executor holding
+the events but not the subscription would spin.
 """
 
 from __future__ import annotations
@@ -41,11 +44,15 @@ from rclpy.guard_condition import GuardCondition
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 from rclpy.serialization import deserialize_message
+from sensor_msgs.msg import JointState
 
 from .qos import command_profile, subscription_warnings
 from .sample_loop import RunRequest
-from ..bag.cdr import decode_stamped_doubles
+from ..bag.cdr import decode_joint_state, decode_stamped_doubles
 from ..core.effects.commands import command_inputs
+
+#: the command messages by type name, with their decoders (bytes -> the effect's arguments)
+JOINT_STATE = 'sensor_msgs/msg/JointState'
 
 WAIT_SLICE_NS = 100_000_000  # the longest the thread takes to notice a closed context
 RELEASE_TIMEOUT = 1.0  # s: the longest retire waits for the thread to let go of a subscription
@@ -81,6 +88,36 @@ def decode_wrench_stamped(data: bytes) -> tuple[int, str, tuple, tuple]:
         (torque.x, torque.y, torque.z),
         (force.x, force.y, force.z),
     )
+
+
+def decode_joint_command(data: bytes) -> tuple[int, str, list, tuple, tuple]:
+    """
+    Decode ``(stamp_ns, frame_id, names, velocity, effort)`` from a ``JointState``'s CDR bytes.
+
+    Little-endian CDR by :func:`~torquefree_ros.bag.cdr.decode_joint_state` (struct); anything
+    else through rclpy's deserializer. ``position`` is not read (a wheel command has none).
+    """
+    try:
+        stamp, frame_id, names, _, velocity, effort = decode_joint_state(data)
+        return stamp, frame_id, names, velocity, effort
+    except ValueError:  # big-endian (or a string that is not UTF-8): rclpy decides
+        pass
+    message = deserialize_message(data, JointState)
+    stamp = message.header.stamp.sec * 1_000_000_000 + message.header.stamp.nanosec
+    return (
+        stamp,
+        message.header.frame_id,
+        list(message.name),
+        tuple(message.velocity),
+        tuple(message.effort),
+    )
+
+
+#: each command type's message class and decoder
+_MESSAGES = {
+    'geometry_msgs/msg/WrenchStamped': (WrenchStamped, decode_wrench_stamped),
+    JOINT_STATE: (JointState, decode_joint_command),
+}
 
 
 class _ServedApart(CallbackGroup):
@@ -127,13 +164,13 @@ class CommandInputs:
         self._thread: threading.Thread | None = None
 
     def ensure(self, request: RunRequest) -> None:
-        for topic in command_effects(request):
+        for topic, effect in command_effects(request).items():
             if topic not in self._subscriptions:
                 events = subscription_warnings(
                     self._node.get_logger(), self._node.resolve_topic_name(topic), self._qos
                 )
                 subscription = self._node.create_subscription(
-                    WrenchStamped,
+                    _MESSAGES[effect.message_type][0],
                     topic,
                     _never_called,
                     self._qos,
@@ -250,17 +287,26 @@ class CommandInputs:
                     return
 
     def _take_all(self, topic: str, subscription) -> None:
+        message, decode = _MESSAGES[_type_name(subscription.msg_type)]
         while True:
-            taken = subscription.handle.take_message(WrenchStamped, True)
+            taken = subscription.handle.take_message(message, True)
             if taken is None:
                 return
-            self._receive(topic, *decode_wrench_stamped(taken[0]))
+            self._receive(topic, decode(taken[0]))
 
-    def _receive(self, topic: str, stamp: int, frame_id: str, torque, force) -> None:
+    def _receive(self, topic: str, decoded: tuple) -> None:
         for effect, hold in self._holds():
             if effect.topic != topic:
                 continue
-            accepted, reason = hold.receive(stamp, torque, force, frame_id)
+            if effect.message_type == JOINT_STATE:
+                if len(decoded) != 5:  # (a wrench on the topic of another run's scene)
+                    continue
+                accepted, reason = effect.receive(*decoded)
+            else:
+                if len(decoded) != 4:
+                    continue
+                stamp, frame_id, torque, force = decoded
+                accepted, reason = hold.receive(stamp, torque, force, frame_id)
             if not accepted:
                 self._once(
                     hold,
@@ -284,6 +330,11 @@ class CommandInputs:
             self._node.get_logger().warning(text)
 
 
+def _type_name(message) -> str:
+    """Return a message class's type name, ``pkg/msg/Type``."""
+    return f'{message.__module__.split(".")[0]}/msg/{message.__name__}'
+
+
 def _never_called(_message) -> None:
     """Stand in for the subscriptions' callback: no executor runs them (_ServedApart)."""
 
@@ -303,17 +354,19 @@ def command_diagnostics(
         refused = ', '.join(f'{reason} {count}' for reason, count in sorted(hold.refused.items()))
         values[prefix + 'accepted'] = str(hold.accepted)
         values[prefix + 'refused'] = refused or '0'
+        # what holds: a torque, or wheels' motor torques (effort) or speed set-points (velocity)
+        field = getattr(effect, 'command_field', 'torque')
+        zero = 'the torque is zero' if field == 'torque' else 'the motor torques are zero'
         if last_index is not None:
             command = hold.in_force(last_index)
-            values[prefix + 'torque'] = (
-                'zero (no command in force)'
+            values[prefix + field] = (
+                ('zero' if field == 'torque' else 'zero motor torques') + ' (no command in force)'
                 if command is None
-                else ' '.join(f'{x:.9g}' for x in command.torque)
+                else ' '.join(f'{x:.9g}' for x in command.values)
             )
             if hold.timed_out(last_index):
                 warnings.append(
-                    f'{effect.topic}: no command for {effect.values["timeout"]:g} s: '
-                    'the torque is zero'
+                    f'{effect.topic}: no command for {effect.values["timeout"]:g} s: {zero}'
                 )
         if hold.force_seen:
             values[prefix + 'force'] = 'ignored (only the torque acts)'

@@ -438,6 +438,10 @@ class TorqueFreeSim(Node):
             loop.request.lockstep,
         )
         values.update(command_values)
+        # the effects' own reports (reaction wheels: speeds, time limited, stored momentum)
+        effect_values, effect_warning = simulation.monitor_diagnostics()
+        values.update(effect_values)
+        command_warning = '; '.join(w for w in (command_warning, effect_warning) if w)
         values['paused'] = 'true' if loop.paused else 'false'
         if loop.request.wall_clock:
             # how far pauses moved this run's wall-clock stamps (s): stamp = epoch + shift + t_k

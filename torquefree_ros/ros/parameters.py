@@ -221,10 +221,11 @@ SPECS = (
         'lockstep',
         False,
         'Closed loop in lock-step (read at start-up only): after publishing sample k the node '
-        "waits for the controller's torque_command stamped t_k (or later), applies it over [t_k, "
-        't_k+1), then computes sample k+1; so the same controller gives the same samples whatever '
-        'the load. Runs on a clock of its own (/clock); real_time_factor then only caps the pace '
-        '(0 = as fast as the controller answers).',
+        "waits for the controller's commands (torque_command, wheel_command: each the scene "
+        'takes) stamped t_k (or later), applies them over [t_k, t_k+1), then computes sample '
+        'k+1; so the same controller gives the same samples whatever the load. Runs on a clock '
+        'of its own (/clock); real_time_factor then only caps the pace (0 = as fast as the '
+        'controller answers).',
         'true or false',
         read_only=True,
     ),

@@ -24,11 +24,12 @@ when the wall clock reaches its stamp; a late loop catches up without skipping a
 samples it published more than one period after they were due. Any other factor runs a clock of our
 own, published on ``/clock`` just before each sample (0 = as fast as possible).
 
-Closed loop (a scene with ``torque_command``): samples are computed one at a time, when due, after
-the torque over the interval before them is sealed (commands arriving later hold from the next
-interval); in lock-step the loop first waits for the controller's answer to the last sample (a
-command stamped at or after it), at most ``lockstep_timeout`` wall seconds, and always runs on its
-own clock. The commands that hold go into the bag, logged at the sample they hold from.
+Closed loop (a scene with ``torque_command`` or commanded ``reaction_wheels``): samples are
+computed one at a time, when due, after the commands over the interval before them are sealed
+(commands arriving later hold from the next interval); in lock-step the loop first waits for the
+controller's answer to the last sample (a command stamped at or after it on every command topic),
+at most ``lockstep_timeout`` wall seconds, and always runs on its own clock. The commands that hold
+go into the bag, logged at the sample they hold from.
 
 Lock-step as fast as possible (``real_time_factor`` 0): the thread that takes the answer (the
 node's command inputs, ``ros.commands``) seals the interval, computes the next sample and
@@ -794,7 +795,7 @@ class SampleLoop:
                     effect.topic,
                     effect.message_type,
                     hold.stamp_ns(command.start),
-                    encode_command(command),
+                    encode_command(command, effect),
                 )
 
         self._to_bag(write)

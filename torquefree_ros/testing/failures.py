@@ -105,8 +105,14 @@ def loop_problem(state, simulation) -> str:
 
 def lockstep_wait(k: int, simulation, state, resolve: Callable[[str], str]) -> str:
     """Say what a lock-step node waited for before sample ``k`` of ``simulation``, in vain."""
-    topics = ', '.join(resolve(effect.topic) for effect, _ in simulation.command_holds)
-    answer = seconds(simulation.stamp_ns(k - 1))
+    stamp = simulation.stamp_ns(k - 1)
+    holds = simulation.command_holds
+    # the topics still unanswered (a scene may take torque and wheel commands: each must answer)
+    waiting = [effect for effect, hold in holds if not hold.answered(stamp)] or [
+        effect for effect, _ in holds
+    ]
+    topics = ', '.join(resolve(effect.topic) for effect in waiting)
+    answer = seconds(stamp)
     return (
         f'in lock-step it waits for a command stamped {answer} or later on {topics} '
         f'(the answer to sample {k - 1}) and none came within lockstep_timeout '

@@ -87,9 +87,10 @@ class Simulator:
     ``scene`` and ``parameters`` are the node's parameters (``scene``, ``publish_rate``,
     ``angular_velocity``, ...). Stepped (the default), the node runs on its own clock from 0
     (``real_time_factor`` 0) and in lock-step (a scene taking commands, ``torque_command`` or
-    commanded ``reaction_wheels``, waits for the controller's answer to each sample), unless ``parameters`` say otherwise, and a sample goes out
-    only when :meth:`advance` lets it. ``stepped=False``: the node paces itself as it would
-    anywhere (no :meth:`advance`, no :attr:`samples`; the project's own tests of pacing use it).
+    commanded ``reaction_wheels``, waits for the controller's answer to each sample), unless
+    ``parameters`` say otherwise, and a sample goes out only when :meth:`advance` lets it.
+    ``stepped=False``: the node paces itself as it would anywhere (no :meth:`advance`, no
+    :attr:`samples`; the project's own tests of pacing use it).
 
     ``namespace``: default none (the root): the simulator's domain is its own, so its topics are
     ``/angular_velocity``, ``/attitude``, ... and a node made without a namespace finds them; name

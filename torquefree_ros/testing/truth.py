@@ -111,8 +111,8 @@ class Run:
         """Return the exact state at ``t``: see :meth:`~torquefree_ros.testing.Simulator.truth`."""
         if self.simulation.command_holds:
             raise ValueError(
-                'truth: the scene takes torque commands; its motion depends on those the node '
-                'received (compare with sim.samples)'
+                'truth: the scene takes commands (torque commands, wheel commands); its motion '
+                'depends on those the node received (compare with sim.samples)'
             )
         scalar = np.ndim(t) == 0
         times = np.atleast_1d(np.asarray(t, dtype=float))

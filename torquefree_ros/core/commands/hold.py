@@ -15,16 +15,23 @@
 """
 The hold of a run's commands: which command is in force on each sample interval, and the rules.
 
-A command ``(stamp, torque)`` holds from the first sample ``k`` with ``t_k >= stamp`` (and not
+A command ``(stamp, values)`` holds from the first sample ``k`` with ``t_k >= stamp`` (and not
 before the first interval still to be computed when it arrives) until the next command's start: the
-torque over ``[t_k, t_k+1)`` is the one in force at ``t_k``. So the torque only changes at sample
-times, and an interval is integrated the same way whether it is computed live, one sample at a
-time, or offline from a recorded command stream, which makes the replay bit for bit.
+values over ``[t_k, t_k+1)`` are the ones in force at ``t_k``. So a commanded input only changes at
+sample times, and an interval is integrated the same way whether it is computed live, one sample at
+a time, or offline from a recorded command stream, which makes the replay bit for bit.
+
+The values are an n-vector: ``torque_command``'s body torque (3), ``reaction_wheels``' motor
+torques or speed set-points (a number per wheel). A command may give some components only (a
+``sensor_msgs/JointState`` naming some wheels): the others keep the latest accepted command's
+values (``off`` before the first), and the merged vector is what holds, is recorded and replays.
 
 Rules: a command stamped before the latest accepted one is dropped (stale); one with a non-finite
-or over-``max_torque`` component, or whose ``frame_id`` is not the frame the effect expects, is
-refused; each is counted by reason and never reaches the state. With no command for ``timeout``
-simulated seconds (since the stamp of the one in force, or since the start), the torque is zero.
+or over-``max_torque`` component, or whose ``frame_id`` is not the frame the effect expects (when
+it expects one), is refused; so is a message its effect could not read as a command
+(:meth:`CommandHold.refuse`: an unknown wheel, wrong lengths). Each is counted by reason and never
+reaches the state. With no command for ``timeout`` simulated seconds (since the stamp of the one
+in force, or since the start), the values are ``off`` (zero torque; a wheel drive off).
 :func:`torque_refusal` and :func:`timed_out` are the rules on one command; the plant applies the
 same two to a batch of bodies at once (:func:`torque_refusals`).
 """
@@ -49,8 +56,9 @@ class Command(NamedTuple):
 
     start: int
     stamp_ns: int
-    torque: np.ndarray  # N m, in the effect's frame
-    force: np.ndarray  # as received (ignored)
+    # what holds: a torque (N m, in the effect's frame), a motor torque or speed set-point a wheel
+    values: np.ndarray
+    force: np.ndarray  # torque_command: the wrench's force as received (ignored); else empty
     frame_id: str
 
 
@@ -62,8 +70,8 @@ def torque_refusal(torque_values: list, max_torque: float) -> str:
     wrench's force) as Python floats; only the first three are held to ``max_torque``.
     """
     if not all(map(math.isfinite, torque_values)):
-        return 'not finite: wrench has a NaN or infinite component'
-    if max(map(abs, torque_values[:3])) > max_torque:
+        return 'not finite: a NaN or infinite component'
+    if torque_values and max(map(abs, torque_values[:3])) > max_torque:
         return f'too large: a torque component exceeds max_torque {max_torque:g} N m'
     return ''
 
@@ -89,25 +97,29 @@ def timed_out(now_ns, since_ns, timeout_ns):
     return now_ns - since_ns >= timeout_ns
 
 
-_ZERO = np.zeros(3)
-_ZERO.flags.writeable = False
-
-
 class CommandHold:
     """
-    The commands of one run and the torque they hold on each sample interval.
+    The commands of one run and the values they hold on each sample interval.
 
+    ``width`` values a command (3: a torque); ``off`` (a number or ``width`` of them, read-only)
+    hold while no command is in force; a component over ``max_torque`` in magnitude is refused.
     ``start(rate, epoch_ns)`` puts it on the run's sample grid. Thread-safe: commands arrive on one
-    thread while the samples are computed on another; :meth:`seal` fixes the torque of the
+    thread while the samples are computed on another; :meth:`seal` fixes the values of the
     intervals about to be computed, so a command arriving meanwhile holds from the next interval.
     """
 
-    def __init__(self, timeout: float, max_torque: float):
+    def __init__(
+        self, timeout: float, max_torque: float = math.inf, width: int = 3, off=0.0
+    ):
         self.timeout_ns = round(timeout * 1e9)
         self.max_torque = max_torque
+        self.width = int(width)
+        self.off = np.broadcast_to(np.asarray(off, dtype=float), (self.width,)).copy()
+        self.off.flags.writeable = False
         self.rate = 1.0
         self.epoch_ns = 0
-        self.frame_id = ''  # the frame_id commands must carry ("" until the run sets it)
+        # the frame_id commands must carry ("" until the run sets it; None: any)
+        self.frame_id: str | None = ''
         # accepted, in order; sealing forgets those no longer in force
         self.commands: list[Command] = []
         self._starts: list[int] = []
@@ -118,8 +130,9 @@ class CommandHold:
         self._lock = threading.Lock()
         self._arrived = threading.Condition(self._lock)
 
-    def start(self, rate: float, epoch_ns: int, frame_id: str = '') -> None:
-        self.rate, self.epoch_ns, self.frame_id = float(rate), int(epoch_ns), frame_id
+    def start(self, rate: float, epoch_ns: int) -> None:
+        """Put the hold on a run's sample grid: ``rate`` Hz, sample 0 stamped ``epoch_ns``."""
+        self.rate, self.epoch_ns = float(rate), int(epoch_ns)
 
     def shift(self, offset_ns: int) -> None:
         """
@@ -166,36 +179,58 @@ class CommandHold:
     def receive(
         self,
         stamp_ns: int,
-        torque,
-        force=(0.0, 0.0, 0.0),
+        values,
+        force=(),
         frame_id: str = '',
         arrival_ns: int | None = None,
+        indices=None,
     ) -> tuple[bool, str]:
         """
         Accept a command or refuse it; return ``(accepted, reason)``.
 
-        The reason's first words name the rule. ``arrival_ns``: replaying a recording, the stamp it
-        was logged at stands for the moment it arrived (the samples before it had been computed).
+        The reason's first words name the rule. ``values``: the ``width`` components, or with
+        ``indices`` those components alone (the others keep the latest accepted command's values,
+        ``off`` before the first). ``force``: more numbers that must be finite (a wrench's force,
+        kept as received). ``arrival_ns``: replaying a recording, the stamp it was logged at stands
+        for the moment it arrived (the samples before it had been computed).
         """
-        torque = np.array(torque, dtype=float)
-        force = np.array(force, dtype=float)
+        values = np.array(values, dtype=float).ravel()
+        force = np.array(force, dtype=float).ravel()
         with self._lock:
             if arrival_ns is not None:
                 self.sealed = max(self.sealed, self.index_at_or_after(arrival_ns) - 1)
-            reason = self._refusal(stamp_ns, torque, force, frame_id)
+            reason = self._refusal(stamp_ns, values, force, frame_id, indices)
             if reason:
                 self.refused[reason.split(':', 1)[0]] += 1
                 return False, reason
+            if indices is not None:  # the components not given keep the latest values
+                merged = (self.commands[-1].values if self.commands else self.off).copy()
+                merged[list(indices)] = values
+                values = merged
             start = max(self.index_at_or_after(stamp_ns), self.sealed + 1)
-            self._append(Command(start, int(stamp_ns), torque, force, frame_id))
+            self._append(Command(start, int(stamp_ns), values, force, frame_id))
             return True, ''
 
-    def _refusal(self, stamp_ns, torque, force, frame_id) -> str:
+    def refuse(self, reason: str) -> tuple[bool, str]:
+        """
+        Count a command refused before it reached the hold; return ``(False, reason)``.
+
+        A message its effect could not read as a command (an unknown wheel's name, wrong lengths):
+        counted under the reason's first words, as the hold's own refusals.
+        """
+        with self._lock:
+            self.refused[reason.split(':', 1)[0]] += 1
+        return False, reason
+
+    def _refusal(self, stamp_ns, values, force, frame_id, indices) -> str:
+        given = self.width if indices is None else len(indices)
+        if values.size != given:
+            return f'wrong length: {values.size} values for {given} components'
         # on Python floats: one command at a time, where numpy's per-call cost is most of the work
-        reason = torque_refusal(torque.ravel().tolist() + force.ravel().tolist(), self.max_torque)
+        reason = torque_refusal(values.tolist() + force.tolist(), self.max_torque)
         if reason:
             return reason
-        if frame_id != self.frame_id:
+        if self.frame_id is not None and frame_id != self.frame_id:
             return (
                 f'wrong frame: header.frame_id is {clip(repr(frame_id), 80)}, '
                 f"the command's frame is {self.frame_id!r}"
@@ -255,9 +290,10 @@ class CommandHold:
             since = self.commands[index].stamp_ns if index >= 0 else self.epoch_ns
         return timed_out(self.stamp_ns(k), since, self.timeout_ns)
 
-    def torque_at(self, t: float) -> np.ndarray:
+    def values_at(self, t: float) -> np.ndarray:
+        """Return the values held on the sample interval holding ``t`` (``off`` when none)."""
         command = self.in_force(self.interval_at(t))
-        return command.torque if command is not None else _ZERO
+        return command.values if command is not None else self.off
 
     def answered(self, stamp_ns: int) -> bool:
         """Lock-step: an accepted command is stamped at or after ``stamp_ns``."""

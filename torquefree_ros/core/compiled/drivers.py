@@ -30,6 +30,7 @@ import numpy as np
 from scipy.integrate._ivp import dop853_coefficients as tableau
 
 from . import motion_kernels as kernels
+from ..environment import place as environment
 from ..numerics.steps import StepBudgetExceeded, StepTooSmall
 
 
@@ -77,9 +78,45 @@ def build_model(dynamics) -> np.ndarray:
     return np.array(header + entries, dtype=float)
 
 
+#: the environment section's length (motion_kernels' ENV_* layout: the window, then each quantity's
+#: Chebyshev coefficients per axis)
+ENVIRONMENT_WIDTH = (
+    kernels.ENV_COEFFICIENTS + 3 * environment.NODES * len(environment.QUANTITIES)
+)
+
+
+#: the environment windows a call of the kernels lays out at most beyond the times it reaches
+STRETCH = 4 * environment.GROUP
+
+
 def held_width(dynamics) -> int:
-    """Return the length of the kernels' ``held``: the held torques, then an input per state."""
-    return kernels.HELD_TORQUES + dynamics.state_size
+    """
+    Return the length of the kernels' ``held``.
+
+    The held torques, then an input per state, then the environment section when an effect reads
+    the environment.
+    """
+    width = kernels.HELD_TORQUES + dynamics.state_size
+    return width + ENVIRONMENT_WIDTH if dynamics.place is not None else width
+
+
+def environment_section(dynamics, segment_start: float, out: np.ndarray) -> None:
+    """
+    Write the environment the piece from ``segment_start`` holds into ``out`` (its section).
+
+    The window's start and scale, the count of coefficients, then the Chebyshev coefficients of
+    each quantity the effects read (``environment_quantities``), axis by axis; zero elsewhere.
+    """
+    j = environment.window_of(segment_start)
+    nodes = environment.NODES
+    out[:] = 0.0
+    out[kernels.ENV_START] = j * environment.WINDOW
+    out[kernels.ENV_SCALE] = 2.0 / environment.WINDOW
+    out[kernels.ENV_NODES] = nodes
+    quantities = {q for effect in dynamics.effects for q in effect.environment_quantities}
+    for quantity in sorted(quantities):
+        at = kernels.ENV_COEFFICIENTS + 3 * nodes * quantity
+        out[at: at + 3 * nodes] = dynamics.place.chebyshev(j, quantity).ravel()
 
 
 def held_torques(
@@ -92,9 +129,14 @@ def held_torques(
     effects' order, as Dynamics adds them); then the inputs effects with a kernel hold on the
     piece (``held_inputs``, a wheel's motor torque) at their states' offsets, zero elsewhere.
     ``commanded``: only the effects that take commands (True), only the others (False), all (None).
-    ``out`` may hold the torques alone (6 floats: the plant's commands).
+    ``out`` may hold the torques alone (6 floats: the plant's commands). The environment section,
+    when the scene has one, is the piece's (never commanded).
     """
     out[:] = 0.0
+    if commanded is not True and dynamics.place is not None and out.size == held_width(dynamics):
+        environment_section(
+            dynamics, segment_start, out[kernels.HELD_TORQUES + dynamics.state_size:]
+        )
     for effect, part in zip(dynamics.effects, dynamics.slices):
         if commanded is not None and commanded != effect.takes_commands:
             continue
@@ -158,6 +200,9 @@ class DOP853Bodies:
     the very same code. Each body's scene is cut into pieces at its breakpoints, each piece
     holding the torques the scene's own effects hold on it; with a ``sample_rate`` a new piece
     also begins at every sample time, holding the commanded torque given to :meth:`advance` on top.
+    A body on an orbit also ends a piece at every environment window's end, each piece holding its
+    window's environment; those pieces are laid out a stretch at a time, as the times asked for
+    reach them (:data:`~..environment.place.GROUP` windows ahead at least).
     Steps are scipy's, a new piece selecting its initial step again (as a new scipy solver does).
     """
 
@@ -168,15 +213,12 @@ class DOP853Bodies:
         self.width = n
         self.max_steps = int(max_steps)
         self.models = np.stack([build_model(p.dynamics) for p in propagators])
-        # each body's pieces: its breakpoints (padded with inf) and the torques held on each
-        breaks = [list(p.dynamics.breakpoints) for p in propagators]
-        pieces = max(1, max(len(b) for b in breaks))
-        self.breaks = np.array([b + [np.inf] * (pieces - len(b)) for b in breaks])
+        self._schedules = [list(p.dynamics.breakpoints) for p in propagators]
+        self._windowed = any(p.dynamics.place is not None for p in propagators)
+        self._covered = None  # the windows (first, end) the pieces are laid out over
         width = held_width(propagators[0].dynamics)
-        self.piece_helds = np.zeros((count, pieces + 1, width))
-        for body, (p, starts) in enumerate(zip(propagators, breaks)):
-            for piece, start in enumerate([0.0, *starts]):
-                held_torques(p.dynamics, start, self.piece_helds[body, piece], commanded=False)
+        if not self._windowed:  # (else laid out as times reach them)
+            self._lay_out_pieces()
         self.helds = np.zeros((count, width))
         self.rtols = np.array([p.rtol for p in propagators])
         self.atols = np.array([p.atol for p in propagators])
@@ -201,6 +243,55 @@ class DOP853Bodies:
         self.ys[:] = self.initial
         self.solvers[:] = 0.0
 
+    def _lay_out_pieces(self, first: int = 0, end: int = 0) -> None:
+        """
+        Lay out each body's pieces: :attr:`breaks` and what each piece holds, :attr:`piece_helds`.
+
+        ``breaks[b]``: where body ``b``'s pieces end, ascending, padded with inf; ``piece_helds[b,
+        j]``: what piece ``j`` holds from its start (the one before ``breaks[b, 0]`` first). A body
+        without an orbit gets its whole schedule. A body on an orbit gets the pieces of windows
+        ``first`` to ``end - 1``: its schedule's breakpoints there and every window end; the piece
+        after the last end is never begun (times past it lay out the next stretch first), and
+        holds NaN.
+        """
+        window = environment.WINDOW
+        low, high = first * window, end * window
+        breaks, begins = [], []
+        for p, schedule in zip(self.propagators, self._schedules):
+            if p.dynamics.place is None:
+                breaks.append(schedule)
+                begins.append(0.0)
+                continue
+            ends = {k * window for k in range(first + 1, end + 1)}
+            breaks.append(sorted(ends.union(s for s in schedule if low < s < high)))
+            begins.append(low)
+        pieces = max(1, max(len(b) for b in breaks))
+        self.breaks = np.array([b + [np.inf] * (pieces - len(b)) for b in breaks])
+        width = held_width(self.propagators[0].dynamics)
+        self.piece_helds = np.zeros((len(self.propagators), pieces + 1, width))
+        for body, (p, ends, begin) in enumerate(zip(self.propagators, breaks, begins)):
+            for piece, start in enumerate([begin, *ends]):
+                row = self.piece_helds[body, piece]
+                if p.dynamics.place is not None and piece == len(ends):
+                    row[:] = np.nan
+                else:
+                    held_torques(p.dynamics, start, row, commanded=False)
+
+    def _cover(self, t_from: float, t_to: float) -> None:
+        """Lay out the pieces of the windows from ``t_from`` to ``t_to``, unless laid out."""
+        first = environment.window_of(t_from)
+        end = environment.window_of(t_to) + 1
+        covered = self._covered
+        if covered is not None and covered[0] <= first and end <= covered[1]:
+            return
+        try:
+            ahead = max(end, first + environment.GROUP)
+            self._lay_out_pieces(first, ahead)
+        except ValueError:  # the stretch ahead passes the field model's years: only what is asked
+            ahead = end
+            self._lay_out_pieces(first, end)  # (which raises if the times themselves pass them)
+        self._covered = (first, ahead)
+
     def advance(
         self, times: np.ndarray, command_helds: np.ndarray, sample_rate: float = 0.0
     ) -> np.ndarray:
@@ -212,6 +303,43 @@ class DOP853Bodies:
         lays them out). Afterwards :attr:`status` says, body by body, DONE or why the
         body stopped (:func:`dop853_error` words it), at output :attr:`reached`.
         """
+        if self._windowed and times.size:
+            return self._advance_windowed(times, command_helds, sample_rate)
+        return self._run(times, command_helds, sample_rate)
+
+    def _advance_windowed(
+        self, times: np.ndarray, command_helds: np.ndarray, sample_rate: float
+    ) -> np.ndarray:
+        """
+        :meth:`advance` for bodies on an orbit: a stretch of :data:`STRETCH` windows at a time.
+
+        Each call of the kernels has its pieces laid out first, and lays out no more than a
+        stretch beyond the times it reaches: a stretch without a time asked for is crossed with a
+        stop of its own at its end, whose state is dropped (outputs never shape the steps, so
+        the samples are those of one call).
+        """
+        out = np.empty((self.size, times.size, self.width))
+        i = 0
+        reached = float(self.solvers[:, kernels.T].min())
+        while i < times.size:
+            stop = (environment.window_of(reached) + STRETCH) * environment.WINDOW
+            j = i + int(np.searchsorted(times[i:], stop, side='right'))
+            part = times[i:j] if j > i else np.array([stop])
+            self._cover(reached, float(part[-1]))
+            rows = self._run(part, command_helds, sample_rate)
+            if np.any(self.status != kernels.DONE):
+                if j > i:
+                    self.reached += i
+                else:  # (on the way to a stop of its own: the next time asked was not reached)
+                    self.reached[:] = i
+                return out
+            out[:, i:j] = rows[:, : j - i]
+            i = j
+            reached = float(self.solvers[:, kernels.T].min())
+        return out
+
+    def _run(self, times: np.ndarray, command_helds: np.ndarray, sample_rate: float) -> np.ndarray:
+        """Run the kernels over ``times`` for every body (the pieces laid out)."""
         out = np.empty((self.size, times.size, self.width))
         kernels.dop853_outputs_batch(
             times,
@@ -339,11 +467,16 @@ class FixedStepKernel(_Kernel):
     @property
     def whole_loop(self) -> bool:
         """
-        Tell whether there is no breakpoint anywhere (no schedule, no torque held per sample).
+        Tell whether there is no breakpoint anywhere.
 
-        Then the loop over the times runs in the kernel, with the held torques of t = 0 throughout.
+        No schedule, no torque held per sample, no environment window. Then the loop over the
+        times runs in the kernel, with the held torques of t = 0 throughout.
         """
-        return not self.dynamics.breakpoints and self.dynamics.sample_rate is None
+        return (
+            not self.dynamics.breakpoints
+            and self.dynamics.sample_rate is None
+            and self.dynamics.place is None
+        )
 
     def evaluate(self, times: np.ndarray) -> np.ndarray:
         """Every sample at ``times`` (for :attr:`whole_loop` scenes)."""

@@ -39,6 +39,12 @@ of its own has one section below, under its code; its Python definition (``core/
 the code and packs its parameters, and test_motion_kernels.py holds the two together on random
 states.
 
+A scene with an orbit ends ``held`` with the *environment section* (``ENV_*``): the position and
+the magnetic field in the inertial frame on the piece's environment window, as Chebyshev
+coefficients the driver copies from ``environment.place.Place`` where the piece starts (window ends
+are breakpoints), which ``_environment`` sums at a stage's time. The environment reaches the
+kernels as numbers, never as code: nothing here calls ``environment/environment_kernels.py``.
+
 Every compiled function is in this one file on purpose: numba rebuilds a function's cache when its
 own file changes, not when a file it calls into does (a stale kernel would survive an edit).
 
@@ -73,12 +79,28 @@ GRAVITY_GRADIENT = 1  # parameters: mean motion n, argument of latitude u0, the 
 DAMPER = 2  # parameters: rotor inertia J, damping c; state: the rotor's rate nu (3)
 ROTOR = 3  # parameters: the wheel's momentum h_B (3)
 # a wheel each; parameters: spin axis g (3), Js, max torque, max speed, speed band, viscous b,
-# Coulomb Fc, Coulomb band, Stribeck excess Fs - Fc, Stribeck speed; state: Js (Omega + g . w)
+# Coulomb Fc, Coulomb band, Stribeck excess Fs - Fc, Stribeck speed, speed-loop gain (0: the
+# held input is a motor torque); state: Js (Omega + g . w), then the wheel's angle
 REACTION_WHEEL = 4
+# on the scene's orbit, reading the environment section of held; parameters: GM, the tensor (9)
+ORBIT_GRAVITY_GRADIENT = 5
+# parameters: the dipole m_B (3), the field's slot in the environment section (1: IGRF, 2: dipole)
+RESIDUAL_DIPOLE = 6
 #: parameters each code reads (per entry)
-PARAMETER_COUNTS = {GRAVITY_GRADIENT: 11, DAMPER: 2, ROTOR: 3, REACTION_WHEEL: 12}
+PARAMETER_COUNTS = {
+    GRAVITY_GRADIENT: 11,
+    DAMPER: 2,
+    ROTOR: 3,
+    REACTION_WHEEL: 13,
+    ORBIT_GRAVITY_GRADIENT: 10,
+    RESIDUAL_DIPOLE: 4,
+}
 MODEL_HEADER = 19  # tensor, inverse, entry count
 HELD_TORQUES = 6  # held: the body-frame torque, the inertial-frame torque, then the held inputs
+# the environment section, after the held inputs (at HELD_TORQUES + state size) when the scene has
+# an orbit: the window's start (s), 2 / its length, the Chebyshev coefficients per quantity, then
+# the coefficients, quantity by quantity (position, IGRF's field, the dipole's), axis by axis
+ENV_START, ENV_SCALE, ENV_NODES, ENV_COEFFICIENTS = 0, 1, 2, 3
 
 # -- solver state of a DOP853 run (a float64 array, kept by the caller between calls) -------------
 T, H_ABS, T_OLD, H_PREVIOUS, T_BOUND, RTOL, ATOL, DENSE_READY, MIN_STEP = range(9)
@@ -112,6 +134,58 @@ def _gravity_gradient(t, qx, qy, qz, qw, model, p):
     return k * (e2 * i3 - e3 * i2), k * (e3 * i1 - e1 * i3), k * (e1 * i2 - e2 * i1)
 
 
+def _chebyshev(held, at, n, x):
+    """
+    Return ``sum_k c_k T_k(x)``, ``c_k = held[at + k]``, ``k < n`` (Clenshaw's recurrence).
+
+    The operations of ``environment.place.clenshaw``, in its order.
+    """
+    b1 = 0.0
+    b2 = 0.0
+    for k in range(n - 1, 0, -1):
+        b1, b2 = held[at + k] + 2.0 * x * b1 - b2, b1
+    return held[at] + x * b1 - b2
+
+
+def _environment(t, held, e, quantity):
+    """
+    Return a held quantity (``environment.place.QUANTITIES``) at ``t``: three scalars, inertial.
+
+    ``e``: where the environment section begins in ``held``; its window's interpolant, as
+    ``Place.evaluate`` sums it.
+    """
+    n = int(held[e + ENV_NODES])
+    x = (t - held[e + ENV_START]) * held[e + ENV_SCALE] - 1.0
+    at = e + ENV_COEFFICIENTS + 3 * n * quantity
+    return _chebyshev(held, at, n, x), _chebyshev(held, at + n, n, x), _chebyshev(
+        held, at + 2 * n, n, x
+    )
+
+
+def _orbit_gravity_gradient(t, qx, qy, qz, qw, model, p, held, e):
+    """
+    Return the gravity-gradient torque ``3 mu / r^5 r_B x (I r_B)`` on the scene's orbit.
+
+    ``r_N`` held per window (GravityGradient on an orbit, the same operations).
+    """
+    x, y, z = _environment(t, held, e, 0)
+    b1, b2, b3 = _rotate_inverse(qx, qy, qz, qw, x, y, z)
+    r2 = x * x + y * y + z * z
+    k = 3.0 * model[p] / (r2 * r2 * math.sqrt(r2))
+    i1 = model[p + 1] * b1 + model[p + 2] * b2 + model[p + 3] * b3
+    i2 = model[p + 4] * b1 + model[p + 5] * b2 + model[p + 6] * b3
+    i3 = model[p + 7] * b1 + model[p + 8] * b2 + model[p + 9] * b3
+    return k * (b2 * i3 - b3 * i2), k * (b3 * i1 - b1 * i3), k * (b1 * i2 - b2 * i1)
+
+
+def _residual_dipole(t, qx, qy, qz, qw, model, p, held, e):
+    """Return ``m x B_B`` of a dipole fixed in the body (ResidualDipole, the same operations)."""
+    f1, f2, f3 = _environment(t, held, e, int(model[p + 3]))
+    b1, b2, b3 = _rotate_inverse(qx, qy, qz, qw, f1, f2, f3)
+    m1, m2, m3 = model[p], model[p + 1], model[p + 2]
+    return m2 * b3 - m3 * b2, m3 * b1 - m1 * b3, m1 * b2 - m2 * b1
+
+
 def _damper(w1, w2, w3, n1, n2, n3, model, p):
     """
     Return the torque ``c (nu - w)`` on the body and the rotor's ``nu'`` (Damper).
@@ -137,14 +211,15 @@ def _rotor(w1, w2, w3, model, p):
 
 def _reaction_wheel(w1, w2, w3, h, command, model, p):
     """
-    Return a wheel's torque on the body and ``h'`` (ReactionWheels, the same operations).
+    Return a wheel's torque on the body, ``h'`` and its speed (ReactionWheels, same operations).
 
     ``h = Js (Omega + g . w)``; the net axial torque on the wheel is ``u - f`` (the motor's,
-    limited, less friction), the body's ``(h g) x w - g (u - f)``.
+    limited, less friction), the body's ``(h g) x w - g (u - f)``; the speed ``Omega`` is the
+    wheel angle's rate.
     """
     g1, g2, g3, Js = model[p], model[p + 1], model[p + 2], model[p + 3]
     speed = h / Js - (g1 * w1 + g2 * w2 + g3 * w3)
-    u = _wheel_motor(speed, command, model[p + 4], model[p + 5], model[p + 6])
+    u = _wheel_motor(speed, command, model[p + 4], model[p + 5], model[p + 6], model[p + 12])
     f = _wheel_friction(
         speed, model[p + 7], model[p + 8], model[p + 9], model[p + 10], model[p + 11]
     )
@@ -154,17 +229,22 @@ def _reaction_wheel(w1, w2, w3, h, command, model, p):
         h * (g3 * w1 - g1 * w3) - g2 * net,
         h * (g1 * w2 - g2 * w1) - g3 * net,
     )
-    return torque, net
+    return torque, net, speed
 
 
-def _wheel_motor(speed, command, max_torque, max_speed, band):
+def _wheel_motor(speed, command, max_torque, max_speed, band, gain):
     """
     Return the motor torque a wheel applies (ReactionWheels.motor_torque).
 
-    The command clipped to ``+-max_torque``; a torque that speeds the wheel up (``u Omega > 0``) is
-    scaled by ``(max_speed - |Omega|) / band`` in the last ``band`` below ``max_speed``, zero at
-    and beyond it.
+    With a speed-loop ``gain`` the command is a speed set-point (NaN: the drive is off) and the
+    drive asks ``gain (command - Omega)``. Clipped to ``+-max_torque``; a torque that speeds the
+    wheel up (``u Omega > 0``) is scaled by ``(max_speed - |Omega|) / band`` in the last ``band``
+    below ``max_speed``, zero at and beyond it.
     """
+    if gain > 0.0:
+        if math.isnan(command):
+            return 0.0
+        command = gain * (command - speed)
     u = min(max(command, -max_torque), max_torque)
     if u * speed > 0.0:
         room = (max_speed - abs(speed)) / band
@@ -239,13 +319,23 @@ def _rhs(t, Y, r, model, held, OUT, o):
         elif code == ROTOR:
             e1, e2, e3 = _rotor(w1, w2, w3, model, p)
             at = p + 3
-        else:  # REACTION_WHEEL, its motor torque held at its state's index
+        elif code == ORBIT_GRAVITY_GRADIENT:  # the environment after the held inputs
+            e1, e2, e3 = _orbit_gravity_gradient(
+                t, qx, qy, qz, qw, model, p, held, HELD_TORQUES + Y.shape[1] - 7
+            )
+            at = p + 10
+        elif code == RESIDUAL_DIPOLE:
+            e1, e2, e3 = _residual_dipole(
+                t, qx, qy, qz, qw, model, p, held, HELD_TORQUES + Y.shape[1] - 7
+            )
+            at = p + 4
+        else:  # REACTION_WHEEL, its input (motor torque or set-point) held at its state's index
             s = 7 + int(model[at + 1])
-            (e1, e2, e3), v1 = _reaction_wheel(
+            (e1, e2, e3), v1, v2 = _reaction_wheel(
                 w1, w2, w3, Y[r, s], held[HELD_TORQUES + s - 7], model, p
             )
-            OUT[o, s] = v1
-            at = p + 12
+            OUT[o, s], OUT[o, s + 1] = v1, v2
+            at = p + 13
         m1, m2, m3 = m1 + e1, m2 + e2, m3 + e3
     OUT[o, 0] = model[9] * m1 + model[10] * m2 + model[11] * m3
     OUT[o, 1] = model[12] * m1 + model[13] * m2 + model[14] * m3
@@ -804,6 +894,10 @@ def fixed_steps(method, j, j_end, step, bound, y, model, held, work):
 # re-types the callee at every call, which costs compile time).
 _INLINED = {
     '_gravity_gradient',
+    '_chebyshev',
+    '_environment',
+    '_orbit_gravity_gradient',
+    '_residual_dipole',
     '_damper',
     '_rotor',
     '_reaction_wheel',
@@ -858,6 +952,10 @@ _FAMILY = KernelFamily(
     globals(),
     (
         '_gravity_gradient',
+        '_chebyshev',
+        '_environment',
+        '_orbit_gravity_gradient',
+        '_residual_dipole',
         '_damper',
         '_rotor',
         '_reaction_wheel',

@@ -28,12 +28,18 @@ The scene's ``inertia`` ``I`` includes the wheels as if locked (their mass, tran
     Js_i (Omega_i' + g_i . w') = u_i - f_i
 
 Each wheel's state is its absolute axial momentum ``h_i = Js_i (Omega_i + g_i . w)``, which the
-motor and friction alone change, and the body is integrated with the inertia less the wheels' spin,
-``I_s = I - sum Js_i g_i g_i^T`` (:meth:`ReactionWheels.spin_inertia_B`)::
+motor and friction alone change, then its angle ``theta_i`` relative to the body (rad, from 0 at
+the start, not wrapped: ``wheel_states``' position), and the body is integrated with the inertia
+less the wheels' spin, ``I_s = I - sum Js_i g_i g_i^T`` (:meth:`ReactionWheels.spin_inertia_B`)::
 
-    h_i' = u_i - f_i
+    h_i' = u_i - f_i,   theta_i' = Omega_i
     I_s w' = tau_ext - w x (I_s w + sum h_i g_i) - sum g_i (u_i - f_i)
     Omega_i = h_i / Js_i - g_i . w
+
+The effect's state is ``(h_0, theta_0, h_1, theta_1, ...)``, a pair per wheel in ``wheels`` order
+(a kernel entry each). The angle costs one more component per wheel and no torque: it is
+integrated, not derived, because it is the integral of ``Omega`` over the whole run, which no
+sample holds.
 
 ``I_s`` must be positive definite (checked where the wheels meet the body: ``bound``, at scene
 load). The motor and friction torques are internal: the inertial momentum ``R(q) H_B``, ``H_B =
@@ -41,19 +47,37 @@ I_s w + sum h_i g_i``, is constant without external torque whatever they are. Th
 ``T = w . I_s w / 2 + sum h_i^2 / (2 Js_i)`` is constant only when every ``u_i`` and ``f_i`` is
 zero; the effect says so in ``conserves``.
 
-Motor torque. The command ``u_cmd`` (a constant ``torque`` per wheel, a ``schedule`` of ``{start,
-torque}`` held from each start, or zero; :meth:`ReactionWheels.motor_torques`, which a command hold
-can feed later) is clipped to ``+-max_torque``. Speed limit: Basilisk zeroes a torque that would
-speed the wheel further (``u Omega >= 0``) once ``|Omega| >= max_speed``, a jump a step-size
-controller cannot step across cleanly. Here the accelerating torque (``u Omega > 0``) is scaled by
-``(max_speed - |Omega|) / speed_band`` over the last ``speed_band`` below ``max_speed`` (default
-1 % of it) and is zero at and beyond ``max_speed``; a braking torque is never limited. The
-right-hand side stays continuous (kinks at ``max_speed - speed_band`` and ``max_speed``), and a
-wheel's own motor never drives ``|Omega|`` to ``max_speed``: frictionless under a constant command
-it approaches ``max_speed`` as ``exp(-|u| t / (Js_eff speed_band))`` (``Js_eff`` below), with
-friction it settles where the scaled torque equals ``f``. The body's own acceleration about ``g_i``
-(external torques, the other wheels) still moves the relative speed, past ``max_speed`` too, as in
-Basilisk.
+Motor torque. The input per wheel (:meth:`ReactionWheels.inputs`) comes from the scene or from a
+controller, by ``mode``: ``schedule`` (the default) takes a constant ``torque`` per wheel, a
+``schedule`` of ``{start, torque}`` held from each start, or zero; ``torque`` and ``speed`` take
+commands (``sensor_msgs/JointState`` on ``topic``, default ``wheel_command``: ``effort`` motor
+torques in N m, resp. ``velocity`` speed set-points in rad/s) through a
+:class:`~torquefree_ros.core.commands.hold.CommandHold`, under the rules every command follows
+(held from the first sample at or after its stamp, stale ones dropped, refusals counted). A
+command naming some wheels leaves the others at their latest values. With no command in force
+(none yet, or none for ``timeout`` simulated seconds) the motor torque is zero in both modes: a
+speed-mode drive coasts rather than holding its last set-point, as a torque-mode wheel gets no
+torque, so a controller that stops answering leaves the wheels to friction in either mode.
+
+Speed mode: the drive's own speed loop, proportional, asks ``u_cmd = K (Omega_ref - Omega)`` with
+``K = Js speed_bandwidth``: against a body held still the loop is first order with bandwidth
+``speed_bandwidth`` rad/s (default 10); on a free body, wheel on principal axis ``a``, its pole is
+``K / Js_eff = speed_bandwidth I_a / (I_a - Js)``. Being proportional, it settles ``f / K`` short
+of the set-point under friction ``f`` (a drive's integral term would need a state of its own).
+The loop's torque then meets the same limits as a commanded one. The held set-point of a drive
+that is off is NaN, which the motor reads as zero torque.
+
+The command ``u_cmd`` (torque mode: the input; speed mode: the loop's) is clipped to
+``+-max_torque``. Speed limit: Basilisk zeroes a torque that would speed the wheel further (``u
+Omega >= 0``) once ``|Omega| >= max_speed``, a jump a step-size controller cannot step across
+cleanly. Here the accelerating torque (``u Omega > 0``) is scaled by ``(max_speed - |Omega|) /
+speed_band`` over the last ``speed_band`` below ``max_speed`` (default 1 % of it) and is zero at
+and beyond ``max_speed``; a braking torque is never limited. The right-hand side stays continuous
+(kinks at ``max_speed - speed_band`` and ``max_speed``), and a wheel's own motor never drives
+``|Omega|`` to ``max_speed``: frictionless under a constant command it approaches ``max_speed`` as
+``exp(-|u| t / (Js_eff speed_band))`` (``Js_eff`` below), with friction it settles where the scaled
+torque equals ``f``. The body's own acceleration about ``g_i`` (external torques, the other wheels)
+still moves the relative speed, past ``max_speed`` too, as in Basilisk.
 
 Friction. ``f(Omega) = b Omega + sign(Omega) F(|Omega|)``: viscous ``b``, and the dry level ``F =
 Fc`` (Coulomb) or, with ``stribeck: {static: Fs, speed: w_s}``, the Stribeck curve ``F = Fc + (Fs -
@@ -70,23 +94,51 @@ stop ``Js_eff |Omega_0| / Fc`` it is ``w_c / e``, and it stays within the band a
 the integrator's noise. A motor torque under the dry level leaves the wheel creeping at ``|Omega| <
 w_c`` where the ideal law has it stuck. In the band the wheel's time constant is ``Js_eff w_c /
 F(w_c)``: an explicit integrator's steps there are a few of it (DOP853's stability bound).
+
+The ``wheel_states`` output (:class:`WheelStates`) reports each wheel's angle, speed and the motor
+torque it applies after the limits; :class:`WheelMonitor` what ``/diagnostics`` says of them.
 """
 
 from __future__ import annotations
 
 import bisect
+import copy
 import math
 
 import numpy as np
 
-from .base import ENERGY, MOMENTUM, MotionEffect, register, remaining_inertia_problem
-from ..checks.schema import child, FieldError, listing, mapping, number, Param, vector
+from .base import (
+    ENERGY,
+    MOMENTUM,
+    MotionEffect,
+    OutputEffect,
+    OutputStream,
+    register,
+    remaining_inertia_problem,
+)
+from ..checks.schema import (
+    child,
+    choice,
+    FieldError,
+    listing,
+    mapping,
+    number,
+    Param,
+    text,
+    topic_name,
+    vector,
+)
+from ..commands.hold import CommandHold
 from ..compiled import motion_kernels
 
 #: the speed limit's band when a wheel gives none: this fraction of its ``max_speed``
 SPEED_BAND_FRACTION = 0.01
 #: the Coulomb band when a wheel gives none, rad/s (~0.1 rpm)
 COULOMB_BAND = 0.01
+#: the speed loop's bandwidth when the effect gives none, rad/s (~1.6 Hz)
+SPEED_BANDWIDTH = 10.0
+#: the modes: the scene's own motor torques, or a controller's motor torques or speed set-points
+MODES = ('schedule', 'torque', 'speed')
 
 _STRIBECK = mapping(
     {
@@ -102,6 +154,11 @@ _STRIBECK = mapping(
 )
 _WHEEL = mapping(
     {
+        'name': Param(
+            text(),
+            None,
+            "the wheel's name in wheel_command and wheel_states (default wheel_I, I its index)",
+        ),
         'axis': Param(vector(3), description='the spin axis g, body frame (normalised)'),
         'spin_inertia': Param(
             number(positive=True, unit='kg m^2'),
@@ -142,13 +199,19 @@ _SEGMENT = mapping(
 )
 
 
-def motor_torque(speed, command, max_torque, max_speed, band):
+def motor_torque(speed, command, max_torque, max_speed, band, gain=0.0):
     """
     Return the motor torque a wheel at relative ``speed`` applies for ``command``.
 
-    Clipped to ``+-max_torque``; a torque that speeds the wheel up fades out over the last
-    ``band`` below ``max_speed`` (the module's speed limit). The kernel's ``_wheel_motor``.
+    With a speed-loop ``gain`` (speed mode) ``command`` is a set-point (NaN: the drive is off) and
+    the drive asks ``gain (command - speed)``. Clipped to ``+-max_torque``; a torque that speeds
+    the wheel up fades out over the last ``band`` below ``max_speed`` (the module's speed limit).
+    The kernel's ``_wheel_motor``.
     """
+    if gain > 0.0:
+        if math.isnan(command):
+            return 0.0
+        command = gain * (command - speed)
     u = min(max(command, -max_torque), max_torque)
     if u * speed > 0.0:
         room = (max_speed - abs(speed)) / band
@@ -175,14 +238,14 @@ def friction_torque(speed, viscous, coulomb, band, excess, stribeck_speed):
 
 def wheel_terms(w1, w2, w3, h, command, p):
     """
-    Return one wheel's torque on the body and its ``h' = u - f`` (plain floats).
+    Return one wheel's torque on the body, its ``h' = u - f`` and its speed (plain floats).
 
-    ``p``: the wheel's 12 kernel parameters (:data:`motion_kernels.REACTION_WHEEL`); the kernel's
+    ``p``: the wheel's 13 kernel parameters (:data:`motion_kernels.REACTION_WHEEL`); the kernel's
     ``_reaction_wheel``, the same operations.
     """
     g1, g2, g3, Js = p[0], p[1], p[2], p[3]
     speed = h / Js - (g1 * w1 + g2 * w2 + g3 * w3)
-    u = motor_torque(speed, command, p[4], p[5], p[6])
+    u = motor_torque(speed, command, p[4], p[5], p[6], p[12])
     f = friction_torque(speed, p[7], p[8], p[9], p[10], p[11])
     net = u - f
     torque = (
@@ -190,7 +253,7 @@ def wheel_terms(w1, w2, w3, h, command, p):
         h * (g3 * w1 - g1 * w3) - g2 * net,
         h * (g1 * w2 - g2 * w1) - g3 * net,
     )
-    return torque, net
+    return torque, net, speed
 
 
 @register
@@ -198,15 +261,18 @@ class ReactionWheels(MotionEffect):
     """
     Balanced reaction wheels with motor limits and friction (the model: the module's docstring).
 
-    State: each wheel's absolute axial momentum ``h_i = Js_i (Omega_i + g_i . w)``, N m s.
+    State: per wheel its absolute axial momentum ``h_i = Js_i (Omega_i + g_i . w)``, N m s, then
+    its angle ``theta_i``, rad.
     """
 
     name = 'reaction_wheels'
     summary = (
-        'balanced reaction wheels: motor torque per wheel (clipped, speed-limited), viscous, '
-        'Coulomb and Stribeck friction; total angular momentum conserved'
+        'balanced reaction wheels: motor torque per wheel (scheduled, or commanded as torques or '
+        'speeds on wheel_command), clipped and speed-limited, viscous, Coulomb and Stribeck '
+        'friction; total angular momentum conserved'
     )
     kernel_code = motion_kernels.REACTION_WHEEL
+    message_type = 'sensor_msgs/msg/JointState'
     parameters = {
         'wheels': Param(
             listing(_WHEEL, min_length=1),
@@ -218,6 +284,23 @@ class ReactionWheels(MotionEffect):
             None,
             'motor torques held from each segment start: [{start, torque: [per wheel]}]',
         ),
+        'mode': Param(
+            choice(*MODES),
+            'schedule',
+            "where the motor torques come from: the scene's torque or schedule (schedule), or "
+            'commands on topic: effort motor torques (torque) or velocity set-points (speed)',
+        ),
+        'topic': Param(topic_name, 'wheel_command', 'the commands (sensor_msgs/JointState)'),
+        'timeout': Param(
+            number(positive=True, unit='s'),
+            1.0,
+            'simulated time without a command after which the motor torques are zero',
+        ),
+        'speed_bandwidth': Param(
+            number(positive=True, unit='rad/s'),
+            SPEED_BANDWIDTH,
+            "speed mode: the drive's speed loop bandwidth, rad/s (gain Js speed_bandwidth)",
+        ),
     }
     #: the effect's path in its scene (errors found when it meets the body name it)
     path = name
@@ -225,6 +308,7 @@ class ReactionWheels(MotionEffect):
     @classmethod
     def from_parameters(cls, values, path):
         wheels = values['wheels']
+        names = {}
         for index, wheel in enumerate(wheels):
             where = child(child(path, 'wheels'), index)
             if not max(abs(x) for x in wheel['axis'].tolist()) > 0.0:
@@ -248,12 +332,27 @@ class ReactionWheels(MotionEffect):
                     f'must be at least coulomb ({wheel["coulomb"]:g} N m), '
                     f'got {stribeck["static"]:g}',
                 )
+            name = wheel_name(wheel, index)
+            if name in names:
+                raise FieldError(
+                    child(where, 'name'),
+                    f'{name!r} names wheels[{names[name]}] already: a command names each wheel',
+                )
+            names[name] = index
         torque, schedule = values['torque'], values['schedule']
         if torque is not None and schedule is not None:
             raise FieldError(
                 path,
                 "give either 'torque' (constant) or 'schedule' (piecewise constant), not both",
             )
+        if values['mode'] != 'schedule':
+            for key in ('torque', 'schedule'):
+                if values[key] is not None:
+                    raise FieldError(
+                        child(path, key),
+                        f"mode {values['mode']}: the motors take their {values['mode']} commands "
+                        f"on {values['topic']!r}; leave out torque and schedule",
+                    )
         count = len(wheels)
         if torque is not None and len(torque) != count:
             raise FieldError(
@@ -277,12 +376,34 @@ class ReactionWheels(MotionEffect):
         effect.path = path
         return effect
 
-    def __init__(self, wheels, torque=None, schedule=None):
+    def __init__(
+        self,
+        wheels,
+        torque=None,
+        schedule=None,
+        mode='schedule',
+        topic='wheel_command',
+        timeout=1.0,
+        speed_bandwidth=SPEED_BANDWIDTH,
+    ):
         # values as plain floats and tuples, so that scenes loaded twice compare equal
         wheels = [_plain(wheel) for wheel in wheels]
         torque = None if torque is None else tuple(float(x) for x in torque)
         schedule = None if schedule is None else [_plain(segment) for segment in schedule]
-        super().__init__(wheels=wheels, torque=torque, schedule=schedule)
+        super().__init__(
+            wheels=wheels,
+            torque=torque,
+            schedule=schedule,
+            mode=mode,
+            topic=topic,
+            timeout=float(timeout),
+            speed_bandwidth=float(speed_bandwidth),
+        )
+        self.mode = mode
+        #: the wheels' names, in order (commands and wheel_states name them)
+        self.names = tuple(wheel_name(wheel, index) for index, wheel in enumerate(wheels))
+        self._index = {name: index for index, name in enumerate(self.names)}
+        speed_mode = mode == 'speed'
         rows, axes = [], []
         for wheel in wheels:
             axis = wheel['axis']
@@ -304,15 +425,22 @@ class ReactionWheels(MotionEffect):
                     wheel['coulomb_band'],
                     stribeck['static'] - wheel['coulomb'],
                     stribeck['speed'],
+                    wheel['spin_inertia'] * speed_bandwidth if speed_mode else 0.0,
                 )
             )
             axes.append(g)
         #: each wheel's kernel parameters (motion_kernels.REACTION_WHEEL's order)
         self.rows = tuple(rows)
-        self.state_size = len(rows)
+        self.count = len(rows)
+        self.state_size = 2 * len(rows)
         #: spin axes g_i (rows, body frame) and spin inertias Js_i
         self.axes = np.array(axes)
         self.spin_inertias = np.array([row[3] for row in rows])
+        self._limits = np.array([row[4:7] + row[12:13] for row in rows]).T  # max u, max speed, ...
+        #: the input while no command is in force: zero torque, or (speed mode) the drive off
+        self.off = (math.nan if speed_mode else 0.0,) * len(rows)
+        #: commands change the inputs at sample times only
+        self.holds_per_sample = mode != 'schedule'
         if schedule is None:
             self._starts = [0.0]
             self._commands = [torque if torque is not None else (0.0,) * len(rows)]
@@ -321,36 +449,161 @@ class ReactionWheels(MotionEffect):
             self._commands = ([(0.0,) * len(rows)] if schedule[0]['start'] > 0.0 else []) + [
                 s['torque'] for s in schedule
             ]
-        commanded = any(u != 0.0 for command in self._commands for u in command)
+        commanded = self.holds_per_sample or any(
+            u != 0.0 for command in self._commands for u in command
+        )
         frictionless = all(row[7] == row[8] == row[10] == 0.0 for row in rows)
         self.conserves = frozenset(
             {MOMENTUM} if commanded or not frictionless else {ENERGY, MOMENTUM}
         )
 
-    # -- inputs: what the motors are asked for ---------------------------------------------------
-    def motor_torques(self, segment_start: float) -> tuple[float, ...]:
-        """
-        Return each wheel's commanded motor torque on the piece from ``segment_start``, N m.
+    # -- commands ---------------------------------------------------------------------------------
+    @property
+    def topic(self) -> str:
+        return self.values['topic']
 
-        Before the limits: the torque held from the latest schedule start at or before it (the
-        constant ``torque``, or zero). The one source of the commands: a command hold feeds it.
+    @property
+    def command_field(self) -> str:
+        """Return the JointState field its commands fill: ``effort`` or ``velocity``."""
+        return 'velocity' if self.mode == 'speed' else 'effort'
+
+    def frame_id(self, body_frame: str, inertial_frame: str) -> None:
+        """Return None: a joint command's ``header.frame_id`` names no frame (any is taken)."""
+        return None
+
+    def command(self, names, velocity, effort):
         """
+        Read a ``sensor_msgs/JointState`` command: return ``(indices, values)`` or a refusal.
+
+        ``names`` the wheels commanded (any order, each once), ``velocity`` and ``effort`` its
+        fields (``position`` is not read). The refusal is a reason whose first words name the
+        rule (counted in /diagnostics): ``unknown name``, ``repeated name``, ``wrong length``,
+        ``both fields``, ``wrong mode``. Non-finite values are the hold's rule.
+        """
+        field = self.command_field
+        given, other = (velocity, effort) if field == 'velocity' else (effort, velocity)
+        other_field = 'effort' if field == 'velocity' else 'velocity'
+        if len(velocity) and len(effort):
+            return (
+                f'both fields: effort and velocity both given; wheels in {self.mode} mode take '
+                f'{field} alone'
+            )
+        if len(other) and not len(given):
+            return (
+                f'wrong mode: {other_field} given to wheels in {self.mode} mode, which take '
+                f'{field} ({"rad/s" if field == "velocity" else "N m"})'
+            )
+        if not len(names) or len(given) != len(names):
+            return f'wrong length: {len(names)} names and {len(given)} {field} values'
+        indices = []
+        for name in names:
+            index = self._index.get(name)
+            if index is None:
+                known = ', '.join(self.names)
+                return f'unknown name: {name[:80]!r} (wheels: {known[:200]})'
+            if index in indices:
+                return f'repeated name: {name[:80]!r}'
+            indices.append(index)
+        return indices, [float(x) for x in given]
+
+    def receive(
+        self, stamp_ns: int, frame_id: str, names, velocity, effort, arrival_ns=None
+    ) -> tuple[bool, str]:
+        """
+        Offer a ``sensor_msgs/JointState`` command to the hold: ``(accepted, reason)``.
+
+        Read by :meth:`command` (refused and counted when it cannot be), then held under the
+        hold's rules; the node, the offline replay and the tests all come in here.
+        """
+        read = self.command(names, velocity, effort)
+        if isinstance(read, str):
+            return self.hold.refuse(read)
+        indices, values = read
+        return self.hold.receive(
+            stamp_ns, values, frame_id=frame_id, arrival_ns=arrival_ns, indices=indices
+        )
+
+    def bound(self, tensor):
+        """
+        Refuse wheels that leave the body's inertia less their spin not positive definite.
+
+        Commanded: a copy with a hold of its own (every propagator, every run, starts without
+        commands).
+        """
+        problem = remaining_inertia_problem(tensor, self.spin_inertia_B())
+        if problem is not None:
+            raise FieldError(child(self.path, 'wheels'), problem)
+        if self.mode == 'schedule':
+            return self
+        bound = copy.copy(self)
+        bound.hold = CommandHold(self.values['timeout'], width=self.count, off=self.off)
+        bound.hold.frame_id = None  # (any: see frame_id)
+        return bound
+
+    # -- inputs: what the motors are asked for ---------------------------------------------------
+    def inputs(self, segment_start: float):
+        """
+        Return each wheel's input on the piece from ``segment_start``: N m, or rad/s (speed mode).
+
+        Before the limits: a commanded effect's hold (``off`` when no command is in force), or the
+        torque held from the latest schedule start at or before it (the constant ``torque``, or
+        zero). The one source of the inputs the equations read.
+        """
+        if self.hold is not None:
+            return self.hold.values_at(segment_start)
         return self._commands[bisect.bisect_right(self._starts, segment_start) - 1]
 
     def held_inputs(self, segment_start):
-        return np.array(self.motor_torques(segment_start), dtype=float)
+        held = np.zeros(self.state_size)
+        held[0::2] = self.inputs(segment_start)
+        return held
 
     def breakpoints(self):
         return tuple(self._starts[1:])
 
-    # -- the body ---------------------------------------------------------------------------------
-    def bound(self, tensor):
-        """Refuse wheels that leave the body's inertia less their spin not positive definite."""
-        problem = remaining_inertia_problem(tensor, self.spin_inertia_B())
-        if problem is not None:
-            raise FieldError(child(self.path, 'wheels'), problem)
-        return self
+    def inputs_before(self, times: np.ndarray) -> np.ndarray:
+        """
+        Return each wheel's input on the sample interval ending at each of ``times``, ``(N, n)``.
 
+        Sample times ``t_k = k / rate`` of the run; at ``t = 0`` the input from ``t = 0`` (no
+        command yet: ``off``). What the wheels felt arriving at a sample, known when it goes out
+        (a controller's answer to it holds on the interval after it).
+        """
+        out = np.empty((len(times), self.count))
+        for row, t in enumerate(np.asarray(times, dtype=float).tolist()):
+            if self.hold is not None:
+                k = self.hold.interval_at(t)
+                command = self.hold.in_force(k - 1) if k > 0 else None
+                out[row] = command.values if command is not None else self.off
+            else:
+                piece = max(bisect.bisect_left(self._starts, t) - 1, 0)
+                out[row] = self._commands[piece]
+        return out
+
+    def applied(self, speeds: np.ndarray, inputs: np.ndarray):
+        """
+        Return the motor torques the wheels apply, and where each limit acts.
+
+        ``(u, torque_limited, speed_limited)`` for wheels at relative ``speeds`` given ``inputs``
+        (arrays of ``(..., n)``): :func:`motor_torque` element by element, the same operations;
+        torque-limited where the asked torque exceeds ``max_torque``, speed-limited where the
+        speed limit's band scales an accelerating torque down.
+        """
+        max_torque, max_speed, band, gain = self._limits
+        with np.errstate(invalid='ignore'):
+            asked = np.where(gain > 0.0, gain * (inputs - speeds), inputs)
+            asked = np.where(np.isnan(inputs), 0.0, asked)
+            u = np.minimum(np.maximum(asked, -max_torque), max_torque)
+            torque_limited = np.abs(asked) > max_torque
+            room = (max_speed - np.abs(speeds)) / band
+            speed_limited = (u * speeds > 0.0) & (room < 1.0)
+            u = np.where(speed_limited, u * np.maximum(room, 0.0), u)
+        return u, torque_limited, speed_limited
+
+    def monitor(self, rate: float) -> 'WheelMonitor':
+        return WheelMonitor(self, rate)
+
+    # -- the body ---------------------------------------------------------------------------------
     def spin_inertia_B(self):
         return np.einsum('i,ij,ik->jk', self.spin_inertias, self.axes, self.axes)
 
@@ -360,48 +613,197 @@ class ReactionWheels(MotionEffect):
     # -- the equations of motion (the kernel's operations, in plain floats) ----------------------
     def initial_state(self, omega0_B):
         w1, w2, w3 = (float(x) for x in omega0_B)
-        return np.array(
-            [
-                row[3] * (wheel['speed'] + (row[0] * w1 + row[1] * w2 + row[2] * w3))
-                for row, wheel in zip(self.rows, self.values['wheels'])
-            ]
-        )
+        state = []
+        for row, wheel in zip(self.rows, self.values['wheels']):
+            state += [row[3] * (wheel['speed'] + (row[0] * w1 + row[1] * w2 + row[2] * w3)), 0.0]
+        return np.array(state)
 
     def torque_B(self, t, omega_B, q_NB, state, segment_start):
         w1, w2, w3 = omega_B.tolist()
         t1 = t2 = t3 = 0.0
-        for row, h, command in zip(self.rows, state.tolist(), self.motor_torques(segment_start)):
-            (e1, e2, e3), _ = wheel_terms(w1, w2, w3, h, command, row)
+        momenta = state.tolist()[0::2]
+        for row, h, command in zip(self.rows, momenta, self._input_list(segment_start)):
+            (e1, e2, e3), _, _ = wheel_terms(w1, w2, w3, h, command, row)
             t1, t2, t3 = t1 + e1, t2 + e2, t3 + e3
         return np.array([t1, t2, t3])
 
     def state_rate(self, t, omega_B, q_NB, state, segment_start):
         w1, w2, w3 = omega_B.tolist()
-        return np.array(
-            [
-                wheel_terms(w1, w2, w3, h, command, row)[1]
-                for row, h, command in zip(
-                    self.rows, state.tolist(), self.motor_torques(segment_start)
-                )
-            ]
-        )
+        rates = []
+        momenta = state.tolist()[0::2]
+        for row, h, command in zip(self.rows, momenta, self._input_list(segment_start)):
+            _, net, speed = wheel_terms(w1, w2, w3, h, command, row)
+            rates += [net, speed]
+        return np.array(rates)
+
+    def _input_list(self, segment_start):
+        inputs = self.inputs(segment_start)
+        return inputs.tolist() if isinstance(inputs, np.ndarray) else inputs
 
     # -- what the wheels carry --------------------------------------------------------------------
+    def momenta(self, state: np.ndarray) -> np.ndarray:
+        """Return each wheel's absolute axial momentum ``h_i`` from the effect's state, N m s."""
+        return state[..., 0::2]
+
+    def wheel_angles(self, state: np.ndarray) -> np.ndarray:
+        """Return each wheel's angle relative to the body from the effect's state, rad."""
+        return state[..., 1::2]
+
     def wheel_speeds(self, omega_B: np.ndarray, state: np.ndarray) -> np.ndarray:
         """
         Return each wheel's speed relative to the body, ``Omega_i = h_i / Js_i - g_i . w``, rad/s.
 
         Broadcasts over leading axes of ``omega_B`` and ``state``.
         """
-        return state / self.spin_inertias - np.einsum('ij,...j->...i', self.axes, omega_B)
+        return self.momenta(state) / self.spin_inertias - np.einsum(
+            'ij,...j->...i', self.axes, omega_B
+        )
+
+    def stored_momentum_B(self, omega_B: np.ndarray, state: np.ndarray) -> np.ndarray:
+        """Return the momentum the wheels store relative to the body, ``sum Js_i Omega_i g_i``."""
+        relative = self.spin_inertias * self.wheel_speeds(omega_B, state)
+        return np.einsum('...i,ij->...j', relative, self.axes)
 
     def momentum_B(self, state):
         """Return ``sum h_i g_i``: with ``I_s w`` the whole momentum (``I w + sum Js Omega g``)."""
-        return np.einsum('...i,ij->...j', state, self.axes)
+        return np.einsum('...i,ij->...j', self.momenta(state), self.axes)
 
     def energy(self, state):
         """Return ``sum h_i^2 / (2 Js_i)``: with ``w . I_s w / 2`` the whole kinetic energy."""
-        return 0.5 * np.einsum('...i,...i->...', state, state / self.spin_inertias)
+        h = self.momenta(state)
+        return 0.5 * np.einsum('...i,...i->...', h, h / self.spin_inertias)
+
+
+def wheel_name(wheel: dict, index: int) -> str:
+    """Return a wheel's name: its ``name``, or ``wheel_I`` for ``wheels[I]``."""
+    return wheel['name'] if wheel.get('name') is not None else f'wheel_{index}'
+
+
+class WheelMonitor:
+    """
+    What /diagnostics reports of one run's wheels, kept as the samples are computed.
+
+    Per wheel: its speed and the fraction of ``max_speed`` it is at, the time spent torque-limited
+    and speed-limited; the momentum the array stores. Time limited counts whole sample intervals:
+    the interval before sample ``k`` counts when its input, applied at the state of sample ``k``,
+    meets the limit (a sampled measure: a limit met and left between two samples is not seen).
+    """
+
+    def __init__(self, effect: ReactionWheels, rate: float):
+        self.effect = effect
+        self.period = 1.0 / rate
+        self.torque_limited = np.zeros(effect.count, dtype=np.int64)
+        self.speed_limited = np.zeros(effect.count, dtype=np.int64)
+        self.speeds = np.zeros(effect.count)
+        self.stored = np.zeros(3)
+        self.seen = False
+
+    def update(self, times, omega_B, state) -> None:
+        """Take the samples at ``times`` (after the last taken): rates, the effect's states."""
+        effect = self.effect
+        speeds = effect.wheel_speeds(omega_B, state)
+        _, torque_limited, speed_limited = effect.applied(speeds, effect.inputs_before(times))
+        after_start = np.asarray(times) > 0.0  # sample 0 ends no interval
+        self.torque_limited += np.sum(torque_limited & after_start[:, None], axis=0)
+        self.speed_limited += np.sum(speed_limited & after_start[:, None], axis=0)
+        self.speeds = speeds[-1]
+        self.stored = effect.stored_momentum_B(omega_B[-1], state[-1])
+        self.seen = True
+
+    def diagnostics(self) -> tuple[dict, str]:
+        """Return the diagnostic values (by key) and a warning ("" when none)."""
+        if not self.seen:
+            return {}, ''
+        effect, values, saturated = self.effect, {}, []
+        for index, name in enumerate(effect.names):
+            speed = float(self.speeds[index])
+            fraction = abs(speed) / effect.rows[index][5]
+            values[f'wheels.{name}.speed'] = f'{speed:.6g}'
+            values[f'wheels.{name}.speed_fraction'] = f'{fraction:.4f}'
+            values[f'wheels.{name}.torque_limited_time'] = (
+                f'{self.torque_limited[index] * self.period:.6g}'
+            )
+            values[f'wheels.{name}.speed_limited_time'] = (
+                f'{self.speed_limited[index] * self.period:.6g}'
+            )
+            if abs(speed) >= effect.rows[index][5] - effect.rows[index][6]:
+                saturated.append(name)
+        values['wheels.momentum'] = f'{float(np.linalg.norm(self.stored)):.6g}'
+        values['wheels.momentum_B'] = ' '.join(f'{x:.6g}' for x in self.stored.tolist())
+        warning = (
+            f'wheels at their speed limit: {", ".join(saturated)}' if saturated else ''
+        )
+        return values, warning
+
+
+@register
+class WheelStates(OutputEffect):
+    """
+    The wheels as ``sensor_msgs/JointState``: a joint per wheel of the scene's reaction wheels.
+
+    Per wheel, by its name (every ``reaction_wheels`` effect's wheels, in scene order):
+    ``position`` its angle relative to the body (rad, from 0 at the start, not wrapped: the
+    effect's state), ``velocity`` its speed ``Omega`` relative to the body (rad/s), ``effort``
+    the motor torque it applies at the sample, after the limits (N m): the input of the interval
+    that ends there (the one a controller's answer to the sample does not change yet; at sample 0
+    the input from ``t = 0``, zero for commands) at the sample's speed.
+    """
+
+    name = 'wheel_states'
+    summary = (
+        'sensor_msgs/JointState of the reaction wheels: angle, speed relative to the body, '
+        'motor torque applied after the limits'
+    )
+    message_type = 'sensor_msgs/msg/JointState'
+    frame = 'body'
+    layout = 'joint_states'
+    parameters = {'topic': Param(topic_name, 'wheel_states'), 'rate': OutputEffect.RATE}
+    #: the scene must have this effect (checked at load)
+    reports_on = 'reaction_wheels'
+    #: the joints' names, once bound to a run (:meth:`for_run`)
+    names: tuple = ()
+
+    def for_run(self, propagator):
+        wheels = _wheel_effects(propagator)
+        bound = copy.copy(self)
+        bound.names = tuple(name for effect, _ in wheels for name in effect.names)
+        return bound
+
+    @property
+    def layout_options(self) -> dict:
+        return {'names': self.names}
+
+    def stream(self, rate, propagator):
+        return _WheelStatesStream(_wheel_effects(propagator))
+
+
+def _wheel_effects(propagator) -> list:
+    """Return the ``reaction_wheels`` effects of ``propagator`` with their parts of the states."""
+    dynamics = propagator.dynamics
+    wheels = [
+        (effect, part)
+        for effect, part in zip(dynamics.effects, dynamics.slices)
+        if isinstance(effect, ReactionWheels)
+    ]
+    if not wheels:
+        raise ValueError('wheel_states: the scene has no reaction_wheels effect to report on')
+    return wheels
+
+
+class _WheelStatesStream(OutputStream):
+
+    def __init__(self, wheels):
+        self.wheels = wheels
+
+    def rows(self, first, times, omega_B, q_NB, internal):
+        positions, velocities, efforts = [], [], []
+        for effect, part in self.wheels:
+            state = internal[:, part]
+            speeds = effect.wheel_speeds(omega_B, state)
+            positions.append(effect.wheel_angles(state))
+            velocities.append(speeds)
+            efforts.append(effect.applied(speeds, effect.inputs_before(times))[0])
+        return np.concatenate(positions + velocities + efforts, axis=1)
 
 
 def _plain(value):

@@ -28,12 +28,15 @@ An effect is named in a scene as ``- NAME: {parameters}``. Two kinds share the r
   changes the motion, so a scene with outputs alone keeps the exact propagator.
 
 Parameters are declared as :class:`~torquefree_ros.core.checks.schema.Param` and checked before the
-class is built, so every error carries the field path (``effects[1].torque``).
+class is built, so every error carries the field path (``effects[1].torque``). An effect that reads
+the environment (``needs_orbit``: the orbit's position, the magnetic field, the Sun) is
+:meth:`Effect.placed` in the scene's orbit when the scene loads (``core.environment.place``).
 """
 
 from __future__ import annotations
 
 import abc
+import copy
 import math
 from typing import ClassVar
 
@@ -85,6 +88,33 @@ class Effect(abc.ABC):
     def takes_commands(self) -> bool:
         """Whether this effect, bound to a propagator, takes commands: it has a hold of its own."""
         return self.hold is not None
+
+    #: the scene's place (``core.environment.place.Place``: its orbit and start) once placed there
+    place = None
+    #: whether it reads the environment (an orbit's position, the magnetic field, the Sun)
+    needs_orbit: ClassVar[bool] = False
+    #: what its kernel reads of the environment held per window, placed: indices of
+    #: ``core.environment.place.QUANTITIES`` (the position, a field model's field)
+    environment_quantities: tuple = ()
+
+    def placed(self, place, path: str) -> 'Effect':
+        """
+        Return this effect in the scene's ``place`` (None: a scene without an ``orbit:``).
+
+        An effect that reads the environment gets a copy that keeps ``place``; without one it is
+        refused with a ``FieldError`` at ``path``. The others are returned as they are.
+        """
+        if not self.needs_orbit:
+            return self
+        if place is None:
+            raise FieldError(
+                path,
+                "needs the scene's orbit: add an 'orbit:' section (Keplerian elements at an "
+                "'epoch', or 'tle: [line1, line2]')",
+            )
+        placed = copy.copy(self)
+        placed.place = place
+        return placed
 
     def describe(self) -> str:
         shown = ', '.join(
@@ -183,6 +213,16 @@ class MotionEffect(Effect):
         """
         return np.zeros((3, 3))
 
+    def monitor(self, rate: float):
+        """
+        Return what /diagnostics reports of this effect in a run at ``rate`` Hz, or None.
+
+        An object with ``update(times, omega_B, state)`` (each block of samples, in order, the
+        effect's part of the states) and ``diagnostics() -> (values, warning)``: reaction wheels'
+        speeds, time limited and stored momentum.
+        """
+        return None
+
     def momentum_B(self, state: np.ndarray) -> np.ndarray:
         """
         Return the angular momentum the effect carries itself (a wheel, a damper), body frame.
@@ -237,6 +277,19 @@ class OutputEffect(Effect):
                 f'number of samples, got {ratio:.6g}'
             )
         return n
+
+    def for_run(self, propagator) -> 'OutputEffect':
+        """
+        Return this output for a run of ``propagator``: itself, or a copy knowing more of the run.
+
+        ``wheel_states`` learns the wheels' names, which its messages carry.
+        """
+        return self
+
+    @property
+    def layout_options(self) -> dict:
+        """Return what its layout's encoder takes beyond the rows (keywords; ``names``)."""
+        return {}
 
     @abc.abstractmethod
     def stream(self, rate: float, propagator) -> 'OutputStream':

@@ -80,7 +80,7 @@ class TorqueCommand(MotionEffect):
         return bound
 
     def held_torque(self, segment_start):
-        return self.hold.torque_at(segment_start), self.inertial
+        return self.hold.values_at(segment_start), self.inertial
 
     def torque_B(self, t, omega_B, q_NB, state, segment_start):
         torque, inertial = self.held_torque(segment_start)

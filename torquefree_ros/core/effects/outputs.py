@@ -40,6 +40,9 @@ five markers, even when
 shows the whole picture at every sample (``momentum_interval``, which would thin the ``H`` arrow
 out, is refused).
 
+``orbit`` is the scene's orbit as ``nav_msgs/Odometry`` (:class:`Orbit`): position and velocity
+with the attitude and rates.
+
 ``euler_angles`` are the 3-2-1 angles of seed 000 (yaw psi about z, then pitch theta about the new
 y, then roll phi about the new x) of ``[BN] = R(q_NB)^T``, published as Vector3Stamped
 ``(x, y, z) = (roll, pitch, yaw)`` in rad.
@@ -51,6 +54,7 @@ import numpy as np
 
 from .base import OutputEffect, OutputStream, register
 from .sensors import ARCSEC, IMU_ROW, NOT_PROVIDED  # noqa: F401  (their old home: kept importable)
+from .sensors import body_frame
 from ..checks.schema import number, Param, retired, topic_name
 from ..frames import quaternion
 
@@ -156,6 +160,50 @@ class _OdometryStream(OutputStream):
         rows = np.zeros((times.shape[0], ODOMETRY_ROW))
         rows[:, 3:7] = q_NB  # copies: the very floats of attitude and angular_velocity
         rows[:, 10:13] = omega_B
+        return rows
+
+
+@register
+class Orbit(OutputEffect):
+    """
+    The orbit's truth as ``nav_msgs/Odometry``: where the body is and how it moves and turns.
+
+    ``header.frame_id`` the inertial frame (EME2000, ``environment.earth``), ``child_frame_id`` the
+    body frame; ``pose.position`` the orbit's position ``r_N`` (m) at the sample's instant, exactly
+    (Kepler's equation or SGP4, ``environment.place``); ``pose.orientation`` ``q_NB``; the twist in
+    the child (body) frame, as nav_msgs/Odometry defines it: ``twist.linear = R(q_NB)^T v_N``, the
+    orbit's velocity (m/s) in body axes (``v_N = R(q_NB) twist.linear``), ``twist.angular`` the
+    body rates ``w``, the very floats of ``angular_velocity``. Covariances zero: exact values.
+    """
+
+    name = 'orbit'
+    summary = (
+        "nav_msgs/Odometry of the scene's orbit: position in the inertial frame (m), q_NB, the "
+        'velocity (m/s) and body rates in the body frame; covariances zero (exact values)'
+    )
+    message_type = 'nav_msgs/msg/Odometry'
+    frame = 'inertial'  # header.frame_id; child_frame_id is the body frame
+    layout = 'odometry'
+    needs_orbit = True
+    parameters = {'topic': Param(topic_name, 'orbit'), 'rate': OutputEffect.RATE}
+
+    def stream(self, rate, propagator):
+        return _OrbitStream(self.place)
+
+
+class _OrbitStream(OutputStream):
+
+    def __init__(self, place):
+        self.place = place
+
+    def rows(self, first, times, omega_B, q_NB, internal):
+        rows = np.zeros((times.shape[0], ODOMETRY_ROW))
+        if times.shape[0]:
+            position, velocity = self.place.state(times)
+            rows[:, 0:3] = position
+            rows[:, 3:7] = q_NB
+            rows[:, 7:10] = body_frame(q_NB, velocity)
+            rows[:, 10:13] = omega_B
         return rows
 
 

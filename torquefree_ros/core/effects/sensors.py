@@ -15,6 +15,9 @@
 """
 Sensor outputs: the ``imu`` gyro and the ``star_tracker``, with their datasheet error models.
 
+On the scene's orbit, the ``magnetometer`` and the ``sun_sensor`` (:class:`Magnetometer`,
+:class:`SunSensor` say their models) read the environment at each sample's instant.
+
 **Gyro** (``imu``, ``sensor_msgs/Imu`` with the angular velocity only). Sample ``k`` of the
 output (``dt = 1 / rate``, the output's own rate) measures the body rate of sample ``k - L``
 (``L = latency_samples``); per axis, with the terms of IEEE Std 952-1997 (Annex C)::
@@ -88,7 +91,19 @@ import math
 import numpy as np
 
 from .base import OutputEffect, OutputStream, register
-from ..checks.schema import child, FieldError, integer, listing, number, Param, topic_name, vector
+from ..checks.schema import (
+    child,
+    choice,
+    FieldError,
+    integer,
+    listing,
+    number,
+    Param,
+    topic_name,
+    vector,
+)
+from ..environment import sun
+from ..environment.place import FIELD_MODELS
 from ..frames import quaternion
 
 # sensor_msgs/Imu after its header: orientation [0:4], its covariance [4:13], angular_velocity
@@ -593,4 +608,221 @@ class _StarTrackerStream(_SensorStream):
         return rows
 
 
-__all__ = ['ARCSEC', 'IMU_ROW', 'Imu', 'NOT_PROVIDED', 'SI', 'StarTracker']
+# -- sensors of the environment (the scene's orbit) ----------------------------------------------
+
+
+def body_frame(q_NB: np.ndarray, vectors_N: np.ndarray) -> np.ndarray:
+    """
+    Return ``R(q_NB)^T v`` row by row (``(N, 4)``, ``(N, 3)``): inertial vectors in body axes.
+
+    Element by element (``quaternion.rotate_values`` by the conjugate, on columns), so a row does
+    not depend on the others: the same floats however the samples are cut into blocks.
+    """
+    q = np.asarray(q_NB, dtype=float).T
+    v = np.asarray(vectors_N, dtype=float).T
+    return np.column_stack(quaternion.rotate_values(quaternion.conjugate_values(q), v))
+
+
+class _SeededRows(OutputStream):
+    """
+    Rows of a sensor of the environment: three normals a sample from ``PCG64(seed)``, in order.
+
+    A skip forward draws the skipped samples' normals, a skip back starts over (as the gyro's), so
+    a sample's noise depends only on its index and the seed.
+    """
+
+    def __init__(self, seed: int):
+        self.seed = seed
+        self._restart()
+
+    def _restart(self) -> None:
+        self.rng = np.random.Generator(np.random.PCG64(self.seed))
+        self.next_index = 0
+
+    def normals(self, first: int, count: int) -> np.ndarray:
+        """Return the normals ``(count, 3)`` of samples ``first ..``."""
+        if first < self.next_index:
+            self._restart()
+        while first > self.next_index:
+            skipped = min(first - self.next_index, SKIP_CHUNK)
+            self.rng.standard_normal((skipped, 3))
+            self.next_index += skipped
+        self.next_index += count
+        return self.rng.standard_normal((count, 3))
+
+
+#: a magnetometer row: sensor_msgs/MagneticField's magnetic_field [0:3], its covariance [3:12]
+MAGNETIC_FIELD_ROW = 12
+
+
+@register
+class Magnetometer(OutputEffect):
+    """
+    A three-axis magnetometer on the body, ``sensor_msgs/MagneticField`` in tesla, body frame.
+
+    ``B_meas = R(q_NB)^T B_N(r(t_k), t_k) + b + sigma g_k``: the Earth's field (IGRF-14 or the
+    tilted dipole, ``field``) at the orbit's position at the sample's instant, exactly, in body
+    axes; ``b`` the constant ``bias`` (T, body axes); ``g_k`` three normals a sample from
+    ``PCG64(seed)``, ``sigma`` the ``noise`` (T, 1-sigma per axis). ``magnetic_field_covariance =
+    diag(sigma^2)`` (T^2; all zero without noise: "unknown", as the message defines it). The field
+    of a sample is evaluated at the sample's instant, not held: the torques' held field
+    (``residual_dipole``) agrees with it to 1e-7 nT (``environment.place``).
+    """
+
+    name = 'magnetometer'
+    summary = (
+        "sensor_msgs/MagneticField on the scene's orbit: IGRF-14 (or the tilted dipole) in the "
+        'body frame, tesla, seeded white noise and a constant bias'
+    )
+    message_type = 'sensor_msgs/msg/MagneticField'
+    frame = 'body'
+    needs_orbit = True
+    parameters = {
+        'field': Param(choice(*FIELD_MODELS), 'igrf'),
+        'noise': Param(number(minimum=0.0, unit='T'), 0.0, '1-sigma white noise per axis'),
+        'bias': Param(vector(3, unit='T'), np.zeros(3), 'constant, body frame'),
+        'seed': Param(integer(0, 2**63 - 1), 0),
+        'topic': Param(topic_name, 'magnetometer'),
+        'rate': OutputEffect.RATE,
+    }
+
+    def placed(self, place, path):
+        placed = super().placed(place, path)
+        place.check_field()
+        return placed
+
+    def stream(self, rate, propagator):
+        return _MagnetometerStream(self)
+
+
+class _MagnetometerStream(_SeededRows):
+
+    def __init__(self, magnetometer: Magnetometer):
+        values = magnetometer.values
+        self.place = magnetometer.place
+        self.model = values['field']
+        self.noise = values['noise']
+        self.bias = np.asarray(values['bias'], dtype=float)
+        self.template = np.zeros(MAGNETIC_FIELD_ROW)
+        self.template[3:12] = np.diag(np.full(3, self.noise**2)).ravel()
+        super().__init__(values['seed'])
+
+    def rows(self, first, times, omega_B, q_NB, internal):
+        count = times.shape[0]
+        normals = self.normals(first, count)
+        rows = np.tile(self.template, (count, 1))
+        if count:
+            position = self.place.state(times)[0]
+            field_B = body_frame(q_NB, self.place.field_N(times, position, self.model))
+            rows[:, 0:3] = (field_B + self.bias) + self.noise * normals
+        return rows
+
+
+@register
+class SunSensor(OutputEffect):
+    """
+    A sun sensor on the body: the Sun's unit vector in the body frame, ``Vector3Stamped``.
+
+    The direction from the body (the orbit's position at the sample's instant: the parallax of
+    up to 10 arcsec in LEO is in) to the Sun (``environment.sun``, 0.01 deg), in body axes, turned
+    by a seeded small rotation ``exp(sigma g_k)`` (``noise``, deg, 1-sigma per axis; three normals
+    a sample from ``PCG64(seed)``). **No Sun is the zero vector**: the sample still goes out, with
+    ``(0, 0, 0)``, while the Earth hides ``shadow_threshold`` or more of the Sun's disc (the
+    penumbra's fraction, ``environment.sun.shadow_fraction``; default 0.5) or while the true
+    direction is more than ``field_of_view`` deg (a half-angle) from the ``boresight`` (default:
+    no limit). A consumer tests the vector's norm: 1 (to rounding) with the Sun, 0 without.
+    """
+
+    name = 'sun_sensor'
+    summary = (
+        "the Sun's unit vector in the body frame (Vector3Stamped) on the scene's orbit; the zero "
+        'vector while eclipsed or outside the field of view'
+    )
+    message_type = 'geometry_msgs/msg/Vector3Stamped'
+    frame = 'body'
+    needs_orbit = True
+    parameters = {
+        'boresight': Param(vector(3), np.array([0.0, 0.0, 1.0])),
+        'field_of_view': Param(
+            number(positive=True, maximum=180.0, unit='deg'),
+            None,
+            'half-angle about the boresight; default: the whole sky',
+        ),
+        'shadow_threshold': Param(
+            number(positive=True, maximum=1.0),
+            0.5,
+            "the hidden fraction of the Sun's disc at and above which the sensor sees no Sun",
+        ),
+        'noise': Param(number(minimum=0.0, unit='deg'), 0.0, '1-sigma per axis, a rotation'),
+        'seed': Param(integer(0, 2**63 - 1), 0),
+        'topic': Param(topic_name, 'sun_sensor'),
+        'rate': OutputEffect.RATE,
+    }
+
+    @classmethod
+    def from_parameters(cls, values, path):
+        length = float(np.linalg.norm(values['boresight']))
+        if not length > 0.0:
+            raise FieldError(child(path, 'boresight'), 'must not be the zero vector')
+        return cls(**{**values, 'boresight': values['boresight'] / length})
+
+    def stream(self, rate, propagator):
+        return _SunSensorStream(self)
+
+
+class _SunSensorStream(_SeededRows):
+
+    def __init__(self, sensor: SunSensor):
+        values = sensor.values
+        self.place = sensor.place
+        self.boresight = values['boresight']
+        fov = values['field_of_view']
+        self.cos_fov = None if fov is None else math.cos(fov * DEG)
+        self.threshold = values['shadow_threshold']
+        self.noise = values['noise'] * DEG
+        super().__init__(values['seed'])
+
+    def rows(self, first, times, omega_B, q_NB, internal):
+        count = times.shape[0]
+        normals = self.normals(first, count)
+        if not count:
+            return np.zeros((0, 3))
+        position = self.place.state(times)[0]
+        sun_N = self.place.sun_N(times)
+        towards = sun_N - position
+        distance = np.sqrt(towards[:, 0] ** 2 + towards[:, 1] ** 2 + towards[:, 2] ** 2)
+        sun_B = body_frame(q_NB, towards / distance[:, None])
+        seen = sun.shadow_fraction(position, sun_N) < self.threshold
+        if self.cos_fov is not None:
+            b1, b2, b3 = self.boresight.tolist()  # (element by element, not BLAS: block-free)
+            seen &= sun_B[:, 0] * b1 + sun_B[:, 1] * b2 + sun_B[:, 2] * b3 >= self.cos_fov
+        measured = _turned(sun_B, self.noise * normals) if self.noise > 0.0 else sun_B
+        return np.where(seen[:, None], measured, 0.0)
+
+
+def _turned(vectors: np.ndarray, rotations: np.ndarray) -> np.ndarray:
+    """
+    Return each of ``vectors`` turned by its rotation vector (Rodrigues' formula), row by row.
+
+    ``v cos a + (k x v) sin a + k (k . v)(1 - cos a)``, ``k`` the unit axis, ``a`` the angle.
+    """
+    angle = np.sqrt((rotations * rotations).sum(axis=1))
+    safe = np.where(angle > 0.0, angle, 1.0)
+    axis = rotations / safe[:, None]
+    cos, sin = np.cos(angle)[:, None], np.sin(angle)[:, None]
+    along = (axis * vectors).sum(axis=1)[:, None]
+    return vectors * cos + np.cross(axis, vectors) * sin + axis * along * (1.0 - cos)
+
+
+__all__ = [
+    'ARCSEC',
+    'IMU_ROW',
+    'Imu',
+    'MAGNETIC_FIELD_ROW',
+    'Magnetometer',
+    'NOT_PROVIDED',
+    'SI',
+    'StarTracker',
+    'SunSensor',
+    'body_frame',
+]

@@ -13,9 +13,11 @@
 # limitations under the License.
 
 """
-External torques: a commanded torque and the gravity-gradient torque of a circular orbit.
+External torques: a commanded torque, the gravity-gradient torque and a residual magnetic dipole.
 
-The commanded torque is constant or piecewise constant, in the body or the inertial frame.
+The commanded torque is constant or piecewise constant, in the body or the inertial frame. The
+gravity gradient follows the scene's orbit (or a circular orbit of its own); the residual dipole
+reads the Earth's field on the scene's orbit.
 """
 
 from __future__ import annotations
@@ -29,7 +31,10 @@ import numpy as np
 from .base import MotionEffect, register
 from ..checks.schema import child, choice, FieldError, listing, mapping, number, Param, vector
 from ..compiled import motion_kernels
+from ..environment.place import FIELD_MODELS, QUANTITIES
 from ..frames import quaternion
+
+POSITION = QUANTITIES.index('position')
 
 EARTH_MU = 3.986004418e14  # m^3/s^2 (WGS 84 / IERS)
 
@@ -112,15 +117,22 @@ class ExternalTorque(MotionEffect):
 @register
 class GravityGradient(MotionEffect):
     """
-    The gravity-gradient torque of a circular orbit in the inertial x-y plane.
+    The gravity-gradient torque ``3 mu / r^5  r_B x (I r_B)``, on the scene's orbit or a circle.
 
-    The orbit is prograde about +z, the body at argument of latitude ``u = u0 + n t`` from +x:
-    ``r_N = r (cos u, sin u, 0)``. Torque ``3 mu / r^5  r_B x (I r_B) = 3 n^2  e_B x (I e_B)`` with
-    ``e_B = R(q)^T r_N / r``.
+    ``r_B = R(q)^T r_N`` is the body's position from the Earth's centre (Hughes, *Spacecraft
+    Attitude Dynamics*, 1986, ch. 8). On the scene's orbit (an ``orbit:`` section, and no
+    parameters here): ``r_N`` is the orbit's true position, held per environment window
+    (:mod:`..environment.place`), ``mu`` the orbit's GM. Without an orbit, the special case it
+    always was: a circular orbit in the inertial x-y plane, prograde about +z, the body at
+    argument of latitude ``u = u0 + n t`` from +x, ``r_N = r (cos u, sin u, 0)``, and the torque
+    ``3 n^2 e_B x (I e_B)`` with ``e_B = r_B / r``.
     """
 
     name = 'gravity_gradient'
-    summary = 'gravity-gradient torque of a circular orbit (radius and mu, or mean motion)'
+    summary = (
+        "gravity-gradient torque on the scene's orbit, or on a circular orbit of its own (radius "
+        'and mu, or mean motion)'
+    )
     uses_attitude = True
     kernel_code = motion_kernels.GRAVITY_GRADIENT
     parameters = {
@@ -139,9 +151,7 @@ class GravityGradient(MotionEffect):
                 "give either 'mean_motion' or 'radius' (with 'gravitational_parameter', "
                 "default Earth's), not both",
             )
-        if n is None:
-            if radius is None:
-                raise FieldError(child(path, 'radius'), "missing (or give 'mean_motion')")
+        if radius is not None:
             values = {**values, 'gravitational_parameter': EARTH_MU if mu is None else mu}
         return cls(**values)
 
@@ -158,26 +168,127 @@ class GravityGradient(MotionEffect):
             mean_motion=mean_motion,
             argument_of_latitude=argument_of_latitude,
         )
+        #: the circular orbit's mean motion, rad/s (None: the effect follows the scene's orbit)
         self.mean_motion = (
             mean_motion
             if mean_motion is not None
-            else float(np.sqrt(gravitational_parameter / radius**3))
+            else None if radius is None else float(np.sqrt(gravitational_parameter / radius**3))
         )
         self.u0 = argument_of_latitude
         self._tensor: np.ndarray | None = None
 
+    def placed(self, place, path):
+        """
+        Follow the scene's orbit, or keep the circular orbit of its own parameters.
+
+        Both, or neither, is refused with the field path.
+        """
+        if place is None:
+            if self.mean_motion is None:
+                raise FieldError(
+                    child(path, 'radius'),
+                    "missing (or give 'mean_motion', or the scene an 'orbit:' section, whose "
+                    'orbit it then follows)',
+                )
+            return self
+        for key in ('radius', 'mean_motion', 'gravitational_parameter', 'argument_of_latitude'):
+            value = self.values[key]
+            if value is not None and (key != 'argument_of_latitude' or value != 0.0):
+                raise FieldError(
+                    child(path, key),
+                    "the scene's orbit gives the radius, the nadir and GM: remove it (a circular "
+                    'orbit of its own is for scenes without an orbit)',
+                )
+        placed = copy.copy(self)
+        placed.place = place
+        placed.kernel_code = motion_kernels.ORBIT_GRAVITY_GRADIENT
+        placed.environment_quantities = (POSITION,)
+        return placed
+
     def bound(self, tensor):
+        if self.mean_motion is None and self.place is None:  # (a scene places it when it loads)
+            raise ValueError(
+                "gravity_gradient: no orbit: give 'radius' or 'mean_motion', or place it on the "
+                "scene's orbit"
+            )
         bound = copy.copy(self)
         bound._tensor = tensor
         return bound
 
     def kernel_parameters(self):
+        if self.place is not None:
+            return (self.place.gm, *self._tensor.ravel().tolist())
         return (self.mean_motion, self.u0, *self._tensor.ravel().tolist())
 
     def radial_N(self, t: float) -> np.ndarray:
+        """Return the circular orbit's radial unit vector at ``t`` (inertial frame)."""
         u = self.u0 + self.mean_motion * t
         return np.array([math.cos(u), math.sin(u), 0.0])
 
     def torque_B(self, t, omega_B, q_NB, state, segment_start):
-        e_B = quaternion.rotate_inverse(q_NB, self.radial_N(t))
-        return 3.0 * self.mean_motion**2 * quaternion.cross(e_B, self._tensor @ e_B)
+        if self.place is None:
+            e_B = quaternion.rotate_inverse(q_NB, self.radial_N(t))
+            return 3.0 * self.mean_motion**2 * quaternion.cross(e_B, self._tensor @ e_B)
+        # the kernel's operations (motion_kernels._orbit_gravity_gradient), in its order
+        x, y, z = self.place.evaluate(POSITION, segment_start, t)
+        r_B = quaternion.rotate_values(quaternion.conjugate_values(q_NB.tolist()), (x, y, z))
+        r2 = x * x + y * y + z * z
+        k = 3.0 * self.place.gm / (r2 * r2 * math.sqrt(r2))
+        return k * quaternion.cross(np.array(r_B), self._tensor @ np.array(r_B))
+
+
+@register
+class ResidualDipole(MotionEffect):
+    """
+    A magnetic dipole fixed in the body: the torque ``m x B_B``, ``B_B = R(q)^T B_N``.
+
+    ``dipole``: ``m`` in the body frame, A m^2 (a spacecraft's residual dipole: its currents and
+    magnetised parts; Wertz, *Spacecraft Attitude Determination and Control*, 1978, 17.3); ``B_N``
+    the Earth's field on the scene's orbit, IGRF-14 (``field: igrf``) or the tilted dipole
+    (``field: dipole``), held per environment window (:mod:`..environment.place`).
+    """
+
+    name = 'residual_dipole'
+    summary = (
+        "the torque m x B of a magnetic dipole fixed in the body (A m^2), B on the scene's orbit "
+        '(IGRF-14 or the tilted dipole)'
+    )
+    uses_attitude = True
+    needs_orbit = True
+    kernel_code = motion_kernels.RESIDUAL_DIPOLE
+    parameters = {
+        'dipole': Param(
+            vector(3, unit='A m^2'), description='the dipole [mx, my, mz] in the body frame, A m^2'
+        ),
+        'field': Param(choice(*FIELD_MODELS), 'igrf'),
+    }
+
+    def placed(self, place, path):
+        placed = super().placed(place, path)
+        place.check_field()
+        return placed
+
+    def bound(self, tensor):
+        if self.place is None:  # (a scene places it when it loads)
+            raise ValueError("residual_dipole: needs the scene's orbit (place it there first)")
+        return self
+
+    @property
+    def quantity(self) -> int:
+        """Return the field's slot among the held quantities (``place.QUANTITIES``)."""
+        return QUANTITIES.index(self.values['field'])
+
+    @property
+    def environment_quantities(self) -> tuple:
+        return (self.quantity,)
+
+    def kernel_parameters(self):
+        return (*self.values['dipole'].tolist(), float(self.quantity))
+
+    def torque_B(self, t, omega_B, q_NB, state, segment_start):
+        # the kernel's operations (motion_kernels._residual_dipole), in its order
+        b_N = self.place.evaluate(self.quantity, segment_start, t)
+        b_B = quaternion.rotate_values(quaternion.conjugate_values(q_NB.tolist()), b_N)
+        m1, m2, m3 = self.values['dipole'].tolist()
+        b1, b2, b3 = b_B
+        return np.array([m2 * b3 - m3 * b2, m3 * b1 - m1 * b3, m1 * b2 - m2 * b1])

@@ -29,6 +29,9 @@ s (:mod:`.epochs`); an orbit's own time is seconds since its epoch. Vectors are 
 - :mod:`.sun`: a low-precision solar ephemeris and the Earth's shadow (umbra and penumbra).
 - :mod:`.environment_kernels`: the same models as scalar numba kernels (one family of kernels),
   for integrators that evaluate them at every stage.
+- :mod:`.place`: a scene's ``orbit:`` section (an orbit and the UTC instant of the scene's ``t =
+  0``), the environment at sample times, and held per 60 s window as Chebyshev interpolants for
+  the integrators (the numbers the motion kernels read).
 
 Every function takes arrays of times (vectorised numpy: the reference path); the kernels take one
 time and are held to it in the tests. May import: :mod:`..numerics`, :mod:`..checks`, numpy and

@@ -35,6 +35,7 @@ Kernels:
 - :func:`igrf_earth_fixed`, :func:`igrf_inertial`: IGRF-14 in the Earth-fixed and inertial
   frames, tesla; :func:`dipole_earth_fixed`, :func:`dipole_inertial`: the tilted dipole;
   :func:`field_inertial_with`: either, inertial, through a given ``W`` and year;
+  :func:`fields_inertial`: either at many instants, one by one (a sensor's samples);
 - :func:`sun_position`: the Sun in the inertial frame, m; :func:`shadow_fraction`: 0 lit to 1
   umbra.
 
@@ -552,6 +553,20 @@ def dipole_inertial(position, seconds, table, out):
     field_inertial_with(1, position, matrix, decimal_year(seconds), table, out)
 
 
+def fields_inertial(model, positions, seconds, table, out):
+    """
+    Write the field (T, inertial) of ``model`` (0: IGRF, 1: the dipole) at each instant.
+
+    Row ``i`` of ``out`` at ``positions[i]`` (m, inertial) and UTC ``seconds[i]``: the samples of a
+    sensor, each by itself (:func:`igrf_inertial`, :func:`dipole_inertial`), so a row does not
+    depend on the others.
+    """
+    matrix = np.empty((3, 3))
+    for i in range(seconds.shape[0]):
+        earth_fixed_matrix(seconds[i], matrix)
+        field_inertial_with(model, positions[i], matrix, decimal_year(seconds[i]), table, out[i])
+
+
 # ---------------------------------------------------------------------------------------------
 # The Sun and the shadow
 
@@ -654,6 +669,7 @@ _FAMILY = KernelFamily(
         'field_inertial_with',
         'igrf_inertial',
         'dipole_inertial',
+        'fields_inertial',
         'sun_position',
         'shadow_fraction',
     ),

@@ -134,6 +134,18 @@ class TLEOrbit:
         self.epoch = ((self.satrec.jdsatepoch - epochs.J2000_JD) + self.satrec.jdsatepochF) \
             * epochs.SECONDS_PER_DAY
 
+    def __getstate__(self) -> dict:
+        """Pickle the lines, not the SGP4 record (it does not pickle): a worker rebuilds it."""
+        state = self.__dict__.copy()
+        del state['satrec']
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        from sgp4.api import Satrec, WGS72
+
+        self.__dict__.update(state)
+        self.satrec = Satrec.twoline2rv(self.line1, self.line2, WGS72)
+
     def _error(self, code=None) -> str:
         from sgp4.api import SGP4_ERRORS
 

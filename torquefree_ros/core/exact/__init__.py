@@ -22,6 +22,8 @@ momentum:
 - :mod:`.polhode` and :mod:`.polhode_constants`: a body's polhode and the attitude's constants;
   :mod:`.regime`: the kind of motion (``MotionRegime``).
 - :mod:`.attitude_kernels`: the same evaluation compiled by numba (one family of kernels).
+- :mod:`.gyrostat`: the free gyrostat with its rotor along a principal axis, the same way;
+  :mod:`.gyrostat_kernels`: its evaluation compiled (a family of its own).
 
 Works on principal moments and rates, not on a body object. May import: :mod:`..numerics`,
 :mod:`..timing`, :mod:`..checks`, :mod:`..frames`.

@@ -15,12 +15,14 @@
 """
 The one switch and the one loader of numba's compiled kernels.
 
-Two families of kernels are compiled: the exact attitude (``core/exact/attitude_kernels.py``) and
-the equations of motion with their integrators (``core/compiled/motion_kernels.py``). Each family
-is one file, because numba rebuilds a function's cache when *its own file* changes, not when a
-file it calls into does: a stale kernel would survive an edit. Each file's functions are written as
-plain Python and replaced by their compiled forms together, once, on first use (a compiled function
-calls what its module's globals hold when it compiles), by a :class:`KernelFamily`.
+Families of kernels are compiled: the exact attitude (``core/exact/attitude_kernels.py``), the
+exact gyrostat's (``core/exact/gyrostat_kernels.py``), the equations of motion with their
+integrators (``core/compiled/motion_kernels.py``) and the environment's
+(``core/environment/environment_kernels.py``). Each family is one file, because numba rebuilds a
+function's cache when *its own file* changes, not when a file it calls into does: a stale kernel
+would survive an edit. Each file's functions are written as plain Python and replaced by their
+compiled forms together, once, on first use (a compiled function calls what its module's globals
+hold when it compiles), by a :class:`KernelFamily`.
 
 :data:`ENABLED` says whether propagators built from now on evaluate through the kernels; without
 numba, or with ``TORQUEFREE_ROS_KERNELS=numpy`` in the environment, they use the numpy/scipy

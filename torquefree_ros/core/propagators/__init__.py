@@ -14,8 +14,9 @@
 
 """Propagator registry: every propagator behind one interface, looked up by name."""
 
-from . import analytic, numerical  # noqa: F401  (registers the propagators)
+from . import analytic, gyrostat, numerical  # noqa: F401  (registers the propagators)
 from .base import Propagator, propagator_class, PROPAGATORS
+from ..body.rigid_body import RigidBody
 from ..numerics.steps import MAX_STEPS_PER_SAMPLE, StepBudgetExceeded, StepTooSmall
 
 __all__ = [
@@ -48,9 +49,11 @@ def make_propagator(
     """
     Build a propagator by name.
 
-    ``auto`` is the exact solution when no effect changes the motion, else DOP853 held to
-    ``accuracy`` (``rtol``; ``atol = accuracy / 100``; default :data:`DEFAULT_ACCURACY`).
-    ``effects``: motion effects only (outputs never reach a propagator).
+    ``auto`` is the exact solution when no effect changes the motion, the exact free gyrostat
+    (``gyrostat``) when the only ones are ``rotor`` effects whose momentum lies along a principal
+    axis (:data:`.gyrostat.ROTOR_AXIS_TOLERANCE`), else DOP853 held to ``accuracy`` (``rtol``;
+    ``atol = accuracy / 100``; default :data:`DEFAULT_ACCURACY`). ``effects``: motion effects only
+    (outputs never reach a propagator).
     """
     effects = tuple(effects)
     if propagator != 'auto':
@@ -59,6 +62,10 @@ def make_propagator(
         )
     if not effects:
         return propagator_class('analytic')(body, angular_velocity, orientation, **options)
+    if not isinstance(gyrostat.principal_rotor(RigidBody.from_inertia(body), effects), str):
+        return propagator_class('gyrostat')(
+            body, angular_velocity, orientation, effects, **options
+        )
     tolerance = DEFAULT_ACCURACY if accuracy is None else accuracy
     options = {'rtol': tolerance, 'atol': tolerance * ATOL_PER_RTOL, **options}
     return propagator_class('dop853')(body, angular_velocity, orientation, effects, **options)

@@ -50,27 +50,29 @@ class AnalyticPropagator(Propagator):
         """
         return body_polhode(self.body, self.omega0_B)
 
-    def _spin(self, times) -> np.ndarray:
-        """
-        Return ``q0 ⊗ exp(t w / 2)`` at ``times`` for the constant rate ``w``.
-
-        ``q0 ⊗ exp(t w / 2) = cos(|w| t / 2) q0 + sin(|w| t / 2) q0 ⊗ (w / |w|, 0)``
-        (``quaternion.exp_rotation`` would find the same axis and norm again at every sample).
-        """
-        speed = math.hypot(*self.omega0_B.tolist())
-        if speed == 0.0:
-            q = np.empty((times.size, 4))
-            q[:] = self.q0_NB
-            return q
-        axis = [v / speed for v in self.omega0_B.tolist()]
-        turned = np.array(quaternion.multiply_values(self.q0_NB.tolist(), (*axis, 0.0)))
-        half = (0.5 * speed) * times
-        return np.cos(half)[:, None] * self.q0_NB + np.sin(half)[:, None] * turned
-
     def _evaluate(self, times):
         if self._attitude is None:  # stationary: constant rate, rotation about a fixed axis
             omega = np.empty((times.size, 3))
             omega[:] = self.omega0_B
-            return omega, self._spin(times), np.empty((times.size, 0))
+            q = spin_attitude(self.omega0_B, self.q0_NB, times)
+            return omega, q, np.empty((times.size, 0))
         omega, q = self._attitude(times)
         return omega, q, np.empty((times.size, 0))
+
+
+def spin_attitude(omega0_B: np.ndarray, q0_NB: np.ndarray, times) -> np.ndarray:
+    """
+    Return ``q0 ⊗ exp(t w / 2)`` at ``times`` for the constant rate ``w``.
+
+    ``q0 ⊗ exp(t w / 2) = cos(|w| t / 2) q0 + sin(|w| t / 2) q0 ⊗ (w / |w|, 0)``
+    (``quaternion.exp_rotation`` would find the same axis and norm again at every sample).
+    """
+    speed = math.hypot(*omega0_B.tolist())
+    if speed == 0.0:
+        q = np.empty((times.size, 4))
+        q[:] = q0_NB
+        return q
+    axis = [v / speed for v in omega0_B.tolist()]
+    turned = np.array(quaternion.multiply_values(q0_NB.tolist(), (*axis, 0.0)))
+    half = (0.5 * speed) * times
+    return np.cos(half)[:, None] * q0_NB + np.sin(half)[:, None] * turned

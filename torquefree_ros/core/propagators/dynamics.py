@@ -26,7 +26,8 @@ wheels' ``sum Js g g^T``, whose momentum ``Js (Omega + g . w)`` each wheel's sta
 Junkins, *Analytical Mechanics of Space Systems*, ch. 4): ``I' = I`` for every other scene, bit for
 bit. The invariants count the whole system: ``H_B = I' w + sum(momentum_B(x_e))`` and
 ``T = w . I' w / 2 + sum(energy(x_e))``. Without effects this is the torque-free right-hand side
-alone (no loop over effects).
+alone (no loop over effects). Effects on an orbit read the environment held per window
+(``environment.place``): the window ends are breakpoints.
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ import numpy as np
 
 from ..body.rigid_body import RigidBody
 from ..effects import ENERGY, invariants_conserved, MOMENTUM, remaining_inertia_problem
+from ..environment.place import next_window_end
 
 
 class Dynamics:
@@ -74,6 +76,12 @@ class Dynamics:
         #: sample time ``k / sample_rate`` a breakpoint; the simulation sets the rate
         self.holds_per_sample = any(effect.holds_per_sample for effect in self.effects)
         self.sample_rate: float | None = None
+        places = {effect.place for effect in self.effects if effect.place is not None}
+        if len(places) > 1:
+            raise ValueError('effects: placed on different orbits (a scene has one)')
+        #: the scene's place when an effect reads the environment (``environment.place.Place``):
+        #: every environment window's end is then a breakpoint, so that a piece holds one window
+        self.place = places.pop() if places else None
 
     def next_breakpoint(self, t: float) -> float:
         """Return the first breakpoint after ``t`` (``inf`` when none)."""
@@ -88,6 +96,8 @@ class Dynamics:
             while k / rate <= t:
                 k += 1
             following = min(following, k / rate)
+        if self.place is not None:
+            following = min(following, next_window_end(t))
         return following
 
     @property

@@ -86,11 +86,19 @@ class Simulation:
             propagator.stop_at_samples(self.rate)
         for _, hold in self.command_holds:
             hold.start(self.rate, self.epoch_ns)
-        self.outputs = tuple(outputs)
+        self.outputs = tuple(output.for_run(propagator) for output in outputs)
         self._every = tuple(output.every(self.rate, rate_name) for output in self.outputs)
         self._streams = tuple(
             output.stream(self.rate / every, propagator)
             for output, every in zip(self.outputs, self._every)
+        )
+        dynamics = propagator.dynamics
+        #: (effect, its part of the states, its monitor) of the effects /diagnostics reports on
+        self.monitors = tuple(
+            (effect, part, monitor)
+            for effect, part in zip(dynamics.effects, dynamics.slices)
+            for monitor in (effect.monitor(self.rate),)
+            if monitor is not None
         )
         omega0, x0 = propagator.omega0_B, propagator.x0
         self.kinetic_energy0 = float(propagator.energy(omega0, x0))
@@ -104,9 +112,9 @@ class Simulation:
     @property
     def command_holds(self) -> tuple:
         """
-        Return ``(effect, hold)`` of each effect that takes commands (``torque_command``).
+        Return ``(effect, hold)`` of each effect that takes commands, in scene order.
 
-        In scene order.
+        ``torque_command``, commanded ``reaction_wheels``.
         """
         return tuple((effect, effect.hold) for effect in command_inputs(self.propagator.effects))
 
@@ -138,7 +146,19 @@ class Simulation:
                 f"float64's range (propagator {self.propagator.describe()})"
             )
         block = SampleBlock(first, times, stamps_ns(self.epoch_ns, times), omega, q, internal)
+        for _, part, monitor in self.monitors:
+            monitor.update(times, omega, internal[:, part])
         return self.with_outputs(block) if outputs else block
+
+    def monitor_diagnostics(self) -> tuple[dict, str]:
+        """Return the effects' diagnostic values (wheels' speeds, limits) and their warnings."""
+        values, warnings = {}, []
+        for _, _, monitor in self.monitors:
+            more, warning = monitor.diagnostics()
+            values.update(more)
+            if warning:
+                warnings.append(warning)
+        return values, '; '.join(warnings)
 
     def with_outputs(self, block: SampleBlock) -> SampleBlock:
         """Return ``block`` with the rows of the simulation's outputs."""

@@ -24,6 +24,12 @@ Schema (SI units; every error names the file, the field path and the reason)::
     initial:
       angular_velocity: [wx, wy, wz]           # body frame, rad/s
       orientation: [x, y, z, w]                 # q_NB, default identity
+    orbit:                                      # optional: where the body is (core.environment)
+      epoch: 2026-03-20T12:00:00Z               # Keplerian elements at a UTC epoch (m, rad) ...
+      semi_major_axis: 6878137.0                # eccentricity, inclination, raan,
+      j2: true                                  # argument_of_perigee, mean_anomaly; j2 drift
+      tle: [line1, line2]                       # ... or a two-line element set (SGP4)
+      start: 2026-03-20T13:00:00Z               # the scene's t = 0 (default: the orbit's epoch)
     effects: [- NAME: {parameters}]             # see core.effects; none = torque-free
     accuracy: 1e-10                             # integrator tolerance when an effect needs one
     sweep: {members: 9}                         # optional: a family at the initial |H| (members())
@@ -32,7 +38,10 @@ Schema (SI units; every error names the file, the field path and the reason)::
 
 An effect that changes the motion makes the scene need a numerical propagator; an output effect
 (``imu``, ``euler_angles``) only adds a topic. A scene that names nothing builds nothing: no effect
-object exists and ``auto`` is the exact solution.
+object exists and ``auto`` is the exact solution. An orbit alone changes nothing either: only the
+effects and outputs that read the environment (``gravity_gradient``, ``residual_dipole``,
+``magnetometer``, ``sun_sensor``, ``orbit``) are placed on it, and they are refused, with their
+path, in a scene without one.
 """
 
 from __future__ import annotations
@@ -62,6 +71,7 @@ from ..checks.schema import (
     vector,
 )
 from ..effects import MotionEffect, OutputEffect, parse_effect
+from ..environment.place import Place
 from ..propagators import make_propagator, Propagator
 from ..propagators.base import overflowing_message, unrepresentable_state
 from ..propagators.dynamics import Dynamics
@@ -97,6 +107,7 @@ class Scene:
     center_of_mass: tuple | None = None  # m, in the frame the parts are written in
     sweep_members: int | None = None  # an energy sweep: how many members
     watch: float | None = None  # s: how long the scene must be watched to show what it is about
+    orbit: Place | None = None  # where the body is: its orbit and the UTC instant of t = 0
 
     @property
     def torque_free(self) -> bool:
@@ -281,7 +292,12 @@ _INITIAL = {
 def scene_from_mapping(data, source: str = '<built-in default>') -> Scene:
     try:
         values = fields(data, '', _TOP)
+        values['effects'] = [
+            effect.placed(values['orbit'], f'effects[{index}].{effect.name}')
+            for index, effect in enumerate(values['effects'])
+        ]
         _check_output_topics(values['effects'])
+        _check_reported_effects(values['effects'])
         rigid_body = RigidBody.from_inertia(values['body']['inertia'])
         _check_state_scale(rigid_body, values)
         _check_effect_scales(rigid_body, values)
@@ -301,6 +317,7 @@ def scene_from_mapping(data, source: str = '<built-in default>') -> Scene:
         center_of_mass=body.get('center_of_mass'),
         sweep_members=values['sweep']['members'] if values['sweep'] else None,
         watch=values['watch'],
+        orbit=values['orbit'],
     )
 
 
@@ -352,6 +369,18 @@ def _check_output_topics(effects) -> None:
         used[topic] = index
 
 
+def _check_reported_effects(effects) -> None:
+    """Refuse an output that reports on an effect the scene lacks (``wheel_states``' wheels)."""
+    names = {effect.name for effect in effects}
+    for index, effect in enumerate(effects):
+        needed = getattr(effect, 'reports_on', None)
+        if needed is not None and needed not in names:
+            raise FieldError(
+                f'effects[{index}].{effect.name}',
+                f'reports on a {needed} effect, and the scene has none',
+            )
+
+
 def _body(value, path: str) -> dict:
     if not isinstance(value, dict):
         raise FieldError(path, "expected a mapping with 'inertia' or 'parts'")
@@ -379,6 +408,7 @@ _TOP = {
     'description': Param(text(allow_empty=True), ''),
     'body': Param(_body, description='every scene names its body: inertia or parts'),
     'initial': Param(mapping(_INITIAL), description='every scene names its initial state'),
+    'orbit': Param(Place.from_mapping, None),
     'effects': Param(listing(parse_effect), []),
     'accuracy': Param(number(MIN_ACCURACY, MAX_ACCURACY), None),
     'sweep': Param(

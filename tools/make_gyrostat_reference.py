@@ -1,0 +1,510 @@
+#!/usr/bin/env python3
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Regenerate torquefree_ros/bench/gyrostat_cases.json, the free gyrostat's reference solutions.
+
+High-precision reference solutions of the free gyrostat ``I w' + w x (I w + h) = 0`` (a rotor of
+constant relative momentum ``h``, the ``rotor`` effect) for the cases of issue 43, and the float64
+floor of each sample.
+
+Independence: the reference integrates the gyrostat's equations in the principal frame and
+``q' = 1/2 q ⊗ (w, 0)`` with a Taylor-series method in mpmath (40 significant digits, order 32,
+step at most 0.18 of the estimated radius of convergence, so the truncation is below 1e-23 a
+step; the invariants are checked to hold to 1e-20, four digits past float64's). It shares nothing
+with the closed form in ``torquefree_ros.core.exact.gyrostat`` but the equations of motion. The
+states next to a separatrix are found in mpmath too: on the momentum sphere of the chosen ``|m|``,
+the point of a meridian whose energy is the separatrix's times ``1 + distance``, rounded to
+float64; ``separatrix_distance`` is then recomputed from the rounded state.
+
+The floor of a sample is what float64 itself allows: the change of the exact solution when an
+input moves by one rounding unit (2**-53 relative). Each of the seven dynamic inputs (moments,
+rates, ``h``) is perturbed in turn and integrated alongside; the responses add in quadrature, plus
+the rounding of the sample time (``|w'| t u`` for the rate, ``|w| t u`` for the attitude) and of
+``q0`` (``u``).
+
+Run: ``.venv/bin/python tools/make_gyrostat_reference.py [--jobs 2] [--only NAME ...]`` (30 CPU
+minutes, of which the 1e5 s case takes 15: about 20 minutes on 2 cores; ``pip install gmpy2``
+makes mpmath about 3x faster). ``--only`` recomputes the cases named and keeps the others.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import multiprocessing
+from pathlib import Path
+import platform
+import sys
+import time
+
+import mpmath as mp
+import numpy as np
+
+DIGITS = 40
+ORDER = 32
+STEP_FRACTION = 0.18  # of the radius of convergence: truncation ~ 0.18**32 ~ 1e-24
+ROUNDING_UNIT = 2.0**-53
+OUTPUT = (
+    Path(__file__).resolve().parent.parent / 'torquefree_ros' / 'bench' / 'gyrostat_cases.json'
+)
+
+
+def _q(axis, angle):
+    axis = np.asarray(axis, float) / np.linalg.norm(axis)
+    return [*(axis * np.sin(angle / 2)), float(np.cos(angle / 2))]
+
+
+def _unit(k):
+    return [1.0 if i == k else 0.0 for i in range(3)]
+
+
+def _separatrix_energy(inertia, rotor, h, H, saddle):
+    """
+    Return ``2T`` of a saddle at momentum ``H``: ``('pole', ±1)`` or ``('plane', k)``.
+
+    Poles: ``m = ±H e_rotor``, ``2T = (±H - h)^2 / J_rotor``. Off the poles, in the plane of the
+    rotor axis and transverse axis ``k``: ``m_rotor = h J_k / (J_k - J_rotor)``, the rest along
+    ``k``.
+    """
+    J = [mp.mpf(x) for x in inertia]
+    kind, which = saddle
+    Jr = J[rotor]
+    if kind == 'pole':
+        return (which * H - h) ** 2 / Jr
+    Jk = J[which]
+    m_r = h * Jk / (Jk - Jr)
+    return (H * H - m_r * m_r) / Jk + (m_r - h) ** 2 / Jr
+
+
+def _near_separatrix(inertia, rotor, h, H, saddle, distance, meridian):
+    """
+    Rates with ``|m| = H`` and ``2T = 2T_sep (1 + distance)``, as float64 (principal frame).
+
+    ``meridian``: ``(k, phi, a, b)``: ``m = H (cos t e_rotor + sin t (cos phi e_k + sin phi e_j))``
+    for ``t`` in ``[a, b]``, the energy crossing the target there (bisection in mpmath).
+    """
+    mp.mp.dps = 50
+    J = [mp.mpf(x) for x in inertia]
+    h, H = mp.mpf(h), mp.mpf(H)
+    target = _separatrix_energy(inertia, rotor, h, H, saddle) * (1 + mp.mpf(distance))
+    k, phi, a, b = meridian
+    j = 3 - rotor - k
+
+    def momentum(t):
+        m = [mp.mpf(0)] * 3
+        m[rotor] = H * mp.cos(t)
+        m[k] = H * mp.sin(t) * mp.cos(phi)
+        m[j] = H * mp.sin(t) * mp.sin(phi)
+        return m
+
+    def gap(t):
+        m = momentum(t)
+        m[rotor] -= h
+        return mp.fsum(m[i] ** 2 / J[i] for i in range(3)) - target
+
+    a, b = mp.mpf(a), mp.mpf(b)
+    if gap(a) * gap(b) >= 0:
+        raise ValueError(f'the meridian {meridian} does not cross the energy {target}')
+    for _ in range(200):  # bisection: the crossing to 50 digits
+        middle = (a + b) / 2
+        a, b = (a, middle) if gap(a) * gap(middle) <= 0 else (middle, b)
+    t = (a + b) / 2
+    m = momentum(t)
+    m[rotor] -= h
+    return [float(m[i] / J[i]) for i in range(3)]
+
+
+def separatrix_distance(inertia, rotor, h, omega, saddle):
+    """``2T / 2T_sep - 1`` at the rounded state's own ``|m|`` (mpmath)."""
+    mp.mp.dps = 50
+    J = [mp.mpf(x) for x in inertia]
+    w = [mp.mpf(x) for x in omega]
+    m = [J[i] * w[i] for i in range(3)]
+    m[rotor] += mp.mpf(h)
+    H = mp.sqrt(mp.fsum(x * x for x in m))
+    two_T = mp.fsum(J[i] * w[i] ** 2 for i in range(3))
+    return float(two_T / _separatrix_energy(inertia, rotor, mp.mpf(h), H, saddle) - 1)
+
+
+# A rotor along the intermediate axis with small h: the poles ±e3 stay saddles (each its own
+# separatrix, at energies (H ∓ h)^2 / J3); along the major axis: two saddles off the poles, near
+# ±e_intermediate (one separatrix)
+_INTERMEDIATE = ([1.0, 3.0, 2.0], 2, 0.2)  # inertia, rotor axis, h
+_MAJOR = ([1.0, 2.0, 3.0], 2, 0.2)
+_SEPARATRICES = {
+    # name: (body, saddle, meridian (transverse axis, phi, bracket of the polar angle))
+    'pole_plus': (_INTERMEDIATE, ('pole', 1), (1, 0.3, 0.45, 0.7)),
+    'pole_minus': (_INTERMEDIATE, ('pole', -1), (0, 0.3, 0.85, 1.1)),
+    'off_pole': (_MAJOR, ('plane', 1), (1, 0.3, 1.3, 1.55)),
+}
+
+
+def _separatrix_cases():
+    cases = {}
+    for label, ((inertia, rotor, h), saddle, meridian) in _SEPARATRICES.items():
+        for exponent in (6, 10):
+            for side, sign in (('above', 1), ('below', -1)):
+                omega = _near_separatrix(
+                    inertia, rotor, h, 1.0, saddle, sign * 10.0**-exponent, meridian
+                )
+                name = f'separatrix_{label}_{side}_1e-{exponent}'
+                cases[name] = {
+                    'inertia': inertia,
+                    'angular_velocity': omega,
+                    'orientation': _q([1, 2, 3], 0.4),
+                    'rotor': {'momentum': h, 'axis': _unit(rotor)},
+                    'horizon': 80.0 if exponent == 6 else 120.0,
+                    'samples': 41 if exponent == 6 else 61,
+                    'saddle': [saddle[0], saddle[1]],
+                }
+    return cases
+
+
+# name: inertia, angular velocity, orientation, rotor (momentum, axis), horizon (s), samples
+CASES = {
+    'library_gyrostat': {
+        'inertia': [1.0, 2.0, 3.0],
+        'angular_velocity': [0.01, 1.0, 0.01],
+        'orientation': [0.0, 0.0, 0.0, 1.0],
+        'rotor': {'momentum': 5.0, 'axis': [0.0, 1.0, 0.0]},
+        'horizon': 100.0,
+        'samples': 51,
+    },
+    'small_h_dual_spin': {
+        'inertia': [2.0, 3.0, 4.0],
+        'angular_velocity': [0.4, 0.3, 0.5],
+        'orientation': _q([1, -1, 2], 0.7),
+        'rotor': {'momentum': 0.02, 'axis': [0.0, 0.0, 1.0]},
+        'horizon': 60.0,
+        'samples': 31,
+    },
+    'dominant_h': {
+        'inertia': [1.0, 2.0, 3.0],
+        'angular_velocity': [0.02, 0.3, 0.2],
+        'orientation': _q([0, 1, 1], 1.1),
+        'rotor': {'momentum': 100.0, 'axis': [1.0, 0.0, 0.0]},
+        'horizon': 20.0,
+        'samples': 41,
+    },
+    'negative_h_rotor_axis': {
+        'inertia': [1.0, 3.0, 2.0],
+        'angular_velocity': [0.5, 0.6, -0.3],
+        'orientation': _q([2, 1, 0], -0.6),
+        'rotor': {'momentum': -1.0, 'axis': [0.0, 0.0, 1.0]},
+        'horizon': 40.0,
+        'samples': 41,
+    },
+    'complex_roots_transverse': {
+        'inertia': [3.0, 1.0, 2.0],
+        'angular_velocity': [0.5, 0.6, -0.3],
+        'orientation': _q([1, 0, 1], 2.0),
+        'rotor': {'momentum': 0.3, 'axis': [0.0, 1.0, 0.0]},
+        'horizon': 40.0,
+        'samples': 41,
+    },
+    'real_roots_transverse': {
+        'inertia': [1.0, 3.0, 2.0],
+        'angular_velocity': [0.1, 1.0, 0.1],
+        'orientation': _q([0, 0, 1], 0.5),
+        'rotor': {'momentum': 0.05, 'axis': [0.0, 0.0, 1.0]},
+        'horizon': 40.0,
+        'samples': 41,
+    },
+    'root_at_infinity': {
+        'inertia': [2.0, 3.0, 2.0],
+        'angular_velocity': [0.5, 0.6, -0.3],
+        'orientation': _q([1, 1, 1], 1.0),
+        'rotor': {'momentum': 1.0, 'axis': [0.0, 0.0, 1.0]},
+        'horizon': 40.0,
+        'samples': 41,
+    },
+    'turning_point_start': {
+        'inertia': [1.0, 3.0, 2.0],
+        'angular_velocity': [0.0, 0.6, -0.3],
+        'orientation': _q([1, 0, 0], 0.3),
+        'rotor': {'momentum': 1.0, 'axis': [0.0, 0.0, 1.0]},
+        'horizon': 40.0,
+        'samples': 41,
+    },
+    'symmetric_rotor_on_axis': {
+        'inertia': [2.0, 2.0, 1.0],
+        'angular_velocity': [0.5, 0.6, -0.3],
+        'orientation': _q([0, 1, 0], 0.8),
+        'rotor': {'momentum': 0.3, 'axis': [0.0, 0.0, 1.0]},
+        'horizon': 40.0,
+        'samples': 41,
+    },
+    'long_horizon_1e5': {
+        'inertia': [1.0, 2.0, 2.5],
+        'angular_velocity': [0.01, 0.006, 0.004],
+        'orientation': _q([1, 1, 0], 0.6),
+        'rotor': {'momentum': 0.01, 'axis': [0.0, 0.0, 1.0]},
+        'horizon': 1e5,
+        'samples': 51,
+    },
+    # on the separatrix of the saddle +e3 exactly (m = (2, 10, 11) / 8, |m| = 15/8: every input
+    # and constant a short binary or decimal fraction, so the double root is exact)
+    'separatrix_exact': {
+        'inertia': [1.0, 2.5, 2.0],
+        'angular_velocity': [0.25, 0.5, 0.5625],
+        'orientation': _q([1, 2, 3], 0.4),
+        'rotor': {'momentum': 0.25, 'axis': [0.0, 0.0, 1.0]},
+        'horizon': 30.0,
+        'samples': 31,
+        'saddle': ['pole', 1],
+    },
+    # the oblique rotor has no closed form here: auto's DOP853 against the reference
+    'oblique_rotor': {
+        'inertia': [1.0, 2.0, 3.0],
+        'angular_velocity': [0.3, 0.5, -0.4],
+        'orientation': _q([1, 2, 0], 0.9),
+        'rotor': {'momentum': 1.5, 'axis': [0.3, -1.0, 0.2]},
+        'horizon': 20.0,
+        'samples': 21,
+    },
+    **_separatrix_cases(),
+}
+
+
+class TaylorGyrostat:
+    """Taylor-series integrator of the free gyrostat in the principal frame, in mpmath."""
+
+    def __init__(self, inertia, h):
+        I1, I2, I3 = (mp.mpf(x) for x in inertia)
+        self.gains = ((I2 - I3) / I1, (I3 - I1) / I2, (I1 - I2) / I3)
+        h1, h2, h3 = (mp.mpf(x) for x in h)
+        # I_i w_i' = (m x w)_i = (I_j - I_k) w_j w_k + h_j w_k - h_k w_j
+        self.linear = ((h2 / I1, h3 / I1), (h3 / I2, h1 / I2), (h1 / I3, h2 / I3))
+
+    def coefficients(self, state):
+        """
+        Return the Taylor coefficients of w1..w3, qx, qy, qz, qw about t0.
+
+        One list of length ORDER + 1 per component.
+        """
+        c = [[value] + [mp.mpf(0)] * ORDER for value in state]
+        g1, g2, g3 = self.gains
+        (a1, b1), (a2, b2), (a3, b3) = self.linear
+        half = mp.mpf(1) / 2
+
+        def product(a, b, k):
+            return mp.fsum(a[i] * b[k - i] for i in range(k + 1))
+
+        w1, w2, w3, qx, qy, qz, qw = c
+        for k in range(ORDER):
+            scale = 1 / mp.mpf(k + 1)
+            w1[k + 1] = (g1 * product(w2, w3, k) + a1 * w3[k] - b1 * w2[k]) * scale
+            w2[k + 1] = (g2 * product(w3, w1, k) + a2 * w1[k] - b2 * w3[k]) * scale
+            w3[k + 1] = (g3 * product(w1, w2, k) + a3 * w2[k] - b3 * w1[k]) * scale
+            # q ⊗ (w, 0), Hamilton, scalar last
+            qx[k + 1] = (
+                half * scale * (product(qw, w1, k) + product(qy, w3, k) - product(qz, w2, k))
+            )
+            qy[k + 1] = (
+                half * scale * (product(qw, w2, k) - product(qx, w3, k) + product(qz, w1, k))
+            )
+            qz[k + 1] = (
+                half * scale * (product(qw, w3, k) + product(qx, w2, k) - product(qy, w1, k))
+            )
+            qw[k + 1] = (
+                -half * scale * (product(qx, w1, k) + product(qy, w2, k) + product(qz, w3, k))
+            )
+        return c
+
+    @staticmethod
+    def radius(coefficients):
+        """Radius of convergence estimated from the last coefficients (Cauchy-Hadamard)."""
+        estimates = []
+        for k in (ORDER - 1, ORDER):
+            size = max(abs(series[k]) for series in coefficients)
+            if size > 0:
+                estimates.append(size ** (-mp.mpf(1) / k))
+        return min(estimates) if estimates else mp.inf
+
+    def integrate(self, state, times):
+        """Return the state at each of the sorted ``times`` (mpf) from ``state`` at t = 0."""
+        t = mp.mpf(0)
+        out = []
+        for target in times:
+            while t < target:
+                c = self.coefficients(state)
+                h = min(target - t, STEP_FRACTION * self.radius(c))
+                state = [mp.polyval(series[::-1], h) for series in c]
+                t = target if h == target - t else t + h
+            out.append(list(state))
+        return out
+
+
+def _check_invariants(inertia, h, states, name):
+    """Raise unless T, |I w + h| and |q| hold to 1e-20 relative: only then is it trusted."""
+    moments = [mp.mpf(x) for x in inertia]
+    h = [mp.mpf(x) for x in h]
+
+    def invariants(s):
+        energy = mp.fsum(moments[i] * s[i] ** 2 for i in range(3))
+        momentum = mp.fsum((moments[i] * s[i] + h[i]) ** 2 for i in range(3))
+        return energy, momentum, mp.fsum(x * x for x in s[3:])
+
+    first = invariants(states[0])
+    for s in states:
+        for a, b in zip(invariants(s), first):
+            if abs(a - b) > mp.mpf(10) ** -20 * max(abs(b), mp.mpf(10) ** -300):
+                raise RuntimeError(
+                    f'{name}: invariant drift {mp.nstr(abs(a - b) / b, 3)} in the reference'
+                )
+
+
+def rotor_vector(rotor):
+    """``h`` in the body (principal) frame as the ``rotor`` effect makes it, in mpmath."""
+    axis = [mp.mpf(x) for x in rotor['axis']]
+    norm = mp.sqrt(mp.fsum(x * x for x in axis))
+    return [mp.mpf(rotor['momentum']) * x / norm for x in axis]
+
+
+def reference_case(name):
+    mp.mp.dps = DIGITS
+    case = CASES[name]
+    inertia, omega = case['inertia'], case['angular_velocity']
+    q0 = list(np.asarray(case['orientation']) / np.linalg.norm(case['orientation']))
+    times = [float(x) for x in np.linspace(0.0, case['horizon'], case['samples'])]
+    t_mp = [mp.mpf(x) for x in times]
+    q_norm = mp.sqrt(mp.fsum(mp.mpf(x) ** 2 for x in q0))
+    q0_mp = [mp.mpf(x) / q_norm for x in q0]
+    h = rotor_vector(case['rotor'])
+    started = time.time()
+    nominal = TaylorGyrostat(inertia, h).integrate([mp.mpf(x) for x in omega] + q0_mp, t_mp)
+    _check_invariants(inertia, h, nominal, name)
+    responses = []  # per perturbed input: list over samples of (rate change, attitude change)
+    for index in range(7):
+        moments = [mp.mpf(x) for x in inertia]
+        w = [mp.mpf(x) for x in omega]
+        momentum = mp.mpf(case['rotor']['momentum'])
+        if index < 6:
+            target = moments if index < 3 else w
+            j = index % 3
+            if target[j] == 0:
+                continue  # zero is exact in float64
+            target[j] *= 1 + mp.mpf(ROUNDING_UNIT)
+        elif momentum == 0:
+            continue
+        else:
+            momentum *= 1 + mp.mpf(ROUNDING_UNIT)
+        perturbed_h = rotor_vector({**case['rotor'], 'momentum': momentum})
+        perturbed = TaylorGyrostat(moments, perturbed_h).integrate(w + q0_mp, t_mp)
+        changes = []
+        for a, b in zip(nominal, perturbed):
+            dw = mp.sqrt(mp.fsum((a[i] - b[i]) ** 2 for i in range(3)))
+            # rotation angle of conj(qa) ⊗ qb from its vector and scalar parts
+            (ax, ay, az, aw), (bx, by, bz, bw) = a[3:], b[3:]
+            vector = [
+                aw * bx - ax * bw - ay * bz + az * by,
+                aw * by + ax * bz - ay * bw - az * bx,
+                aw * bz - ax * by + ay * bx - az * bw,
+            ]
+            scalar = aw * bw + ax * bx + ay * by + az * bz
+            angle = 2 * mp.atan2(mp.sqrt(mp.fsum(v * v for v in vector)), abs(scalar))
+            changes.append((dw, angle))
+        responses.append(changes)
+    integrator = TaylorGyrostat(inertia, h)
+    rate_floor, attitude_floor = [], []
+    for k, state in enumerate(nominal):
+        w = state[:3]
+        speed = mp.sqrt(mp.fsum(x * x for x in w))
+        accel = mp.sqrt(mp.fsum(series[1] ** 2 for series in integrator.coefficients(state)[:3]))
+        t = t_mp[k]
+        rate = mp.sqrt(mp.fsum(r[k][0] ** 2 for r in responses) + (accel * t * ROUNDING_UNIT) ** 2)
+        attitude = mp.sqrt(
+            mp.fsum(r[k][1] ** 2 for r in responses)
+            + (speed * t * ROUNDING_UNIT) ** 2
+            + ROUNDING_UNIT**2
+        )
+        rate_floor.append(float(rate / speed) if speed > 0 else 0.0)
+        attitude_floor.append(float(attitude))
+    result = {
+        'name': name,
+        'inertia': inertia,
+        'angular_velocity': omega,
+        'orientation': q0,
+        'rotor': case['rotor'],
+        'times': times,
+        'omega': [[float(x) for x in s[:3]] for s in nominal],
+        'q': [[float(x) for x in s[3:]] for s in nominal],
+        'rate_floor': rate_floor,
+        'attitude_floor': attitude_floor,
+        'seconds': round(time.time() - started, 1),
+    }
+    if 'saddle' in case:
+        rotor_axis = int(np.argmax(np.abs(case['rotor']['axis'])))
+        result['saddle'] = case['saddle']
+        result['separatrix_distance'] = separatrix_distance(
+            inertia, rotor_axis, case['rotor']['momentum'], omega, tuple(case['saddle'])
+        )
+    return result
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
+    parser.add_argument('--jobs', type=int, default=2)
+    parser.add_argument('--only', nargs='*', help='case names to recompute (others are kept)')
+    args = parser.parse_args(argv)
+    names = args.only or list(CASES)
+    unknown = [n for n in names if n not in CASES]
+    if unknown:
+        parser.error(f'unknown case {unknown[0]!r}; known: {", ".join(CASES)}')
+    existing = {}
+    if OUTPUT.exists():
+        existing = {c['name']: c for c in json.loads(OUTPUT.read_text())['cases']}
+    if not args.only:
+        existing = {}
+
+    def work(name):
+        case = CASES[name]
+        return case['horizon'] * np.linalg.norm(case['angular_velocity']) * case['samples']
+
+    # longest first so the workers finish together
+    order = sorted(names, key=lambda n: -work(n))
+    with multiprocessing.Pool(args.jobs) as pool:
+        for case in pool.imap_unordered(reference_case, order):
+            existing[case['name']] = case
+            print(f'{case["name"]:40s} {case["seconds"]:8.1f} s', flush=True)
+            _write(existing)
+    print(f'wrote {OUTPUT}')
+
+
+def _write(existing):
+    document = {
+        'provenance': {
+            'generator': 'tools/make_gyrostat_reference.py',
+            'method': (
+                f'mpmath Taylor series, {DIGITS} digits, order {ORDER}, '
+                f'step {STEP_FRACTION} x radius'
+            ),
+            'floor': (
+                'quadrature sum of responses to 2**-53 relative perturbations of each moment, '
+                'rate and the rotor momentum, plus sample-time and q0 rounding'
+            ),
+            'mpmath': mp.__version__,
+            'python': sys.version.split()[0],
+            'machine': platform.platform(),
+        },
+        'cases': [existing[n] for n in CASES if n in existing],
+    }
+    OUTPUT.parent.mkdir(parents=True, exist_ok=True)
+    OUTPUT.write_text(json.dumps(document, indent=1) + '\n')
+
+
+if __name__ == '__main__':
+    main()
