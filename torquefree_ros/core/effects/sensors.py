@@ -155,6 +155,14 @@ def _latency():
     )
 
 
+def _unit_boresight(values, path) -> np.ndarray:
+    """Return the ``boresight`` parameter as a unit vector; refuse the zero vector by its path."""
+    length = float(np.linalg.norm(values['boresight']))
+    if not length > 0.0:
+        raise FieldError(child(path, 'boresight'), 'must not be the zero vector')
+    return values['boresight'] / length
+
+
 @register
 class Imu(OutputEffect):
     name = 'imu'
@@ -525,10 +533,7 @@ class StarTracker(OutputEffect):
 
     @classmethod
     def from_parameters(cls, values, path):
-        length = float(np.linalg.norm(values['boresight']))
-        if not length > 0.0:
-            raise FieldError(child(path, 'boresight'), 'must not be the zero vector')
-        return cls(**{**values, 'boresight': values['boresight'] / length})
+        return cls(**{**values, 'boresight': _unit_boresight(values, path)})
 
     def noise_axes(self) -> np.ndarray:
         """
@@ -761,10 +766,7 @@ class SunSensor(OutputEffect):
 
     @classmethod
     def from_parameters(cls, values, path):
-        length = float(np.linalg.norm(values['boresight']))
-        if not length > 0.0:
-            raise FieldError(child(path, 'boresight'), 'must not be the zero vector')
-        return cls(**{**values, 'boresight': values['boresight'] / length})
+        return cls(**{**values, 'boresight': _unit_boresight(values, path)})
 
     def stream(self, rate, propagator):
         return _SunSensorStream(self)
