@@ -26,6 +26,13 @@ def raise_on_float_errors():
         yield
 
 
+def require_numba(what: str = 'numba is not installed') -> None:
+    """Skip a test that needs numba where it is missing; fail on CI, whose requirements have it."""
+    if os.environ.get('CI'):
+        pytest.fail(what + ': the requirements install numba')
+    pytest.skip(what)
+
+
 @pytest.fixture(params=['compiled', 'numpy'])
 def attitude_path(request, monkeypatch):
     """

@@ -28,6 +28,7 @@ grants (:data:`TIME_ROUNDING_FACTOR`).
 import json
 from pathlib import Path
 
+from conftest import require_numba
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
@@ -96,7 +97,7 @@ def tolerances(case):
 def gyrostat_path(request, monkeypatch):
     """Run a test on both paths: numba's kernel (gyrostat_kernels) and the numpy reference."""
     if request.param == 'compiled' and not switch.AVAILABLE:
-        pytest.skip('numba is not installed')
+        require_numba()
     monkeypatch.setattr(switch, 'ENABLED', request.param == 'compiled')
     return request.param
 
@@ -284,7 +285,7 @@ def test_a_relative_equilibrium_spins_at_a_constant_rate():
 def test_the_kernel_repeats_the_numpy_path(name, monkeypatch):
     """The same operations in the same order: equal but for libm's last bits (sin, cos, tanh)."""
     if not switch.AVAILABLE:
-        pytest.skip('numba is not installed')
+        require_numba()
     case = CASES[name]
     times = np.linspace(0.0, case['times'][-1], 2001)
     runs = {}

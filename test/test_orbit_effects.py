@@ -26,6 +26,7 @@ import datetime
 import math
 import pickle
 
+from conftest import require_numba
 import numpy as np
 from numpy.polynomial.chebyshev import chebval
 import pytest
@@ -320,7 +321,7 @@ def test_the_field_at_sample_times_is_numpy_s_on_both_paths_to_rounding(monkeypa
     frame: 16 eps of |B|, the bound test_magnetic_field.py holds the single-instant kernels to.
     """
     if not switch.AVAILABLE:
-        pytest.skip('numba is not installed')
+        require_numba()
     place = scene([], orbit={**LEO, 'j2': True}).orbit
     times = np.linspace(0.0, 6000.0, 37)
     position = place.state(times)[0]
@@ -470,7 +471,7 @@ def test_the_held_environment_changes_a_trajectory_by_less_than_the_integrator_s
     rad/s and 2e-11 in q; bounds 1e-10 rad/s (7e-10 of |w|) and 1e-9.
     """
     if not switch.AVAILABLE:
-        pytest.skip('the continuous reference evaluates through the compiled environment kernels')
+        require_numba('the continuous reference runs through the compiled environment kernels')
     m = np.array([0.02, -0.01, 0.03])
     s = scene(
         [{'gravity_gradient': {}}, {'residual_dipole': {'dipole': m.tolist()}}],
