@@ -24,11 +24,11 @@ bit for bit, across autoresets; bad actions get clear errors and change nothing.
 from dataclasses import replace
 import importlib
 import math
-import os
 import subprocess
 import sys
 import warnings
 
+from conftest import missing_requirement
 import numpy as np
 import pytest
 
@@ -43,10 +43,7 @@ def _gym_module(name: str):
     try:
         return importlib.import_module(name)
     except ImportError as error:
-        message = f'gymnasium (the gym extra) is not installed: {error}'
-        if os.environ.get('CI'):
-            pytest.fail(f'{message}; requirements-test.txt installs it', pytrace=False)
-        pytest.skip(message, allow_module_level=True)
+        missing_requirement(f'gymnasium (the gym extra) is not installed: {error}')
 
 
 gymnasium = _gym_module('gymnasium')

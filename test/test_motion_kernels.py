@@ -21,8 +21,8 @@ on both paths.
 """
 
 import math
-import os
 
+from conftest import require_numba
 from hypothesis import given, settings
 from hypothesis import strategies as st
 import numpy as np
@@ -44,11 +44,7 @@ from torquefree_ros.core.propagators.dynamics import Dynamics
 from torquefree_ros.core.scene.loader import scene_from_mapping
 
 if not switch.AVAILABLE:
-    # skipped without numba, except on CI (the CI environment variable set), where the
-    # requirements install it: a skip there would pass without testing anything
-    if os.environ.get('CI'):
-        pytest.fail('numba is not installed: the requirements install it', pytrace=False)
-    pytest.skip('numba is not installed', allow_module_level=True)
+    require_numba()
 
 EPS = np.finfo(float).eps
 #: one configuration of every motion effect, with a parameter of each kind it has
