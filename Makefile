@@ -7,7 +7,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 PIP := $(PY) -m pip --disable-pip-version-check
 
-.PHONY: run test docs lock reference bench bench-exact bench-effects bench-plant bench-campaign bench-node bench-bag bench-bag-day bench-lockstep bench-testing-kit clean
+.PHONY: run test docs lock reference bench bench-exact bench-effects bench-plant bench-campaign bench-node bench-bag bench-bag-day bench-lockstep bench-testing-kit bench-sensors bench-wheels clean
 
 $(VENV)/.installed: requirements.txt requirements-test.txt requirements.lock setup.py
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -65,6 +65,15 @@ bench-effects: $(VENV)/.installed
 # the plant (torquefree_ros.Plant): a step of one body, a batched step, 1 000 dispersed explorer1 bodies
 bench-plant: $(VENV)/.installed
 	$(PY) tools/bench_plant.py --output docs/bench/plant.md
+
+# the reaction wheels beside a constant torque: propagation, the plant, lock-step
+bench-wheels: $(VENV)/.installed
+	$(PY) tools/bench_wheels.py --output docs/bench/wheels.md
+
+# the sensor models: the full gyro per sample against the white-noise imu, 1 000 bodies with every
+# sensor at its full model (~3 min)
+bench-sensors: $(VENV)/.installed
+	$(PY) tools/bench_sensors.py --output docs/bench/sensors.md
 
 # Monte Carlo campaigns: 10 000 torque-free runs on 1 and 2 local workers beside the bare compute,
 # 1 000 dispersed explorer1 runs, the engine's costs (~1 min)

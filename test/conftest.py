@@ -13,6 +13,7 @@
 # limitations under the License.
 
 import os
+import signal
 
 import numpy as np
 import pytest
@@ -77,6 +78,12 @@ def integrator_path(request, monkeypatch):
     return request.param
 
 
+# The longest a test waits for a process it started to start, answer or exit (only bounds a hang).
+# Quiet, a node exits within 2 s of its signal; with both cores overloaded (four test sessions
+# beside a benchmark) exits took over 30 s, start-up as long again.
+PROCESS_TIMEOUT = 180.0  # s
+
+
 # Settings at which each propagator is accurate enough for the shared convention checks below
 # (1e-8 rad over ~10 s of motion at |w| ~ 1 rad/s).
 ACCURATE_SETTINGS = {
@@ -113,6 +120,11 @@ def pytest_configure(config):
     from torquefree_ros.testing.domains import claim_domain
 
     os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+    # the tests stop the processes they start with SIGINT; a session started in the background (a
+    # shell's `&` ignores SIGINT there) would hand its processes an ignored SIGINT, which survives
+    # exec: handled here, the processes start with the default
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
     # a node subprocess that dies of a signal (SIGABRT from the C++ runtime) prints its Python
     # stacks
     os.environ['PYTHONFAULTHANDLER'] = '1'

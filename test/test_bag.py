@@ -416,6 +416,25 @@ def test_writer_api_errors_are_named(tmp_path):
         BagQos(reliability='sometimes')
 
 
+@pytest.mark.parametrize('type_name, reader', [
+    ('geometry_msgs/msg/WrenchStamped', 'read_commands'),
+    ('geometry_msgs/msg/Vector3Stamped', 'read_vector_commands'),
+    ('sensor_msgs/msg/JointState', 'read_joint_commands'),
+])
+def test_a_command_that_is_not_its_type_is_named_with_its_time(tmp_path, type_name, reader):
+    from torquefree_ros.bag import offline
+
+    with BagWriter(tmp_path / 'bad') as writer:
+        channel = writer.add_topic('/command', type_name)
+        writer.write(channel, 1_000, b'\x00\x01\x00\x00' + b'\xff' * 7)  # truncated CDR
+    short = type_name.rsplit('/', 1)[-1]
+    with pytest.raises(BagError, match=f"on '/command' at 1000 ns is not a {short} "):
+        getattr(offline, reader)(tmp_path / 'bad', '/command')
+    with pytest.raises(BagError, match=f"'/command' is {type_name}, not "):
+        other = 'read_commands' if reader != 'read_commands' else 'read_vector_commands'
+        getattr(offline, other)(tmp_path / 'bad', '/command')
+
+
 def test_an_error_inside_the_block_still_leaves_a_complete_bag(tmp_path):
     with pytest.raises(KeyError):
         with BagWriter(tmp_path / 'interrupted') as writer:

@@ -38,7 +38,14 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 from torquefree_ros import propagate_batch, RigidBody
-from torquefree_ros.campaigns import CampaignError, load_campaign, metric, METRICS, run_campaign
+from torquefree_ros.campaigns import (
+    CampaignError,
+    library_campaigns,
+    load_campaign,
+    metric,
+    METRICS,
+    run_campaign,
+)
 from torquefree_ros.campaigns.dispersions import run_generator
 from torquefree_ros.campaigns.metrics import Samples
 from torquefree_ros.cli import campaign as campaign_cli
@@ -958,7 +965,7 @@ SCHEDULE_FILES = {
             }
         },
         'dispersions.effects[0].external_torque.torque.relative: unknown key (allowed: '
-        'direction, magnitude)',
+        'direction, misalignment, magnitude)',
     ),
     'an unknown direction': (
         {'effects[0].external_torque.torque': {'direction': {'uniform': {}}}},
@@ -972,7 +979,8 @@ SCHEDULE_FILES = {
     ),
     'the moments as a whole': (
         {'body.moments': {'direction': {'cone': {'half_angle': 0.1}}}},
-        'dispersions.body.moments: a direction or a magnitude is for a vector in space; '
+        'dispersions.body.moments: a direction, a misalignment or a magnitude is for a vector in '
+        'space; '
         'body.moments takes one dispersion (every component) or a list of 3 (one per component)',
     ),
 }
@@ -1238,7 +1246,8 @@ def test_the_parquet_file_holds_the_table_the_campaign_and_the_versions(tmp_path
 
 
 def test_the_library_campaigns_load_and_run_shortened():
-    for name in ('explorer1_damper', 'dzhanibekov_rates'):
+    assert {'explorer1_damper', 'dzhanibekov_rates', 'wheel_spin_up'} <= set(library_campaigns())
+    for name in sorted(library_campaigns()):
         campaign = load_campaign(name)
         data = yaml.safe_load(campaign.text)
         data.update(runs=12, duration=min(data['duration'], 30.0))

@@ -31,6 +31,7 @@ import sys
 import time
 
 from bag_checks import read_with_mcap, read_with_rosbags, stamps_and_last_messages
+from conftest import PROCESS_TIMEOUT
 import numpy as np
 import pytest
 from torquefree_ros.cli.common import Progress
@@ -47,7 +48,7 @@ SCRIPTS = [
     'torquefree_campaign',
 ]
 HAND_TYPED = [0.2, 0.1, -0.3, 0.927]  # |q| = 0.99966: four typed digits
-TIMEOUT = 60  # s; a script's start-up re-executes the interpreter once (ros_wheels_bootstrapper)
+TIMEOUT = PROCESS_TIMEOUT  # (a script's start-up re-executes the interpreter: the bootstrapper)
 
 
 def _run(*argv, **kwargs):

@@ -143,6 +143,28 @@ def test_instants_outside_the_model_are_refused(when):
         assert np.all(np.isfinite(magnetic.igrf_earth_fixed([7e6, 0, 0], epochs.utc_seconds(end))))
 
 
+def test_the_quick_range_check_agrees_with_the_decimal_years():
+    """``years=False`` refuses what the decimal years refuse, up to the bounds' rounding."""
+    for bound in (magnetic.FIRST_INSTANT, magnetic.LAST_INSTANT):
+        assert bound == epochs.utc_seconds(
+            '1900-01-01T00:00:00' if bound < 0 else '2030-01-01T00:00:00'
+        )
+        # around each bound, down to the instants' own spacing there
+        spacing = np.spacing(abs(bound))
+        for offset in (-1.0, -1e-3, -spacing, 0.0, spacing, 1e-3, 1.0):
+            instant = bound + offset
+            try:
+                magnetic.check_instants(instant)
+                inside = True
+            except FieldError:
+                inside = False
+            if inside:  # (the years decide where the bounds' rounding does)
+                magnetic.check_instants(instant, years=False)
+            else:
+                with pytest.raises(FieldError, match='IGRF-14 covers'):
+                    magnetic.check_instants(instant, years=False)
+
+
 @needs_numba
 def test_the_compiled_kernels_equal_the_numpy_path():
     position, _, _, _ = _points(60, seed=11)

@@ -509,3 +509,96 @@ def test_the_node_publishes_markers_as_the_core_computes_them():
         ],
         rows[k, 7:10],
     )
+
+
+# -- reaction wheels: H is the whole momentum, an arrow per wheel ---------------------------------
+WHEEL_BODY = {'inertia': [3.0, 2.5, 2.0]}
+WHEELS = {
+    'reaction_wheels': {
+        'schedule': [
+            {'start': 0.0, 'torque': [0.05, -0.03]},
+            {'start': 1.0, 'torque': [-0.02, 0.04]},
+        ],
+        'wheels': [
+            {'name': 'a', 'axis': [1.0, 0.0, 1.0], 'spin_inertia': 0.05, 'max_torque': 0.1,
+             'max_speed': 500.0, 'speed': 20.0, 'viscous': 1e-3},
+            {'name': 'b', 'axis': [0.0, 1.0, 0.0], 'spin_inertia': 0.04, 'max_torque': 0.1,
+             'max_speed': 500.0, 'speed': -10.0},
+        ],
+    }
+}
+
+
+def test_with_wheels_h_is_the_whole_momentum_and_each_wheel_has_its_arrow():
+    """
+    The amber H arrow is ``R(q) (I w + sum Js Omega g)``; wheel i's arrow ``R(q) Js Omega_i g_i``.
+
+    Both at the H arrow's scale (default: the initial whole |H| is 1.25 m long), computed here
+    from the scene's locked inertia and the wheels' relative speeds (the effect's momenta less
+    ``Js g . w``): the arrows' formula is ``I_s w + sum h g``, the same momentum written another
+    way, so rounding (1e-13 m on arrows of a metre) separates them. The motors trade momentum with
+    the body, so the body's own ``R(q) I w`` moves by tenths of a metre while the whole H stands
+    still to the integrator's tolerance (1e-9 m).
+    """
+    simulation = _simulation(WHEEL_BODY, [0.3, -0.2, 0.4], WHEELS, {'markers': {}})
+    block = simulation.samples(0, 150)
+    (rows,) = block.outputs
+    assert rows.shape == (150, MARKER_ROW + 6)
+    effect = simulation.propagator.dynamics.effects[0]
+    speeds = effect.wheel_speeds(block.omega_B, block.internal)
+    axes = np.array([[1.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
+    axes /= np.linalg.norm(axes, axis=1)[:, None]
+    Js = np.array([0.05, 0.04])
+    whole_B = block.omega_B @ np.diag([3.0, 2.5, 2.0]) + (Js * speeds) @ axes
+    whole_N = quaternion.rotate(block.q_NB, whole_B)
+    scale = 1.25 / np.linalg.norm(whole_N[0])
+    np.testing.assert_allclose(rows[:, 10:13], scale * whole_N, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(
+        rows[:, 10:13], np.broadcast_to(rows[0, 10:13], (150, 3)), rtol=0, atol=1e-9
+    )
+    body_N = quaternion.rotate(block.q_NB, block.omega_B @ np.diag([3.0, 2.5, 2.0]))
+    assert np.ptp(scale * body_N, axis=0).max() > 0.1
+    for i in range(2):
+        tip = scale * (Js[i] * speeds[:, i])[:, None] * quaternion.rotate(block.q_NB, axes[i])
+        np.testing.assert_allclose(rows[:, MARKER_ROW + 3 * i: MARKER_ROW + 3 * i + 3], tip,
+                                   rtol=0, atol=1e-13)
+    # the rows do not depend on how the samples are cut into blocks
+    for size in (7, 1):  # one sample at a time is a closed loop's blocks (floats, not arrays)
+        again = _simulation(WHEEL_BODY, [0.3, -0.2, 0.4], WHEELS, {'markers': {}})
+        cut = np.vstack([again.samples(k, size).outputs[0] for k in range(0, 150, size)])[:150]
+        np.testing.assert_array_equal(cut, rows)
+
+
+def test_wheel_arrows_decode_in_rclpy_after_the_five_markers():
+    """Each wheel's ARROW: namespace wheel_NAME, id 0, from the centre to its tip, teal."""
+    from rclpy.serialization import deserialize_message
+    from torquefree_ros.bag.layouts import LAYOUTS
+    from visualization_msgs.msg import Marker, MarkerArray
+
+    simulation = _simulation(WHEEL_BODY, [0.3, -0.2, 0.4], WHEELS, {'markers': {}})
+    block = simulation.samples(0, 5)
+    (output,) = simulation.outputs
+    (rows,) = block.outputs
+    assert output.layout == 'wheel_markers' and output.layout_options == {'names': ('a', 'b')}
+    stamps = block.stamps_ns + 1_700_000_000_000_000_000
+    for place in (None, np.array([1.0, -2.0, 0.5])):
+        messages = LAYOUTS[output.layout](stamps, 'world', 'body', rows, place,
+                                          **output.layout_options)
+        plain = encode_markers(stamps, 'world', rows[:, :MARKER_ROW], place)
+        offset = np.zeros(3) if place is None else place
+        for stamp, row, message, five in zip(stamps, rows, messages, plain):
+            markers = deserialize_message(message, MarkerArray).markers
+            assert [m.ns for m in markers] == NAMESPACES + ['wheel_a', 'wheel_b']
+            first = deserialize_message(five, MarkerArray).markers
+            assert [_decoded_fields(m) for m in markers[:5]] == [_decoded_fields(m) for m in first]
+            longest = row[4:7].max()
+            for i, marker in enumerate(markers[5:]):
+                assert marker.header.stamp.sec * 10**9 + marker.header.stamp.nanosec == stamp
+                assert (marker.id, marker.type, marker.action) == (0, Marker.ARROW, Marker.ADD)
+                tip = row[MARKER_ROW + 3 * i: MARKER_ROW + 3 * i + 3] + offset
+                assert [[p.x, p.y, p.z] for p in marker.points] == [offset.tolist(), tip.tolist()]
+                assert [marker.scale.x, marker.scale.y, marker.scale.z] == pytest.approx(
+                    [0.03 * longest, 0.07 * longest, 0.0], rel=1e-15
+                )
+                # float32 colour: teal, the same bits as the constants rounded
+                assert _rgba(marker) == np.float32([0.0, 0.72, 0.72, 1.0]).tolist()

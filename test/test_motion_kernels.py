@@ -72,6 +72,18 @@ EFFECT_ENTRIES = {
     'damper': {'damper': {'inertia': 0.1, 'damping': 0.05, 'initial_rate': [0.1, 0.2, 0.3]}},
     'rotor': {'rotor': {'momentum': 1.5, 'axis': [0.3, -1.0, 0.2]}},
     'torque_command': {'torque_command': {'frame': 'inertial'}},
+    # four rods, one saturated by the command _dynamics gives: the applied dipole in its slot
+    'magnetorquers': {
+        'magnetorquers': {
+            'rods': [
+                {'axis': [1.0, 0.0, 0.0], 'max_dipole': 0.2},
+                {'axis': [0.0, 1.0, 0.0], 'max_dipole': 0.2},
+                {'axis': [0.0, 0.0, 1.0], 'max_dipole': 0.2},
+                {'axis': [1.0, 1.0, 1.0], 'max_dipole': 0.001},
+            ],
+            'field': 'dipole',
+        }
+    },
     # random states put the wheel in its speed limit's band, past it and in the Coulomb band
     'reaction_wheels': {
         'reaction_wheels': {
@@ -106,7 +118,12 @@ ORBIT = {
     'mean_anomaly': 0.4,
     'j2': True,
 }
-ON_ORBIT = {'gravity_gradient (orbit)', 'residual_dipole (igrf)', 'residual_dipole (dipole)'}
+ON_ORBIT = {
+    'gravity_gradient (orbit)',
+    'residual_dipole (igrf)',
+    'residual_dipole (dipole)',
+    'magnetorquers',
+}
 PLACE = Place.from_mapping(ORBIT)
 
 
@@ -306,10 +323,13 @@ def test_compiled_dop853_follows_scipy_dop853_at_the_same_tolerances(name, monke
         )
 
 
+#: effects whose commands come through a Simulation's hold (test_torque_command.py and
+#: test_magnetorquers.py run them on both paths)
+COMMANDED = {'torque_command', 'magnetorquers'}
+
+
 @pytest.mark.parametrize('method', ['rk4', 'lie_rk4'])
-# (torque_command: its commands come through a Simulation's hold; test_torque_command.py runs both
-# paths)
-@pytest.mark.parametrize('label', [label for label in EFFECT_ENTRIES if label != 'torque_command'])
+@pytest.mark.parametrize('label', [label for label in EFFECT_ENTRIES if label not in COMMANDED])
 def test_compiled_fixed_step_methods_repeat_the_reference_steps(method, label, monkeypatch):
     """The same stages in the same order: equal to rounding after 300 steps with breakpoints."""
     entry = EFFECT_ENTRIES[label]

@@ -29,6 +29,7 @@ import sys
 import time
 
 from bag_checks import metadata, read_with_rosbags, vectors
+from conftest import PROCESS_TIMEOUT
 import numpy as np
 import pytest
 from sim_harness import SimHarness
@@ -163,7 +164,7 @@ def test_a_signal_closes_the_bag_cleanly(signum, tmp_path):
     try:
         time.sleep(0.5)
         process.send_signal(signum)
-        _, stderr = process.communicate(timeout=30)
+        _, stderr = process.communicate(timeout=PROCESS_TIMEOUT)
     finally:
         process.kill()
     assert process.returncode == 0 and 'Traceback' not in stderr, stderr
@@ -189,7 +190,7 @@ def test_sigkill_loses_at_most_the_open_chunk(tmp_path):
     time.sleep(2.6)
     killed_at = time.time_ns()
     process.kill()
-    process.communicate(timeout=30)
+    process.communicate(timeout=PROCESS_TIMEOUT)
     reader = BagReader(bag)
     assert not reader.complete
     omega = [m for m in reader.messages() if m.topic == '/angular_velocity']

@@ -102,6 +102,9 @@ def test_a_bad_scene_file_is_refused_and_the_running_scene_goes_on(harness, tmp_
     first = harness.reset()
     assert first.success and 'rotor(momentum=5' in first.message
     assert 'propagator gyrostat, accuracy: exact' in first.message
+    # the gyrostat's own regime (its equilibria move with h), not the free body's reading
+    assert 'regime: free gyrostat (h 5 N m s along principal axis' in first.message
+    assert 'torque-free regime of the initial state' not in first.message
     bad = tmp_path / 'bad.yaml'
     bad.write_text(
         'body: {inertia: [3, 2, 1]}\ninitial: {angular_velocity: [0, 0, 1]}\n'

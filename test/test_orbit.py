@@ -181,6 +181,28 @@ def test_the_compiled_kernel_equals_the_numpy_path(e, semi_major_axis, j2):
         assert np.abs(out[3:] - velocity[i]).max() <= 64 * EPS * 50.0 * np.linalg.norm(velocity[i])
 
 
+@pytest.mark.skipif(not switch.AVAILABLE and not os.environ.get('CI'),
+                    reason='numba (the fast extra) is not installed')
+@pytest.mark.parametrize('j2', [False, True])
+def test_a_place_takes_the_kernel_at_sample_times_and_agrees_with_numpy(j2, monkeypatch):
+    """``Place.state`` (the sensors' and outputs' orbit) on both paths, any shape of times."""
+    from torquefree_ros.core.environment.place import Place
+
+    orbit = KeplerOrbit(6.9e6, 0.01, 1.7, 0.4, 1.1, 0.3, epoch=EPOCH, j2=j2)
+    place = Place(orbit, start=orbit.epoch + 1234.5)
+    times = np.linspace(0.0, 3.0 * orbit.period, 12).reshape(3, 4)
+    monkeypatch.setattr(switch, 'ENABLED', True)
+    position, velocity = place.state(times)
+    single = place.state(7.25)
+    monkeypatch.setattr(switch, 'ENABLED', False)
+    reference = place.state(times)
+    assert position.shape == velocity.shape == (3, 4, 3) and single[0].shape == (3,)
+    # as the kernel test above: the same operations, libm's and numpy's sin/cos to the last bit
+    assert np.abs(position - reference[0]).max() <= 64 * EPS * 6.9e6 * 3.0
+    assert np.abs(velocity - reference[1]).max() <= 64 * EPS * 3.0 * 8e3
+    assert np.abs(single[0] - place.state(7.25)[0]).max() <= 64 * EPS * 6.9e6
+
+
 def test_the_epoch_is_a_utc_instant():
     orbit = KeplerOrbit(7.0e6, epoch='2026-03-20T12:00:00Z')
     assert orbit.epoch == epochs.utc_seconds('2026-03-20T12:00:00+00:00')

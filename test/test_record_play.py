@@ -28,18 +28,25 @@ import sys
 import time
 
 from bag_checks import read_with_rosbags
+from conftest import PROCESS_TIMEOUT
+from geometry_msgs.msg import Vector3Stamped
 import numpy as np
 import pytest
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
 from torquefree_ros.bag import BagReader
 from torquefree_ros.cli import play as player
 from torquefree_ros.cli import record as recorder
 from torquefree_ros.cli.bag import main as bag_main
+from torquefree_ros.testing.domains import claim_domain
 
 REPO = Path(__file__).resolve().parent.parent
 
 
-def _spawn(module: str, *args: str) -> subprocess.Popen:
+def _spawn(module: str, *args: str, domain_id: int | None = None) -> subprocess.Popen:
     env = dict(os.environ, PYTHONUNBUFFERED='1')
+    if domain_id is not None:
+        env['ROS_DOMAIN_ID'] = str(domain_id)
     return subprocess.Popen(
         [sys.executable, '-m', module, *args],
         cwd=REPO,
@@ -48,6 +55,26 @@ def _spawn(module: str, *args: str) -> subprocess.Popen:
         stderr=subprocess.PIPE,
         text=True,
     )
+
+
+def _wait_for_message(topic: str, message_type, domain_id: int, timeout: float) -> None:
+    """Wait until a message arrives on ``topic`` in ``domain_id``, at most ``timeout`` s."""
+    context = rclpy.Context()
+    rclpy.init(context=context, domain_id=domain_id)
+    received = []
+    try:
+        node = rclpy.create_node('test_listener', context=context)
+        node.create_subscription(message_type, topic, received.append, 10)
+        executor = SingleThreadedExecutor(context=context)
+        executor.add_node(node)
+        deadline = time.monotonic() + timeout
+        while not received and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.1)
+        executor.shutdown()
+        node.destroy_node()
+    finally:
+        context.try_shutdown()
+    assert received, f'no message on {topic} within {timeout:g} s'
 
 
 def _wait_for_line(process: subprocess.Popen, text: str, count: int = 1) -> None:
@@ -62,7 +89,7 @@ def _wait_for_line(process: subprocess.Popen, text: str, count: int = 1) -> None
 def _stop(process: subprocess.Popen) -> str:
     process.send_signal(signal.SIGINT)
     try:
-        _, stderr = process.communicate(timeout=30)
+        _, stderr = process.communicate(timeout=PROCESS_TIMEOUT)
     finally:
         process.kill()
     assert process.returncode == 0 and 'Traceback' not in stderr, stderr
@@ -102,7 +129,7 @@ def test_player_to_recorder_round_trip_keeps_every_message_and_the_timing(tmp_pa
             cwd=REPO,
             capture_output=True,
             text=True,
-            timeout=60,
+            timeout=PROCESS_TIMEOUT,
         )
         assert play.returncode == 0 and 'played 202 messages' in play.stderr, play.stderr
         time.sleep(0.5)
@@ -198,7 +225,7 @@ def test_recorder_resolves_relative_names_and_duration_is_recorded_time(tmp_path
             cwd=REPO,
             capture_output=True,
             text=True,
-            timeout=60,
+            timeout=PROCESS_TIMEOUT,
         )
     finally:
         _stop(node)
@@ -212,13 +239,25 @@ def test_recorder_resolves_relative_names_and_duration_is_recorded_time(tmp_path
 def test_a_looping_player_stops_cleanly_on_signals(signum, tmp_path):
     bag = tmp_path / 'bag'
     assert bag_main(['default', '--duration', '1', '--rate', '50', '--output', str(bag)]) == 0
-    play = _spawn('torquefree_ros.cli.play', str(bag), '--loop', '--clock', '20')
-    time.sleep(2.5)
-    play.send_signal(signum)
+    # a domain of its own: the message waited for is the player's, not another test's node's
+    domain = claim_domain()
     try:
-        _, stderr = play.communicate(timeout=30)
+        play = _spawn(
+            'torquefree_ros.cli.play', str(bag), '--loop', '--clock', '20',
+            domain_id=domain.domain_id,
+        )
+        try:
+            # signalled once it plays (not after a fixed sleep: under load it may still be
+            # importing)
+            _wait_for_message(
+                'angular_velocity', Vector3Stamped, domain.domain_id, PROCESS_TIMEOUT
+            )
+            play.send_signal(signum)
+            _, stderr = play.communicate(timeout=PROCESS_TIMEOUT)
+        finally:
+            play.kill()
     finally:
-        play.kill()
+        domain.release()
     assert play.returncode == 0 and 'Traceback' not in stderr, stderr
     assert int(stderr.split('played ')[1].split()[0]) > 0
 

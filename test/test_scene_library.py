@@ -31,6 +31,7 @@ from torquefree_ros.core.scene.library import library_scenes
 LIBRARY = Path(__file__).resolve().parents[1] / 'torquefree_ros' / 'scenes'
 NAMES = [
     'axisymmetric_coning',
+    'bdot_detumble',
     'default',
     'detumble',
     'dzhanibekov',
@@ -208,3 +209,17 @@ def test_wheel_slew_starts_at_rest_60_degrees_off_with_an_isotropic_biased_pyram
     np.testing.assert_allclose(omega, 0.0, atol=1e-15)
     speeds = wheels.wheel_speeds(omega, x)
     assert np.all(np.abs(speeds[1]) < 100.0) and np.all(np.abs(speeds[1]) > 98.0)
+
+
+def test_bdot_detumble_tumbles_at_10_deg_s_in_a_500_km_orbit_with_three_rods_and_a_magnetometer():
+    scene = library('bdot_detumble')
+    rate = np.degrees(np.linalg.norm(scene.angular_velocity))
+    assert rate == pytest.approx(10.0, rel=1e-12)
+    assert 0.005 <= min(scene.inertia) and max(scene.inertia) <= 0.06  # 3U-class, kg m^2
+    times = np.linspace(0.0, 6000.0, 61)
+    radius = np.linalg.norm(scene.orbit.state(times)[0], axis=1)
+    np.testing.assert_allclose(radius - 6378137.0, 500e3, rtol=0, atol=1e-6)  # circular, 500 km
+    (rods,) = [e for e in scene.effects if e.name == 'magnetorquers']
+    np.testing.assert_array_equal(rods.axes, np.eye(3))
+    assert rods.max_dipoles.tolist() == [0.2] * 3
+    assert {o.name for o in scene.outputs} >= {'magnetometer', 'magnetorquer_dipole'}

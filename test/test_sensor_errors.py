@@ -434,6 +434,33 @@ def test_the_star_tracker_has_no_solution_exactly_while_the_rate_exceeds_max_rat
         np.testing.assert_array_equal(rows[~lost], delayed[~lost])
 
 
+def test_the_about_boresight_error_is_the_stated_multiple_of_the_cross_boresight_one():
+    """
+    10 000 samples: the ratio of the standard deviations about and across the boresight is 8.
+
+    The noise rotation ``n`` of each sample from the published quaternion, ``q_NB^-1 q_meas =
+    exp(n / 2)`` (scipy). With zero-mean normal draws, ``sum(n_about^2) / sigma_about^2`` is
+    chi-square with N = 10 000 degrees of freedom and the two cross-boresight components' sum
+    chi-square with 2N, independent: the ratio of the variances, divided by the stated 8^2, is
+    F(N, 2N)-distributed. The bounds are its 1e-6 and 1 - 1e-6 quantiles (about 0.92 and 1.09):
+    a correct model fails one run in 500 000.
+    """
+    from scipy.spatial.transform import Rotation
+    from scipy.stats import f
+
+    count, boresight = 10_000, np.array([1.0, 2.0, -2.0]) / 3.0
+    tracker = {**TRACKER, 'boresight': boresight.tolist()}
+    block = _simulation(_scene([{'star_tracker': tracker}]), 50.0).samples(0, count)
+    turn = Rotation.from_quat(block.q_NB).inv() * Rotation.from_quat(block.outputs[0][:, 0:4])
+    n = turn.as_rotvec()
+    about = n @ boresight
+    across = n - np.outer(about, boresight)
+    ratio = (about**2).mean() / ((across**2).sum(axis=1).mean() / 2)
+    stated = TRACKER['about_boresight_noise'] / TRACKER['cross_boresight_noise']
+    low, high = f.ppf([1e-6, 1.0 - 1e-6], count, 2 * count)
+    assert low * stated**2 <= ratio <= high * stated**2
+
+
 def test_a_consumer_reads_no_estimate_in_the_messages():
     """Decode the published bytes with rclpy: orientation_covariance[0] = -1, no quaternion."""
     from rclpy.serialization import deserialize_message
@@ -488,6 +515,15 @@ def test_blocks_of_any_size_give_the_same_bytes():
     for j, every in enumerate((1, 1, 2, 5)):
         stacked = np.vstack([r[j] for r in rows])
         assert stacked.tobytes() == whole[j][: -(-60 // every)].tobytes()
+    # single samples past the gyro's draws made ahead (64 samples a chunk), blocks taking the rest
+    # of a chunk, single samples again
+    mixed = _simulation(scene, 50.0)
+    sizes = [1] * 100 + [7, 1, 1, 300, 1, 65] + [1] * 70 + [2, 1, 453]
+    firsts = np.cumsum([0] + sizes[:-1])
+    pieces = [mixed.samples(int(a), n).outputs for a, n in zip(firsts, sizes)]
+    assert firsts[-1] + sizes[-1] == 1001
+    for j in (0, 2):  # the gyros
+        assert np.vstack([piece[j] for piece in pieces]).tobytes() == whole[j].tobytes()
 
 
 @pytest.mark.parametrize(

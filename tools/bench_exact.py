@@ -38,11 +38,22 @@ and the kernels' first call in a new process, compiling them and loading them fr
 
 Each timing is the fastest of several calls (the least disturbed by a shared machine); a round
 measures everything once, and ``--rounds`` rounds give median (min–max).
+
+The exact free gyrostat's accuracy/cost curve (issue 43): on the library ``gyrostat`` scene and
+on coasting reaction wheels (``wheels_coasting_rotor_axis``), the ``gyrostat`` propagator beside
+``dop853`` at rtol 1e-8 … 1e-14 (``atol = rtol / 100``, auto's pair), each run over the
+reference's horizon at 100 Hz, construction included: the error against the mpmath reference
+(``torquefree_ros/bench/gyrostat_cases.json``) at its samples, the reference's float64 floor
+beside it, and the CPU time per sample (``time.process_time``: a loaded machine's waiting is not
+counted), with each method's ratio to the gyrostat's and the gyrostat's to the free body's exact
+sample (``analytic``, same inertia and rates) in the same round. ``--output`` also writes
+``gyrostat_work_precision.csv`` and ``.png`` beside the report.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import os
 from pathlib import Path
 import statistics
@@ -147,6 +158,200 @@ def _batch_round(calls: int) -> dict:
     }
 
 
+GYROSTAT_RTOLS = (1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13, 1e-14)
+GYROSTAT_RATE = 100.0  # Hz: the samples each run computes
+#: (label, reference case): the scene is the case's (a rotor, or coasting wheels)
+GYROSTAT_SCENES = (
+    ('library gyrostat scene (rotor 5 N m s on the intermediate axis, 100 s)', 'library_gyrostat'),
+    ('coasting reaction wheel (wheels_coasting_rotor_axis, 40 s)', 'wheels_coasting_rotor_axis'),
+)
+
+
+def _gyrostat_scene(case):
+    from torquefree_ros.core.scene.loader import scene_from_mapping
+
+    effect = (
+        {'reaction_wheels': {'wheels': case['wheels']}}
+        if 'wheels' in case
+        else {'rotor': case['rotor']}
+    )
+    return scene_from_mapping(
+        {
+            'body': {'inertia': case['inertia']},
+            'initial': {
+                'angular_velocity': case['angular_velocity'],
+                'orientation': case['orientation'],
+            },
+            'effects': [effect],
+        }
+    )
+
+
+def _gyrostat_round(case, calls: int) -> dict:
+    """
+    Return ``{method: (ns per sample, build µs, evaluation ns per sample, errors...)}``.
+
+    The first figure is a whole run (build and samples) per sample; an exact propagator's
+    evaluation alone is timed on one built propagator (an integrator's work is its steps: NaN).
+    The errors: rate (relative), attitude and wheel angle (rad), NaN where not measured.
+    """
+    import numpy as np
+    from torquefree_ros.core.propagators import ATOL_PER_RTOL, make_propagator
+    from torquefree_ros.core.run.accuracy import trajectory_errors
+
+    scene = _gyrostat_scene(case)
+    grid = np.arange(int(round(case['times'][-1] * GYROSTAT_RATE)) + 1) / GYROSTAT_RATE
+    picked = np.rint(np.asarray(case['times']) * GYROSTAT_RATE).astype(int)
+    assert np.array_equal(grid[picked], case['times'])  # the reference's times, exactly
+
+    def measure(build, exact=False, errors=True):
+        def run():
+            return build().states(grid)
+
+        seconds = fastest(run, calls, clock=time.process_time)
+        build_s = fastest(build, calls, clock=time.process_time)
+        evaluation = math.nan
+        if exact:
+            built = build()
+            evaluation = fastest(lambda: built.states(grid), calls, clock=time.process_time)
+            evaluation = evaluation / grid.size * 1e9
+        costs = (seconds / grid.size * 1e9, build_s * 1e6, evaluation)
+        if not errors:
+            return (*costs, math.nan, math.nan, math.nan)
+        omega, q, x = run()
+        rate, attitude = trajectory_errors(omega[picked], q[picked], case['omega'], case['q'])
+        angle = (
+            float(np.abs(x[picked][:, 1::2] - np.asarray(case['wheel_angles'])).max())
+            if 'wheel_angles' in case
+            else math.nan
+        )
+        return (*costs, float(rate.max()), float(attitude.max()), angle)
+
+    rows = {'gyrostat': measure(scene.propagator, exact=True)}
+    rows['analytic (free body, cost only)'] = measure(
+        lambda: make_propagator(
+            case['inertia'], case['angular_velocity'], case['orientation'], 'analytic'
+        ),
+        exact=True,
+        errors=False,
+    )
+    for rtol in GYROSTAT_RTOLS:
+        rows[f'dop853 rtol {rtol:g}'] = measure(
+            lambda rtol=rtol: scene.propagator('dop853', rtol=rtol, atol=rtol * ATOL_PER_RTOL)
+        )
+    return rows
+
+
+def _gyrostat_section(report, rounds: dict, cases: dict) -> None:
+    report.add('')
+    report.add('## The exact free gyrostat beside DOP853 (issue 43: accuracy/cost)')
+    report.add('')
+    report.add(
+        'Each run computes the reference horizon at 100 Hz, the propagator built inside the timed '
+        "call; the error is the largest over the reference's samples against the mpmath "
+        "reference (rates relative, attitude and wheel angles in rad), the floor the reference's "
+        'own (float64 inputs moved by one rounding unit). Cost: CPU ns per sample of the whole '
+        "run (`time.process_time`, the fastest of several calls) and its ratio to the gyrostat's "
+        'in the same round; for the exact propagators also the build alone (µs) and the '
+        'evaluation alone (ns per sample, on one built propagator). The machine was loaded by '
+        'other work during the run: read the ratios, not the absolute times.'
+    )
+    for label, name in GYROSTAT_SCENES:
+        case, per_round = cases[name], rounds[name]
+        report.add('')
+        report.add(
+            f'**{label}**: floor {max(case["rate_floor"]):.2g} (rates), '
+            f'{max(case["attitude_floor"]):.2g} rad (attitude)'
+            + (
+                f', {max(case["angle_floor"]):.2g} rad (angles, up to '
+                f'{max(abs(v) for row in case["wheel_angles"] for v in row):.3g} rad)'
+                if 'wheel_angles' in case
+                else ''
+            )
+            + ':'
+        )
+        report.add('')
+        report.add(
+            '| method | rate error (rel) | attitude error (rad) | angle error (rad) | '
+            'ns per sample, whole run (CPU) | / gyrostat | build (µs) | evaluation (ns per '
+            'sample) |'
+        )
+        report.add('|---|---|---|---|---|---|---|---|')
+        for method in per_round[0]:
+            values = [r[method] for r in per_round]
+            ratios = [r[method][0] / r['gyrostat'][0] for r in per_round]
+            errors = [
+                '' if math.isnan(values[0][k]) else f'{values[0][k]:.2g}' for k in (3, 4, 5)
+            ]
+            evaluation = (
+                '' if math.isnan(values[0][2]) else spread([v[2] for v in values])
+            )
+            report.add(
+                f'| {method} | {" | ".join(errors)} | {spread([v[0] for v in values])} | '
+                f'{spread(ratios)} | {spread([v[1] for v in values])} | {evaluation} |'
+            )
+        evaluations = [
+            r['gyrostat'][2] / r['analytic (free body, cost only)'][2] for r in per_round
+        ]
+        report.add('')
+        report.add(
+            "The gyrostat's evaluation per sample over the free body's (`analytic`, same inertia "
+            f'and rates), same round: {spread(evaluations)}.'
+        )
+
+
+def _gyrostat_files(output: str, rounds: dict, cases: dict) -> None:
+    """Write ``gyrostat_work_precision.csv`` and ``.png`` beside the report."""
+    import statistics as stats
+
+    base = Path(output).with_name('gyrostat_work_precision')
+    lines = ['case,method,rate_error_rel,attitude_error_rad,angle_error_rad,cpu_ns_per_sample,'
+             'ratio_to_gyrostat,attitude_floor_rad']
+    for _, name in GYROSTAT_SCENES:
+        per_round, case = rounds[name], cases[name]
+        for method in per_round[0]:
+            first = per_round[0][method]
+            cost = stats.median(r[method][0] for r in per_round)
+            ratio = stats.median(r[method][0] / r['gyrostat'][0] for r in per_round)
+            lines.append(
+                f'{name},{method},{first[3]:.6g},{first[4]:.6g},{first[5]:.6g},{cost:.6g},'
+                f'{ratio:.6g},{max(case["attitude_floor"]):.6g}'
+            )
+    base.with_suffix('.csv').write_text('\n'.join(lines) + '\n')
+    try:
+        import matplotlib
+
+        matplotlib.use('Agg')
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return
+    figure, axes = plt.subplots(1, len(GYROSTAT_SCENES), figsize=(11, 4.2), squeeze=False)
+    for axis, (label, name) in zip(axes[0], GYROSTAT_SCENES):
+        per_round, case = rounds[name], cases[name]
+
+        def point(method):
+            cost = stats.median(r[method][0] for r in per_round)
+            return cost, max(per_round[0][method][4], 1e-17)
+
+        dop = [point(f'dop853 rtol {rtol:g}') for rtol in GYROSTAT_RTOLS]
+        axis.loglog(*zip(*dop), 'o-', label='dop853 (rtol 1e-8 … 1e-14)')
+        for (cost, error), rtol in zip(dop, GYROSTAT_RTOLS):
+            axis.annotate(f'{rtol:g}', (cost, error), fontsize=7, xytext=(4, 2),
+                          textcoords='offset points')
+        axis.loglog(*point('gyrostat'), '*', markersize=14, label='gyrostat (exact)')
+        evaluation = stats.median(r['gyrostat'][2] for r in per_round)
+        axis.loglog(evaluation, point('gyrostat')[1], '*', markersize=14, fillstyle='none',
+                    color='C1', label='gyrostat, evaluation alone (a long run)')
+        axis.axhline(max(case['attitude_floor']), color='grey', linestyle='--', linewidth=1,
+                     label='float64 floor')
+        axis.set_title(label, fontsize=9)
+        axis.set_xlabel('CPU ns per sample (100 Hz over the horizon, build included)')
+        axis.set_ylabel('attitude error vs mpmath (rad)')
+        axis.legend(fontsize=8)
+    figure.tight_layout()
+    figure.savefig(base.with_suffix('.png'), dpi=110)
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.strip().split('\n\n')[0])
     parser.add_argument(
@@ -161,6 +366,8 @@ def main() -> int:
     import json
 
     from torquefree_ros.bench.cases import load_cases, REFERENCE_FILE
+
+    GYROSTAT_FILE = REFERENCE_FILE.with_name('gyrostat_cases.json')
 
     names = [case['name'] for case in json.loads(REFERENCE_FILE.read_text())['cases']]
     cases = load_cases(names)
@@ -178,6 +385,18 @@ def main() -> int:
             for case in cases:
                 rounds[path, case.name].append(_case_round(case, args.calls))
             batch[path].append(_batch_round(max(2, args.calls // 2)))
+    gyrostat_cases = {
+        case['name']: case
+        for case in json.loads(GYROSTAT_FILE.read_text())['cases']
+        if case['name'] in {name for _, name in GYROSTAT_SCENES}
+    }
+    _use(paths[0])  # the default path: compiled when numba is installed
+    gyrostat_rounds = {name: [] for _, name in GYROSTAT_SCENES}
+    for name in gyrostat_rounds:
+        _gyrostat_round(gyrostat_cases[name], 1)  # warm up
+    for _ in range(args.rounds):
+        for name in gyrostat_rounds:
+            gyrostat_rounds[name].append(_gyrostat_round(gyrostat_cases[name], args.calls))
     first_calls = []
     if 'compiled' in paths:
         for _ in range(args.rounds):  # an empty cache: compiled, then loaded from it
@@ -226,7 +445,14 @@ def main() -> int:
             f"time): compiling them {spread(compiled)} s; loading them from numba's cache "
             f'{spread(cached)} s.'
         )
+    _gyrostat_section(report, gyrostat_rounds, gyrostat_cases)
+    report.add('')
+    report.add(
+        f"(The gyrostat section ran on the {paths[0]} path, its rounds after the free body's.)"
+    )
     report.save(args.output)
+    if args.output:
+        _gyrostat_files(args.output, gyrostat_rounds, gyrostat_cases)
     return 0
 
 

@@ -69,21 +69,25 @@ except BaseException:
 """
 
 
-def round_trips(seconds: float) -> dict:
+def round_trips(
+    seconds: float, scene: str = 'detumble', controller: str = CONTROLLER,
+    command: str = 'torque_command',
+) -> dict:
+    """Measure the node's lock-step on ``scene`` answered by ``controller`` on ``command``."""
     controller = subprocess.Popen(
-        [sys.executable, '-c', CONTROLLER], stdout=subprocess.PIPE, text=True
+        [sys.executable, '-c', controller], stdout=subprocess.PIPE, text=True
     )
     try:
         assert controller.stdout.readline().strip() == 'ready'
         node = NodeUnderTest(
-            scene='detumble', lockstep=True, real_time_factor=0.0, lockstep_timeout=0.2
+            scene=scene, lockstep=True, real_time_factor=0.0, lockstep_timeout=0.2
         )
     except BaseException:
         controller.kill()
         raise
     try:
         samples = node.node._outputs.angular_velocity
-        commands = node.node._commands._subscriptions['torque_command']
+        commands = node.node._commands._subscriptions[command]
         deadline = time.monotonic() + 20.0
         while not (samples.get_subscription_count() and commands.get_publisher_count()):
             if time.monotonic() > deadline:
@@ -104,25 +108,33 @@ def round_trips(seconds: float) -> dict:
     return {'rate': published / wall, 'missed': missed, 'cpu': cpu / wall}
 
 
-def ping_pong(seconds: float, threaded: bool) -> float:
+def ping_pong(
+    seconds: float, threaded: bool, controller: str = CONTROLLER,
+    command: tuple = ('torque_command', 'geometry_msgs.msg.WrenchStamped'),
+) -> float:
     """
     Measure the round trips per second of rclpy alone.
 
     This process publishes a raw angular_velocity sample and waits for the same controller's
     answer before the next. ``threaded``: as the node does it, the sample goes out from a thread of
     its own that waits for the executor's thread to hand it the answer; otherwise the answer's
-    callback publishes the next sample (one thread, the floor).
+    callback publishes the next sample (one thread, the floor). ``command``: the answer's topic
+    and message type (module.Class).
     """
+    import importlib
     import threading
 
-    from geometry_msgs.msg import Vector3Stamped, WrenchStamped
+    from geometry_msgs.msg import Vector3Stamped
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.qos import QoSProfile, ReliabilityPolicy
     from rclpy.serialization import serialize_message
 
+    topic, type_name = command
+    module, _, name = type_name.rpartition('.')
+    answer_type = getattr(importlib.import_module(module), name)
     controller = subprocess.Popen(
-        [sys.executable, '-c', CONTROLLER], stdout=subprocess.PIPE, text=True
+        [sys.executable, '-c', controller], stdout=subprocess.PIPE, text=True
     )
     context = rclpy.Context()
     try:
@@ -142,11 +154,11 @@ def ping_pong(seconds: float, threaded: bool) -> float:
             else:
                 publisher.publish(sample)
 
-        node.create_subscription(WrenchStamped, 'torque_command', on_answer, qos, raw=True)
+        node.create_subscription(answer_type, topic, on_answer, qos, raw=True)
         executor = SingleThreadedExecutor(context=context)
         executor.add_node(node)
         deadline = time.monotonic() + 20.0
-        while not (publisher.get_subscription_count() and node.count_publishers('torque_command')):
+        while not (publisher.get_subscription_count() and node.count_publishers(topic)):
             if time.monotonic() > deadline:
                 raise RuntimeError('the controller was not discovered')
             time.sleep(0.01)

@@ -35,6 +35,12 @@ rates, ``h``) is perturbed in turn and integrated alongside; the responses add i
 the rounding of the sample time (``|w'| t u`` for the rate, ``|w| t u`` for the attitude) and of
 ``q0`` (``u``).
 
+Coasting reaction wheels (cases with ``wheels``: the ``reaction_wheels`` effect, no motor torque,
+no friction) are the same gyrostat with ``I_s = I - sum Js g g^T`` and ``h = sum h_i g_i``,
+``h_i = Js_i (speed_i + g_i . w0)``, all formed in mpmath from the float inputs (chosen so that
+float64 forms them exactly too); their angles ``theta_i' = h_i / Js_i - g_i . w`` are integrated
+alongside, and their floor adds the responses to each ``h_i``'s rounding and ``|Omega| t u``.
+
 Run: ``.venv/bin/python tools/make_gyrostat_reference.py [--jobs 2] [--only NAME ...]`` (30 CPU
 minutes, of which the 1e5 s case takes 15: about 20 minutes on 2 cores; ``pip install gmpy2``
 makes mpmath about 3x faster). ``--only`` recomputes the cases named and keeps the others.
@@ -279,10 +285,76 @@ CASES = {
 }
 
 
+def _wheel(axis, spin_inertia, speed):
+    return {
+        'axis': axis,
+        'spin_inertia': spin_inertia,
+        'max_torque': 1.0,
+        'max_speed': 1000.0,
+        'speed': speed,
+    }
+
+
+# coasting reaction wheels: the scene's inertia I, its wheels; every value a short binary
+# fraction, so h_i and I_s are exact in float64 as in mpmath
+WHEEL_CASES = {
+    'wheels_coasting_rotor_axis': {
+        'inertia': [1.0, 2.0, 3.0],
+        'angular_velocity': [0.3, 0.5, -0.375],
+        'orientation': _q([1, 2, 3], 0.4),
+        'wheels': [_wheel([0.0, 0.0, 1.0], 0.25, 20.0)],
+        'horizon': 40.0,
+        'samples': 41,
+    },
+    # a second wheel across, at rest absolutely (h = 0): its angle is -∫ w1 dt, a transverse rate
+    'wheels_coasting_two_axes': {
+        'inertia': [2.0, 3.0, 4.0],
+        'angular_velocity': [0.5, 0.25, 0.375],
+        'orientation': _q([1, -1, 2], 0.7),
+        'wheels': [_wheel([0.0, 0.0, 1.0], 0.5, 10.0), _wheel([1.0, 0.0, 0.0], 0.125, -0.5)],
+        'horizon': 40.0,
+        'samples': 41,
+    },
+    # separatrix_exact's gyrostat (I_s = diag(1, 2.5, 2), h = 0.25 e3) made of a coasting wheel
+    'wheels_coasting_separatrix_exact': {
+        'inertia': [1.0, 2.5, 2.25],
+        'angular_velocity': [0.25, 0.5, 0.5625],
+        'orientation': _q([1, 2, 3], 0.4),
+        'wheels': [_wheel([0.0, 0.0, 1.0], 0.25, 0.4375)],
+        'horizon': 30.0,
+        'samples': 31,
+    },
+    # the same with a wheel across at rest absolutely: its angle integrates a transverse rate,
+    # which tends to zero as sech (not sech^2) along the separatrix (30 s: beyond ~100 s the
+    # saddle's instability makes the floor, and this reference's own truncation, grow past 1e-6)
+    'wheels_coasting_separatrix_across': {
+        'inertia': [1.125, 2.5, 2.25],
+        'angular_velocity': [0.25, 0.5, 0.5625],
+        'orientation': _q([1, 2, 3], 0.4),
+        'wheels': [_wheel([0.0, 0.0, 1.0], 0.25, 0.4375), _wheel([1.0, 0.0, 0.0], 0.125, -0.25)],
+        'horizon': 30.0,
+        'samples': 31,
+    },
+    # complex_roots_transverse's gyrostat (h = 0.3 e2, the cn form) made of a coasting wheel
+    'wheels_coasting_transverse': {
+        'inertia': [3.0, 1.25, 2.0],
+        'angular_velocity': [0.5, 0.6, -0.3],
+        'orientation': _q([1, 0, 1], 2.0),
+        'wheels': [_wheel([0.0, 1.0, 0.0], 0.25, 0.6)],
+        'horizon': 40.0,
+        'samples': 41,
+    },
+}
+CASES.update(WHEEL_CASES)
+
+
 class TaylorGyrostat:
     """Taylor-series integrator of the free gyrostat in the principal frame, in mpmath."""
 
-    def __init__(self, inertia, h):
+    def __init__(self, inertia, h, wheels=()):
+        # wheels: (g, h_i / Js_i) per coasting wheel, whose angle theta_i' = h_i / Js_i - g . w
+        # follows the attitude in the state
+        self.wheels = tuple(wheels)
         I1, I2, I3 = (mp.mpf(x) for x in inertia)
         self.gains = ((I2 - I3) / I1, (I3 - I1) / I2, (I1 - I2) / I3)
         h1, h2, h3 = (mp.mpf(x) for x in h)
@@ -303,8 +375,13 @@ class TaylorGyrostat:
         def product(a, b, k):
             return mp.fsum(a[i] * b[k - i] for i in range(k + 1))
 
-        w1, w2, w3, qx, qy, qz, qw = c
+        w1, w2, w3, qx, qy, qz, qw = c[:7]
+        angles = c[7:]
         for k in range(ORDER):
+            for theta, (g, spin) in zip(angles, self.wheels):
+                theta[k + 1] = (
+                    (spin if k == 0 else 0) - (g[0] * w1[k] + g[1] * w2[k] + g[2] * w3[k])
+                ) / (k + 1)
             scale = 1 / mp.mpf(k + 1)
             w1[k + 1] = (g1 * product(w2, w3, k) + a1 * w3[k] - b1 * w2[k]) * scale
             w2[k + 1] = (g2 * product(w3, w1, k) + a2 * w1[k] - b2 * w3[k]) * scale
@@ -374,7 +451,127 @@ def rotor_vector(rotor):
     return [mp.mpf(rotor['momentum']) * x / norm for x in axis]
 
 
+def wheel_gyrostat(case, perturb=None):
+    """
+    Return ``(I_s moments, h vector, wheels for TaylorGyrostat)`` of a wheel case, in mpmath.
+
+    ``perturb``: ``('moment', j)`` or ``('speed', i)`` moves that input by one rounding unit.
+    """
+    moments = [mp.mpf(x) for x in case['inertia']]
+    if perturb is not None and perturb[0] == 'moment':
+        moments[perturb[1]] *= 1 + mp.mpf(ROUNDING_UNIT)
+    w = [mp.mpf(x) for x in case['angular_velocity']]
+    h, wheels = [mp.mpf(0)] * 3, []
+    for i, wheel in enumerate(case['wheels']):
+        axis = [mp.mpf(x) for x in wheel['axis']]
+        norm = mp.sqrt(mp.fsum(x * x for x in axis))
+        g = [x / norm for x in axis]
+        Js, speed = mp.mpf(wheel['spin_inertia']), mp.mpf(wheel['speed'])
+        if perturb == ('speed', i):
+            speed = speed * (1 + mp.mpf(ROUNDING_UNIT)) if speed else mp.mpf(ROUNDING_UNIT)
+        momentum = Js * (speed + mp.fsum(g[k] * w[k] for k in range(3)))
+        for k in range(3):
+            if any(g[j] != 0 for j in range(3) if j != k) and g[k] != 0:
+                raise ValueError('the reference takes wheels along principal axes (I_s diagonal)')
+            moments[k] -= Js * g[k] * g[k]
+            h[k] += momentum * g[k]
+        wheels.append((g, momentum / Js))
+    return moments, h, wheels
+
+
+def reference_wheel_case(name):
+    """Return the reference of a coasting-wheels case: rates, attitude and each wheel's angle."""
+    mp.mp.dps = DIGITS
+    case = CASES[name]
+    omega = case['angular_velocity']
+    q0 = list(np.asarray(case['orientation']) / np.linalg.norm(case['orientation']))
+    times = [float(x) for x in np.linspace(0.0, case['horizon'], case['samples'])]
+    t_mp = [mp.mpf(x) for x in times]
+    q_norm = mp.sqrt(mp.fsum(mp.mpf(x) ** 2 for x in q0))
+    q0_mp = [mp.mpf(x) / q_norm for x in q0]
+    count = len(case['wheels'])
+    started = time.time()
+
+    def run(perturb=None):
+        moments, h, wheels = wheel_gyrostat(case, perturb)
+        w = [mp.mpf(x) for x in omega]
+        integrator = TaylorGyrostat(moments, h, wheels)
+        states = integrator.integrate(w + q0_mp + [mp.mpf(0)] * count, t_mp)
+        return moments, h, integrator, states
+
+    moments, h, integrator, nominal = run()
+    _check_invariants(moments, h, [s[:7] for s in nominal], name)
+    perturbations = [('moment', j) for j in range(3)] + [('speed', i) for i in range(count)]
+    responses = []
+    for perturb in perturbations:
+        responses.append(_changes(nominal, run(perturb)[3]))
+    for j in range(3):
+        if omega[j] == 0:
+            continue
+        w = [mp.mpf(x) for x in omega]
+        w[j] *= 1 + mp.mpf(ROUNDING_UNIT)
+        states = TaylorGyrostat(moments, h, wheel_gyrostat(case)[2]).integrate(
+            w + q0_mp + [mp.mpf(0)] * count, t_mp
+        )
+        responses.append(_changes(nominal, states))
+    rate_floor, attitude_floor, angle_floor = [], [], []
+    for k, state in enumerate(nominal):
+        w = state[:3]
+        speed = mp.sqrt(mp.fsum(x * x for x in w))
+        series = integrator.coefficients(state)
+        accel = mp.sqrt(mp.fsum(c[1] ** 2 for c in series[:3]))
+        spin = max(abs(c[1]) for c in series[7:])  # |Omega_i|
+        t = t_mp[k]
+        rate = mp.sqrt(mp.fsum(r[k][0] ** 2 for r in responses) + (accel * t * ROUNDING_UNIT) ** 2)
+        attitude = mp.sqrt(
+            mp.fsum(r[k][1] ** 2 for r in responses)
+            + (speed * t * ROUNDING_UNIT) ** 2
+            + ROUNDING_UNIT**2
+        )
+        angle = mp.sqrt(mp.fsum(r[k][2] ** 2 for r in responses) + (spin * t * ROUNDING_UNIT) ** 2)
+        rate_floor.append(float(rate / speed) if speed > 0 else 0.0)
+        attitude_floor.append(float(attitude))
+        angle_floor.append(float(angle))
+    return {
+        'name': name,
+        'inertia': case['inertia'],
+        'angular_velocity': omega,
+        'orientation': q0,
+        'wheels': case['wheels'],
+        'gyrostat_inertia': [float(x) for x in moments],
+        'gyrostat_momentum': [float(x) for x in h],
+        'times': times,
+        'omega': [[float(x) for x in s[:3]] for s in nominal],
+        'q': [[float(x) for x in s[3:7]] for s in nominal],
+        'wheel_angles': [[float(x) for x in s[7:]] for s in nominal],
+        'rate_floor': rate_floor,
+        'attitude_floor': attitude_floor,
+        'angle_floor': angle_floor,
+        'seconds': round(time.time() - started, 1),
+    }
+
+
+def _changes(nominal, perturbed):
+    """Per sample: (|dw|, the rotation angle between the attitudes, the largest |d theta|)."""
+    changes = []
+    for a, b in zip(nominal, perturbed):
+        dw = mp.sqrt(mp.fsum((a[i] - b[i]) ** 2 for i in range(3)))
+        (ax, ay, az, aw), (bx, by, bz, bw) = a[3:7], b[3:7]
+        vector = [
+            aw * bx - ax * bw - ay * bz + az * by,
+            aw * by + ax * bz - ay * bw - az * bx,
+            aw * bz - ax * by + ay * bx - az * bw,
+        ]
+        scalar = aw * bw + ax * bx + ay * by + az * bz
+        angle = 2 * mp.atan2(mp.sqrt(mp.fsum(v * v for v in vector)), abs(scalar))
+        theta = max((abs(x - y) for x, y in zip(a[7:], b[7:])), default=mp.mpf(0))
+        changes.append((dw, angle, theta))
+    return changes
+
+
 def reference_case(name):
+    if 'wheels' in CASES[name]:
+        return reference_wheel_case(name)
     mp.mp.dps = DIGITS
     case = CASES[name]
     inertia, omega = case['inertia'], case['angular_velocity']
@@ -494,7 +691,8 @@ def _write(existing):
             ),
             'floor': (
                 'quadrature sum of responses to 2**-53 relative perturbations of each moment, '
-                'rate and the rotor momentum, plus sample-time and q0 rounding'
+                "rate and the rotor momentum (wheel cases: each wheel's speed), plus sample-time "
+                'and q0 rounding (wheel angles: |Omega| t u)'
             ),
             'mpmath': mp.__version__,
             'python': sys.version.split()[0],

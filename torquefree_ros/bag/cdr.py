@@ -388,15 +388,18 @@ def decode_stamped_doubles(message: bytes, width: int) -> tuple[int, str, np.nda
     Decode ``(stamp_ns, frame_id, values)`` from a message :func:`encode_stamped_doubles` wrote.
 
     The message is a Header, then ``width`` float64s: the inverse, for tools that read bags without
-    rclpy.
+    rclpy. ``ValueError`` when the bytes are not such a message.
     """
     if message[:4] != CDR_LE:
         raise ValueError('not a little-endian CDR message (encapsulation header)')
     # struct, not numpy: the node decodes its commands one at a time with it
-    sec, nanosec, length = _STAMP_AND_LENGTH.unpack_from(message, 4)
-    text_end = 12 + length
-    start = 4 + -(-text_end // 8) * 8
-    values = struct.unpack_from(f'<{width}d', message, start)
+    try:
+        sec, nanosec, length = _STAMP_AND_LENGTH.unpack_from(message, 4)
+        text_end = 12 + length
+        start = 4 + -(-text_end // 8) * 8
+        values = struct.unpack_from(f'<{width}d', message, start)
+    except struct.error as error:
+        raise ValueError(f'truncated: {error}') from None
     frame = message[16: 16 + length - 1].decode('utf-8')
     return sec * 1_000_000_000 + nanosec, frame, np.array(values)
 

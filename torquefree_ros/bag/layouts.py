@@ -35,6 +35,7 @@ from .cdr import (
     MessageBlock,
 )
 from .markers import encode_markers
+from .wheel_markers import encode_wheel_markers
 
 #: encoders by layout name
 LAYOUTS: dict[str, Callable[..., MessageBlock]] = {}
@@ -73,6 +74,12 @@ def _odometry(stamps_ns, frame_id, body_frame, rows, place) -> MessageBlock:
 def _markers(stamps_ns, frame_id, body_frame, rows, place) -> MessageBlock:
     """Encode a MarkerArray drawn from the row, the body's centre at ``place``."""
     return encode_markers(stamps_ns, frame_id, rows, place)
+
+
+@layout('wheel_markers')
+def _wheel_markers(stamps_ns, frame_id, body_frame, rows, place, names=()) -> MessageBlock:
+    """Encode the markers' MarkerArray with an arrow per reaction wheel of ``names``."""
+    return encode_wheel_markers(stamps_ns, frame_id, rows, place, names)
 
 
 @layout('joint_states')

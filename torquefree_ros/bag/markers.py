@@ -64,7 +64,8 @@ ANGULAR_MOMENTUM_LABEL = Style(
 LABEL_GAP = 0.10
 
 
-def _marker(template: CdrTemplate, frame_id: str, style: Style) -> None:
+def add_marker(template: CdrTemplate, frame_id: str, style: Style) -> None:
+    """Append one marker of ``style`` to ``template``: its fixed fields, its filled ones named."""
     namespace, marker_type, color = style.namespace, style.kind, style.color
     template.stamp(namespace)
     template.string(frame_id, 'frame_id')
@@ -113,11 +114,12 @@ def _template(frame_id: str) -> CdrTemplate:
     template = CdrTemplate()
     template.uint32(len(STYLES))
     for style in STYLES:
-        _marker(template, frame_id, style)
+        add_marker(template, frame_id, style)
     return template
 
 
-def _columns(rows: np.ndarray, position) -> dict:
+def marker_columns(rows: np.ndarray, position) -> dict:
+    """Return the filled fields of the five markers from the output's ``rows``, by name."""
     longest = rows[:, 4:7].max(axis=1, keepdims=True)
     columns = {'body.orientation': rows[:, 0:4], 'body.scale': rows[:, 4:7]}
     for arrow, label, tip in (
@@ -160,7 +162,7 @@ def encode_markers(stamps_ns, frame_id: str, rows, position=None) -> MessageBloc
     stamps_ns = np.asarray(stamps_ns, dtype=np.int64)
     if rows.shape[0] == 0:  # an output at a rate of its own may have no sample in a block
         return MessageBlock(b'', 0)
-    return _template(frame_id).fill(stamps_ns, _columns(rows, body_offset(position)))
+    return _template(frame_id).fill(stamps_ns, marker_columns(rows, body_offset(position)))
 
 
 def body_offset(position) -> np.ndarray | None:

@@ -20,10 +20,13 @@ holds what the node would publish for that scene and rate (sample ``k = 0 … fl
 ``epoch + k / HZ``). An energy sweep writes every member, member ``j`` under
 ``NAMESPACE/member_j``.
 
-A scene that takes commands (body torques, wheel torques or speeds) can be re-simulated under the
-commands a bag recorded (the node records them, each logged at the sample it held from): each is
-offered to the run's hold as if it had arrived at its log time, under the node's rules, so the
-samples equal the recorded ones bit for bit.
+A scene that takes commands (body torques, wheel torques or speeds, magnetorquers' dipoles) can be
+re-simulated under the commands a bag recorded (the node records them, each logged at the sample
+it held from): each is offered to the run's hold as if it had arrived at its log time, under the
+node's rules, so the samples equal the recorded ones bit for bit. The sensor changes the node
+recorded (its ``faults`` and ``sensor_noise`` parameters, ``bag.sensor_changes``) are applied at
+the samples they reached in the recording, so its faulted sensor outputs are replayed bit for bit
+too.
 """
 
 from __future__ import annotations
@@ -44,12 +47,21 @@ from .samples import (
     sample_qos,
     SampleRecorder,
 )
+from .sensor_changes import (
+    change_text,
+    encode_string,
+    read_sensor_changes,
+    SENSOR_CHANGES,
+    STRING,
+)
 from .writer import BagError, BagWriter
 from ..core.checks.validation import finite_vector
 from ..core.run.simulation import MAX_STAMP_S, Simulation
+from ..core.scene.loader import faults_from_text, noise_from_text
 from ..core.timing.grid import sample_count
 
 WRENCH_STAMPED = 'geometry_msgs/msg/WrenchStamped'
+VECTOR3_STAMPED = 'geometry_msgs/msg/Vector3Stamped'
 
 
 class RecordedCommand(NamedTuple):
@@ -58,6 +70,13 @@ class RecordedCommand(NamedTuple):
     frame_id: str
     force: np.ndarray
     torque: np.ndarray
+
+
+class RecordedVectorCommand(NamedTuple):
+    log_time_ns: int
+    stamp_ns: int
+    frame_id: str
+    vector: np.ndarray
 
 
 class RecordedJointCommand(NamedTuple):
@@ -82,38 +101,51 @@ def _command_reader(bag, topic: str, type_name: str) -> BagReader:
     return reader
 
 
-def read_joint_commands(bag, topic: str) -> list[RecordedJointCommand]:
-    """Read a bag's ``sensor_msgs/JointState`` messages of ``topic``, in log-time order."""
-    reader = _command_reader(bag, topic, JOINT_STATE)
+def _decoded(bag, topic: str, type_name: str, decode, record) -> list:
+    """
+    Read a bag's messages of ``topic`` (of ``type_name``), in log-time order, as ``record``s.
+
+    ``decode(data)`` gives the message's fields (``ValueError`` when it is not one),
+    ``record(log_time_ns, *fields)`` what is kept of them.
+    """
+    reader = _command_reader(bag, topic, type_name)
     commands = []
     for message in reader.messages([topic]):
         try:
-            stamp, frame, names, _, velocity, effort = decode_joint_state(message.data)
-        except ValueError as error:
+            fields = decode(message.data)
+        except ValueError as error:  # (UnicodeDecodeError too)
             raise BagError(
                 f"bag '{reader.path}': a message on '{topic}' at {message.log_time_ns} ns "
-                f'is not a JointState ({error})'
+                f'is not a {type_name.rsplit("/", 1)[-1]} ({error})'
             ) from None
-        commands.append(
-            RecordedJointCommand(message.log_time_ns, stamp, frame, names, velocity, effort)
-        )
+        commands.append(record(message.log_time_ns, *fields))
     return commands
+
+
+def read_joint_commands(bag, topic: str) -> list[RecordedJointCommand]:
+    """Read a bag's ``sensor_msgs/JointState`` messages of ``topic``, in log-time order."""
+    return _decoded(
+        bag, topic, JOINT_STATE, decode_joint_state,
+        lambda t, stamp, frame, names, _, velocity, effort: RecordedJointCommand(
+            t, stamp, frame, names, velocity, effort
+        ),
+    )
 
 
 def read_commands(bag, topic: str) -> list[RecordedCommand]:
     """Read a bag's ``geometry_msgs/WrenchStamped`` messages of ``topic``, in log-time order."""
-    reader = _command_reader(bag, topic, WRENCH_STAMPED)
-    commands = []
-    for message in reader.messages([topic]):
-        try:
-            stamp, frame, values = decode_stamped_doubles(message.data, 6)
-        except (ValueError, UnicodeDecodeError) as error:
-            raise BagError(
-                f"bag '{reader.path}': a message on '{topic}' at {message.log_time_ns} ns "
-                f'is not a WrenchStamped ({error})'
-            ) from None
-        commands.append(RecordedCommand(message.log_time_ns, stamp, frame, values[:3], values[3:]))
-    return commands
+    return _decoded(
+        bag, topic, WRENCH_STAMPED, lambda data: decode_stamped_doubles(data, 6),
+        lambda t, stamp, frame, values: RecordedCommand(t, stamp, frame, values[:3], values[3:]),
+    )
+
+
+def read_vector_commands(bag, topic: str) -> list[RecordedVectorCommand]:
+    """Read a bag's ``geometry_msgs/Vector3Stamped`` messages of ``topic``, in log-time order."""
+    return _decoded(
+        bag, topic, VECTOR3_STAMPED, lambda data: decode_stamped_doubles(data, 3),
+        RecordedVectorCommand,
+    )
 
 
 # samples computed, encoded and written per step at most: memory stays flat at any duration
@@ -154,9 +186,9 @@ def write_scene_bag(
     created, before the first sample is computed. ``progress(samples_done, samples_total)`` is
     called after each block; when ``stop()`` turns true the bag is closed there, complete, with the
     samples written so far. ``commands_bag``: the commands it recorded on each ``torque_command``
-    effect's topic and each commanded ``reaction_wheels``' topic (in ``namespace``) drive the
-    scene; those logged before ``epoch_ns`` belong to an earlier run and are left out. The
-    commands that hold go into the bag too. ``position``:
+    effect's topic, each commanded ``reaction_wheels``' and each ``magnetorquers``' topic (in
+    ``namespace``) drive the scene; those logged before ``epoch_ns`` belong to an earlier run and
+    are left out. The commands that hold go into the bag too. ``position``:
     where the outputs place the body's centre (x, y, z, m, in the inertial frame; see
     ``encode_block``).
     """
@@ -181,12 +213,21 @@ def write_scene_bag(
         else [namespace]
     )
     simulations = [
-        Simulation(member.propagator(propagator), rate, epoch_ns, outputs=scene.outputs)
+        Simulation(
+            member.propagator(propagator),
+            rate,
+            epoch_ns,
+            outputs=scene.outputs,
+            faults=scene.faults,
+        )
         for member in members
     ]
+    retunes = [[] for _ in simulations]  # per simulation: (k, faults, outputs), in order
     if commands_bag is not None:
-        for simulation, ns in zip(simulations, namespaces):
-            _drive(simulation, commands_bag, ns, body_frame, inertial_frame)
+        for simulation, ns, changes in zip(simulations, namespaces, retunes):
+            changes += _sensor_changes(simulation, scene, commands_bag, ns)
+            if simulation.command_holds or not changes:
+                _drive(simulation, commands_bag, ns, body_frame, inertial_frame)
     custom = {
         'torquefree_ros.scene': scene.source,
         'torquefree_ros.summary': ' | '.join(s.summary() for s in simulations),
@@ -204,8 +245,21 @@ def write_scene_bag(
             if stop is not None and stop():
                 break
             size = min(block_size, count - first)
+            # a block ends where a recorded sensor change starts: it applies from its sample
+            size = min(
+                [size] + [k - first for changes in retunes for k, *_ in changes if k > first]
+            )
             started = time.monotonic()
-            for simulation, recorder in zip(simulations, recorders):
+            for simulation, recorder, changes in zip(simulations, recorders, retunes):
+                for k, faults, outputs, record in changes:
+                    if k == first:
+                        simulation.retune(k, faults, outputs)
+                        recorder.write_message(
+                            SENSOR_CHANGES,
+                            STRING,
+                            simulation.stamp_ns(k),
+                            record,
+                        )
                 block = simulation.samples(first, size)
                 recorder.write_block(
                     block.stamps_ns,
@@ -233,14 +287,57 @@ def write_scene_bag(
     return writer.metadata
 
 
+def _sensor_changes(simulation: Simulation, scene, bag, namespace: str) -> list:
+    """
+    Return the sensor changes a bag recorded for ``simulation``: ``(k, faults, outputs, bytes)``.
+
+    Each applies from the first sample stamped at or after its log time (the sample it reached in
+    the recording); those logged before the run's epoch belong to an earlier run. ``outputs``
+    are the sensors rebuilt with other noise, by position, as the node rebuilds them.
+    """
+    reader = bag if isinstance(bag, BagReader) else BagReader(bag)
+    topic = resolve_topic(SENSOR_CHANGES, namespace)
+    changes, current = [], list(simulation.outputs)
+    for change in read_sensor_changes(reader, topic):
+        if change.log_time_ns < simulation.epoch_ns:
+            continue
+        k = _first_sample_stamped(simulation, change.log_time_ns)
+        where = f"bag '{reader.path}': {topic} at {change.log_time_ns} ns"
+        try:
+            rebuilt = noise_from_text(change.sensor_noise, scene.outputs)
+            faults = scene.faults + faults_from_text(
+                change.faults, scene.outputs, first_index=len(scene.faults)
+            )
+        except ValueError as error:
+            raise BagError(f'{where}: does not fit the scene: {error}') from None
+        outputs = {}
+        for position, output in enumerate(scene.outputs):
+            wanted = rebuilt.get(output.topic, output)
+            if wanted != current[position]:
+                outputs[position] = current[position] = wanted
+        record = encode_string(change_text(change.faults, change.sensor_noise))
+        changes.append((k, faults, outputs, record))
+    return changes
+
+
+def _first_sample_stamped(simulation: Simulation, stamp_ns: int) -> int:
+    """Return the first sample ``k`` whose stamp is at or after ``stamp_ns``."""
+    k = max(0, int((stamp_ns - simulation.epoch_ns) * 1e-9 * simulation.rate))
+    while k > 0 and simulation.stamp_ns(k - 1) >= stamp_ns:
+        k -= 1
+    while simulation.stamp_ns(k) < stamp_ns:
+        k += 1
+    return k
+
+
 def _drive(
     simulation: Simulation, bag, namespace: str, body_frame: str, inertial_frame: str
 ) -> None:
     holds = simulation.command_holds
     if not holds:
         raise ValueError(
-            'commands: the scene takes no commands (it names no torque_command effect and no '
-            'commanded reaction_wheels)'
+            'commands: the scene takes no commands (it names no torque_command effect, no '
+            'commanded reaction_wheels and no magnetorquers)'
         )
     for effect, hold in holds:
         hold.frame_id = effect.frame_id(body_frame, inertial_frame)
@@ -255,6 +352,16 @@ def _drive(
                         joint.velocity,
                         joint.effort,
                         arrival_ns=joint.log_time_ns,
+                    )
+            continue
+        if effect.message_type == VECTOR3_STAMPED:
+            for vector in read_vector_commands(bag, topic):
+                if vector.log_time_ns >= simulation.epoch_ns:
+                    effect.receive(
+                        vector.stamp_ns,
+                        vector.frame_id,
+                        vector.vector,
+                        arrival_ns=vector.log_time_ns,
                     )
             continue
         for command in read_commands(bag, topic):

@@ -149,7 +149,11 @@ def encode_command(command, effect=None) -> bytes:
     stamp, frame, force (zero when none came) and torque. ``reaction_wheels``: a
     ``sensor_msgs/JointState`` with its stamp and frame, every wheel named in the effect's order,
     the values that hold (a command naming some wheels, merged) in ``effort`` or ``velocity``.
+    ``magnetorquers``: a ``geometry_msgs/Vector3Stamped`` with its stamp, frame and the dipole
+    asked for.
     """
+    if effect is not None and effect.message_type == ANGULAR_VELOCITY[1]:  # Vector3Stamped
+        return encode_stamped_doubles([command.stamp_ns], command.frame_id, [command.values])[0]
     if effect is not None and effect.message_type == JOINT_STATE:
         values = command.values.tolist()
         velocity, effort = (values, ()) if effect.command_field == 'velocity' else ((), values)

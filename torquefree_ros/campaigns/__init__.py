@@ -18,16 +18,18 @@ Monte Carlo campaigns: one scene dispersed over thousands of runs, a row of metr
 The room, in the order a campaign flows through it:
 
 * :mod:`.spec` — the **campaign file** (YAML, checked like a scene: every error names the file and
-  the field path): the base scene, the runs, the seed, the time grid, the dispersions, what to do
-  with an impossible body, the metrics.
+  the field path): the base scene (by name, by file, or written inline), the runs, the seed, the
+  time grid, the dispersions, what to do with an impossible body, the metrics.
 * :mod:`.dispersions` — **dispersions** (Basilisk's vocabulary): per target of the scene (the
   body's moments or tensor, the initial rate, the attitude, any number or vector of an effect by
   its path, list items by index), a mode (relative, absolute, replace) and a distribution (normal,
   uniform, truncated normal, a list of values for a sweep); a vector per component or as a whole
-  (its direction turned within a cone or by a small rotation, its magnitude dispersed). Run ``i``
+  (its direction turned within a cone or by a small rotation, a wheel's axis tilted by a
+  misalignment, its magnitude dispersed). Run ``i``
   draws from ``SeedSequence(seed).spawn(runs)[i]`` only.
 * :mod:`.metrics` — **metrics**: what a run keeps (final rates, settle time, cone angle, flips,
-  energy and momentum drift, attitude error from the nominal run), one registry and a decorator
+  energy and momentum drift of the whole system, attitude error from the nominal run, the wheels'
+  momentum peak and saturation time), one registry and a decorator
   (:func:`metric`) for adding one as a Python function.
 * :mod:`.engine` — the **engine**: chunks of runs through the batch paths (``propagate_batch``, the
   batched ``Plant``), in this process or on Dask workers (by default whichever finishes first:

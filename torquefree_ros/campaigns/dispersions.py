@@ -47,7 +47,14 @@ A **vector** takes one dispersion (every component, independently), a list with 
 turned, its magnitude kept) and ``magnitude`` (``|v|`` dispersed as a number, its direction kept),
 either or both. Directions: ``cone {half_angle}`` (rad, in [0, pi]: uniform on the cap of
 directions within ``half_angle`` of the nominal one) or ``small_rotation {sigma}`` (the attitude's:
-the vector turned by ``exp(w)``, ``w ~ N(0, sigma^2 I)`` rad). A whole-vector dispersion of a zero
+the vector turned by ``exp(w)``, ``w ~ N(0, sigma^2 I)`` rad). ``misalignment {sigma}`` (arcsec, a
+datasheet's unit; instead of ``direction``) tilts an axis, such as a reaction wheel's
+(``effects[0].reaction_wheels.wheels[1].axis: {misalignment: {sigma: 60}}``): by the rotation
+vector ``e = e1 n1 + e2 n2``, ``e1, e2 ~ N(0, sigma^2)``, ``n1, n2`` normal to the nominal axis
+and to each other, so the misalignment angle is ``|e|``, exactly Rayleigh: mean
+``sigma sqrt(pi / 2)``, median ``sigma sqrt(2 ln 2)``, its azimuth uniform (``small_rotation``'s
+rotation about the axis itself would be wasted). A wheel's field its ``preset`` fills is dispersed
+from the preset's value. A whole-vector dispersion of a zero
 vector is refused (it has no direction); a run whose drawn magnitude is negative fails
 (``invalid_scene``, with the drawn value).
 
@@ -87,6 +94,7 @@ from ..core.checks.schema import (
     Param,
     shown,
 )
+from ..core.effects.wheel_presets import PRESETS, with_preset
 from ..core.frames import quaternion
 
 MODES = ('relative', 'absolute', 'replace')
@@ -295,11 +303,21 @@ class VectorTarget:
 class Direction:
     """How a whole vector's direction is turned: ``cone`` (half-angle) or ``small_rotation``."""
 
-    kind: str  # cone | small_rotation
+    kind: str  # cone | small_rotation | misalignment
     angle: float  # rad: the cone's half-angle, or the rotation vector's sigma
 
     def turn(self, unit: np.ndarray, rng) -> np.ndarray:
         """Return the unit vector ``unit`` turned by a drawn rotation."""
+        if self.kind == 'misalignment':
+            # a tilt by |e| towards e, e normal to the axis: the angle from unit is |e| exactly
+            first, second = _normal_pair(unit)
+            e1, e2 = (self.angle * rng.standard_normal(2)).tolist()
+            tilt = math.hypot(e1, e2)
+            if tilt == 0.0:
+                return unit
+            towards = (e1 * first + e2 * second) / tilt
+            turned = math.cos(tilt) * unit + math.sin(tilt) * towards
+            return turned / math.sqrt(float(turned @ turned))
         if self.kind == 'small_rotation':
             rotation = quaternion.exp_rotation(self.angle * rng.standard_normal(3))
             turned = quaternion.rotate(rotation, unit)
@@ -430,7 +448,8 @@ TARGETS = (
     'initial.orientation',
     'effects[i].NAME.PARAMETER (then [k] and .KEY down to a number or a list of numbers)',
 )
-WHOLE = ('direction', 'magnitude')
+WHOLE = ('direction', 'misalignment', 'magnitude')
+ARCSEC = math.pi / (180.0 * 3600.0)  # rad
 _DIRECTIONS = {
     'cone': Param(
         number(minimum=0.0, maximum=math.pi, unit='rad'),
@@ -568,6 +587,8 @@ def _step(value, step, where: str, path: str) -> tuple:
         raise FieldError(
             path, f'outside the scene: {where} is {shown(value)}, not a mapping with a key .{step}'
         )
+    if step not in value and value.get('preset') in PRESETS:  # a wheel's preset fills it
+        value = with_preset(value)
     if step not in value:
         raise FieldError(
             path,
@@ -618,8 +639,9 @@ def _vector_target(
         if not in_space:
             raise FieldError(
                 path,
-                f'a direction or a magnitude is for a vector in space; {key} takes one '
-                f'dispersion (every component) or a list of {len(nominal)} (one per component)',
+                f'a direction, a misalignment or a magnitude is for a vector in space; {key} '
+                f'takes one dispersion (every component) or a list of {len(nominal)} (one per '
+                'component)',
             )
         check_keys(value, WHOLE, path)
         return _whole_vector(key, nominal, value, path)
@@ -641,6 +663,24 @@ def _whole_vector(key: str, nominal: tuple, value: dict, path: str) -> WholeVect
             'disperse it per component',
         )
     direction = None
+    if 'direction' in value and 'misalignment' in value:
+        raise FieldError(
+            child(path, 'misalignment'),
+            'turns the direction as direction does: give one of them',
+        )
+    if 'misalignment' in value:
+        where = child(path, 'misalignment')
+        sigma = fields(
+            value['misalignment'],
+            where,
+            {
+                'sigma': Param(
+                    number(minimum=0.0, unit='arcsec'),
+                    description="each tilt component's standard deviation, arcsec",
+                )
+            },
+        )['sigma']
+        direction = Direction('misalignment', sigma * ARCSEC)
     if 'direction' in value:
         where = child(path, 'direction')
         kind, parameters = one_key(value['direction'], where, _DIRECTIONS, 'direction dispersion')

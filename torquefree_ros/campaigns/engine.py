@@ -51,7 +51,8 @@ from .dispersions import EffectTarget, RefusedDraw, run_generator
 from .metrics import Samples
 from ..core import propagate_batch
 from ..core.body.rigid_body import RigidBody
-from ..core.scene.loader import scene_from_mapping, SceneError
+from ..core.propagators.dynamics import Dynamics
+from ..core.scene.loader import Scene, scene_from_mapping, SceneError
 
 # A chunk's runs by default (chunk_runs): DEFAULT_CHUNK_RUNS, or more (up to MAX_CHUNK_RUNS) while
 # every one of a known number of workers still gets CHUNKS_PER_WORKER chunks. Each chunk costs the
@@ -152,6 +153,7 @@ class Draw:
     status: str = OK
     reason: str | None = None
     body: RigidBody | None = None
+    scene: Scene | None = None  # the run's scene, for a scene with effects
 
 
 def body_from_draw(campaign, values: np.ndarray) -> np.ndarray:
@@ -249,7 +251,7 @@ def _run_chunk(campaign, start: int, stop: int) -> dict:
         for draw in draws:
             if draw.status == OK:
                 try:
-                    scenes[draw.run] = _scene_of(campaign, draw)
+                    scenes[draw.run] = draw.scene = _scene_of(campaign, draw)
                 except SceneError as error:
                     draw.status, draw.reason = INVALID_SCENE, str(error).split(': ', 1)[-1]
     ready = [draw for draw in draws if draw.status == OK]
@@ -374,6 +376,7 @@ def _nominal(campaign, times) -> Samples:
         np.asarray(scene.angular_velocity, dtype=float),
         np.asarray(scene.orientation, dtype=float),
         body=RigidBody.from_inertia(scene.inertia),
+        scene=None if scene.torque_free else scene,
     )
     scenes = {} if scene.torque_free else {-1: scene}
     omega, q, internal = _batch(campaign, [draw], scenes, times)
@@ -390,7 +393,16 @@ def _samples(times, draws, omega, q, internal, nominal=None) -> Samples:
         np.array([d.body.moments for d in draws]),
         np.array([d.body.principal_axes for d in draws]),
         nominal,
+        # each run's body with its effects: the invariants count what the effects carry
+        _systems(draws),
     )
+
+
+def _systems(draws) -> tuple | None:
+    """Return each run's body with its motion effects, or None for a torque-free scene."""
+    if draws[0].scene is None:
+        return None
+    return tuple(Dynamics(d.body, d.scene.effects) for d in draws)
 
 
 def _metrics(campaign, ok: list, trajectories: dict, times, nominal) -> dict:

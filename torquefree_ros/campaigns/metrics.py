@@ -31,8 +31,9 @@ Adding a metric::
 
 and name it in a campaign file (``metrics: [peak_rate, {peak_rate: {scale: 2}}]`` — each name
 once). The function gets a :class:`Samples` of ``n`` runs (``omega_B (n, M, 3)``,
-``q_NB (n, M, 4)``, ``internal (n, M, s)``, the bodies, the ``times (M,)`` of samples ``0 .. M-1``
-including the initial state) and the checked parameters, and returns an ``(n,)`` array (one column,
+``q_NB (n, M, 4)``, ``internal (n, M, s)``, the bodies, each run's ``systems`` (its body with its
+motion effects, for scenes with effects), the ``times (M,)`` of samples ``0 .. M-1`` including the
+initial state) and the checked parameters, and returns an ``(n,)`` array (one column,
 named after the metric) or a dict ``column -> (n,)`` array whose keys are the ``columns`` declared.
 It must treat each run on its own (a row may not depend on the other runs of its chunk: the table
 does not depend on chunking). In a table, a metric is null for a run that failed and NaN where it
@@ -60,7 +61,9 @@ from ..core.checks.schema import (
     shown,
     vector,
 )
+from ..core.effects.actuators import ReactionWheels
 from ..core.frames import quaternion
+from ..core.propagators.dynamics import Dynamics
 
 
 @dataclass(frozen=True)
@@ -188,13 +191,54 @@ class Samples:
     moments: np.ndarray  # (n, 3) principal moments (in the order of principal_axes' columns)
     principal_axes: np.ndarray  # (n, 3, 3) columns = principal axes in B
     nominal: 'Samples | None' = None  # the undispersed run (n = 1), for metrics that ask for it
+    #: per run, its body with its motion effects (``core.propagators.dynamics.Dynamics``: the
+    #: effects' parts of ``internal``, the inertia they carry); None for a torque-free scene, whose
+    #: invariants are then the rigid body's, written out component by component
+    systems: 'tuple[Dynamics, ...] | None' = None
 
     @property
     def count(self) -> int:
         return self.omega_B.shape[0]
 
     def momentum_B(self) -> np.ndarray:
-        """``H_B = I w`` (n, M, 3), kg m^2/s: the rigid body's own momentum (not an effect's)."""
+        """
+        Return the whole system's ``H_B`` (n, M, 3), kg m^2/s, body frame.
+
+        The rigid body's ``I w`` with what the effects carry counted as the node counts it
+        (``Dynamics.momentum_B``): a wheel's, a damper's, a rotor's own momentum added, the
+        inertia a wheel's state holds (``sum Js g g^T``) taken out of ``I``. So ``R(q) H_B`` is
+        constant without external torques whatever the motors and friction do.
+        """
+        if self.systems is None:
+            return self._rigid_momentum_B()
+        return np.stack(
+            [
+                system.momentum_B(self.omega_B[i], self.internal[i])
+                for i, system in enumerate(self.systems)
+            ]
+        )
+
+    def momentum_N(self) -> np.ndarray:
+        """``H_N = R(q_NB) H_B`` (n, M, 3), the whole system's."""
+        return rotate(self.q_NB, self.momentum_B())
+
+    def energy(self) -> np.ndarray:
+        """
+        Return the whole system's kinetic energy ``T`` (n, M), J.
+
+        ``w . I w / 2`` with the effects' own energy counted as :meth:`momentum_B` counts their
+        momentum (a wheel's ``h^2 / (2 Js)`` for its locked ``Js (g . w)^2 / 2``).
+        """
+        if self.systems is None:
+            return 0.5 * dot(self.omega_B, self._rigid_momentum_B())
+        return np.stack(
+            [
+                system.energy(self.omega_B[i], self.internal[i])
+                for i, system in enumerate(self.systems)
+            ]
+        )
+
+    def _rigid_momentum_B(self) -> np.ndarray:
         I, w = self.tensor[:, None, :, :], self.omega_B
         return np.stack(
             [
@@ -204,13 +248,21 @@ class Samples:
             axis=-1,
         )
 
-    def momentum_N(self) -> np.ndarray:
-        """``H_N = R(q_NB) H_B`` (n, M, 3)."""
-        return rotate(self.q_NB, self.momentum_B())
+    def wheels(self, run: int) -> list:
+        """
+        Return run ``run``'s reaction wheels: ``(effect, state (M, 2 n))`` per effect, in order.
 
-    def energy(self) -> np.ndarray:
-        """``T = w . I w / 2`` (n, M), J: the rigid body's own kinetic energy."""
-        return 0.5 * dot(self.omega_B, self.momentum_B())
+        ``effect`` a :class:`~torquefree_ros.core.effects.actuators.ReactionWheels` (its
+        ``wheel_speeds``, ``stored_momentum_B``, limits), ``state`` its part of ``internal``.
+        """
+        system = self.systems[run] if self.systems else None
+        if system is None:
+            return []
+        return [
+            (effect, self.internal[run][:, part])
+            for effect, part in zip(system.effects, system.slices)
+            if isinstance(effect, ReactionWheels)
+        ]
 
     def rate_norm(self) -> np.ndarray:
         """``|w|`` (n, M), rad/s."""
@@ -374,10 +426,11 @@ def flips(samples, margin):
 @metric('energy_drift')
 def energy_drift(samples):
     """
-    Return the rigid body's kinetic energy drift, relative: ``max_k |T_k - T_0| / T_0``.
+    Return the kinetic energy drift, relative: ``max_k |T_k - T_0| / T_0``.
 
-    A conservation check for a torque-free scene; the energy an effect takes out otherwise. NaN for
-    a body at rest.
+    ``T`` the whole system's (:meth:`Samples.energy`: the body and what its effects carry, a
+    wheel's, a damper's). A conservation check for a torque-free scene; otherwise the energy the
+    effects put in or take out (a damper's dissipation, the motors' work). NaN when ``T_0`` is 0.
     """
     T = samples.energy()
     return _ratio(np.abs(T - T[:, :1]).max(axis=1), T[:, 0])
@@ -386,13 +439,59 @@ def energy_drift(samples):
 @metric('momentum_drift')
 def momentum_drift(samples):
     """
-    Return the drift of the rigid body's inertial angular momentum, relative.
+    Return the drift of the inertial angular momentum, relative.
 
-    ``max_k |H_N(t_k) - H_N(0)| / |H_N(0)|``: it checks the rates and the attitude together; an
-    effect's own momentum, a damper's or a rotor's, is not included. NaN for a body at rest.
+    ``max_k |H_N(t_k) - H_N(0)| / |H_N(0)|``, ``H`` the whole system's (:meth:`Samples.momentum_B`:
+    a wheel's, a damper's, a rotor's own momentum counted): it checks the rates, the attitude and
+    the effects' states together, and is the external torques' impulse otherwise. NaN when
+    ``H_N(0)`` is 0.
     """
     H = samples.momentum_N()
     return _ratio(norm(H - H[:, :1, :]).max(axis=1), norm(H[:, 0, :]))
+
+
+@metric('momentum_peak', unit='N m s')
+def momentum_peak(samples):
+    """
+    Return the largest momentum the reaction wheels store over the run, N m s.
+
+    ``max_k |sum_i Js_i Omega_i g_i|`` over the samples, every ``reaction_wheels`` effect's wheels
+    together (``ReactionWheels.stored_momentum_B``: speeds relative to the body): the array's
+    momentum envelope a run asks for. NaN for a run without reaction wheels.
+    """
+    out = np.full(samples.count, np.nan)
+    for run in range(samples.count):
+        wheels = samples.wheels(run)
+        if wheels:
+            stored = sum(
+                effect.stored_momentum_B(samples.omega_B[run], state) for effect, state in wheels
+            )
+            out[run] = norm(stored).max()
+    return out
+
+
+@metric('saturation_time', unit='s')
+def saturation_time(samples):
+    """
+    Return the time some reaction wheel spends in its speed limit's band, s.
+
+    A sampled measure, as ``/diagnostics`` counts time limited: the interval before sample ``k``
+    (``t_k - t_k-1``) counts when at sample ``k`` some wheel's ``|Omega|`` is at least
+    ``max_speed - speed_band``, where its motor's accelerating torque fades out (the /diagnostics
+    warning's rule); a band entered and left between two samples is not seen. NaN for a run
+    without reaction wheels.
+    """
+    out = np.full(samples.count, np.nan)
+    steps = np.diff(samples.times)
+    for run in range(samples.count):
+        wheels = samples.wheels(run)
+        if wheels:
+            in_band = np.zeros(samples.times.shape[0], dtype=bool)
+            for effect, state in wheels:
+                speeds = effect.wheel_speeds(samples.omega_B[run], state)
+                in_band |= np.any(np.abs(speeds) >= effect.band_speeds, axis=1)
+            out[run] = float(steps[in_band[1:]].sum())
+    return out
 
 
 @metric('nominal_attitude_error', unit='rad', needs_nominal=True)

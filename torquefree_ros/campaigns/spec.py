@@ -19,8 +19,9 @@ It holds a base scene, its dispersions, the number of runs, the seed, the time g
 metrics::
 
     description: one line                    # optional
-    scene: dzhanibekov                       # a library scene's name, or a scene file
-                                             # (relative to this file)
+    scene: dzhanibekov                       # a library scene's name, a scene file
+                                             # (relative to this file), or a scene written
+                                             # inline (a mapping: body, initial, effects, ...)
     runs: 1000
     seed: 2026                               # run i draws from SeedSequence(seed).spawn(runs)[i]
     duration: 60                             # s; samples k = 0 .. floor(duration * rate),
@@ -80,7 +81,14 @@ from ..core.checks.schema import (
     text,
 )
 from ..core.scene import library
-from ..core.scene.loader import DEFAULT_SCENE_DATA, load_scene, read_document, Scene, SceneError
+from ..core.scene.loader import (
+    DEFAULT_SCENE_DATA,
+    load_scene,
+    read_document,
+    Scene,
+    scene_from_mapping,
+    SceneError,
+)
 from ..core.timing.grid import MAX_RATE
 from ..files.safe_files import clip
 
@@ -198,7 +206,10 @@ def _exists(path: Path) -> bool:
 
 _TOP = {
     'description': Param(text(allow_empty=True), ''),
-    'scene': Param(text(), description="a library scene's name or a scene file"),
+    'scene': Param(
+        lambda value, path: value if isinstance(value, dict) else text()(value, path),
+        description="a library scene's name, a scene file, or a scene written inline",
+    ),
     'runs': Param(integer(1, MAX_RUNS), description='how many runs'),
     'seed': Param(
         integer(0, 2**63 - 1),
@@ -220,7 +231,11 @@ _TOP = {
 def campaign_from_mapping(data, source: str, text_: str, base: Path) -> Campaign:
     try:
         values = fields(data, '', _TOP)
-        scene, document = _scene(values['scene'], base)
+        scene, document = (
+            _inline_scene(values['scene'], source)
+            if isinstance(values['scene'], dict)
+            else _scene(values['scene'], base)
+        )
         if values['duration'] * values['rate'] + 1 > MAX_SAMPLES:
             raise FieldError(
                 'duration',
@@ -280,6 +295,19 @@ def _scene(name: str, base: Path) -> tuple[Scene, dict]:
             "initial rates: a 'values' dispersion of initial.angular_velocity)",
         )
     return scene, document
+
+
+def _inline_scene(document: dict, source: str) -> tuple[Scene, dict]:
+    """Load a scene written inline in the campaign file; its errors name ``scene.FIELD``."""
+    where = f'{source}: scene'
+    try:
+        scene = scene_from_mapping(document, source=where)
+    except SceneError as error:
+        field, _, reason = str(error)[len(where) + 2:].partition(': ')
+        raise FieldError(f'scene.{field}' if reason else 'scene', reason or field) from None
+    if scene.sweep_members:
+        raise FieldError('scene.sweep', 'a campaign disperses one scene, not an energy sweep')
+    return scene, copy.deepcopy(document)
 
 
 def _trajectories(value, rate: float, samples: int) -> int | None:

@@ -125,11 +125,14 @@ def _parser() -> argparse.ArgumentParser:
     options.add_argument(
         '--commands',
         metavar='BAG_DIR',
-        help='re-simulate a scene with a torque_command effect or commanded reaction_wheels '
-        'under the commands this bag recorded on their topics (in --namespace), each offered at '
+        help='re-simulate a scene with a torque_command effect, commanded reaction_wheels or '
+        'magnetorquers under the commands this bag recorded on their topics (in --namespace), '
+        'each offered at '
         "its log time under the node's rules: with the recording's --rate and --start-time (its "
         'first stamp), the samples equal the recorded ones bit for bit; commands logged before '
-        '--start-time are left out',
+        '--start-time are left out. The sensor changes it recorded (sensor_changes: the faults '
+        'and sensor_noise parameters set while the node ran) are applied at the samples they '
+        'reached, so faulted sensor outputs replay bit for bit too',
     )
     options.add_argument(
         '--reindex',

@@ -18,8 +18,9 @@ The node's command inputs: a subscription per effect of the scene that takes com
 None otherwise. A ``torque_command`` effect's subscription hands every
 ``geometry_msgs/WrenchStamped`` to the running simulation's hold (``core.effects.commands``);
 commanded ``reaction_wheels``' every ``sensor_msgs/JointState`` to the effect, which reads the
-wheels' names and values (``ReactionWheels.receive``): the hold accepts each or refuses it with a
-counted reason.
+wheels' names and values (``ReactionWheels.receive``); ``magnetorquers``' every
+``geometry_msgs/Vector3Stamped`` (a body dipole) to the effect (``Magnetorquers.receive``): the
+hold accepts each or refuses it with a counted reason.
 
 The command subscriptions are served by a thread of their own, not by the node's executor: it waits
 on them alone (an rclpy wait set), takes each command as CDR bytes and decodes it as the bag tools
@@ -38,7 +39,7 @@ import threading
 import time
 from typing import Callable
 
-from geometry_msgs.msg import WrenchStamped
+from geometry_msgs.msg import Vector3Stamped, WrenchStamped
 from rclpy.callback_groups import CallbackGroup
 from rclpy.guard_condition import GuardCondition
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
@@ -53,6 +54,7 @@ from ..core.effects.commands import command_inputs
 
 #: the command messages by type name, with their decoders (bytes -> the effect's arguments)
 JOINT_STATE = 'sensor_msgs/msg/JointState'
+VECTOR3_STAMPED = 'geometry_msgs/msg/Vector3Stamped'
 
 WAIT_SLICE_NS = 100_000_000  # the longest the thread takes to notice a closed context
 RELEASE_TIMEOUT = 1.0  # s: the longest retire waits for the thread to let go of a subscription
@@ -113,10 +115,29 @@ def decode_joint_command(data: bytes) -> tuple[int, str, list, tuple, tuple]:
     )
 
 
+def decode_vector_command(data: bytes) -> tuple[int, str, tuple]:
+    """
+    Decode ``(stamp_ns, frame_id, vector)`` from a ``Vector3Stamped``'s CDR bytes.
+
+    Little-endian CDR by :func:`~torquefree_ros.bag.cdr.decode_stamped_doubles` (a Header, then
+    x, y, z); anything else through rclpy's deserializer.
+    """
+    try:
+        stamp, frame_id, values = decode_stamped_doubles(data, 3)
+        return stamp, frame_id, tuple(values.tolist())
+    except ValueError:  # big-endian (or a frame_id that is not UTF-8): rclpy decides
+        pass
+    message = deserialize_message(data, Vector3Stamped)
+    stamp = message.header.stamp.sec * 1_000_000_000 + message.header.stamp.nanosec
+    vector = message.vector
+    return stamp, message.header.frame_id, (vector.x, vector.y, vector.z)
+
+
 #: each command type's message class and decoder
 _MESSAGES = {
     'geometry_msgs/msg/WrenchStamped': (WrenchStamped, decode_wrench_stamped),
     JOINT_STATE: (JointState, decode_joint_command),
+    VECTOR3_STAMPED: (Vector3Stamped, decode_vector_command),
 }
 
 
@@ -302,6 +323,10 @@ class CommandInputs:
                 if len(decoded) != 5:  # (a wrench on the topic of another run's scene)
                     continue
                 accepted, reason = effect.receive(*decoded)
+            elif effect.message_type == VECTOR3_STAMPED:
+                if len(decoded) != 3:
+                    continue
+                accepted, reason = effect.receive(*decoded)
             else:
                 if len(decoded) != 4:
                     continue
@@ -339,6 +364,13 @@ def _never_called(_message) -> None:
     """Stand in for the subscriptions' callback: no executor runs them (_ServedApart)."""
 
 
+#: a command field -> what /diagnostics says while none is in force, and once timed out
+_OFF = {
+    'torque': ('zero', 'the torque is zero'),
+    'dipole': ('zero dipole', 'the dipole is zero'),
+}
+
+
 def command_diagnostics(
     holds, last_index: int | None, missed_steps: int, lockstep: bool
 ) -> tuple[dict, str]:
@@ -354,13 +386,14 @@ def command_diagnostics(
         refused = ', '.join(f'{reason} {count}' for reason, count in sorted(hold.refused.items()))
         values[prefix + 'accepted'] = str(hold.accepted)
         values[prefix + 'refused'] = refused or '0'
-        # what holds: a torque, or wheels' motor torques (effort) or speed set-points (velocity)
+        # what holds: a torque, a dipole, or wheels' motor torques (effort) or speed set-points
+        # (velocity)
         field = getattr(effect, 'command_field', 'torque')
-        zero = 'the torque is zero' if field == 'torque' else 'the motor torques are zero'
+        off, zero = _OFF.get(field, ('zero motor torques', 'the motor torques are zero'))
         if last_index is not None:
             command = hold.in_force(last_index)
             values[prefix + field] = (
-                ('zero' if field == 'torque' else 'zero motor torques') + ' (no command in force)'
+                off + ' (no command in force)'
                 if command is None
                 else ' '.join(f'{x:.9g}' for x in command.values)
             )

@@ -17,7 +17,8 @@ The attitude simulator node ``TorqueFreeSim`` (default name ``torquefree``; ``cl
 
 A thin layer over the dynamics core: parameters (``parameters``) describe a simulation, the
 sample loop (``sample_loop``) publishes it, ``~/reset`` restarts it, ``~/pause`` pauses and resumes
-it (the rule: ``pause``), ``/diagnostics`` reports it.
+it (the rule: ``pause``), ``/diagnostics`` reports it. The ``faults`` and ``sensor_noise``
+parameters also change the running run from its next sample (``SampleLoop.retune``).
 The node computes nothing physical itself.
 """
 
@@ -42,6 +43,7 @@ from .parameters import (
     rejection,
     run_request,
     ScenePolicy,
+    sensor_changes,
     SPEC_BY_NAME,
     SPECS,
 )
@@ -57,6 +59,7 @@ from ..bag.samples import (
     sample_qos,
     SampleRecorder,
 )
+from ..bag.sensor_changes import SENSOR_CHANGES
 from ..core.body.composite import tensor_elements
 from ..files.safe_files import clip
 
@@ -251,6 +254,8 @@ class TorqueFreeSim(Node):
         return simulation.command_holds if simulation is not None else ()
 
     def _resolved(self, topic: str) -> str:
+        if topic == SENSOR_CHANGES:
+            return self.resolve_topic_name(topic)
         return self._commands.resolved(topic) or self._outputs.resolved(topic)
 
     def _open_bag(self) -> BagWriter | None:
@@ -326,7 +331,11 @@ class TorqueFreeSim(Node):
                 for parameter in parameters:
                     if parameter.name == 'scene':
                         self._scenes.check(check_value('scene', parameter))
-                self._run_request(parameters)
+                values = self._values(parameters)
+                request = run_request(values)
+                changed = [p.name for p in parameters if p.name in ('faults', 'sensor_noise')]
+                if changed:
+                    self._retune(values, request, ' and '.join(changed))
             else:  # declaring: the others are not there yet to form a whole configuration
                 for parameter in parameters:
                     check_value(parameter.name, parameter)
@@ -346,6 +355,39 @@ class TorqueFreeSim(Node):
                 )
             )
         return SetParametersResult(successful=True)
+
+    def _retune(self, values: dict, request: RunRequest, names: str) -> None:
+        """
+        Put new ``faults`` and ``sensor_noise`` in force from the running run's next sample.
+
+        Values that fit only the scene the next ``~/reset`` starts (another scene than the
+        running one) take effect then, and the log says so; ``ValueError`` when they fit neither.
+        """
+        loop = self._loop
+        if loop is None or not loop.running:
+            return  # not started yet: the run it starts has them
+        running = loop.request
+        try:
+            changes = sensor_changes(values, running, loop.simulation)
+        except ValueError as error:
+            if request.sensors.scene_outputs == running.sensors.scene_outputs:
+                raise
+            self.get_logger().warning(
+                clip(
+                    f'{names}: fits the scene of the next ~/reset, not the running one '
+                    f'({error}); takes effect at the next ~/reset',
+                    MAX_REASON_LENGTH,
+                )
+            )
+            return
+        try:
+            k = loop.retune(changes)
+        except RuntimeError as error:
+            raise ValueError(f'{names}: not applied: {error}') from None
+        self.get_logger().info(
+            f'sensor changes from sample {k}: {len(changes.faults)} faults in force'
+            + (f', {len(changes.outputs)} sensors retuned' if changes.outputs else '')
+        )
 
     # -- reset -----------------------------------------------------------------------------------
     def _on_reset(self, request, response):
@@ -441,6 +483,12 @@ class TorqueFreeSim(Node):
         # the effects' own reports (reaction wheels: speeds, time limited, stored momentum)
         effect_values, effect_warning = simulation.monitor_diagnostics()
         values.update(effect_values)
+        # the faults in force, and those acting on the last sample out
+        values.update(
+            simulation.fault_diagnostics(
+                last.index if last is not None and last.simulation is simulation else None
+            )
+        )
         command_warning = '; '.join(w for w in (command_warning, effect_warning) if w)
         values['paused'] = 'true' if loop.paused else 'false'
         if loop.request.wall_clock:

@@ -16,7 +16,8 @@
 The simulator node's parameters: declarations, validation and the configuration they describe.
 
 Each parameter is declared with a descriptor. Values take effect at the next ``~/reset``
-(``qos_depth`` only at start-up).
+(``qos_depth`` only at start-up); ``faults`` and ``sensor_noise`` also at the next sample of the
+running run (:func:`sensor_changes`).
 
 Every parameter is declared with dynamic typing so that this module, not rclpy, checks the type:
 the reason then names the parameter, and an integer is accepted where a number is meant
@@ -40,7 +41,8 @@ from rclpy.parameter import Parameter
 
 from .guarded_parameters import refusal
 from .qos import message_class
-from .sample_loop import RunRequest
+from .sample_loop import RunRequest, SensorChanges
+from ..bag.sensor_changes import change_text
 from ..core import PROPAGATORS
 from ..core.body.rigid_body import RigidBody
 from ..core.checks.schema import shown
@@ -48,7 +50,15 @@ from ..core.checks.validation import finite_vector, unit_quaternion
 from ..core.propagators import MAX_STEPS_PER_SAMPLE
 from ..core.run.simulation import Simulation
 from ..core.scene.library import is_scene_name, library_scenes
-from ..core.scene.loader import default_scene, load_scene, MAX_PATH_LENGTH, SceneError
+from ..core.scene.loader import (
+    default_scene,
+    faults_from_text,
+    load_scene,
+    MAX_PATH_LENGTH,
+    MAX_SCENE_BYTES,
+    noise_from_text,
+    SceneError,
+)
 from ..core.timing.grid import check_rate, MAX_RATE, MIN_RATE
 from ..files.safe_files import clip
 
@@ -238,6 +248,26 @@ SPECS = (
         number_range=(0.0, 3600.0),
     ),
     ParameterSpec(
+        'faults',
+        '',
+        "Faults of the sensor outputs, added to the scene's: a YAML or JSON list as a scene's "
+        'faults: (- KIND: {output, start, end, ...}; KIND stuck, bias, noise, spikes or dropout; '
+        'start and end in s of the run). Takes effect at the next sample (a window that started '
+        'before starts there) and at each ~/reset; recorded in the bag. Empty = none.',
+        "a list of faults naming the running scene's sensor outputs by topic",
+    ),
+    ParameterSpec(
+        'sensor_noise',
+        '',
+        "The sensors' noise parameters changed from the scene's: a YAML or JSON mapping {TOPIC: "
+        "{PARAMETER: value}} in the scene's units (imu: angle_random_walk, gyro_noise_density, "
+        'rate_random_walk, gyro_bias_random_walk, bias_instability, bias_correlation_time; '
+        'star_tracker: cross_boresight_noise, about_boresight_noise; magnetometer, sun_sensor: '
+        'noise). Takes effect at the next sample and at each ~/reset; recorded in the bag. '
+        "Empty = the scene's.",
+        "a mapping naming the running scene's sensor outputs by topic",
+    ),
+    ParameterSpec(
         'record_bag',
         '',
         'Bag directory (rosbag2 MCAP) to record every published sample into; empty = no '
@@ -321,8 +351,18 @@ def check_value(name: str, parameter: Parameter):
         if not 1 <= value <= 10000:
             raise ValueError(f'{name}: must lie in [1, 10000], got {shown(value)}')
         return int(value)
+    if name in ('faults', 'sensor_noise') and kind in (*_ARRAY, Parameter.Type.BOOL_ARRAY):
+        if len(value) == 0:  # `ros2 param set NODE faults "[]"` sends an empty array: none
+            return ''
     if kind != Parameter.Type.STRING:
         raise ValueError(f'{name}: expected a string, got {_type_name(kind)} {shown(value)}')
+    if name in ('faults', 'sensor_noise'):
+        if len(value) > MAX_SCENE_BYTES:
+            raise ValueError(
+                f"{name}: at most {MAX_SCENE_BYTES} characters (a scene file's bound), "
+                f'got {len(value)}'
+            )
+        return value  # checked against the scene's outputs by run_request and sensor_changes
     if name in ('scene', 'record_bag'):
         if len(value) > MAX_PATH_LENGTH or '\0' in value:
             raise ValueError(
@@ -415,11 +455,16 @@ def run_request(values: dict) -> RunRequest:
             )
         scene = scene.members()[member]
     # an output whose message type this Python lacks (tf2_msgs from PyPI) is left out, and said so
-    outputs = tuple(output for output in scene.outputs if _installed(output.message_type))
+    scene_outputs = tuple(output for output in scene.outputs if _installed(output.message_type))
+    rebuilt = noise_from_text(values['sensor_noise'], scene_outputs)
+    outputs = tuple(rebuilt.get(output.topic, output) for output in scene_outputs)
+    faults = scene.faults + faults_from_text(
+        values['faults'], scene_outputs, first_index=len(scene.faults)
+    )
     missing = [
         f'{output.name} ({output.message_type})'
         for output in scene.outputs
-        if output not in outputs
+        if output not in scene_outputs
     ]
     propagator = scene.propagator(
         values['propagator'],
@@ -433,7 +478,11 @@ def run_request(values: dict) -> RunRequest:
     # was accepted
     try:
         Simulation(
-            propagator, values['publish_rate'], rate_name='publish_rate', outputs=outputs
+            propagator,
+            values['publish_rate'],
+            rate_name='publish_rate',
+            outputs=outputs,
+            faults=faults,
         ).samples(0, 2)
     except RuntimeError as error:
         raise ValueError(f'propagator: {error}') from None
@@ -462,7 +511,43 @@ def run_request(values: dict) -> RunRequest:
         values['lockstep_timeout'],
         values['publish_clock'],
         values['position'],
+        SensorChanges(
+            faults,
+            scene.faults,
+            scene_outputs,
+            change_text(values['faults'], values['sensor_noise'])
+            if values['faults'] or values['sensor_noise']
+            else '',
+        ),
     )
+
+
+def sensor_changes(values: dict, request: RunRequest, simulation) -> SensorChanges:
+    """
+    Return what the ``faults`` and ``sensor_noise`` of ``values`` change in the running run.
+
+    Checked against the running run's scene (``request``), which the next ``~/reset`` may
+    replace: ``ValueError`` names the parameter and the field path. ``outputs`` are the sensors
+    to rebuild, by position: those whose parameters differ from what ``simulation`` runs.
+    """
+    sensors = request.sensors
+    rebuilt = noise_from_text(values['sensor_noise'], sensors.scene_outputs)
+    outputs = {}
+    for position, (running, scene_output) in enumerate(
+        zip(simulation.outputs, sensors.scene_outputs)
+    ):
+        wanted = rebuilt.get(scene_output.topic, scene_output)
+        if wanted != running:
+            outputs[position] = wanted
+    faults = sensors.scene_faults + faults_from_text(
+        values['faults'], sensors.scene_outputs, first_index=len(sensors.scene_faults)
+    )
+    record = (
+        change_text(values['faults'], values['sensor_noise'])
+        if values['faults'] or values['sensor_noise'] or sensors.record
+        else ''
+    )
+    return SensorChanges(faults, sensors.scene_faults, sensors.scene_outputs, record, outputs)
 
 
 def _installed(type_name: str) -> bool:

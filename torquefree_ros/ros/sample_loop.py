@@ -49,6 +49,12 @@ resumes the same run: the samples that follow are those of a run never paused, w
 indices and values. On a clock of our own the stamps simply continue (the clock held); with
 wall-clock stamps the run's epoch moves on by the time paused (see :data:`.pause.WALL_CLOCK_RULE`).
 
+Sensor changes (``retune(changes)``, the node's ``faults`` and ``sensor_noise`` parameters): taken
+between two samples, like a restart; the next sample to go out and every one after it carry them
+(the samples computed ahead are made again), and a recording loop writes them to the bag on
+``sensor_changes``, logged at that sample's stamp (``bag.sensor_changes``), as it does at the start
+of a run that has any.
+
 Stepped (``stepped=True``): a sample goes out only once a caller has let it
 (:meth:`SampleLoop.let_out`), on top of the rules above; meanwhile the loop waits between two
 samples, taking restarts, pauses and a stop as usual. Sample 0 of every run waits too, so a caller
@@ -77,6 +83,7 @@ from ..bag.samples import (
     encode_leading,
     encode_trailing,
 )
+from ..bag.sensor_changes import encode_string, SENSOR_CHANGES, STRING
 from ..bag.writer import BagError
 from ..core.propagators import Propagator
 from ..core.run.simulation import SampleBlock, Simulation
@@ -98,6 +105,17 @@ HELD_CLOCK_PERIOD = 0.1
 
 
 @dataclass(frozen=True)
+class SensorChanges:
+    """The faults and sensor noise of a run beyond its scene's, or a change of them."""
+
+    faults: tuple = ()  # in force: the scene's, then the faults parameter's (core.faults.Fault)
+    scene_faults: tuple = ()
+    scene_outputs: tuple = ()  # the scene's outputs, before sensor_noise
+    record: str = ''  # what the bag gets on sensor_changes ('': nothing to record)
+    outputs: dict = dataclasses.field(default_factory=dict)  # a change: position -> sensor
+
+
+@dataclass(frozen=True)
 class RunRequest:
     propagator: Propagator
     publish_rate: float
@@ -114,6 +132,7 @@ class RunRequest:
     publish_clock: bool = False
     # where tf, pose, odometry and markers place the body (m, inertial)
     body_position: tuple = (0.0, 0.0, 0.0)
+    sensors: SensorChanges = SensorChanges()  # faults and sensor noise beyond the scene's
 
     @property
     def wall_clock(self) -> bool:
@@ -240,6 +259,25 @@ class _Run:
             request.body_position,
         )
 
+    def retune(self, changes: SensorChanges) -> int:
+        """
+        Put ``changes`` in force from the next sample out; return its index.
+
+        The samples of the block not yet out are made again (their outputs) and encoded.
+        """
+        k = self.next_out
+        self.simulation.retune(k, changes.faults, changes.outputs)
+        self.request = dataclasses.replace(
+            self.request,
+            outputs=self.simulation.outputs,
+            sensors=dataclasses.replace(changes, outputs={}),
+        )
+        block = self.block
+        if block is not None and self.position < len(block) and not self.leading_only:
+            self.block = self.simulation.refaulted(block)
+            self.columns = self.encode(self.block)
+        return k
+
     def complete(self) -> tuple:
         """
         Add the outputs' rows and the trailing columns to a block refilled ``leading_only``.
@@ -349,6 +387,7 @@ class SampleLoop:
         self.missed_steps = 0  # lock-step: samples computed without the controller's answer
         self.failure = ''
         self._pause_request: tuple[bool, threading.Event, list] | None = None
+        self._retune_request: tuple[SensorChanges, threading.Event, list] | None = None
         self._paused_since_ns: int | None = None  # monotonic; None: running
         # while paused: the sample that goes out next, as "sample k (t = ... s)"
         self.paused_at = ''
@@ -411,6 +450,24 @@ class SampleLoop:
                 f'the sample loop did not take the {"pause" if paused else "resume"} within '
                 f'{timeout:g} s; it applies at the next sample'
             )
+        return result[0]
+
+    def retune(self, changes: SensorChanges, timeout: float = 10.0) -> int:
+        """
+        Put sensor ``changes`` in force between two samples; return the first sample they reach.
+
+        Returns once the loop has done it: the next sample out carries them.
+        """
+        done, result = threading.Event(), []
+        with self._lock:
+            if self._stopping or not self.running:
+                raise RuntimeError('the sample loop is not running')
+            self._retune_request = (changes, done, result)
+        self._signal()
+        if not done.wait(timeout):
+            raise RuntimeError(f'the sample loop did not take the change within {timeout:g} s')
+        if not result:
+            raise RuntimeError('the sample loop failed applying the change (see its failure)')
         return result[0]
 
     def command_arrived(self) -> None:
@@ -517,6 +574,7 @@ class SampleLoop:
             epoch,
             rate_name='publish_rate',
             outputs=request.outputs,
+            faults=request.sensors.faults,
         )
         self.failure = ''
         self.missed_steps = 0
@@ -524,6 +582,8 @@ class SampleLoop:
         for effect, _ in run.holds:  # command topics are in the bag from the run that takes them
             if self._recorder is not None:
                 self._to_bag(lambda recorder: recorder.declare(effect.topic, effect.message_type))
+        if request.sensors.record:
+            self._record_sensors(simulation.epoch_ns, request.sensors.record)
         return run
 
     def _take_pending(self) -> bool:
@@ -533,6 +593,7 @@ class SampleLoop:
                 raise _Stop
             pending, self._pending = self._pending, None
             pause, self._pause_request = self._pause_request, None
+            retune, self._retune_request = self._retune_request, None
         if pending is not None:
             request, done, result = pending
             self._run = self._begin(request)
@@ -541,6 +602,18 @@ class SampleLoop:
                 self.paused_at = where(0, self._run.simulation.rate)
             result.append(self._run.simulation)
             done.set()
+        if retune is not None:
+            changes, done, result = retune
+            run = self._run
+            try:  # a failure to compute the outputs again stops the loop as any sample's does
+                k = run.retune(changes)
+                if run.block is not None and run.position < len(run.block):
+                    run.publishers = [self._publishers.get(c.topic) for c in run.columns]
+                if changes.record:
+                    self._record_sensors(run.simulation.stamp_ns(k), changes.record)
+                result.append(k)
+            finally:
+                done.set()
         if pause is not None:
             wanted, done, result = pause
             result.append(self._apply_pause(wanted))
@@ -786,6 +859,15 @@ class SampleLoop:
     def _record(self, stamp: int, columns, index: int) -> None:
         self._to_bag(lambda recorder: recorder.write_sample(stamp, columns, index))
 
+    def _record_sensors(self, stamp_ns: int, record: str) -> None:
+        """Record the sensor changes in force from the sample stamped ``stamp_ns``."""
+        if self._recorder is not None:
+            self._to_bag(
+                lambda recorder: recorder.write_message(
+                    SENSOR_CHANGES, STRING, stamp_ns, encode_string(record)
+                )
+            )
+
     def _record_commands(self, effect, hold, commands) -> None:
         """Record the commands that start holding, at the stamp of the sample they hold from."""
 
@@ -863,15 +945,15 @@ class Stepping:
         Map each topic the running run publishes to whether its sample ``index`` goes out on it.
 
         Topics by their resolved names: ``angular_velocity``, ``attitude`` and ``/clock`` carry
-        every sample, an output at a rate of its own every n-th (``k % n == 0``).
+        every sample, an output at a rate of its own every n-th (``k % n == 0``) but those a
+        dropout fault removes.
         """
-        request = self._loop.request
+        request, simulation = self._loop.request, self._loop.simulation
         topics = {self._resolve(ANGULAR_VELOCITY[0]): True, self._resolve(ATTITUDE[0]): True}
         if request.clock:
             topics[self._resolve(CLOCK[0])] = True
-        for output in request.outputs:
-            every = output.every(request.publish_rate, 'publish_rate')
-            topics[self._resolve(output.topic)] = index % every == 0
+        for position, output in enumerate(simulation.outputs):
+            topics[self._resolve(output.topic)] = simulation.publishes(position, index)
         return topics
 
 

@@ -51,10 +51,12 @@ def build_model(dynamics) -> np.ndarray:
     inertia), its inverse, then one entry per effect with a kernel of its own (code, state offset,
     parameters), or several (a reaction wheel each: its parameters a whole number of its code's
     count, its state split evenly among them). Effects that hold a piecewise-constant torque have
-    no entry (see :func:`held_torques`).
+    no entry (see :func:`held_torques`). An effect with a slot in ``held`` (:func:`held_slots`)
+    has its slot's index in ``held`` where the others have their state's offset.
     """
     entries, count = [], 0
-    for effect, part in zip(dynamics.effects, dynamics.slices):
+    slots = held_slots(dynamics)
+    for effect, part, slot in zip(dynamics.effects, dynamics.slices, slots):
         if effect.kernel_code is None:
             continue
         parameters = [float(v) for v in effect.kernel_parameters()]
@@ -69,7 +71,7 @@ def build_model(dynamics) -> np.ndarray:
         for k in range(several):
             entries += [
                 float(effect.kernel_code),
-                float(part.start + k * states),
+                float(part.start + k * states if slot is None else slot),
                 *parameters[k * per_entry: (k + 1) * per_entry],
             ]
         count += several
@@ -89,15 +91,42 @@ ENVIRONMENT_WIDTH = (
 STRETCH = 4 * environment.GROUP
 
 
+def slot_size(effect) -> int:
+    """
+    Return how many inputs ``effect`` holds in a slot of its own in ``held`` (0: none).
+
+    An effect without a state whose kernel reads inputs held per piece (magnetorquers' applied
+    dipole) says so by ``held_slot_size`` and gives them by ``held_slot(segment_start)``.
+    """
+    return effect.held_slot_size
+
+
+def held_slots(dynamics) -> list:
+    """
+    Return each effect's slot: its index in ``held``, or None (no slot).
+
+    The slots follow the held inputs and the environment section, effect after effect.
+    """
+    at = kernels.HELD_TORQUES + dynamics.state_size
+    at += ENVIRONMENT_WIDTH if dynamics.place is not None else 0
+    slots = []
+    for effect in dynamics.effects:
+        size = slot_size(effect)
+        slots.append(at if size else None)
+        at += size
+    return slots
+
+
 def held_width(dynamics) -> int:
     """
     Return the length of the kernels' ``held``.
 
     The held torques, then an input per state, then the environment section when an effect reads
-    the environment.
+    the environment, then the effects' slots.
     """
     width = kernels.HELD_TORQUES + dynamics.state_size
-    return width + ENVIRONMENT_WIDTH if dynamics.place is not None else width
+    width += ENVIRONMENT_WIDTH if dynamics.place is not None else 0
+    return width + sum(slot_size(effect) for effect in dynamics.effects)
 
 
 def environment_section(dynamics, segment_start: float, out: np.ndarray) -> None:
@@ -109,6 +138,7 @@ def environment_section(dynamics, segment_start: float, out: np.ndarray) -> None
     """
     j = environment.window_of(segment_start)
     nodes = environment.NODES
+    out = out[:ENVIRONMENT_WIDTH]
     out[:] = 0.0
     out[kernels.ENV_START] = j * environment.WINDOW
     out[kernels.ENV_SCALE] = 2.0 / environment.WINDOW
@@ -127,18 +157,25 @@ def held_torques(
 
     ``out[:3]``: the sum of the body-frame torques, ``out[3:6]`` the inertial-frame ones (in the
     effects' order, as Dynamics adds them); then the inputs effects with a kernel hold on the
-    piece (``held_inputs``, a wheel's motor torque) at their states' offsets, zero elsewhere.
-    ``commanded``: only the effects that take commands (True), only the others (False), all (None).
-    ``out`` may hold the torques alone (6 floats: the plant's commands). The environment section,
-    when the scene has one, is the piece's (never commanded).
+    piece (``held_inputs``, a wheel's motor torque) at their states' offsets, zero elsewhere, and
+    in their slots (``held_slot``: magnetorquers' dipole). ``commanded``: only the effects that
+    take commands (True), only the others (False), all (None). ``out`` may hold the torques alone
+    (6 floats: the plant's commands). The environment section, when the scene has one, is the
+    piece's (never commanded).
     """
     out[:] = 0.0
-    if commanded is not True and dynamics.place is not None and out.size == held_width(dynamics):
+    whole = out.size == held_width(dynamics)
+    if commanded is not True and dynamics.place is not None and whole:
         environment_section(
             dynamics, segment_start, out[kernels.HELD_TORQUES + dynamics.state_size:]
         )
-    for effect, part in zip(dynamics.effects, dynamics.slices):
+    slots = held_slots(dynamics)
+    for effect, part, slot in zip(dynamics.effects, dynamics.slices, slots):
         if commanded is not None and commanded != effect.takes_commands:
+            continue
+        if slot is not None:
+            if whole:
+                out[slot: slot + slot_size(effect)] = effect.held_slot(segment_start)
             continue
         if effect.kernel_code is None:
             torque, inertial = effect.held_torque(segment_start)

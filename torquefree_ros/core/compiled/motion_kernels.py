@@ -22,7 +22,8 @@ allocating per step: the caller owns every array (stages, dense-output coefficie
 A scene's motion is one float64 array, the *model* (built by :mod:`.compiled`)::
 
     [0:9]   inertia tensor, body frame, row by row     [9:18]  its inverse
-    [18]    number of effect entries, then per entry: code, offset of its state in x, parameters
+    [18]    number of effect entries, then per entry: code, offset of its state in x (an
+            effect with a slot: the slot's index in held), parameters
 
 The tensor is the one Euler's equations are integrated with: the body's less the inertia effects
 carry in their own states (reaction wheels' spin, ``Dynamics.tensor``). An effect packs one entry
@@ -39,11 +40,21 @@ of its own has one section below, under its code; its Python definition (``core/
 the code and packs its parameters, and test_motion_kernels.py holds the two together on random
 states.
 
-A scene with an orbit ends ``held`` with the *environment section* (``ENV_*``): the position and
-the magnetic field in the inertial frame on the piece's environment window, as Chebyshev
-coefficients the driver copies from ``environment.place.Place`` where the piece starts (window ends
-are breakpoints), which ``_environment`` sums at a stage's time. The environment reaches the
-kernels as numbers, never as code: nothing here calls ``environment/environment_kernels.py``.
+A scene with an orbit has the *environment section* (``ENV_*``) after the held inputs: the
+position and the magnetic field in the inertial frame on the piece's environment window, as
+Chebyshev coefficients the driver copies from ``environment.place.Place`` where the piece starts
+(window ends are breakpoints), which ``_environment`` sums at a stage's time. The environment
+reaches the kernels as numbers, never as code: nothing here calls
+``environment/environment_kernels.py``.
+
+``held`` ends with the *slots*: the inputs an effect without a state of its own holds on the piece
+(``held_slot_size`` floats, ``held_slot(segment_start)``: magnetorquers' applied dipole), effect
+after effect in scene order. Such an effect's entry carries, in place of a state offset, the index
+of its slot in ``held`` (the driver lays it out: ``drivers.held_slots``), so the slots need no
+offset arithmetic here and the sections before them keep their places::
+
+    held = [body torque (3), inertial torque (3) | an input per state component (n_x)
+            | the environment section (when the scene has an orbit) | the slots]
 
 Every compiled function is in this one file on purpose: numba rebuilds a function's cache when its
 own file changes, not when a file it calls into does (a stale kernel would survive an edit).
@@ -86,6 +97,9 @@ REACTION_WHEEL = 4
 ORBIT_GRAVITY_GRADIENT = 5
 # parameters: the dipole m_B (3), the field's slot in the environment section (1: IGRF, 2: dipole)
 RESIDUAL_DIPOLE = 6
+# no state; its entry's offset is the index of its slot in held, the applied dipole m_B (3);
+# parameters: the field's slot in the environment section (1: IGRF, 2: dipole)
+MAGNETORQUERS = 7
 #: parameters each code reads (per entry)
 PARAMETER_COUNTS = {
     GRAVITY_GRADIENT: 11,
@@ -94,6 +108,7 @@ PARAMETER_COUNTS = {
     REACTION_WHEEL: 13,
     ORBIT_GRAVITY_GRADIENT: 10,
     RESIDUAL_DIPOLE: 4,
+    MAGNETORQUERS: 1,
 }
 MODEL_HEADER = 19  # tensor, inverse, entry count
 HELD_TORQUES = 6  # held: the body-frame torque, the inertial-frame torque, then the held inputs
@@ -183,6 +198,18 @@ def _residual_dipole(t, qx, qy, qz, qw, model, p, held, e):
     f1, f2, f3 = _environment(t, held, e, int(model[p + 3]))
     b1, b2, b3 = _rotate_inverse(qx, qy, qz, qw, f1, f2, f3)
     m1, m2, m3 = model[p], model[p + 1], model[p + 2]
+    return m2 * b3 - m3 * b2, m3 * b1 - m1 * b3, m1 * b2 - m2 * b1
+
+
+def _magnetorquers(t, qx, qy, qz, qw, model, p, held, e, slot):
+    """
+    Return ``m x B_B`` of the rods' applied dipole ``m = held[slot:slot + 3]`` (Magnetorquers).
+
+    The same operations as its Python torque.
+    """
+    m1, m2, m3 = held[slot], held[slot + 1], held[slot + 2]
+    f1, f2, f3 = _environment(t, held, e, int(model[p]))
+    b1, b2, b3 = _rotate_inverse(qx, qy, qz, qw, f1, f2, f3)
     return m2 * b3 - m3 * b2, m3 * b1 - m1 * b3, m1 * b2 - m2 * b1
 
 
@@ -329,6 +356,20 @@ def _rhs(t, Y, r, model, held, OUT, o):
                 t, qx, qy, qz, qw, model, p, held, HELD_TORQUES + Y.shape[1] - 7
             )
             at = p + 4
+        elif code == MAGNETORQUERS:  # the applied dipole in its slot, at held[model[at + 1]]
+            e1, e2, e3 = _magnetorquers(
+                t,
+                qx,
+                qy,
+                qz,
+                qw,
+                model,
+                p,
+                held,
+                HELD_TORQUES + Y.shape[1] - 7,
+                int(model[at + 1]),
+            )
+            at = p + 1
         else:  # REACTION_WHEEL, its input (motor torque or set-point) held at its state's index
             s = 7 + int(model[at + 1])
             (e1, e2, e3), v1, v2 = _reaction_wheel(
@@ -898,6 +939,7 @@ _INLINED = {
     '_environment',
     '_orbit_gravity_gradient',
     '_residual_dipole',
+    '_magnetorquers',
     '_damper',
     '_rotor',
     '_reaction_wheel',
@@ -956,6 +998,7 @@ _FAMILY = KernelFamily(
         '_environment',
         '_orbit_gravity_gradient',
         '_residual_dipole',
+        '_magnetorquers',
         '_damper',
         '_rotor',
         '_reaction_wheel',

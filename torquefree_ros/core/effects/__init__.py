@@ -15,7 +15,7 @@
 """The effects catalogue: every effect behind one interface (:mod:`.base`), in one registry."""
 
 # (importing the modules registers their effects)
-from . import actuators, commands, internal, outputs, sensors, torques  # noqa: F401
+from . import actuators, commands, internal, magnetorquers, outputs, sensors, torques  # noqa: F401
 from .base import (
     Effect,
     EFFECTS,

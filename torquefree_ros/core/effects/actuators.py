@@ -95,6 +95,11 @@ the integrator's noise. A motor torque under the dry level leaves the wheel cree
 w_c`` where the ideal law has it stuck. In the band the wheel's time constant is ``Js_eff w_c /
 F(w_c)``: an explicit integrator's steps there are a few of it (DOP853's stability bound).
 
+Presets. A wheel's ``preset: NAME`` names a published wheel (:mod:`.wheel_presets`: the table,
+each row with its datasheet and date) and fills its ``spin_inertia``, ``max_torque``,
+``max_speed`` and ``coulomb``; any of them written beside the preset wins. An unknown name is
+refused at ``wheels[i].preset`` with the known ones.
+
 The ``wheel_states`` output (:class:`WheelStates`) reports each wheel's angle, speed and the motor
 torque it applies after the limits; :class:`WheelMonitor` what ``/diagnostics`` says of them.
 """
@@ -116,10 +121,12 @@ from .base import (
     register,
     remaining_inertia_problem,
 )
+from .wheel_presets import PRESETS, with_preset
 from ..checks.schema import (
     child,
     choice,
     FieldError,
+    fields,
     listing,
     mapping,
     number,
@@ -152,44 +159,58 @@ _STRIBECK = mapping(
         ),
     }
 )
-_WHEEL = mapping(
-    {
-        'name': Param(
-            text(),
-            None,
-            "the wheel's name in wheel_command and wheel_states (default wheel_I, I its index)",
-        ),
-        'axis': Param(vector(3), description='the spin axis g, body frame (normalised)'),
-        'spin_inertia': Param(
-            number(positive=True, unit='kg m^2'),
-            description="the wheel's inertia about its axis Js, kg m^2",
-        ),
-        'max_torque': Param(
-            number(positive=True, unit='N m'), description='the motor torque limit, N m'
-        ),
-        'max_speed': Param(
-            number(positive=True, unit='rad/s'),
-            description='the speed past which the motor does not speed the wheel up, rad/s',
-        ),
-        'speed_band': Param(
-            number(positive=True, unit='rad/s'),
-            None,
-            'the band below max_speed over which an accelerating torque fades out, rad/s '
-            '(default 1 % of max_speed)',
-        ),
-        'viscous': Param(number(minimum=0.0, unit='N m s'), 0.0, 'viscous friction b, N m s'),
-        'coulomb': Param(number(minimum=0.0, unit='N m'), 0.0, 'Coulomb friction Fc, N m'),
-        'coulomb_band': Param(
-            number(positive=True, unit='rad/s'),
-            COULOMB_BAND,
-            'the speed band about zero over which dry friction is linear, rad/s',
-        ),
-        'stribeck': Param(_STRIBECK, None, 'the Stribeck peak: {static, speed}'),
-        'speed': Param(
-            number(unit='rad/s'), 0.0, 'the initial speed relative to the body, rad/s'
-        ),
-    }
-)
+_WHEEL_FIELDS = {
+    'preset': Param(
+        choice(*PRESETS),
+        None,
+        'a published wheel whose spin_inertia, max_torque, max_speed and coulomb it fills '
+        '(any of them given beside it wins): ' + ', '.join(PRESETS),
+    ),
+    'name': Param(
+        text(),
+        None,
+        "the wheel's name in wheel_command and wheel_states (default wheel_I, I its index)",
+    ),
+    'axis': Param(vector(3), description='the spin axis g, body frame (normalised)'),
+    'spin_inertia': Param(
+        number(positive=True, unit='kg m^2'),
+        description="the wheel's inertia about its axis Js, kg m^2",
+    ),
+    'max_torque': Param(
+        number(positive=True, unit='N m'), description='the motor torque limit, N m'
+    ),
+    'max_speed': Param(
+        number(positive=True, unit='rad/s'),
+        description='the speed past which the motor does not speed the wheel up, rad/s',
+    ),
+    'speed_band': Param(
+        number(positive=True, unit='rad/s'),
+        None,
+        'the band below max_speed over which an accelerating torque fades out, rad/s '
+        '(default 1 % of max_speed)',
+    ),
+    'viscous': Param(number(minimum=0.0, unit='N m s'), 0.0, 'viscous friction b, N m s'),
+    'coulomb': Param(number(minimum=0.0, unit='N m'), 0.0, 'Coulomb friction Fc, N m'),
+    'coulomb_band': Param(
+        number(positive=True, unit='rad/s'),
+        COULOMB_BAND,
+        'the speed band about zero over which dry friction is linear, rad/s',
+    ),
+    'stribeck': Param(_STRIBECK, None, 'the Stribeck peak: {static, speed}'),
+    'speed': Param(
+        number(unit='rad/s'), 0.0, 'the initial speed relative to the body, rad/s'
+    ),
+}
+
+
+def _wheel(value, path):
+    """Check a wheel's mapping, its ``preset`` (if any) filling the fields it does not give."""
+    if isinstance(value, dict) and value.get('preset') is not None:
+        choice(*PRESETS)(value['preset'], child(path, 'preset'))
+        value = with_preset(value)
+    return fields(value, path, _WHEEL_FIELDS)
+
+
 _TORQUES = listing(number(unit='N m'), min_length=1)
 _SEGMENT = mapping(
     {
@@ -275,7 +296,7 @@ class ReactionWheels(MotionEffect):
     message_type = 'sensor_msgs/msg/JointState'
     parameters = {
         'wheels': Param(
-            listing(_WHEEL, min_length=1),
+            listing(_wheel, min_length=1),
             description='the wheels, each {axis, spin_inertia, max_torque, max_speed, ...}',
         ),
         'torque': Param(_TORQUES, None, 'a constant motor torque per wheel, N m'),
@@ -437,6 +458,8 @@ class ReactionWheels(MotionEffect):
         self.axes = np.array(axes)
         self.spin_inertias = np.array([row[3] for row in rows])
         self._limits = np.array([row[4:7] + row[12:13] for row in rows]).T  # max u, max speed, ...
+        #: where each wheel enters its speed limit's band, ``max_speed - speed_band``, rad/s
+        self.band_speeds = np.array([row[5] - row[6] for row in rows])
         #: the input while no command is in force: zero torque, or (speed mode) the drive off
         self.off = (math.nan if speed_mode else 0.0,) * len(rows)
         #: commands change the inputs at sample times only
@@ -560,6 +583,24 @@ class ReactionWheels(MotionEffect):
 
     def breakpoints(self):
         return tuple(self._starts[1:])
+
+    def coasting_problem(self) -> str | None:
+        """
+        Say why the wheels are not coasting, or return None when they are.
+
+        Coasting: mode ``schedule`` with every motor torque zero (no ``torque``, no ``schedule``,
+        or zeros) and no friction (``viscous``, ``coulomb`` and a Stribeck ``static`` level all
+        zero): then ``h_i' = u_i - f_i = 0``, and the body is a free gyrostat.
+        """
+        if self.mode != 'schedule':
+            return f'reaction wheels in {self.mode} mode (commanded)'
+        if any(u != 0.0 for command in self._commands for u in command):
+            return 'reaction wheels with a motor torque'
+        for wheel in self.values['wheels']:
+            stribeck = wheel['stribeck'] or {'static': 0.0}
+            if wheel['viscous'] != 0.0 or wheel['coulomb'] != 0.0 or stribeck['static'] != 0.0:
+                return 'reaction wheels with friction'
+        return None
 
     def inputs_before(self, times: np.ndarray) -> np.ndarray:
         """

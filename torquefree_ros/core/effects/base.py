@@ -129,6 +129,9 @@ class MotionEffect(Effect):
     #: the torque changes only at sample times (a command held from sample to sample)
     holds_per_sample: ClassVar[bool] = False
     state_size: ClassVar[int] = 0
+    #: inputs held per piece in a slot of its own in the compiled ``held`` (a stateless effect's
+    #: commanded values: magnetorquers' applied dipole), given by :meth:`held_slot`
+    held_slot_size: ClassVar[int] = 0
     conserves: ClassVar[frozenset] = frozenset()
     #: its torque's compiled form: a code of ``compiled/motion_kernels.py`` (whose section
     #: there reads :meth:`kernel_parameters`), or None for a torque held constant on each smooth
@@ -199,6 +202,10 @@ class MotionEffect(Effect):
         effects' flat state, so an input held per piece (a schedule now, a command hold later)
         reaches a kernel without a new model.
         """
+        return None
+
+    def held_slot(self, segment_start: float) -> np.ndarray | None:
+        """Return the :attr:`held_slot_size` inputs held on the piece from ``segment_start``."""
         return None
 
     def spin_inertia_B(self) -> np.ndarray:

@@ -50,8 +50,11 @@ y, then roll phi about the new x) of ``[BN] = R(q_NB)^T``, published as Vector3S
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
+from .actuators import ReactionWheels
 from .base import OutputEffect, OutputStream, register
 from .sensors import ARCSEC, IMU_ROW, NOT_PROVIDED  # noqa: F401  (their old home: kept importable)
 from .sensors import body_frame
@@ -212,7 +215,8 @@ class Markers(OutputEffect):
     name = 'markers'
     summary = (
         "visualization_msgs/MarkerArray in the inertial frame: the body's inertia box "
-        'on its principal axes, arrows along w and H with their labels, all in every message'
+        'on its principal axes, arrows along w and H with their labels, all in every message, '
+        'and an arrow per reaction wheel along its axis, as long as the momentum it stores'
     )
     message_type = 'visualization_msgs/msg/MarkerArray'
     frame = 'inertial'
@@ -254,13 +258,46 @@ class Markers(OutputEffect):
         sides = np.sqrt(squared / squared.max())
         return self.values['size'] * np.maximum(sides, MIN_SIDE)
 
+    #: the reaction wheels drawn, by name, once bound to a run (:meth:`for_run`)
+    wheel_names: tuple = ()
+
+    def for_run(self, propagator):
+        """
+        Return the markers of a run: with reaction wheels, an arrow per wheel after the five.
+
+        The layout is then ``wheel_markers`` (``bag.wheel_markers``), which takes the wheels'
+        names: each wheel's arrow is in its namespace ``wheel_NAME``.
+        """
+        names = tuple(name for effect, _ in _wheels_of(propagator) for name in effect.names)
+        if not names:
+            return self
+        bound = copy.copy(self)
+        bound.wheel_names = names
+        bound.layout = 'wheel_markers'
+        return bound
+
+    @property
+    def layout_options(self) -> dict:
+        return {'names': self.wheel_names} if self.wheel_names else {}
+
     def stream(self, rate, propagator):
         return _MarkerStream(self, rate, propagator)
 
 
+def _wheels_of(propagator) -> list:
+    """Return the propagator's ``reaction_wheels`` effects with their parts of the states."""
+    dynamics = propagator.dynamics
+    return [
+        (effect, part)
+        for effect, part in zip(dynamics.effects, dynamics.slices)
+        if isinstance(effect, ReactionWheels)
+    ]
+
+
 MIN_SIDE = 0.01  # of the longest side: what a rod's or a plate's thin sides are drawn as
 # a markers row: box orientation (x, y, z, w) [0:4] and sides [4:7], the tips of the w [7:10] and H
-# [10:13] arrows (inertial frame, from the box's centre)
+# [10:13] arrows (inertial frame, from the box's centre); with reaction wheels, then each wheel
+# arrow's tip (3 a wheel, in the scene's order)
 MARKER_ROW = 13
 
 
@@ -277,6 +314,7 @@ class _MarkerStream(OutputStream):
         h0 = float(np.linalg.norm(propagator.momentum_B(omega0, x0)))
         self.omega_scale = values['angular_velocity_scale'] or (size / w0 if w0 > 0.0 else size)
         self.momentum_scale = values['momentum_scale'] or (1.25 * size / h0 if h0 > 0.0 else size)
+        self.wheels = _wheels_of(propagator)
 
     def rows(self, first, times, omega_B, q_NB, internal):
         count = times.shape[0]
@@ -285,10 +323,30 @@ class _MarkerStream(OutputStream):
         momentum_B = self.momentum_B(omega_B, internal)
         # a closed loop's one sample at a time: floats are ~20x faster than 1-row arrays
         if count == 1:
-            return np.array(
+            rows = np.array(
                 [self._row(q_NB[0].tolist(), omega_B[0].tolist(), momentum_B[0].tolist())]
             )
-        return np.column_stack(self._row(q_NB.T, omega_B.T, momentum_B.T))
+        else:
+            rows = np.column_stack(self._row(q_NB.T, omega_B.T, momentum_B.T))
+        if not self.wheels:
+            return rows
+        return np.column_stack([rows] + self._wheel_tips(omega_B, q_NB, internal))
+
+    def _wheel_tips(self, omega_B, q_NB, internal) -> list:
+        """
+        Return each wheel arrow's tip: ``momentum_scale Js Omega R(q_NB) g``, (count, 3) each.
+
+        The wheel's momentum relative to the body along its axis, in the inertial frame, at the H
+        arrow's scale; element by element, so a row does not depend on how blocks are cut.
+        """
+        tips = []
+        for effect, part in self.wheels:
+            relative = effect.spin_inertias * effect.wheel_speeds(omega_B, internal[:, part])
+            for index, axis in enumerate(effect.axes):
+                length = self.momentum_scale * relative[:, index]
+                rotated = quaternion.rotate_values(q_NB.T, axis.tolist())
+                tips.append(np.column_stack([length * component for component in rotated]))
+        return tips
 
     def _row(self, q_NB, omega_B, momentum_B) -> tuple:
         """

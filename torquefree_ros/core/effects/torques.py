@@ -237,8 +237,42 @@ class GravityGradient(MotionEffect):
         return k * quaternion.cross(np.array(r_B), self._tensor @ np.array(r_B))
 
 
+class FieldDipole(MotionEffect):
+    """
+    A magnetic dipole in the Earth's field on the scene's orbit: the torque ``m x B_B``.
+
+    ``B_B = R(q)^T B_N``, ``B_N`` the field model named by the ``field`` parameter (IGRF-14 or the
+    tilted dipole), held per environment window (:mod:`..environment.place`). The one source of
+    the field's slot and of the torque for every effect whose dipole sits in the field.
+    """
+
+    uses_attitude = True
+    needs_orbit = True
+
+    def placed(self, place, path):
+        placed = super().placed(place, path)
+        place.check_field()
+        return placed
+
+    @property
+    def quantity(self) -> int:
+        """Return the field's slot among the held quantities (``place.QUANTITIES``)."""
+        return QUANTITIES.index(self.values['field'])
+
+    @property
+    def environment_quantities(self) -> tuple:
+        return (self.quantity,)
+
+    def dipole_torque_B(self, dipole, t, q_NB, segment_start) -> np.ndarray:
+        """Return ``m x B_B`` for the body-frame ``dipole`` (A m^2): the kernels' operations."""
+        m1, m2, m3 = dipole
+        b_N = self.place.evaluate(self.quantity, segment_start, t)
+        b1, b2, b3 = quaternion.rotate_values(quaternion.conjugate_values(q_NB.tolist()), b_N)
+        return np.array([m2 * b3 - m3 * b2, m3 * b1 - m1 * b3, m1 * b2 - m2 * b1])
+
+
 @register
-class ResidualDipole(MotionEffect):
+class ResidualDipole(FieldDipole):
     """
     A magnetic dipole fixed in the body: the torque ``m x B_B``, ``B_B = R(q)^T B_N``.
 
@@ -253,8 +287,6 @@ class ResidualDipole(MotionEffect):
         "the torque m x B of a magnetic dipole fixed in the body (A m^2), B on the scene's orbit "
         '(IGRF-14 or the tilted dipole)'
     )
-    uses_attitude = True
-    needs_orbit = True
     kernel_code = motion_kernels.RESIDUAL_DIPOLE
     parameters = {
         'dipole': Param(
@@ -263,32 +295,14 @@ class ResidualDipole(MotionEffect):
         'field': Param(choice(*FIELD_MODELS), 'igrf'),
     }
 
-    def placed(self, place, path):
-        placed = super().placed(place, path)
-        place.check_field()
-        return placed
-
     def bound(self, tensor):
         if self.place is None:  # (a scene places it when it loads)
             raise ValueError("residual_dipole: needs the scene's orbit (place it there first)")
         return self
-
-    @property
-    def quantity(self) -> int:
-        """Return the field's slot among the held quantities (``place.QUANTITIES``)."""
-        return QUANTITIES.index(self.values['field'])
-
-    @property
-    def environment_quantities(self) -> tuple:
-        return (self.quantity,)
 
     def kernel_parameters(self):
         return (*self.values['dipole'].tolist(), float(self.quantity))
 
     def torque_B(self, t, omega_B, q_NB, state, segment_start):
         # the kernel's operations (motion_kernels._residual_dipole), in its order
-        b_N = self.place.evaluate(self.quantity, segment_start, t)
-        b_B = quaternion.rotate_values(quaternion.conjugate_values(q_NB.tolist()), b_N)
-        m1, m2, m3 = self.values['dipole'].tolist()
-        b1, b2, b3 = b_B
-        return np.array([m2 * b3 - m3 * b2, m3 * b1 - m1 * b3, m1 * b2 - m2 * b1])
+        return self.dipole_torque_B(self.values['dipole'].tolist(), t, q_NB, segment_start)

@@ -273,6 +273,12 @@ def kepler_state(t, row, out):
     out[5] = vx * pz + vy * qz
 
 
+def kepler_states(times, row, out):
+    """Write :func:`kepler_state` at each of ``times`` into the rows of ``out`` ``(N, 6)``."""
+    for i in range(times.shape[0]):
+        kepler_state(times[i], row, out[i])
+
+
 # ---------------------------------------------------------------------------------------------
 # Time and the Earth's orientation
 
@@ -653,6 +659,7 @@ _FAMILY = KernelFamily(
         'kepler_eccentric_anomaly',
         'perifocal_axes',
         'kepler_state',
+        'kepler_states',
         'year_start_days',
         'decimal_year',
         '_rotate',

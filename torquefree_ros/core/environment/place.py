@@ -142,6 +142,8 @@ class Place:
         self.offset = self.start - orbit.epoch
         #: GM of the Earth for the gravity-gradient torque, m^3/s^2 (the elements' own)
         self.gm = orbit.gm if isinstance(orbit, KeplerOrbit) else GM
+        #: a Keplerian orbit's constants for the compiled kernels (None: a TLE, through sgp4)
+        self._row = orbit.kernel_row() if isinstance(orbit, KeplerOrbit) else None
         if isinstance(orbit, KeplerOrbit):
             self._key = ('kepler', orbit.semi_major_axis, orbit.eccentricity, orbit.inclination,
                          orbit.raan, orbit.argument_of_perigee, orbit.mean_anomaly, orbit.epoch,
@@ -223,8 +225,22 @@ class Place:
         return self.start + np.asarray(t, dtype=float)
 
     def state(self, t):
-        """Return the inertial position (m) and velocity (m/s) at the scene times ``t``."""
-        return self.orbit.state(self.offset + np.asarray(t, dtype=float))
+        """
+        Return the inertial position (m) and velocity (m/s) at the scene times ``t``.
+
+        A Keplerian orbit with the kernels enabled: instant by instant through
+        :func:`.environment_kernels.kepler_states` (about a microsecond an instant, where numpy's
+        vectorised solve costs some 100 us a call whatever its size: a sensor's sample in a closed
+        loop), which the tests hold to :meth:`.orbit.KeplerOrbit.state` to rounding.
+        """
+        orbit_t = self.offset + np.asarray(t, dtype=float)
+        if self._row is None or not switch.ENABLED:
+            return self.orbit.state(orbit_t)
+        flat = np.ascontiguousarray(orbit_t.reshape(-1))
+        out = np.empty((flat.size, 6))
+        environment_kernels.kernel('kepler_states')(flat, self._row, out)
+        out = out.reshape(orbit_t.shape + (6,))
+        return out[..., :3], out[..., 3:]
 
     def field_N(self, t, position_N, model: str = 'igrf') -> np.ndarray:
         """
@@ -240,7 +256,7 @@ class Place:
         if not switch.ENABLED:
             evaluate = magnetic.igrf_inertial if model == 'igrf' else magnetic.dipole_inertial
             return evaluate(position_N, seconds, 'orbit')
-        magnetic.check_instants(seconds, 'orbit')
+        magnetic.check_instants(seconds, 'orbit', years=False)
         position = np.asarray(position_N, dtype=float)
         flat_seconds = np.ascontiguousarray(np.broadcast_to(seconds, position.shape[:-1]).ravel())
         points = np.ascontiguousarray(position.reshape(-1, 3))

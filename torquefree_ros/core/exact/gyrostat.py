@@ -81,6 +81,12 @@ which it is constant to rounding.
 
 With ``J1 = J2`` (a rotor on the symmetry axis) ``m3`` is constant and the motion is a uniform
 precession, ``w = m / J1 + κ e3``: ``R(t) = exp(t [H_N]x / J1) R0 exp(t κ [e3]x)``.
+
+Coasting reaction wheels make the same gyrostat (``J`` the body's inertia less the wheels' spin,
+``h = sum h_i g_i``); a wheel's angle relative to the body, ``(h_i / J_si) t - g_i . ∫ w dt``,
+needs the rates' integral: a mean rate times ``t`` plus a periodic part, kept as Chebyshev series
+over the rates' period the way the attitude's angle is (:class:`RateIntegrals`); for a uniform
+precession it is elementary.
 """
 
 from __future__ import annotations
@@ -111,6 +117,9 @@ MAX_PANELS = 4096
 #: on the separatrix, ``psi'`` equals its value at the saddle to rounding beyond this ``u``
 #: (``sech^2 u < 4 e^-2u ~ 1e-20``)
 SEPARATRIX_RANGE = 24.0
+#: the same for the rates themselves, whose transverse components fall as ``sech u`` (``2 e^-u``:
+#: below 1e-20 here), the range :class:`RateIntegrals` keeps on the separatrix
+RATE_SEPARATRIX_RANGE = 48.0
 
 _CONTEXT = decimal.Context(prec=DIGITS, traps=[decimal.InvalidOperation, decimal.DivisionByZero])
 _EPS = float(np.finfo(float).eps)
@@ -648,6 +657,144 @@ class AnglePanels:
         return np.where(r < 0.0, -value, value)
 
 
+class RateIntegrals:
+    """
+    ``∫_0^t w_S dt``, the solver-frame rates' integrals: what a coasting wheel's angle needs.
+
+    In ``u = lambda t + u0``, ``∫_0^t w dt = mean t + (P(u) - P(u0)) / lambda`` with ``mean``
+    the mean rate over the full period ``4K`` (every ``sn``, ``cn``, ``dn`` product repeats
+    there) and ``P(u) = ∫_0^u (w - mean) du``, periodic. Unlike the angle's ``G``, a transverse
+    rate holding ``sn`` or ``cn`` alone is not even, so ``P`` is kept on the whole period
+    ``[0, 4K)``: Chebyshev series of degree :data:`CHEBYSHEV_DEGREE` of the three rates at once on
+    equal panels (Clenshaw-Curtis, as :class:`AnglePanels`), halved until every series' last
+    coefficients are at the rates' rounding; the antiderivative's series term by term. On the
+    separatrix (``mc = 0``) the rates tend to their saddle values ``L±`` as ``u -> ±inf``:
+    ``mean = 0`` and ``P`` is the whole integral, kept on ``[-R, R]`` (``R =``
+    :data:`RATE_SEPARATRIX_RANGE`, where ``w`` equals ``L±`` to rounding) and continued beyond
+    with slope ``L±``.
+    """
+
+    def __init__(self, rates: GyrostatRates):
+        motion = rates.motion
+        J1inv, J2inv = motion.inverse_moments
+
+        def w(u):
+            v = rates(u)
+            return np.stack((v.m1 * J1inv, v.m2 * J2inv, v.w3))
+
+        periodic = math.isfinite(motion.period)
+        if periodic:
+            full = motion.period * (2.0 if motion.form == SN2 else 1.0)  # 4K
+            start, X = 0.0, full
+        else:
+            full, start, X = math.inf, -RATE_SEPARATRIX_RANGE, 2.0 * RATE_SEPARATRIX_RANGE
+        n = CHEBYSHEV_DEGREE
+        nodes = np.cos(np.pi * (np.arange(n + 1) + 0.5) / (n + 1))
+        transform = (2.0 / (n + 1)) * np.cos(
+            np.pi * np.outer(np.arange(n + 1) + 0.5, np.arange(n + 1)) / (n + 1)
+        )
+        count = max(1, math.ceil(X))
+        with np.errstate(under='ignore'):
+            while True:
+                width = X / count
+                middles = start + (np.arange(count) + 0.5) * width
+                values = w((middles[:, None] + (0.5 * width) * nodes).ravel())
+                values = values.reshape(3, count, n + 1)
+                coefficients = values @ transform  # (3, count, n + 1)
+                coefficients[:, :, 0] *= 0.5
+                tail = np.abs(coefficients[:, :, -3:]).max()
+                scale = np.abs(values).max()
+                if tail <= CHEBYSHEV_TAIL_ULPS * _EPS * scale or count >= MAX_PANELS:
+                    break
+                count *= 2
+            ends = w(np.array([start, start + X])) if not periodic else None
+        c = np.concatenate([coefficients, np.zeros((3, count, 2))], axis=2)
+        c[:, :, 0] *= 2.0
+        integral = np.zeros((3, count, n + 2))
+        for k in range(1, n + 2):
+            integral[:, :, k] = (c[:, :, k - 1] - c[:, :, k + 1]) / (2 * k)
+        integral *= 0.5 * width
+        at_start = integral @ ((-1.0) ** np.arange(n + 2))  # (3, count)
+        pieces = integral.sum(axis=2) - at_start
+        starts = np.concatenate([np.zeros((3, 1)), np.cumsum(pieces, axis=1)[:, :-1]], axis=1)
+        integral[:, :, 0] += starts - at_start
+        if periodic:
+            #: the mean rates over a period, solver frame, rad/s
+            self.mean = np.array([math.fsum(row) / X for row in pieces.tolist()])
+            integral[:, :, 0] -= self.mean[:, None] * middles
+            integral[:, :, 1] -= self.mean[:, None] * (0.5 * width)
+            self._slopes = None
+        else:
+            self.mean = np.zeros(3)
+            self._slopes = ends  # (3, 2): L- at -R, L+ at R (P's constant cancels in P(u) - P(u0))
+        self.coefficients = integral  # (3, count, n + 2)
+        self.width, self.count, self.start, self.range, self.period = (
+            width,
+            count,
+            start,
+            X,
+            full,
+        )
+        self.rate, self.initial_phase = motion.rate, motion.initial_phase
+        self._at_start = self.periodic_part(np.array([self.initial_phase]))[:, 0]
+        self._kernel = None
+        if kernels.ENABLED:
+            self._row = gyrostat_kernels.integral_row(self)
+            self._kernel = gyrostat_kernels.angle_kernel()
+
+    def periodic_part(self, u: np.ndarray) -> np.ndarray:
+        """Return ``P(u)``, ``(3, N)`` (up to a constant on the separatrix)."""
+        if self._slopes is None:
+            r = u - self.period * np.floor(u / self.period)
+            r = np.minimum(r, np.nextafter(self.period, 0.0))  # (u just below a multiple)
+            return _clenshaw(self.coefficients, r, self.start, self.width)
+        low, high = self.start, self.start + self.range
+        inside = np.clip(u, low, high)
+        value = _clenshaw(self.coefficients, inside, self.start, self.width)
+        value += self._slopes[:, 0:1] * np.minimum(u - low, 0.0)
+        value += self._slopes[:, 1:2] * np.maximum(u - high, 0.0)
+        return value
+
+    def rest(self, t: np.ndarray) -> np.ndarray:
+        """Return ``(P(u) - P(u0)) / lambda`` at ``t``, ``(3, N)``: ``∫_0^t w_S dt - mean t``."""
+        u = self.rate * t + self.initial_phase
+        return (self.periodic_part(u) - self._at_start[:, None]) / self.rate
+
+    def wheel_angles(self, t: np.ndarray, axes_S: np.ndarray, spins: np.ndarray) -> np.ndarray:
+        """
+        Return coasting wheels' angles ``theta_i = (h_i / Js_i) t - g_i . ∫_0^t w dt``, ``(N, n)``.
+
+        ``axes_S``: the wheels' axes ``g_i`` in the solver frame ``(n, 3)``; ``spins``:
+        ``h_i / Js_i``. As ``(h_i / Js_i - g_i . mean) t - g_i . rest``: the two linear parts
+        join in one constant, so the angle keeps its precision when the wheel barely turns
+        relative to the body. Compiled with the rates (:mod:`.gyrostat_kernels`) when numba is.
+        """
+        linear = spins - axes_S @ self.mean
+        if self._kernel is not None:
+            out = np.empty((t.shape[0], linear.shape[0]))
+            wheels = np.ascontiguousarray(np.column_stack([linear, axes_S]))
+            self._kernel(np.ascontiguousarray(t, dtype=float), self._row, self.coefficients,
+                         wheels, out)
+            return out
+        rest = self.rest(t)
+        return np.outer(t, linear) - (axes_S @ rest).T
+
+
+def _clenshaw(coefficients, a, start, width):
+    """Evaluate the panels' series ``(functions, count, degree)`` at ``a`` in the table's range."""
+    count = coefficients.shape[1]
+    index = np.minimum(((a - start) / width).astype(np.int64), count - 1)
+    index = np.maximum(index, 0)
+    x = (a - (start + (index + 0.5) * width)) * (2.0 / width)
+    rows = coefficients[:, index]  # (functions, N, degree)
+    two_x = x + x
+    b1 = rows[:, :, -1].copy()
+    b2 = np.zeros_like(b1)
+    for k in range(coefficients.shape[2] - 2, 0, -1):
+        b1, b2 = two_x * b1 - b2 + rows[:, :, k], b1
+    return x * b1 - b2 + rows[:, :, 0]
+
+
 def attitude_frame(reference: int, sign: float) -> tuple:
     """
     Return the rows of ``E`` (``v_A = E v_S``), a proper signed permutation with row 3 ``σ e_ref``.
@@ -833,6 +980,24 @@ class UniformPrecession:
         half_k = 0.5 * self.kappa * t
         right = np.column_stack([np.sin(half_k)[:, None] * e, np.cos(half_k)])
         return omega, quaternion.multiply(quaternion.multiply(left, self.q0), right)
+
+    def rate_integral(self, t: np.ndarray):
+        """
+        Return ``(mean (3,), rest (N, 3))``: ``∫_0^t w dt = mean t + rest``, body frame.
+
+        ``mean`` is ``w``'s part along ``e``; the turning part integrates to
+        ``across sin(κt) / κ - (e x w0) 2 sin^2(κt / 2) / κ`` (no cancellation as ``κ -> 0``).
+        """
+        e, w0, kappa = self.e, self.w0, self.kappa
+        if kappa == 0.0:
+            return w0, np.zeros((t.size, 3))
+        along = (e @ w0) * e
+        across = w0 - along
+        half = np.sin(0.5 * kappa * t)
+        rest = (np.sin(kappa * t) / kappa)[:, None] * across - (
+            2.0 * half * half / kappa
+        )[:, None] * np.cross(e, w0)[None, :]
+        return along, rest
 
 
 def _combine(columns, rows) -> np.ndarray:

@@ -28,6 +28,11 @@ node's) pays ~100 µs whatever its length; compiled, a sample costs about what t
 
 What differs: numpy's vectorised ``tanh`` and ``sin``/``cos`` against the C library's, in the
 last bit of some samples.
+
+Coasting wheels' angles (:meth:`.gyrostat.RateIntegrals.wheel_angles`) have a kernel of their own
+here, :func:`wheel_angle_kernel`: the rates' integral series by Clenshaw's recurrence, only for the
+rates some wheel's axis has a part along; it sums in another order than numpy's matrix product,
+so the two agree to rounding.
 """
 
 from __future__ import annotations
@@ -129,6 +134,33 @@ def table(attitude) -> tuple[np.ndarray, np.ndarray]:
     return row, np.ascontiguousarray(panels.coefficients)
 
 
+# the rate integrals' row (gyrostat.RateIntegrals)
+I_RATE, I_PHASE, I_PERIOD, I_START, I_WIDTH, I_COUNT, I_RANGE, I_PERIODIC = range(8)
+I_SLOPES, I_AT_START = 8, 14  # (L- , L+) per rate, then P(u0) per rate
+INTEGRAL_WIDTH = 17
+
+
+def integral_row(integrals) -> np.ndarray:
+    """Return a :class:`.gyrostat.RateIntegrals`' constants for :func:`wheel_angle_kernel`."""
+    row = np.zeros(INTEGRAL_WIDTH)
+    row[I_RATE], row[I_PHASE] = integrals.rate, integrals.initial_phase
+    periodic = integrals._slopes is None
+    row[I_PERIOD] = integrals.period if periodic else 0.0
+    row[I_START], row[I_WIDTH] = integrals.start, integrals.width
+    row[I_COUNT], row[I_RANGE] = integrals.count, integrals.range
+    row[I_PERIODIC] = 1.0 if periodic else 0.0
+    if not periodic:
+        row[I_SLOPES: I_SLOPES + 6] = np.asarray(integrals._slopes).ravel()
+    row[I_AT_START: I_AT_START + 3] = integrals._at_start
+    return row
+
+
+def angle_kernel():
+    """Return the compiled wheel angles (numba imported, the family compiled, at first use)."""
+    _FAMILY.load()
+    return globals()['wheel_angle_kernel']
+
+
 def _rows(cubics) -> list:
     """Return the four cubics (A, B, C, D) as rows of coefficients, from the stack by power."""
     return [[float(cubics[p][i, 0]) for p in range(4)] for i in range(4)]
@@ -143,7 +175,15 @@ def kernel():
 # The GIL stays held (no nogil), as the free body's kernels: a call is microseconds.
 _FAMILY = KernelFamily(
     globals(),
-    ('_horner', '_jacobi', '_angle', '_combine_into', 'gyrostat_kernel'),
+    (
+        '_horner',
+        '_jacobi',
+        '_angle',
+        '_combine_into',
+        'gyrostat_kernel',
+        '_periodic_part',
+        'wheel_angle_kernel',
+    ),
 )
 
 
@@ -275,3 +315,56 @@ def gyrostat_kernel(t, c, panels, omega, q):
             4,
             q[i],
         )
+
+
+def _periodic_part(c, panels, f, u):
+    """Return rate ``f``'s ``P(u)``: :meth:`.gyrostat.RateIntegrals.periodic_part`, one value."""
+    if c[I_PERIODIC] == 1.0:
+        period = c[I_PERIOD]
+        r = u - period * math.floor(u / period)
+        r = min(r, np.nextafter(period, 0.0))
+        extra = 0.0
+    else:
+        low, high = c[I_START], c[I_START] + c[I_RANGE]
+        r = min(max(u, low), high)
+        extra = c[I_SLOPES + 2 * f] * min(u - low, 0.0) + c[I_SLOPES + 2 * f + 1] * max(
+            u - high, 0.0
+        )
+    width = c[I_WIDTH]
+    index = max(min(int((r - c[I_START]) / width), int(c[I_COUNT]) - 1), 0)
+    x = (r - (c[I_START] + (index + 0.5) * width)) * (2.0 / width)
+    two_x = x + x
+    last = panels.shape[2] - 1
+    b1, b2 = panels[f, index, last], 0.0
+    for k in range(last - 1, 0, -1):
+        b1, b2 = two_x * b1 - b2 + panels[f, index, k], b1
+    return x * b1 - b2 + panels[f, index, 0] + extra
+
+
+def wheel_angle_kernel(t, c, panels, wheels, out):
+    """
+    Fill ``out (samples, wheels)`` with the wheels' angles at the times ``t``.
+
+    ``wheels``: per wheel ``(h_i / Js_i - g_i . mean, g_i in the solver frame)``;
+    :meth:`.gyrostat.RateIntegrals.wheel_angles`, sample by sample.
+    """
+    needed = [False, False, False]
+    for f in range(3):
+        for j in range(wheels.shape[0]):
+            if wheels[j, 1 + f] != 0.0:
+                needed[f] = True
+    for i in range(t.shape[0]):
+        u = c[I_RATE] * t[i] + c[I_PHASE]
+        # a rate no wheel's axis has a part along is not integrated (a wheel on the rotor axis
+        # needs w3's alone): its term is zero either way
+        r0 = r1 = r2 = 0.0
+        if needed[0]:
+            r0 = (_periodic_part(c, panels, 0, u) - c[I_AT_START]) / c[I_RATE]
+        if needed[1]:
+            r1 = (_periodic_part(c, panels, 1, u) - c[I_AT_START + 1]) / c[I_RATE]
+        if needed[2]:
+            r2 = (_periodic_part(c, panels, 2, u) - c[I_AT_START + 2]) / c[I_RATE]
+        for j in range(wheels.shape[0]):
+            out[i, j] = t[i] * wheels[j, 0] - (
+                (wheels[j, 1] * r0 + wheels[j, 2] * r1) + wheels[j, 3] * r2
+            )

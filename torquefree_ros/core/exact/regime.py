@@ -13,10 +13,13 @@
 # limitations under the License.
 
 """
-The kind of torque-free motion a state starts (seeds 000 and 002).
+The kind of torque-free motion a state starts (seeds 000 and 002), and of a free gyrostat's.
 
 Rest, a sphere, a pure spin (stable or not), the axisymmetric cones, the polhodes about the major
 and minor axes and the separatrix between them, with the periods and angles each has.
+
+A free gyrostat (``I w' + w x (I w + h) = 0``, ``h`` along a principal axis: issue 43) has
+equilibria and separatrices of its own, which move with ``h`` (:func:`classify_gyrostat`).
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .gyrostat import solve_gyrostat, solver_frame
 from .polhode import solve_polhode
 
 # Moments closer than this (relative) are *labelled* equal in the regime report; the propagators
@@ -137,4 +141,165 @@ def classify_motion(body, omega_B) -> MotionRegime:
         kind = 'major_axis_polhode' if gaps[mid] > 0.0 else 'minor_axis_polhode'
     return MotionRegime(
         kind, polhode_period=period, flip_period=0.5 * period, separatrix_distance=distance
+    )
+
+
+#: a gyrostat equilibrium whose tangent Hessian's determinant is within this of zero (relative to
+#: the squared largest inverse moment) is *labelled* degenerate (a bifurcation: h at the value
+#: where two equilibria merge); the propagator's formulas do not use it
+DEGENERATE_RTOL = 1e-12
+
+
+@dataclass(frozen=True)
+class GyrostatEquilibrium:
+    """A relative equilibrium on the momentum sphere ``|m| = H``: ``m`` along it, its kind."""
+
+    momentum: tuple  # m (principal frame of the gyrostat's inertia)
+    kind: str  # centre (stable) | saddle (unstable, a separatrix passes) | degenerate
+    energy: float  # 2T there: a saddle's is its separatrix's
+
+
+@dataclass(frozen=True)
+class GyrostatRegime:
+    """
+    What kind of motion a free gyrostat's state starts, and the equilibria of its momentum sphere.
+
+    The same reading as :class:`MotionRegime` (``kind``, ``polhode_period``, ``summary``) for the
+    node's log and diagnostics; periods in seconds.
+    """
+
+    kind: str  # gyrostat_rotor_axis_polhode | gyrostat_transverse_axis_polhode |
+    #            gyrostat_separatrix | gyrostat_uniform_precession | gyrostat_relative_equilibrium
+    rotor_axis: int  # the principal axis h lies along (of the gyrostat's inertia)
+    rotor_momentum: float  # h, N m s, signed
+    momentum: float  # |m| = |I w + h|
+    circled: str = ''  # what the motion circles: 'the rotor axis' or 'principal axis k'
+    polhode_period: float = float('nan')  # of the body rates
+    flip_period: float = float('nan')  # (a free body's notion: not the gyrostat's)
+    separatrix_distance: float = float('nan')  # 2T / 2T_sep - 1 for the nearest saddle
+    equilibria: tuple = ()  # GyrostatEquilibrium, the poles first
+
+    def summary(self) -> str:
+        parts = [
+            f'free gyrostat (h {self.rotor_momentum:.6g} N m s along principal axis '
+            f'{self.rotor_axis + 1}, |I w + h| {self.momentum:.6g}): '
+            + self.kind.replace('gyrostat_', '').replace('_', ' ')
+        ]
+        if self.circled:
+            parts.append(f'about {self.circled}')
+        if not np.isnan(self.polhode_period):
+            parts.append(f'polhode period {self.polhode_period:.6g} s')
+        if not np.isnan(self.separatrix_distance):
+            parts.append(f'separatrix distance {self.separatrix_distance:.3g}')
+        shown = []
+        for equilibrium in self.equilibria:
+            m = ', '.join(f'{v:.4g}' for v in equilibrium.momentum)
+            shown.append(f'm = ({m}) {equilibrium.kind}')
+        parts.append('equilibria ' + '; '.join(shown))
+        return ', '.join(parts)
+
+
+def gyrostat_equilibria(moments, rotor: int, h: float, H: float) -> tuple:
+    """
+    Return the relative equilibria of the gyrostat on the sphere ``|m| = H``, with their kinds.
+
+    ``m x w = 0`` with ``w_i = (m_i - h δ_i,rotor) / J_i``: the poles ``± H e_rotor`` always and,
+    in the plane of the rotor axis and transverse axis ``k``, ``m_rotor = h J_k / (J_k - J_r)``
+    while ``|m_rotor| < H`` (Elipe & Lanchares 2008; they merge into a pole as ``|h|`` grows).
+    The kind is the sign of the energy's Hessian on the sphere (``2 T`` has the Lagrange
+    multiplier ``λ = w . m / H^2``; tangent Hessian ``diag(1/J) - λ``): a centre when definite,
+    a saddle when not, its separatrix at its energy. Floats: labels for a report, not constants
+    of the solution.
+    """
+    J = np.asarray(moments, dtype=float)
+    inverse = 1.0 / J
+    candidates = []
+    for sign in (1.0, -1.0):
+        m = np.zeros(3)
+        m[rotor] = sign * H
+        candidates.append(m)
+    for k in (a for a in range(3) if a != rotor):
+        if J[k] == J[rotor]:
+            continue
+        along = h * J[k] / (J[k] - J[rotor])
+        if abs(along) >= H:
+            continue
+        across = np.sqrt(H * H - along * along)
+        for sign in (1.0, -1.0):
+            m = np.zeros(3)
+            m[rotor], m[k] = along, sign * across
+            candidates.append(m)
+    equilibria = []
+    for m in candidates:
+        w = m * inverse
+        w[rotor] -= h * inverse[rotor]
+        multiplier = float(w @ m) / (H * H)
+        unit = m / H
+        tangent = np.linalg.svd(unit[None, :])[2][1:]  # two unit vectors across m
+        hessian = tangent @ np.diag(inverse - multiplier) @ tangent.T
+        determinant = float(np.linalg.det(hessian))
+        if abs(determinant) <= DEGENERATE_RTOL * float(inverse.max()) ** 2:
+            kind = 'degenerate'
+        else:
+            kind = 'centre' if determinant > 0.0 else 'saddle'
+        equilibria.append(GyrostatEquilibrium(tuple(m.tolist()), kind, float(w @ (J * w))))
+    return tuple(equilibria)
+
+
+def classify_gyrostat(moments, omega_P, rotor: int, h: float) -> GyrostatRegime:
+    """
+    Classify the free gyrostat's motion from ``omega_P`` (principal frame of ``moments``).
+
+    ``h`` (nonzero) along principal axis ``rotor``. The motion's regime is the closed form's own
+    (:func:`.gyrostat.solve_gyrostat`: the turning points and what they circle), its period the
+    rates' (``4K / lambda`` or ``2K / lambda``); the equilibria and the distance to the nearest
+    saddle's separatrix from :func:`gyrostat_equilibria`.
+    """
+    J = np.asarray(moments, dtype=float)
+    w = np.asarray(omega_P, dtype=float)
+    m = J * w
+    m[rotor] += h
+    H = float(np.linalg.norm(m))
+    equilibria = gyrostat_equilibria(J, rotor, h, H)
+    two_T = float(w @ (J * w))
+    saddles = [e.energy for e in equilibria if e.kind == 'saddle']
+    distance = float('nan')
+    if saddles:
+        nearest = min(saddles, key=lambda energy: abs(two_T - energy))
+        distance = two_T / nearest - 1.0 if nearest else float('nan')
+    frame = solver_frame(J, np.eye(3), rotor, h)
+    others = [k for k in range(3) if k != rotor]
+    common = {
+        'rotor_axis': rotor,
+        'rotor_momentum': float(h),
+        'momentum': H,
+        'separatrix_distance': distance,
+        'equilibria': equilibria,
+    }
+    J1, J2, _ = frame.moments
+    omega_S = [sum(r * v for r, v in zip(row, w.tolist())) for row in frame.rows]
+    if J1 == J2:  # a rotor on the symmetry axis: m_rotor constant, w turns uniformly about it
+        kappa = w[rotor] - m[rotor] / J1
+        period = 2.0 * np.pi / abs(kappa) if kappa else float('nan')
+        return GyrostatRegime(
+            'gyrostat_uniform_precession', circled='the rotor axis', polhode_period=period,
+            **common,
+        )
+    motion = solve_gyrostat(frame.moments, omega_S, h)
+    if motion is None:
+        return GyrostatRegime('gyrostat_relative_equilibrium', **common)
+    circled = (
+        'the rotor axis'
+        if motion.reference == 2
+        else f'principal axis {others[motion.reference] + 1}'
+    )
+    # the rates repeat after 4K in u, or 2K when every transverse component holds sn and cn
+    # together or neither (z is a function of sn^2 in the sn2 form; of cn in the cn form)
+    even = all((powers[0] + powers[1]) % 2 == 0 for powers in motion.powers)
+    period = motion.period * (2.0 if motion.form == 'sn2' and not even else 1.0)
+    return GyrostatRegime(
+        f'gyrostat_{motion.regime}',
+        circled=circled,
+        polhode_period=period / motion.rate,
+        **common,
     )

@@ -17,6 +17,8 @@
 from . import analytic, gyrostat, numerical  # noqa: F401  (registers the propagators)
 from .base import Propagator, propagator_class, PROPAGATORS
 from ..body.rigid_body import RigidBody
+from ..checks.validation import finite_vector
+from ..exact.regime import classify_gyrostat, GyrostatRegime, MotionRegime
 from ..numerics.steps import MAX_STEPS_PER_SAMPLE, StepBudgetExceeded, StepTooSmall
 
 __all__ = [
@@ -29,6 +31,7 @@ __all__ = [
     'StepTooSmall',
     'propagator_class',
     'make_propagator',
+    'motion_regime',
 ]
 
 #: the integrator tolerance (relative, per step) of ``auto`` for a scene with effects
@@ -50,8 +53,9 @@ def make_propagator(
     Build a propagator by name.
 
     ``auto`` is the exact solution when no effect changes the motion, the exact free gyrostat
-    (``gyrostat``) when the only ones are ``rotor`` effects whose momentum lies along a principal
-    axis (:data:`.gyrostat.ROTOR_AXIS_TOLERANCE`), else DOP853 held to ``accuracy`` (``rtol``;
+    (``gyrostat``) when the only ones are ``rotor`` effects and coasting ``reaction_wheels`` whose
+    summed momentum lies along a principal axis (:func:`.gyrostat.free_gyrostat`, to
+    :data:`.gyrostat.ROTOR_AXIS_TOLERANCE`), else DOP853 held to ``accuracy`` (``rtol``;
     ``atol = accuracy / 100``; default :data:`DEFAULT_ACCURACY`). ``effects``: motion effects only
     (outputs never reach a propagator).
     """
@@ -62,10 +66,32 @@ def make_propagator(
         )
     if not effects:
         return propagator_class('analytic')(body, angular_velocity, orientation, **options)
-    if not isinstance(gyrostat.principal_rotor(RigidBody.from_inertia(body), effects), str):
+    found = gyrostat.free_gyrostat(
+        RigidBody.from_inertia(body), effects, finite_vector(angular_velocity, 'angular_velocity')
+    )
+    if not isinstance(found, str):
         return propagator_class('gyrostat')(
             body, angular_velocity, orientation, effects, **options
         )
     tolerance = DEFAULT_ACCURACY if accuracy is None else accuracy
     options = {'rtol': tolerance, 'atol': tolerance * ATOL_PER_RTOL, **options}
     return propagator_class('dop853')(body, angular_velocity, orientation, effects, **options)
+
+
+def motion_regime(propagator: Propagator) -> MotionRegime | GyrostatRegime:
+    """
+    Return the regime of the motion a propagator's initial state starts.
+
+    A free gyrostat's (rotors and coasting wheels along a principal axis, whichever propagator
+    runs it: :func:`.gyrostat.free_gyrostat`) is the gyrostat's own, with its equilibria and
+    separatrices (:func:`.exact.regime.classify_gyrostat`); any other scene's is the torque-free
+    regime of the body at the initial rates (:meth:`RigidBody.classify`), which effects that
+    change the motion make a reading of the start only.
+    """
+    omega0 = propagator.omega0_B
+    found = gyrostat.free_gyrostat(propagator.body, propagator.effects, omega0)
+    if isinstance(found, str) or found.momentum == 0.0:
+        return propagator.body.classify(omega0)
+    inertia = found.inertia
+    omega_P = inertia.to_principal(omega0)
+    return classify_gyrostat(inertia.moments, omega_P, found.axis, found.momentum)

@@ -21,10 +21,16 @@ sample does not depend on how the blocks were cut. The scene's outputs (``imu``,
 are computed with the samples, and only when the scene names them; an output with a ``rate`` of
 its own goes out on samples ``k = 0, n, 2n, ...`` (``n`` = rate / its rate), its stream seeing only
 those, numbered ``j = k / n``.
+
+The run's faults (``core.faults``) act on the outputs' rows after the sensors computed them; a
+dropout removes the sample from its output (its position is left out). :meth:`Simulation.retune`
+changes the faults and the sensors' noise from a given sample on (the node's run-time parameters,
+a replay of them): the samples computed ahead are then :meth:`Simulation.refaulted`.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -32,7 +38,9 @@ import numpy as np
 
 from .accuracy import estimate_accuracy
 from ..effects.commands import command_inputs
-from ..propagators import Propagator
+from ..exact.regime import GyrostatRegime
+from ..faults import describe_fault, FaultInjector
+from ..propagators import motion_regime, Propagator
 from ..timing.grid import check_rate, sample_stamp_ns, stamps_ns
 
 MAX_STAMP_S = 2**31  # builtin_interfaces/Time.sec is an int32
@@ -48,8 +56,12 @@ class SampleBlock:
     internal: np.ndarray  # (N, state_size): the effects' own states (a damper's rate)
     outputs: tuple = ()  # one (n, width) float64 array per output, in Simulation.outputs order
     # per output: the block positions its rows belong to (an output with a rate of its own goes out
-    # on every n-th sample only), None when it has a row for every sample
+    # on every n-th sample only, a dropout on none), None when it has a row for every sample
     output_positions: tuple = ()
+    # per output: the sensor's own rows before the faults (every sample it goes out on), and its
+    # row of the sample before the block (None when not at hand)
+    raw_outputs: tuple = ()
+    raw_previous: tuple = ()
 
     def __len__(self) -> int:
         return self.times.shape[0]
@@ -78,6 +90,7 @@ class Simulation:
         epoch_ns: int = 0,
         rate_name: str = 'rate',
         outputs=(),
+        faults=(),
     ):
         self.propagator = propagator
         self.rate = check_rate(rate, rate_name)
@@ -88,9 +101,16 @@ class Simulation:
             hold.start(self.rate, self.epoch_ns)
         self.outputs = tuple(output.for_run(propagator) for output in outputs)
         self._every = tuple(output.every(self.rate, rate_name) for output in self.outputs)
-        self._streams = tuple(
+        self._streams = [
             output.stream(self.rate / every, propagator)
             for output, every in zip(self.outputs, self._every)
+        ]
+        #: per output: (j, row) of the last sensor row computed, the row before the next block
+        self._last_raw: list = [None] * len(self.outputs)
+        #: per output: the first sample j of a stream retune replaced (earlier rows: the old's)
+        self._retuned_from: dict[int, int] = {}
+        self._injector = FaultInjector(
+            faults, self.outputs, self.rate, self._every, self._raw_row
         )
         dynamics = propagator.dynamics
         #: (effect, its part of the states, its monitor) of the effects /diagnostics reports on
@@ -103,7 +123,7 @@ class Simulation:
         omega0, x0 = propagator.omega0_B, propagator.x0
         self.kinetic_energy0 = float(propagator.energy(omega0, x0))
         self.momentum0 = float(np.linalg.norm(propagator.momentum_B(omega0, x0)))
-        self.regime = propagator.body.classify(omega0)
+        self.regime = motion_regime(propagator)  # a free gyrostat's own, with its equilibria
 
     @property
     def body(self):
@@ -161,26 +181,135 @@ class Simulation:
         return values, '; '.join(warnings)
 
     def with_outputs(self, block: SampleBlock) -> SampleBlock:
-        """Return ``block`` with the rows of the simulation's outputs."""
-        first, count, times = block.first, len(block), block.times
-        omega, q, internal = block.omega_B, block.q_NB, block.internal
-        outputs, positions = [], []
-        for stream, every in zip(self._streams, self._every):
-            if every == 1:
-                outputs.append(stream.rows(first, times, omega, q, internal))
-                positions.append(None)
-                continue
-            start = -(-first // every) * every  # the block's first sample k with k % every == 0
-            picked = np.arange(start - first, count, every)
-            outputs.append(
-                stream.rows(
-                    start // every, times[picked], omega[picked], q[picked], internal[picked]
-                )
-            )
-            positions.append(picked)
-        return SampleBlock(
-            first, times, block.stamps_ns, omega, q, internal, tuple(outputs), tuple(positions)
+        """Return ``block`` with the rows of the simulation's outputs, faults applied."""
+        raw, previous = [], []
+        for position, stream in enumerate(self._streams):
+            j, picked = self._picked(block, position)
+            rows = stream.rows(j, *self._states(block, picked))
+            last = self._last_raw[position]
+            previous.append(last[1] if last is not None and last[0] == j - 1 else None)
+            if rows.shape[0]:
+                self._last_raw[position] = (j + rows.shape[0] - 1, rows[-1].copy())
+            raw.append(rows)
+        return self._faulted(block, tuple(raw), tuple(previous))
+
+    def _picked(self, block: SampleBlock, position: int) -> tuple[int, np.ndarray | None]:
+        """Return output ``position``'s first sample ``j`` in ``block`` and its block positions."""
+        every = self._every[position]
+        if every == 1:
+            return block.first, None
+        start = -(-block.first // every) * every  # the block's first k with k % every == 0
+        return start // every, np.arange(start - block.first, len(block), every)
+
+    @staticmethod
+    def _states(block: SampleBlock, picked) -> tuple:
+        if picked is None:
+            return block.times, block.omega_B, block.q_NB, block.internal
+        return (
+            block.times[picked],
+            block.omega_B[picked],
+            block.q_NB[picked],
+            block.internal[picked],
         )
+
+    def _faulted(self, block: SampleBlock, raw: tuple, previous: tuple) -> SampleBlock:
+        outputs, positions = [], []
+        for position, (rows, before) in enumerate(zip(raw, previous)):
+            j, picked = self._picked(block, position)
+            rows, keep = self._injector.apply(position, j, rows, before)
+            if keep is not None:
+                picked = (np.arange(len(block)) if picked is None else picked)[keep]
+                rows = rows[keep]
+            outputs.append(rows)
+            positions.append(picked)
+        return dataclasses.replace(
+            block,
+            outputs=tuple(outputs),
+            output_positions=tuple(positions),
+            raw_outputs=raw,
+            raw_previous=previous,
+        )
+
+    # -- faults and run-time changes of the sensors ----------------------------------------------
+    @property
+    def faults(self) -> tuple:
+        """Return the faults in force (``core.faults.Fault``), in their list's order."""
+        return self._injector.faults
+
+    def retune(self, from_index: int, faults=None, outputs=None) -> None:
+        """
+        Change the faults and the sensors from run sample ``from_index`` on.
+
+        ``faults``: the faults in force from then (None: unchanged); ``outputs``: ``{position:
+        output effect}``, sensors rebuilt with other noise parameters (``core.faults.retuned``),
+        whose rows from then on are the rebuilt sensor's. Samples computed before are not changed;
+        those computed ahead of ``from_index`` are made again by :meth:`refaulted`.
+        """
+        for position, output in (outputs or {}).items():
+            every = self._every[position]
+            output = output.for_run(self.propagator)
+            outputs_now = list(self.outputs)
+            outputs_now[position] = output
+            self.outputs = tuple(outputs_now)
+            self._streams[position] = output.stream(self.rate / every, self.propagator)
+            self._retuned_from[position] = -(-from_index // every)
+            self._last_raw[position] = None
+        if faults is not None:
+            self._injector.replace(faults, from_index)
+
+    def refaulted(self, block: SampleBlock) -> SampleBlock:
+        """
+        Return ``block`` (computed before a :meth:`retune`) with its outputs made again.
+
+        The sensors' rows of samples a retune gave new noise to are computed by the rebuilt
+        sensor; every row gets the faults now in force (those before the retune's sample keep
+        theirs: the faults set then start there).
+        """
+        raw = []
+        for position, rows in enumerate(block.raw_outputs):
+            start = self._retuned_from.get(position)
+            j, picked = self._picked(block, position)
+            if start is not None and start < j + rows.shape[0]:
+                rows = rows.copy()
+                offset = max(start - j, 0)
+                keep = slice(offset, None)
+                chosen = np.arange(len(block))[keep] if picked is None else picked[keep]
+                stream = self._streams[position]
+                rows[keep] = stream.rows(j + offset, *self._states(block, chosen))
+                self._last_raw[position] = (j + rows.shape[0] - 1, rows[-1].copy())
+            raw.append(rows)
+        return self._faulted(block, tuple(raw), block.raw_previous)
+
+    def publishes(self, position: int, k: int) -> bool:
+        """Tell whether output ``position`` goes out on run sample ``k`` (its rate, a dropout)."""
+        every = self._every[position]
+        return k % every == 0 and self._injector.publishes(position, k // every)
+
+    def fault_diagnostics(self, k: int | None) -> dict:
+        """
+        Return what /diagnostics says of the faults at run sample ``k`` (None: none out yet).
+
+        ``faults_active``: those acting at the last sample out, ``faults``: how many are in force
+        (none: nothing is said).
+        """
+        faults = self._injector.faults
+        if not faults:
+            return {}
+        active = []
+        if k is not None:
+            for position, output in enumerate(self.outputs):
+                active += self._injector.active(position, k // self._every[position])
+        return {
+            'faults': str(len(faults)),
+            'faults_active': '; '.join(describe_fault(f) for f in active) or 'none',
+        }
+
+    def _raw_row(self, position: int, j: int) -> np.ndarray:
+        """Return output ``position``'s sensor row of its sample ``j``, computed alone."""
+        k = j * self._every[position]
+        times = np.arange(k, k + 1) / self.rate
+        omega, q, internal = self.propagator.states(times)
+        return self._streams[position].rows(j, times, omega, q, internal)[0]
 
     def invariants(self, omega_B, internal=None) -> Invariants:
         """
@@ -220,7 +349,8 @@ class Simulation:
                 f'tensor {_fmt([t[0, 0], t[1, 1], t[2, 2], t[0, 1], t[0, 2], t[1, 2]])} '
                 f'-> principal moments {inertia}'
             )
-        regime = 'regime' if p.dynamics.torque_free else 'torque-free regime of the initial state'
+        exact = p.dynamics.torque_free or isinstance(self.regime, GyrostatRegime)
+        regime = 'regime' if exact else 'torque-free regime of the initial state'
         return (
             f'inertia {inertia} kg m^2, w0 {_fmt(p.omega0_B)} rad/s, q0 {_fmt(p.q0_NB)}, '
             f'T {self.kinetic_energy0:.9g} J, |H| {self.momentum0:.9g} kg m^2/s, '

@@ -31,6 +31,8 @@ Schema (SI units; every error names the file, the field path and the reason)::
       tle: [line1, line2]                       # ... or a two-line element set (SGP4)
       start: 2026-03-20T13:00:00Z               # the scene's t = 0 (default: the orbit's epoch)
     effects: [- NAME: {parameters}]             # see core.effects; none = torque-free
+    faults: [- KIND: {output, start, end, ...}] # optional: faults of the sensor outputs
+                                                # (core.faults.schedule)
     accuracy: 1e-10                             # integrator tolerance when an effect needs one
     sweep: {members: 9}                         # optional: a family at the initial |H| (members())
     watch: 900                                  # optional: seconds its story takes
@@ -72,6 +74,7 @@ from ..checks.schema import (
 )
 from ..effects import MotionEffect, OutputEffect, parse_effect
 from ..environment.place import Place
+from ..faults import parse_faults, parse_noise_changes
 from ..propagators import make_propagator, Propagator
 from ..propagators.base import overflowing_message, unrepresentable_state
 from ..propagators.dynamics import Dynamics
@@ -108,6 +111,7 @@ class Scene:
     sweep_members: int | None = None  # an energy sweep: how many members
     watch: float | None = None  # s: how long the scene must be watched to show what it is about
     orbit: Place | None = None  # where the body is: its orbit and the UTC instant of t = 0
+    faults: tuple = ()  # core.faults.Fault instances: what the sensor outputs suffer, and when
 
     @property
     def torque_free(self) -> bool:
@@ -298,6 +302,11 @@ def scene_from_mapping(data, source: str = '<built-in default>') -> Scene:
         ]
         _check_output_topics(values['effects'])
         _check_reported_effects(values['effects'])
+        faults = parse_faults(
+            values['faults'],
+            'faults',
+            [effect for effect in values['effects'] if isinstance(effect, OutputEffect)],
+        )
         rigid_body = RigidBody.from_inertia(values['body']['inertia'])
         _check_state_scale(rigid_body, values)
         _check_effect_scales(rigid_body, values)
@@ -318,7 +327,37 @@ def scene_from_mapping(data, source: str = '<built-in default>') -> Scene:
         sweep_members=values['sweep']['members'] if values['sweep'] else None,
         watch=values['watch'],
         orbit=values['orbit'],
+        faults=faults,
     )
+
+
+def faults_from_text(text_: str, outputs, first_index: int = 0, name: str = 'faults') -> tuple:
+    """
+    Read a YAML (or JSON) list of faults as a scene's ``faults:`` against ``outputs``.
+
+    Empty text is none; ``first_index`` numbers the first (its draws' key: after the scene's).
+    Errors are ``ValueError`` naming ``name`` and the field path (``faults[0].bias.step: ...``):
+    the node's ``faults`` parameter.
+    """
+    return parse_faults(_parameter_document(text_, name, []), name, outputs, first_index)
+
+
+def noise_from_text(text_: str, outputs, name: str = 'sensor_noise') -> dict:
+    """
+    Read a YAML (or JSON) mapping ``{TOPIC: {PARAMETER: value}}`` of sensor noise changes.
+
+    Return ``{topic: the rebuilt output}`` (``core.faults.parse_noise_changes``); errors name
+    ``name`` and the field path.
+    """
+    return parse_noise_changes(_parameter_document(text_, name, {}), name, outputs)
+
+
+def _parameter_document(text_: str, name: str, empty):
+    """Read a parameter's YAML text as a scene file's (YAML 1.2 numbers, bounded); ``empty``."""
+    if not text_.strip():
+        return empty
+    document = load_yaml(text_, name, _SceneLoader)  # ValueError: 'NAME:LINE:COLUMN: ...'
+    return empty if document is None else document
 
 
 def _check_state_scale(body: RigidBody, values) -> None:
@@ -410,6 +449,8 @@ _TOP = {
     'initial': Param(mapping(_INITIAL), description='every scene names its initial state'),
     'orbit': Param(Place.from_mapping, None),
     'effects': Param(listing(parse_effect), []),
+    # checked against the outputs once they are read (scene_from_mapping)
+    'faults': Param(lambda value, path: value, []),
     'accuracy': Param(number(MIN_ACCURACY, MAX_ACCURACY), None),
     'sweep': Param(
         mapping(

@@ -56,6 +56,20 @@ def check_rate(rate, name: str = 'rate') -> float:
     return rate
 
 
+def first_sample_at_or_after(t: float, rate: float) -> int:
+    """
+    Return the first sample ``k >= 0`` whose time ``k / rate`` (float64, as sampled) is ``>= t``.
+
+    The rule of every window on the grid (a fault's start and end): ``t`` finite.
+    """
+    k = max(0, math.ceil(t * rate))
+    while k > 0 and (k - 1) / rate >= t:
+        k -= 1
+    while k / rate < t:
+        k += 1
+    return k
+
+
 def sample_stamp_ns(k: int, rate: float, epoch_ns: int = 0) -> int:
     """
     Return the stamp of sample ``k`` of a run at ``rate`` Hz from ``epoch_ns``: the stamp rule.

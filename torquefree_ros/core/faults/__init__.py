@@ -1,0 +1,42 @@
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Faults of the sensor outputs and run-time changes of their noise.
+
+- :mod:`.schedule`: the fault kinds (stuck, bias, noise, spikes, dropout), checked field by field
+  against a scene's outputs, and the columns each acts on per output;
+- :mod:`.injector`: a run's faults applied to its outputs' rows after the sensors computed them,
+  on each output's own sample grid, with seeded draws;
+- :mod:`.retune`: a sensor output rebuilt with new noise parameters while a run goes on.
+
+Beside :mod:`..propagators`, under :mod:`..scene` and :mod:`..run`. May import: :mod:`..effects`
+and every room below it.
+"""
+
+from .injector import FaultInjector
+from .retune import NOISE_PARAMETERS, parse_noise_changes, retuned
+from .schedule import describe_fault, Fault, FAULT_KINDS, FAULTED_OUTPUTS, parse_faults
+
+__all__ = [
+    'FAULTED_OUTPUTS',
+    'FAULT_KINDS',
+    'NOISE_PARAMETERS',
+    'Fault',
+    'FaultInjector',
+    'describe_fault',
+    'parse_faults',
+    'parse_noise_changes',
+    'retuned',
+]

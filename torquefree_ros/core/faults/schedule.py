@@ -1,0 +1,264 @@
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The faults of sensor outputs: their kinds, their fields and the columns each acts on.
+
+A fault is a one-key mapping ``- KIND: {output, start, end, ...}`` (as effects are named)::
+
+    - stuck:   {output: imu, start: 2.0, end: 4.0}                # at the last value, or
+    - stuck:   {output: imu, start: 2.0, value: [0.0, 0.0, 0.1]}  # at a given value
+    - bias:    {output: magnetometer, start: 1.0, step: [1e-6, 0.0, 0.0]}
+    - noise:   {output: star_tracker, start: 0.0, end: 9.0, sigma: 1e-4}
+    - spikes:  {output: imu, start: 0.0, magnitude: 0.5, probability: 0.01}   # or period: s
+    - dropout: {output: sun_sensor, start: 3.0, end: 3.5}
+
+``output`` is the output's topic (its name unless the scene gives it a ``topic``), one of the
+sensors in :data:`FAULTED_OUTPUTS`. ``start`` and ``end`` are seconds of the run (``end`` left
+out: until the run ends); the fault acts on the output's samples ``j`` (on its own grid, ``t_j = j
+/ rate``) from the first at or after ``start`` to the last before the first at or after ``end``
+(:func:`~torquefree_ros.core.timing.grid.first_sample_at_or_after`, the one rule).
+
+What each kind does (SI values, in the output's unit: rad/s for the ``imu``, T for the
+``magnetometer``, a rotation vector in rad, body frame, for the ``star_tracker`` and the
+``sun_sensor``):
+
+* ``stuck``: the output repeats the row it read at the sample before the window (its first sample
+  when the window starts at sample 0), measurement and covariance together, or, with ``value``,
+  carries that value in its measurement (a unit quaternion ``(x, y, z, w)`` for the star tracker);
+* ``bias``: ``step`` is added to the measurement (vectors), or the measurement is turned by it
+  (``q ⊗ exp(step / 2)``, ``R(exp(step)) v``);
+* ``noise``: an added white noise of 1-sigma ``sigma`` per axis, the same way (the sensor's own
+  noise is not scaled: the sensor computes its rows whole, so a fault sees only them);
+* ``spikes``: on a sample with a spike, ``magnitude`` along a random direction, the same way; a
+  spike on each sample with ``probability``, or on the first sample at or after ``start + n
+  period``;
+* ``dropout``: no message at all.
+
+A row that carries no measurement (a gyro's or star tracker's latency start, a star tracker with
+no solution, a sun sensor without the Sun) stays as it is under bias, noise and spikes. Faults of
+one output apply in list order; ``stuck`` replaces what the faults before it did, ``dropout``
+removes the message whatever the others do.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+import math
+
+from ..checks.schema import (
+    child,
+    FieldError,
+    fields,
+    listing,
+    number,
+    one_key,
+    Param,
+    shown,
+    text,
+    vector,
+)
+from ..checks.validation import unit_quaternion
+from ..timing.grid import first_sample_at_or_after
+
+#: the latest start or end a fault may name, s: the stamps' end (builtin_interfaces/Time's int32)
+MAX_FAULT_TIME = 2.0**31
+
+
+@dataclass(frozen=True)
+class FaultedColumns:
+    """Where a fault acts in an output's row."""
+
+    measured: slice  # the measurement bias, noise, spikes and a stuck value act on
+    held: slice  # what a stuck output repeats: the measurement and its covariance
+    quantity: str  # vector (added), rotation (a unit vector turned), quaternion (q ⊗ exp(v/2))
+    unit: str
+
+
+#: output name -> the columns faults act on: the imu's angular velocity (13:16; with its
+#: covariance 16:25 when stuck), the magnetometer's field (0:3; covariance 3:12), the sun sensor's
+#: unit vector (0:3), the star tracker's orientation (0:4; covariance 4:13)
+FAULTED_OUTPUTS = {
+    'imu': FaultedColumns(slice(13, 16), slice(13, 25), 'vector', 'rad/s'),
+    'magnetometer': FaultedColumns(slice(0, 3), slice(0, 12), 'vector', 'T'),
+    'sun_sensor': FaultedColumns(slice(0, 3), slice(0, 3), 'rotation', 'rad'),
+    'star_tracker': FaultedColumns(slice(0, 4), slice(0, 13), 'quaternion', 'rad'),
+}
+
+
+@dataclass(frozen=True)
+class Fault:
+    kind: str
+    output: str  # the output's topic
+    start: float  # s of the run
+    end: float | None  # s; None: until the run ends
+    index: int  # its place in its list: what its draws are keyed by
+    value: tuple | None = None  # stuck at a given value (None: at the last one)
+    step: tuple | None = None  # bias
+    sigma: float | None = None  # noise
+    magnitude: float | None = None  # spikes
+    probability: float | None = None  # spikes on each sample with it
+    period: float | None = None  # spikes every period from start
+
+
+_TIME = number(minimum=0.0, maximum=MAX_FAULT_TIME, unit='s')
+_COMMON = {
+    'output': Param(text(), description="the output's topic: imu, star_tracker, ..."),
+    'start': Param(_TIME, description='s of the run'),
+    'end': Param(_TIME, None),
+}
+FAULT_KINDS = {
+    'stuck': {'value': Param(vector(3, 4), None, 'default: the last value read')},
+    'bias': {'step': Param(vector(3), description="the step, in the output's unit")},
+    'noise': {'sigma': Param(number(minimum=0.0), description='1-sigma per axis')},
+    'spikes': {
+        'magnitude': Param(number(minimum=0.0), description="a spike's size"),
+        'probability': Param(number(positive=True, maximum=1.0), None),
+        'period': Param(number(positive=True, maximum=MAX_FAULT_TIME, unit='s'), None),
+    },
+    'dropout': {},
+}
+
+
+def parse_faults(data, path: str, outputs, first_index: int = 0) -> tuple[Fault, ...]:
+    """
+    Check a list of faults against the run's ``outputs``; return them.
+
+    Every error is a ``FieldError`` naming its path (``faults[1].bias.step``). ``first_index``:
+    the index of the first fault (its draws' key).
+    """
+    entries = listing(lambda entry, where: entry)(data, path)
+    by_topic = {output.topic: output for output in outputs}
+    faults = []
+    for place, entry in enumerate(entries):
+        where = child(path, place)
+        kind, parameters = one_key(entry, where, FAULT_KINDS, 'fault kind')
+        where = child(where, kind)
+        values = fields(parameters, where, {**_COMMON, **FAULT_KINDS[kind]})
+        output = by_topic.get(values['output'])
+        if output is None or output.name not in FAULTED_OUTPUTS:
+            sensors = [topic for topic, o in by_topic.items() if o.name in FAULTED_OUTPUTS]
+            raise FieldError(
+                child(where, 'output'),
+                f'{shown(values["output"])} is not the topic of a sensor output of the scene '
+                f'(sensors: {", ".join(sensors) or "none"}; faults act on '
+                f'{", ".join(FAULTED_OUTPUTS)})',
+            )
+        end = values['end']
+        if end is not None and end <= values['start']:
+            raise FieldError(
+                child(where, 'end'), f'must be after start ({values["start"]:g} s), got {end:g} s'
+            )
+        faults.append(_fault(kind, values, output.name, where, first_index + place))
+    return tuple(faults)
+
+
+def _fault(kind: str, values: dict, name: str, where: str, index: int) -> Fault:
+    common = {
+        'kind': kind,
+        'output': values['output'],
+        'start': values['start'],
+        'end': values['end'],
+        'index': index,
+    }
+    if kind == 'stuck':
+        value = values['value']
+        if value is None:
+            return Fault(**common)
+        width = 4 if name == 'star_tracker' else 3
+        if value.size != width:
+            raise FieldError(
+                child(where, 'value'),
+                f'{name} carries {width} numbers ('
+                + ('a unit quaternion x, y, z, w' if width == 4 else FAULTED_OUTPUTS[name].unit)
+                + f'), got {value.size}',
+            )
+        if width == 4:
+            try:
+                value = unit_quaternion(value, 'value')
+            except ValueError as error:
+                raise FieldError(child(where, 'value'), str(error).split(': ', 1)[-1]) from None
+        return Fault(**common, value=tuple(float(x) for x in value))
+    if kind == 'bias':
+        return Fault(**common, step=tuple(float(x) for x in values['step']))
+    if kind == 'noise':
+        return Fault(**common, sigma=values['sigma'])
+    if kind == 'spikes':
+        if (values['probability'] is None) == (values['period'] is None):
+            raise FieldError(
+                where, "give either 'probability' (per sample) or 'period' (s), not "
+                + ('both' if values['probability'] is not None else 'neither')
+            )
+        return Fault(
+            **common,
+            magnitude=values['magnitude'],
+            probability=values['probability'],
+            period=values['period'],
+        )
+    return Fault(**common)
+
+
+def describe_fault(fault: Fault) -> str:
+    """Say what a fault does, in one line: ``bias imu [2, 4) s step [0.1, 0, 0]``."""
+    end = '...' if fault.end is None else f'{fault.end:g}'
+    detail = {
+        'stuck': 'at the last value'
+        if fault.value is None
+        else 'at ' + _values(fault.value),
+        'bias': f'step {_values(fault.step)}' if fault.step else '',
+        'noise': f'sigma {fault.sigma:g}' if fault.sigma is not None else '',
+        'spikes': f'magnitude {fault.magnitude:g} '
+        + (
+            f'probability {fault.probability:g}'
+            if fault.probability is not None
+            else f'period {fault.period:g} s'
+        )
+        if fault.magnitude is not None
+        else '',
+        'dropout': 'no message',
+    }[fault.kind]
+    return f'{fault.kind} {fault.output} [{fault.start:g}, {end}) s {detail}'.rstrip()
+
+
+def _values(values) -> str:
+    return '[' + ', '.join(f'{x:g}' for x in values) + ']'
+
+
+def spike_period_samples(fault: Fault, rate: float, first: int, stop: int) -> list:
+    """
+    Return the samples ``j`` in ``[first, stop)`` of a periodic spike fault at ``rate`` Hz.
+
+    The first sample at or after ``start + n period`` for each ``n >= 0`` (the grid's rule).
+    """
+    n = max(0, math.floor((first / rate - fault.start) / fault.period) - 1)
+    found = []
+    while True:
+        j = first_sample_at_or_after(fault.start + n * fault.period, rate)
+        if j >= stop:
+            return found
+        if j >= first and (not found or found[-1] != j):
+            found.append(j)
+        n += 1
+
+
+__all__ = [
+    'FAULTED_OUTPUTS',
+    'FAULT_KINDS',
+    'Fault',
+    'FaultedColumns',
+    'MAX_FAULT_TIME',
+    'describe_fault',
+    'parse_faults',
+    'spike_period_samples',
+]
