@@ -604,6 +604,28 @@ def test_a_speed_command_is_held_by_the_drives_proportional_loop_then_the_wheel_
     assert not u[~on].any() and not torque_limited.any() and not speed_limited.any()
 
 
+@pytest.mark.parametrize('mode', ['torque', 'speed'])
+def test_one_sample_of_applied_equals_the_array_rule_bit_for_bit(mode):
+    """A closed loop's one-sample path (floats) and the block path (arrays): the same numbers."""
+    wheels = [
+        wheel([1.0, 0.0, 0.0], max_torque=0.5, max_speed=100.0, speed_band=5.0),
+        wheel([0.0, 1.0, 0.0], max_torque=2.0, max_speed=50.0),
+        wheel([0.0, 0.0, 1.0], max_torque=0.1, max_speed=300.0, speed_band=30.0),
+    ]
+    _, effect = commanded(mode, wheels)
+    rng = np.random.default_rng(5)
+    # speeds across each band and beyond the limits, inputs inside and beyond max_torque
+    speeds = rng.uniform(-1.05, 1.05, (400, 3)) * np.array([100.0, 50.0, 300.0])
+    inputs = rng.uniform(-3.0, 3.0, (400, 3)) * (100.0 if mode == 'speed' else 1.0)
+    inputs[::7, 1] = math.nan if mode == 'speed' else 0.0  # a drive off
+    block = effect.applied(speeds, inputs)
+    assert block[1].any() and block[2].any() and (~block[2]).any()  # both limits met, not always
+    for row in range(speeds.shape[0]):
+        once = effect.applied(speeds[row:row + 1], inputs[row:row + 1])
+        for single, many in zip(once, block):
+            np.testing.assert_array_equal(single[0], many[row])
+
+
 BAD_COMMANDS = {
     'unknown name': ((['rw0', 'rw9'], [], [0.1, 0.2]), "unknown name: 'rw9' (wheels: rw0, rw1)"),
     'repeated name': ((['rw0', 'rw0'], [], [0.1, 0.2]), "repeated name: 'rw0'"),

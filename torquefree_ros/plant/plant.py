@@ -389,6 +389,9 @@ class _WheelCommands(NamedTuple):
         )
 
 
+_NO_SPEEDS = np.empty(0)
+
+
 class _WheelSpeeds:
     """Each body's wheel speeds from its rows: ``Omega_i = h_i / Js_i - g_i . w``."""
 
@@ -413,8 +416,8 @@ class _WheelSpeeds:
 
     def __call__(self, rows: np.ndarray) -> np.ndarray:
         """Return the speeds of ``rows`` (``(N, n)``, or ``(N, M, n)`` with a samples axis)."""
-        if not self.index.size:
-            return np.empty(rows.shape[:-1] + (0,))
+        if not self.index.size:  # (no wheels: an empty array, not a computation)
+            return _NO_SPEEDS.reshape(rows.shape[:-1] + (0,))
         if rows.ndim == 2:
             return rows[:, self.index] / self.spin_inertias - np.einsum(
                 'bij,bj->bi', self.axes, rows[:, :3]

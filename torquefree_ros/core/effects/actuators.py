@@ -458,6 +458,7 @@ class ReactionWheels(MotionEffect):
         self.axes = np.array(axes)
         self.spin_inertias = np.array([row[3] for row in rows])
         self._limits = np.array([row[4:7] + row[12:13] for row in rows]).T  # max u, max speed, ...
+        self._limit_rows = [row[4:7] + row[12:13] for row in rows]
         #: where each wheel enters its speed limit's band, ``max_speed - speed_band``, rad/s
         self.band_speeds = np.array([row[5] - row[6] for row in rows])
         #: the input while no command is in force: zero torque, or (speed mode) the drive off
@@ -630,6 +631,8 @@ class ReactionWheels(MotionEffect):
         torque-limited where the asked torque exceeds ``max_torque``, speed-limited where the
         speed limit's band scales an accelerating torque down.
         """
+        if speeds.shape == (1, self.count):  # one sample (a closed loop's): floats, ~10x faster
+            return self._applied_once(speeds[0].tolist(), inputs[0].tolist())
         max_torque, max_speed, band, gain = self._limits
         with np.errstate(invalid='ignore'):
             asked = np.where(gain > 0.0, gain * (inputs - speeds), inputs)
@@ -640,6 +643,24 @@ class ReactionWheels(MotionEffect):
             speed_limited = (u * speeds > 0.0) & (room < 1.0)
             u = np.where(speed_limited, u * np.maximum(room, 0.0), u)
         return u, torque_limited, speed_limited
+
+    def _applied_once(self, speeds: list, inputs: list):
+        """:meth:`applied` of one sample, in floats: the same operations, element by element."""
+        applied, torque_limited, speed_limited = [], [], []
+        for speed, command, (max_torque, max_speed, band, gain) in zip(
+            speeds, inputs, self._limit_rows
+        ):
+            if math.isnan(command):
+                asked = 0.0
+            else:
+                asked = gain * (command - speed) if gain > 0.0 else command
+            u = min(max(asked, -max_torque), max_torque)
+            room = (max_speed - abs(speed)) / band
+            limited = u * speed > 0.0 and room < 1.0
+            applied.append(u * max(room, 0.0) if limited else u)
+            torque_limited.append(abs(asked) > max_torque)
+            speed_limited.append(limited)
+        return np.array([applied]), np.array([torque_limited]), np.array([speed_limited])
 
     def monitor(self, rate: float) -> 'WheelMonitor':
         return WheelMonitor(self, rate)

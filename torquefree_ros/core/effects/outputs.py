@@ -323,29 +323,33 @@ class _MarkerStream(OutputStream):
         momentum_B = self.momentum_B(omega_B, internal)
         # a closed loop's one sample at a time: floats are ~20x faster than 1-row arrays
         if count == 1:
-            rows = np.array(
-                [self._row(q_NB[0].tolist(), omega_B[0].tolist(), momentum_B[0].tolist())]
-            )
-        else:
-            rows = np.column_stack(self._row(q_NB.T, omega_B.T, momentum_B.T))
-        if not self.wheels:
-            return rows
-        return np.column_stack([rows] + self._wheel_tips(omega_B, q_NB, internal))
+            q_values = q_NB[0].tolist()
+            row = self._row(q_values, omega_B[0].tolist(), momentum_B[0].tolist())
+            if self.wheels:
+                row = (*row, *self._wheel_tips(omega_B, q_values, internal, single=True))
+            return np.array([row])
+        columns = self._row(q_NB.T, omega_B.T, momentum_B.T)
+        if self.wheels:
+            columns = (*columns, *self._wheel_tips(omega_B, q_NB.T, internal, single=False))
+        return np.column_stack(columns)
 
-    def _wheel_tips(self, omega_B, q_NB, internal) -> list:
+    def _wheel_tips(self, omega_B, q_values, internal, single: bool) -> list:
         """
-        Return each wheel arrow's tip: ``momentum_scale Js Omega R(q_NB) g``, (count, 3) each.
+        Return each wheel arrow's tip ``momentum_scale Js Omega R(q_NB) g``, by components.
 
         The wheel's momentum relative to the body along its axis, in the inertial frame, at the H
-        arrow's scale; element by element, so a row does not depend on how blocks are cut.
+        arrow's scale: floats for one sample (``q_values`` a list), else arrays (``q_values`` the
+        quaternions' columns); element by element, the same operations, so a row does not depend
+        on how blocks are cut.
         """
         tips = []
         for effect, part in self.wheels:
             relative = effect.spin_inertias * effect.wheel_speeds(omega_B, internal[:, part])
-            for index, axis in enumerate(effect.axes):
-                length = self.momentum_scale * relative[:, index]
-                rotated = quaternion.rotate_values(q_NB.T, axis.tolist())
-                tips.append(np.column_stack([length * component for component in rotated]))
+            lengths = self.momentum_scale * relative
+            for index, axis in enumerate(effect.axes.tolist()):
+                rotated = quaternion.rotate_values(q_values, axis)
+                length = float(lengths[0, index]) if single else lengths[:, index]
+                tips += [length * component for component in rotated]
         return tips
 
     def _row(self, q_NB, omega_B, momentum_B) -> tuple:
