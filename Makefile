@@ -7,7 +7,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 PIP := $(PY) -m pip --disable-pip-version-check
 
-.PHONY: run test docs lock reference bench bench-exact bench-effects bench-plant bench-campaign bench-node bench-bag bench-bag-day bench-lockstep bench-testing-kit bench-sensors bench-wheels clean
+.PHONY: run test docs lock reference bench bench-exact bench-effects bench-plant bench-campaign bench-node bench-bag bench-bag-day bench-lockstep bench-testing-kit bench-sensors bench-wheels bench-environment clean
 
 $(VENV)/.installed: requirements.txt requirements-test.txt requirements.lock setup.py
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -69,6 +69,11 @@ bench-plant: $(VENV)/.installed
 # the reaction wheels beside a constant torque: propagation, the plant, lock-step
 bench-wheels: $(VENV)/.installed
 	$(PY) tools/bench_wheels.py --output docs/bench/wheels.md
+
+# the environment: its models per evaluation, the bdot_detumble scene stepped one sample at a time
+# beside the same body under a constant torque (~1.5 min)
+bench-environment: $(VENV)/.installed
+	$(PY) tools/bench_environment.py --output docs/bench/environment.md
 
 # the sensor models: the full gyro per sample against the white-noise imu, 1 000 bodies with every
 # sensor at its full model (~3 min)

@@ -155,7 +155,7 @@ def test_without_an_orbit_and_with_one_but_nothing_reading_it_the_scene_is_as_be
     """Promise 3: a torque-free scene stays exact, and an orbit nobody reads is never evaluated."""
     plain = scene([{'imu': {}}], orbit=None)
     assert plain.orbit is None and plain.propagator().name == 'analytic'
-    placed = scene([{'imu': {}}, {'tf': {}}])
+    placed = scene([{'imu': {}}, {'pose': {}}])
     for name in ('state', 'field_N', 'sun_N', 'chebyshev'):
         monkeypatch.setattr(Place, name, lambda *a, **k: pytest.fail('the orbit was evaluated'))
     propagator = placed.propagator()

@@ -192,7 +192,7 @@ def test_live_tf_through_rclpy_with_tf2_msgs_built_from_the_vendored_interface(t
         text=True,
         timeout=600,
     )
-    assert result.returncode == 0 and '2 passed' in result.stdout, (
+    assert result.returncode == 0 and '3 passed' in result.stdout, (
         result.stdout[-4000:] + result.stderr[-4000:]
     )
 

@@ -18,7 +18,8 @@ The live /tf round trip through rclpy.
 The node publishes tf2_msgs/TFMessage on /tf and a client subscribed with tf2_msgs' own class
 receives the attitude bit for bit (parent the inertial frame, child the body frame, zero
 translation, the samples' stamps); two nodes in two namespaces, each with its frame_prefix, publish
-two body frames under the one inertial frame, at tf2_ros's depth.
+two body frames under the one inertial frame, at tf2_ros's depth; on an orbit, each message carries
+the body, Earth-fixed and LVLH frames, named in the body frame's namespace.
 
 Needs tf2_msgs for Python: a ROS install has it; here test_tf.py builds it with the rosidl
 toolchain from PyPI and runs this file in a process that has it (the libraries must be on the path
@@ -138,3 +139,64 @@ def test_two_namespaced_nodes_publish_two_body_frames_on_tf_under_one_inertial_f
             10,
         ]
     assert pairs() == {('world', 'sat1/body'), ('world', 'sat2/body')}
+
+
+def test_on_an_orbit_the_node_publishes_the_earth_fixed_and_lvlh_frames_beside_the_body(tmp_path):
+    import yaml
+    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+    from sim_harness import connected_harness, reset_epoch_ns, stamp_ns
+    from test_tf_orbit import BODY, INITIAL, LEO
+    from tf2_msgs.msg import TFMessage
+    from torquefree_ros import load_scene
+    from torquefree_ros.core.run.simulation import Simulation
+
+    scene_file = tmp_path / 'orbit_tf.yaml'
+    scene_file.write_text(
+        yaml.safe_dump({'body': BODY, 'initial': INITIAL, 'effects': [{'tf': {}}], 'orbit': LEO})
+    )
+    qos = QoSProfile(
+        history=HistoryPolicy.KEEP_LAST, depth=10000, reliability=ReliabilityPolicy.RELIABLE
+    )
+    with connected_harness(
+        publish_rate=100.0, frame_prefix='sat1/', scene_directories=[str(tmp_path)]
+    ) as harness:
+        received = []
+        harness.client.create_subscription(TFMessage, '/tf', received.append, qos)
+        assert harness.set_parameters(scene=str(scene_file))[0].successful
+        response = harness.reset()
+        assert response.success and 'not published' not in response.message, response.message
+        epoch = reset_epoch_ns(response)
+
+        def after_reset():
+            return [m for m in received if stamp_ns(m.transforms[0].header.stamp) >= epoch]
+
+        harness.spin_until(lambda: len(after_reset()) >= 20, what='20 TFMessages')
+        messages = after_reset()
+    k = (np.array([stamp_ns(m.transforms[0].header.stamp) for m in messages]) - epoch) * 100
+    k //= 10**9
+    np.testing.assert_array_equal(np.diff(k), 1)  # every sample, in order
+    scene = load_scene(scene_file)
+    block = Simulation(scene.propagator(), 100.0, epoch, outputs=scene.outputs).samples(
+        0, int(k.max()) + 1
+    )
+    for index, message in zip(k, messages):
+        assert [(t.header.frame_id, t.child_frame_id) for t in message.transforms] == [
+            ('world', 'sat1/body'),
+            ('world', 'sat1/earth_fixed'),
+            ('world', 'sat1/lvlh'),
+        ]
+        assert {stamp_ns(t.header.stamp) for t in message.transforms} == {block.stamps_ns[index]}
+        values = [
+            [
+                t.transform.translation.x,
+                t.transform.translation.y,
+                t.transform.translation.z,
+                t.transform.rotation.x,
+                t.transform.rotation.y,
+                t.transform.rotation.z,
+                t.transform.rotation.w,
+            ]
+            for t in message.transforms
+        ]
+        # bit for bit: the core's rows, through the node's encoder and rclpy's deserializer
+        np.testing.assert_array_equal(np.ravel(values), block.outputs[0][index])

@@ -141,6 +141,56 @@ def encode_transforms(stamps_ns, frame_id: str, child_frame_id: str, values) -> 
     )
 
 
+def encode_transform_lists(stamps_ns, frame_pairs, values) -> MessageBlock:
+    """
+    Encode a ``tf2_msgs/TFMessage`` per row holding a ``TransformStamped`` per frame pair.
+
+    ``frame_pairs``: ``(frame_id, child_frame_id)`` of each transform, in order; every transform
+    of a message carries ``stamps_ns[i]``; the row holds 7 float64s a transform (translation
+    ``x, y, z``, rotation ``x, y, z, w``). With one pair, the bytes of :func:`encode_transforms`.
+    """
+    values = np.asarray(values, dtype=np.float64)
+    count = len(frame_pairs)
+    if count == 0 or values.ndim != 2 or values.shape[1] != 7 * count:
+        raise ValueError(
+            f'transform rows: expected 7 float64s per transform ({count} frame pairs), '
+            f'got shape {values.shape}'
+        )
+    sec, nanosec = _stamp_fields(stamps_ns)
+    names, formats, offsets, fills = ['encapsulation', 'count'], ['V4', '<u4'], [0, 4], []
+    at = 4  # from the end of the encapsulation header: after the sequence's length
+    for index, (frame_id, child_frame_id) in enumerate(frame_pairs):
+        frame = _frame_bytes(frame_id, 'frame_id')
+        child = _frame_bytes(child_frame_id, 'child_frame_id')
+        # each TransformStamped starts on an 8-byte boundary (the previous one ends with doubles)
+        child_length_at = -(-(at + 12 + len(frame) + 1) // 4) * 4
+        data_at = -(-(child_length_at + 4 + len(child) + 1) // 8) * 8
+        fields = (
+            ('sec', '<i4', at, sec),
+            ('nanosec', '<u4', at + 4, nanosec),
+            ('length', '<u4', at + 8, len(frame) + 1),
+            ('frame_id', f'V{len(frame) + 1}', at + 12, np.void(frame + b'\x00')),
+            ('child_length', '<u4', child_length_at, len(child) + 1),
+            ('child', f'V{len(child) + 1}', child_length_at + 4, np.void(child + b'\x00')),
+            ('data', ('<f8', (7,)), data_at, values[:, 7 * index: 7 * index + 7]),
+        )
+        for name, form, offset, fill in fields:
+            names.append(f'{name}{index}')
+            formats.append(form)
+            offsets.append(4 + offset)
+            fills.append(fill)
+        at = data_at + 56
+    record = np.dtype(
+        {'names': names, 'formats': formats, 'offsets': offsets, 'itemsize': 4 + at}
+    )
+    records = np.zeros(values.shape[0], dtype=record)
+    records['encapsulation'] = np.void(CDR_LE)
+    records['count'] = count
+    for name, fill in zip(names[2:], fills):
+        records[name] = fill
+    return _split(records)
+
+
 #: nav_msgs/Odometry's float64s after child_frame_id: pose.pose (7), pose.covariance (36),
 #: twist.twist (6), twist.covariance (36)
 ODOMETRY_DOUBLES = 85

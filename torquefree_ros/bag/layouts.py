@@ -31,6 +31,7 @@ from .cdr import (
     encode_joint_states,
     encode_odometry,
     encode_stamped_doubles,
+    encode_transform_lists,
     encode_transforms,
     MessageBlock,
 )
@@ -62,6 +63,31 @@ def _doubles(stamps_ns, frame_id, body_frame, rows, place) -> MessageBlock:
 def _transform(stamps_ns, frame_id, body_frame, rows, place) -> MessageBlock:
     """Encode a TransformStamped: parent the output's frame, child the body frame."""
     return encode_transforms(stamps_ns, frame_id, body_frame, rows)
+
+
+@layout('orbit_transforms')
+def _orbit_transforms(
+    stamps_ns, frame_id, body_frame, rows, place, earth_frame='earth_fixed', lvlh_frame='lvlh'
+) -> MessageBlock:
+    """
+    Encode a TFMessage of three transforms from the output's frame: body, Earth-fixed, LVLH.
+
+    The Earth-fixed and LVLH frames are named in the body frame's namespace (its part up to its
+    last '/'); ``place`` moves all three by the body's position, so that they stay where the body
+    sees them.
+    """
+    namespace = body_frame[: body_frame.rfind('/') + 1]
+    children = (body_frame, namespace + earth_frame, namespace + lvlh_frame)
+    if len({frame_id, *children}) != 4:
+        raise ValueError(
+            f'tf: the frames {frame_id!r} (inertial), {children[0]!r} (body), '
+            f'{children[1]!r} (earth_frame), {children[2]!r} (lvlh_frame) must all differ'
+        )
+    if place is not None:
+        rows = rows.copy()
+        for start in (0, 7, 14):
+            rows[:, start: start + 3] += place
+    return encode_transform_lists(stamps_ns, [(frame_id, child) for child in children], rows)
 
 
 @layout('odometry')

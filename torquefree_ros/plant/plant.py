@@ -20,10 +20,14 @@ holds ``torque`` over ``[t_k, t_k+1)`` under the ``torque_command`` effect's rul
 ``max_torque``, ``timeout``: a command holds until ``timeout`` simulated seconds after its sample,
 then the torque is zero) and returns the state at ``k + 1``; ``step(wheels=...)`` holds the
 commanded ``reaction_wheels``' inputs the same way (a motor torque, N m, or a speed set-point,
-rad/s, per wheel by the effect's ``mode``; after ``timeout`` the motors are off). ``Plant([scene,
-...], rate)`` holds N bodies, each with its own inertia, initial state and effect parameters;
-``step`` takes ``(N, 3)`` torques and ``(N, n)`` wheel inputs and one compiled call advances every
-body. A body of a batch is bit for bit the same body alone: both run the same kernel
+rad/s, per wheel by the effect's ``mode``; after ``timeout`` the motors are off);
+``step(dipole=...)`` holds the body dipole (A m^2) a scene's ``magnetorquers`` are commanded with
+(``magnetorquer_command``'s rules: refused when not finite or a component exceeds
+``max_command``; zero after ``timeout``), the rods applying its least-norm allocation, each rod
+clipped to its ``max_dipole`` (``Magnetorquers.applied_dipole``). ``Plant([scene, ...], rate)``
+holds N bodies, each with its own inertia, initial state and effect parameters; ``step`` takes
+``(N, 3)`` torques, ``(N, n)`` wheel inputs and ``(N, 3)`` dipoles and one compiled call advances
+every body. A body of a batch is bit for bit the same body alone: both run the same kernel
 (``motion_kernels.dop853_outputs_batch``) with the same numbers.
 
 The plant integrates with DOP853 at the scene's ``accuracy`` (``auto``'s settings) through
@@ -40,11 +44,13 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..core.commands.hold import timed_out, torque_refusals
+from ..core.commands.hold import timed_out, torque_refusal, torque_refusals
 from ..core.compiled import drivers
 from ..core.compiled import motion_kernels as kernels
 from ..core.effects.actuators import ReactionWheels
 from ..core.effects.commands import command_inputs
+from ..core.effects.magnetorquers import dipole_too_large, Magnetorquers
+from ..core.faults.actuators import actuator_faults
 from ..core.propagators import ATOL_PER_RTOL, DEFAULT_ACCURACY, MAX_STEPS_PER_SAMPLE
 from ..core.scene.loader import load_scene, Scene
 from ..core.timing.grid import check_rate, sample_stamp_ns
@@ -84,6 +90,14 @@ class Plant:
         )
         if not scenes:
             raise ValueError('scene: a batch needs at least one scene')
+        for index, checked in enumerate(scenes):
+            faulted = actuator_faults(checked.faults)
+            if faulted:  # (sensor faults act on outputs, which the plant does not compute)
+                where = f'scene[{index}]' if self.batch else 'scene'
+                raise ValueError(
+                    f'{where}: {faulted[0].path}: the plant does not apply actuator faults yet; '
+                    'run the scene through the node or torquefree_bag, or remove the fault'
+                )
         self.rate = check_rate(rate)
         self.scenes = scenes
         self._build()
@@ -113,26 +127,35 @@ class Plant:
         return self._wheels is not None
 
     @property
+    def takes_dipole(self) -> bool:
+        """Whether the scene has ``magnetorquers`` (``step``'s ``dipole``)."""
+        return self._dipoles is not None
+
+    @property
     def wheel_effect(self) -> ReactionWheels | None:
         """Return the commanded ``reaction_wheels`` of scene 0 (names, mode, limits), or None."""
         return self._wheels.effect if self._wheels is not None else None
 
     # -- stepping --------------------------------------------------------------------------------
-    def step(self, torque=None, wheels=None) -> PlantState:
+    def step(self, torque=None, wheels=None, dipole=None) -> PlantState:
         """
-        Hold ``torque`` and ``wheels`` over ``[t_k, t_k+1)`` and return the state at ``k + 1``.
+        Hold the commands given over ``[t_k, t_k+1)`` and return the state at ``k + 1``.
 
         ``torque``: N m, in the ``torque_command`` effect's frame; ``(3,)``, or ``(N, 3)`` for a
         batch. ``wheels``: the commanded ``reaction_wheels``' input per wheel in its order, a motor
         torque (N m, mode ``torque``; clipped by the wheel) or a speed set-point (rad/s, mode
-        ``speed``); ``(n,)``, or ``(N, n)`` for a batch. ``None``: no new command (the one in force
-        holds until its timeout). A refused torque or wheel input raises ``ValueError`` and
-        changes nothing.
+        ``speed``); ``(n,)``, or ``(N, n)`` for a batch. ``dipole``: the body dipole (A m^2, body
+        frame) the ``magnetorquers`` are asked for; ``(3,)``, or ``(N, 3)`` for a batch; the rods
+        apply its least-norm allocation, each rod clipped to its ``max_dipole``. ``None``: no new
+        command (the one in force holds until its timeout). A refused torque, wheel input or dipole
+        raises ``ValueError`` and changes nothing.
         """
         if torque is not None:
             torque = self._checked_torque(torque)
         if wheels is not None:
             wheels = self._checked_wheels(wheels)
+        if dipole is not None:
+            dipole = self._checked_dipole(dipole)
         stamp = sample_stamp_ns(self.k, self.rate)
         if torque is not None:
             self._commands.torque[:] = torque
@@ -140,6 +163,8 @@ class Plant:
         if wheels is not None:
             self._wheels.values[:] = wheels
             self._wheels.stamp_ns[:] = stamp
+        if dipole is not None:
+            self._dipoles.accept(dipole, stamp)
         self._advance(np.array([(self.k + 1) / self.rate]))
         return self.state
 
@@ -215,8 +240,14 @@ class Plant:
                 'scene: more than one commanded reaction_wheels effect; the plant takes one '
                 'input per wheel of one'
             )
-        # the commanded wheels' inputs go after the torques, at their momenta's places
-        width = drivers.held_width(propagators[0].dynamics) if wheels[0] else 6
+        rods = [[e for e in p.effects if isinstance(e, Magnetorquers)] for p in propagators]
+        if any(len(r) > 1 for r in rods):
+            raise ValueError(
+                'scene: more than one magnetorquers effect; the plant takes one dipole per body'
+            )
+        # the commanded wheels' inputs go after the torques, at their momenta's places, and the
+        # applied dipole in the magnetorquers' slot at the end
+        width = drivers.held_width(propagators[0].dynamics) if wheels[0] or rods[0] else 6
         self._command_helds = np.zeros((count, width))
         self._wheels = (
             _WheelCommands.of([w[0] for w in wheels], propagators[0]) if wheels[0] else None
@@ -232,7 +263,12 @@ class Plant:
             )
         else:
             self._commands = None
-        self._commanded = self._commands is not None or self._wheels is not None
+        self._dipoles = (
+            _DipoleCommands.of([r[0] for r in rods], propagators[0]) if rods[0] else None
+        )
+        self._commanded = (
+            self._commands is not None or self._wheels is not None or self._dipoles is not None
+        )
 
     def _checked_torque(self, torque) -> np.ndarray:
         commands = self._commands
@@ -289,6 +325,33 @@ class Plant:
             raise ValueError(f'wheels: not finite (body {b}): {values[b].tolist()}')
         return values
 
+    def _checked_dipole(self, dipole) -> np.ndarray:
+        commands = self._dipoles
+        if commands is None:
+            raise ValueError('dipole: the scene takes no dipole (it has no magnetorquers)')
+        shape = (self.size, 3) if self.batch else (3,)
+        try:
+            values = np.array(dipole, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(
+                f'dipole: expected numbers of shape {shape}, got {dipole!r}'[:300]
+            ) from None
+        if values.shape != shape:
+            raise ValueError(
+                f'dipole: expected shape {shape} (A m^2, body frame), got {values.shape}'
+            )
+        values = values.reshape(self.size, 3)
+        # the node's rules, body by body: the hold's (not finite) and the effect's (too large)
+        for b, (row, effect) in enumerate(zip(values.tolist(), commands.effects)):
+            reason = torque_refusal(row, effect.hold.max_torque) or dipole_too_large(
+                row, effect.values['max_command']
+            )
+            if reason:
+                raise ValueError(
+                    f'dipole: {reason}{f" (body {b})" if self.batch else ""}: {row}'[:300]
+                )
+        return values
+
     def _hold(self) -> None:
         """
         Set the commanded inputs over ``[t_k, t_k+1)`` for every body.
@@ -312,6 +375,12 @@ class Plant:
             in_force = ~timed_out(now, wheels.stamp_ns, wheels.timeout_ns)
             self._command_helds[:, wheels.columns] = np.where(
                 in_force[:, None], wheels.values, wheels.off
+            )
+        dipoles = self._dipoles
+        if dipoles is not None:
+            in_force = ~timed_out(now, dipoles.stamp_ns, dipoles.timeout_ns)
+            self._command_helds[:, dipoles.columns] = np.where(
+                in_force[:, None], dipoles.applied, dipoles.off
             )
 
     def _advance(self, times: np.ndarray) -> np.ndarray:
@@ -387,6 +456,36 @@ class _WheelCommands(NamedTuple):
             np.zeros((len(effects), effect.count)),
             np.full(len(effects), np.iinfo(np.int64).min // 2, dtype=np.int64),
         )
+
+
+class _DipoleCommands(NamedTuple):
+    effects: list  # each body's Magnetorquers (its rods, limits, timeout)
+    columns: np.ndarray  # the magnetorquers' slot in the held inputs
+    off: np.ndarray  # each body's applied dipole while none is in force (of a zero command)
+    timeout_ns: np.ndarray
+    applied: np.ndarray  # the dipole the rods apply for the last accepted command, per body
+    stamp_ns: np.ndarray
+
+    @classmethod
+    def of(cls, effects, propagator) -> '_DipoleCommands':
+        dynamics = propagator.dynamics
+        (slot,) = [
+            s for e, s in zip(dynamics.effects, drivers.held_slots(dynamics)) if e is effects[0]
+        ]
+        return cls(
+            effects,
+            slot + np.arange(effects[0].held_slot_size),
+            np.array([e.applied_dipole(e.hold.off) for e in effects]),
+            np.array([e.hold.timeout_ns for e in effects], dtype=np.int64),
+            np.zeros((len(effects), 3)),
+            np.full(len(effects), np.iinfo(np.int64).min // 2, dtype=np.int64),
+        )
+
+    def accept(self, wanted: np.ndarray, stamp_ns: int) -> None:
+        """Hold ``wanted`` (a row per body) from ``stamp_ns``: the dipoles the rods apply."""
+        for b, effect in enumerate(self.effects):
+            self.applied[b] = effect.applied_dipole(wanted[b])
+        self.stamp_ns[:] = stamp_ns
 
 
 _NO_SPEEDS = np.empty(0)

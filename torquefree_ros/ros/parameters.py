@@ -47,6 +47,7 @@ from ..core import PROPAGATORS
 from ..core.body.rigid_body import RigidBody
 from ..core.checks.schema import shown
 from ..core.checks.validation import finite_vector, unit_quaternion
+from ..core.faults import check_actuator_faults
 from ..core.propagators import MAX_STEPS_PER_SAMPLE
 from ..core.run.simulation import Simulation
 from ..core.scene.library import is_scene_name, library_scenes
@@ -250,11 +251,14 @@ SPECS = (
     ParameterSpec(
         'faults',
         '',
-        "Faults of the sensor outputs, added to the scene's: a YAML or JSON list as a scene's "
-        'faults: (- KIND: {output, start, end, ...}; KIND stuck, bias, noise, spikes or dropout; '
-        'start and end in s of the run). Takes effect at the next sample (a window that started '
-        'before starts there) and at each ~/reset; recorded in the bag. Empty = none.',
-        "a list of faults naming the running scene's sensor outputs by topic",
+        "Faults of the sensor outputs and actuators, added to the scene's: a YAML or JSON list "
+        "as a scene's faults: (- KIND: {output, start, end, ...}; KIND stuck, bias, noise, "
+        'spikes or dropout; or wheel_stuck: {wheel, start, end}, magnetorquer_stuck: {start, '
+        'end, value}; start and end in s of the run). Takes effect at the next sample (a window '
+        'that started before starts there) and at each ~/reset; recorded in the bag. Empty = '
+        'none.',
+        "a list of faults naming the running scene's sensor outputs by topic, its commanded "
+        'wheels by name',
     ),
     ParameterSpec(
         'sensor_noise',
@@ -542,6 +546,7 @@ def sensor_changes(values: dict, request: RunRequest, simulation) -> SensorChang
     faults = sensors.scene_faults + faults_from_text(
         values['faults'], sensors.scene_outputs, first_index=len(sensors.scene_faults)
     )
+    check_actuator_faults(faults, simulation.propagator.effects)
     record = (
         change_text(values['faults'], values['sensor_noise'])
         if values['faults'] or values['sensor_noise'] or sensors.record

@@ -34,6 +34,12 @@ reaches the state. With no command for ``timeout`` simulated seconds (since the 
 in force, or since the start), the values are ``off`` (zero torque; a wheel drive off).
 :func:`torque_refusal` and :func:`timed_out` are the rules on one command; the plant applies the
 same two to a batch of bodies at once (:func:`torque_refusals`).
+
+Overrides (:meth:`CommandHold.override`, an actuator's faults: ``core.faults.actuators``) replace
+some components of what holds on the intervals ``first .. stop - 1``, whatever the commands say:
+with given values, or (``values`` None) with what held on interval ``first - 1`` (``off`` before
+sample 0), kept once read. They act where every reader of the hold looks
+(:meth:`CommandHold.held_on`), so both propagation paths and the outputs see them.
 """
 
 from __future__ import annotations
@@ -60,6 +66,18 @@ class Command(NamedTuple):
     values: np.ndarray
     force: np.ndarray  # torque_command: the wrench's force as received (ignored); else empty
     frame_id: str
+
+
+class Override(NamedTuple):
+    """Components of a hold replaced on intervals ``first .. stop - 1`` (an actuator's fault)."""
+
+    first: int
+    stop: int | None  # None: to the run's end
+    components: tuple  # the indices replaced
+    values: tuple | None  # one a component; None: what held on interval first - 1
+
+    def covers(self, k: int) -> bool:
+        return self.first <= k and (self.stop is None or k < self.stop)
 
 
 def torque_refusal(torque_values: list, max_torque: float) -> str:
@@ -129,6 +147,8 @@ class CommandHold:
         self.force_seen = False
         self._lock = threading.Lock()
         self._arrived = threading.Condition(self._lock)
+        self.overrides: tuple[Override, ...] = ()
+        self._before_override: dict[Override, np.ndarray] = {}  # what a 'last' override keeps
 
     def start(self, rate: float, epoch_ns: int) -> None:
         """Put the hold on a run's sample grid: ``rate`` Hz, sample 0 stamped ``epoch_ns``."""
@@ -264,6 +284,9 @@ class CommandHold:
             first = bisect.bisect_right(self._starts, self.sealed)
             self.sealed = max(self.sealed, through)
             sealed = self.commands[first: bisect.bisect_right(self._starts, self.sealed)]
+            for override in self.overrides:  # read before the commands it needs are forgotten
+                if override.first - 1 <= through:
+                    self._kept(override)
             # the one in force on through - 1
             keep = bisect.bisect_right(self._starts, through - 1) - 1
             if keep > 0:
@@ -292,8 +315,54 @@ class CommandHold:
 
     def values_at(self, t: float) -> np.ndarray:
         """Return the values held on the sample interval holding ``t`` (``off`` when none)."""
-        command = self.in_force(self.interval_at(t))
-        return command.values if command is not None else self.off
+        return self.held_on(self.interval_at(t))
+
+    def held_on(self, k: int) -> np.ndarray:
+        """Return the values held on interval ``k``: the command's (``off``: none), overridden."""
+        with self._lock:
+            return self._held_on(k)
+
+    def _held_on(self, k: int) -> np.ndarray:  # (under the lock)
+        index = bisect.bisect_right(self._starts, k) - 1
+        command = self.commands[index] if index >= 0 else None
+        if command is None or timed_out(self.stamp_ns(k), command.stamp_ns, self.timeout_ns):
+            values = self.off
+        else:
+            values = command.values
+        acting = [override for override in self.overrides if override.covers(k)]
+        if not acting:
+            return values
+        values = values.copy()
+        for override in acting:
+            components = list(override.components)
+            values[components] = (
+                self._kept(override)[components]
+                if override.values is None
+                else override.values
+            )
+        values.flags.writeable = False
+        return values
+
+    def _kept(self, override: Override) -> np.ndarray:  # (under the lock)
+        kept = self._before_override.get(override)
+        if kept is None:
+            kept = self.off if override.first == 0 else self._held_on(override.first - 1)
+            self._before_override[override] = kept
+        return kept
+
+    def override(self, overrides) -> None:
+        """
+        Put ``overrides`` in force (those before are dropped); an override kept keeps its values.
+
+        The caller starts them no earlier than the first interval still to be computed.
+        """
+        with self._lock:
+            self.overrides = tuple(overrides)
+            self._before_override = {
+                override: kept
+                for override, kept in self._before_override.items()
+                if override in self.overrides
+            }
 
     def answered(self, stamp_ns: int) -> bool:
         """Lock-step: an accepted command is stamped at or after ``stamp_ns``."""

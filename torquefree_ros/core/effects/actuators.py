@@ -613,10 +613,9 @@ class ReactionWheels(MotionEffect):
         """
         out = np.empty((len(times), self.count))
         for row, t in enumerate(np.asarray(times, dtype=float).tolist()):
-            if self.hold is not None:
+            if self.hold is not None:  # (overridden where a fault acts)
                 k = self.hold.interval_at(t)
-                command = self.hold.in_force(k - 1) if k > 0 else None
-                out[row] = command.values if command is not None else self.off
+                out[row] = self.hold.held_on(k - 1) if k > 0 else self.off
             else:
                 piece = max(bisect.bisect_left(self._starts, t) - 1, 0)
                 out[row] = self._commands[piece]

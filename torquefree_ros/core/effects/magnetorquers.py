@@ -177,11 +177,9 @@ class Magnetorquers(FieldDipole):
         in here.
         """
         values = [float(x) for x in dipole]
-        limit = self.values['max_command']
-        if all(map(math.isfinite, values)) and max(map(abs, values), default=0.0) > limit:
-            return self.hold.refuse(
-                f'too large: a dipole component exceeds max_command {limit:g} A m^2'
-            )
+        reason = dipole_too_large(values, self.values['max_command'])
+        if reason:
+            return self.hold.refuse(reason)
         return self.hold.receive(stamp_ns, values, frame_id=frame_id, arrival_ns=arrival_ns)
 
     def bound(self, tensor):
@@ -225,9 +223,8 @@ class Magnetorquers(FieldDipole):
         out = np.zeros((len(times), 3))
         for row, t in enumerate(np.asarray(times, dtype=float).tolist()):
             k = self.hold.interval_at(t)
-            command = self.hold.in_force(k - 1) if k > 0 else None
-            if command is not None:
-                out[row] = self.applied_dipole(command.values)
+            if k > 0:  # what held, a fault's override included (zero: no command in force)
+                out[row] = self.applied_dipole(self.hold.held_on(k - 1))
         return out
 
     # -- the torque -------------------------------------------------------------------------------
@@ -237,6 +234,19 @@ class Magnetorquers(FieldDipole):
     def torque_B(self, t, omega_B, q_NB, state, segment_start):
         # the kernel's operations (motion_kernels._magnetorquers), in its order
         return self.dipole_torque_B(self.held_slot(segment_start).tolist(), t, q_NB, segment_start)
+
+
+def dipole_too_large(values: list, max_command: float) -> str:
+    """
+    Return why a commanded body dipole is refused as too large, or ``""``.
+
+    ``values``: its components as Python floats (A m^2); a finite one beyond ``max_command`` in
+    magnitude is too large (a non-finite command is the hold's to refuse: ``not finite``). The
+    node's rule (:meth:`Magnetorquers.receive`) and the plant's (``Plant.step``'s ``dipole``).
+    """
+    if all(map(math.isfinite, values)) and max(map(abs, values), default=0.0) > max_command:
+        return f'too large: a dipole component exceeds max_command {max_command:g} A m^2'
+    return ''
 
 
 def _unit_axes(rods) -> np.ndarray:

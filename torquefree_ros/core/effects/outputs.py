@@ -19,7 +19,9 @@ The sensors, ``imu`` (a gyro with its datasheet errors) and ``star_tracker``, ar
 :mod:`.sensors`.
 
 ``tf`` is the attitude as ``tf2_msgs/TFMessage`` on ``/tf``: one transform per sample, parent the
-inertial frame, child the body frame, rotation ``q_NB``, zero translation (REP 105).
+inertial frame, child the body frame, rotation ``q_NB``, zero translation (REP 105). On a scene
+with an ``orbit:`` each message also carries the Earth-fixed and the orbit (LVLH) frames
+(:class:`Tf`).
 
 ``pose`` is the attitude as ``geometry_msgs/PoseStamped`` (inertial frame, zero position,
 ``q_NB``), what the 3-D panels of RViz and Foxglove draw.
@@ -51,6 +53,7 @@ y, then roll phi about the new x) of ``[BN] = R(q_NB)^T``, published as Vector3S
 from __future__ import annotations
 
 import copy
+import re
 
 import numpy as np
 
@@ -58,8 +61,10 @@ from .actuators import ReactionWheels
 from .base import OutputEffect, OutputStream, register
 from .sensors import ARCSEC, IMU_ROW, NOT_PROVIDED  # noqa: F401  (their old home: kept importable)
 from .sensors import body_frame
-from ..checks.schema import number, Param, retired, topic_name
+from ..checks.schema import FieldError, number, Param, retired, shown, topic_name
+from ..environment import earth
 from ..frames import quaternion
+from ..numerics.ops import COLUMNS
 
 
 @register
@@ -96,19 +101,123 @@ def roll_pitch_yaw(q_NB) -> np.ndarray:
     return np.stack([roll, pitch, yaw], axis=-1)
 
 
+#: a frame's own name (tf2, REP 105): letters, digits, '_', '-', '.'; the body frame's namespace
+#: goes before it
+_FRAME_NAME = re.compile(r'[A-Za-z0-9_.\-]{1,128}')
+
+
+def _frame_name(value, path):
+    if not isinstance(value, str) or not _FRAME_NAME.fullmatch(value):
+        raise FieldError(
+            path,
+            "expected a frame name of 1 to 128 letters, digits, '_', '-' or '.' (no '/': the "
+            f"body frame's namespace goes before it), got {shown(value)}",
+        )
+    return value
+
+
 @register
 class Tf(OutputEffect):
+    """
+    The attitude on ``/tf``; on an orbit, the Earth-fixed and orbit frames beside it.
+
+    Without an ``orbit:`` a message holds one transform: the inertial frame -> the body frame,
+    rotation ``q_NB``, zero translation (the node's ``position`` places the body). With one, three
+    transforms, each from the inertial frame, whose origin stays at the body's centre so that the
+    views keep opening on the body: the body frame as without an orbit; the Earth-fixed frame
+    (``earth_frame``, ``environment.earth``'s PEF), rotation ``q_NE`` with ``R(q_NE) = W^T``
+    (``r_EF = W r_N``, :func:`~..environment.earth.earth_fixed_matrix` at the sample's UTC
+    instant), translation ``-r_N``: the Earth's centre seen from the body; the orbit frame
+    (``lvlh_frame``, local vertical local horizontal: ``z = -r/|r|`` to nadir, ``y = -h/|h|``
+    with ``h = r x v`` the orbit normal, ``x = y x z``, along the velocity on a circular orbit;
+    Markley & Crassidis, *Fundamentals of Spacecraft Attitude Determination and Control*, 2014,
+    sec. 2.6.4), rotation ``q_NL`` whose matrix has these axes as columns, zero translation: it
+    sits at the body's centre. The two frames are named in the body frame's namespace (its part up
+    to its last '/': ``sat1/earth_fixed``, ``sat1/lvlh``), as each body sees its own Earth.
+    """
+
     name = 'tf'
     summary = (
-        'tf2_msgs/TFMessage on /tf: inertial frame -> body frame, rotation q_NB, zero translation'
+        'tf2_msgs/TFMessage on /tf: inertial frame -> body frame, rotation q_NB, zero '
+        'translation; on an orbit also inertial -> Earth-fixed frame (at -r) and -> LVLH frame'
     )
     message_type = 'tf2_msgs/msg/TFMessage'
     frame = 'inertial'  # the parent; the child is the body frame
     layout = 'transform'
-    parameters = {'topic': Param(topic_name, '/tf'), 'rate': OutputEffect.RATE}
+    parameters = {
+        'topic': Param(topic_name, '/tf'),
+        'rate': OutputEffect.RATE,
+        'earth_frame': Param(
+            _frame_name, 'earth_fixed', 'the Earth-fixed frame (PEF), on a scene with an orbit'
+        ),
+        'lvlh_frame': Param(
+            _frame_name, 'lvlh', 'the orbit frame (LVLH), on a scene with an orbit'
+        ),
+    }
+
+    def placed(self, place, path: str) -> 'Tf':
+        """Return the transforms of the scene's ``place``: with an orbit, the frames it gives."""
+        if place is None:
+            for key in ('earth_frame', 'lvlh_frame'):
+                if self.values[key] != self.parameters[key].default:
+                    raise FieldError(
+                        f'{path}.{key}',
+                        "names a frame of the orbit: add an 'orbit:' section or remove this key",
+                    )
+            return self
+        placed = copy.copy(self)
+        placed.place = place
+        placed.layout = 'orbit_transforms'
+        return placed
+
+    @property
+    def layout_options(self) -> dict:
+        if self.place is None:
+            return {}
+        return {'earth_frame': self.values['earth_frame'], 'lvlh_frame': self.values['lvlh_frame']}
 
     def stream(self, rate, propagator):
-        return _PoseStream()  # the same row: translation (zero), rotation q_NB
+        if self.place is None:
+            return _PoseStream()  # the same row: translation (zero), rotation q_NB
+        return _OrbitFramesStream(self.place)
+
+
+# an orbit's tf row: the body [0:7], the Earth-fixed frame [7:14], the LVLH frame [14:21], each a
+# translation (x, y, z) then a rotation (x, y, z, w), relative to the inertial frame
+ORBIT_TF_ROW = 21
+
+
+class _OrbitFramesStream(OutputStream):
+
+    def __init__(self, place):
+        self.place = place
+
+    def rows(self, first, times, omega_B, q_NB, internal):
+        rows = np.zeros((times.shape[0], ORBIT_TF_ROW))
+        if times.shape[0]:
+            position, velocity = self.place.state(times)
+            rows[:, 3:7] = q_NB
+            rows[:, 7:10] = -position
+            W = earth.earth_fixed_matrix(self.place.instants(times))
+            rows[:, 10:14] = _quaternions(np.swapaxes(W, -1, -2))
+            rows[:, 17:21] = _quaternions(lvlh_axes(position, velocity))
+        return rows
+
+
+def lvlh_axes(position_N, velocity_N) -> np.ndarray:
+    """Return the LVLH axes as the columns of ``[N L]`` (``v_N = [N L] v_L``), one per row."""
+    z = -position_N / np.linalg.norm(position_N, axis=-1, keepdims=True)
+    normal = np.cross(position_N, velocity_N)
+    y = -normal / np.linalg.norm(normal, axis=-1, keepdims=True)
+    return np.stack([np.cross(y, z), y, z], axis=-1)
+
+
+def _quaternions(matrices) -> np.ndarray:
+    """Return the unit quaternions (x, y, z, w; ``w >= 0``) of rotation matrices ``(n, 3, 3)``."""
+    if matrices.shape[0] == 1:  # a closed loop's one sample: floats, the same operations
+        return np.array([quaternion.matrix_quaternion(matrices[0].tolist())])
+    rows = [[matrices[:, i, j] for j in range(3)] for i in range(3)]
+    return np.stack(quaternion.matrix_quaternion(rows, COLUMNS), axis=-1)
 
 
 @register

@@ -876,9 +876,14 @@ def body_frame(q_NB: np.ndarray, vectors_N: np.ndarray) -> np.ndarray:
     Element by element (``quaternion.rotate_values`` by the conjugate, on columns), so a row does
     not depend on the others: the same floats however the samples are cut into blocks.
     """
-    q = np.asarray(q_NB, dtype=float).T
-    v = np.asarray(vectors_N, dtype=float).T
-    return np.column_stack(quaternion.rotate_values(quaternion.conjugate_values(q), v))
+    q = np.asarray(q_NB, dtype=float)
+    v = np.asarray(vectors_N, dtype=float)
+    if q.shape[0] == 1:  # one sample (a closed loop's): floats, the same operations
+        turned = quaternion.rotate_values(
+            quaternion.conjugate_values(q[0].tolist()), v[0].tolist()
+        )
+        return np.array([turned])
+    return np.column_stack(quaternion.rotate_values(quaternion.conjugate_values(q.T), v.T))
 
 
 class _SeededRows(OutputStream):

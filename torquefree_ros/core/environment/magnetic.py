@@ -108,6 +108,10 @@ def check_instants(seconds, path: str = 'time', years: bool = True) -> np.ndarra
     ``years=False``: check only, against the bounding instants (the decimal year is monotonic in
     the instant; a sample in a closed loop does not pay for the calendar), and return None.
     """
+    if not years and np.size(seconds) == 1:  # one instant (a sensor's sample): floats
+        instant = float(np.reshape(seconds, -1)[0])
+        if FIRST_INSTANT <= instant <= LAST_INSTANT:  # (False for NaN: checked below)
+            return None
     seconds = np.atleast_1d(np.asarray(seconds, dtype=float))
     if not np.isfinite(seconds).all():
         raise FieldError(path, 'every instant must be finite')

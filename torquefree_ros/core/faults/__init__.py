@@ -19,22 +19,35 @@ Faults of the sensor outputs and run-time changes of their noise.
   against a scene's outputs, and the columns each acts on per output;
 - :mod:`.injector`: a run's faults applied to its outputs' rows after the sensors computed them,
   on each output's own sample grid, with seeded draws;
+- :mod:`.actuators`: a run's actuator faults (a wheel that stops responding, stuck
+  magnetorquers) applied to the inputs its command holds keep;
 - :mod:`.retune`: a sensor output rebuilt with new noise parameters while a run goes on.
 
 Beside :mod:`..propagators`, under :mod:`..scene` and :mod:`..run`. May import: :mod:`..effects`
 and every room below it.
 """
 
+from .actuators import ActuatorFaults, check_actuator_faults
 from .injector import FaultInjector
 from .retune import NOISE_PARAMETERS, parse_noise_changes, retuned
-from .schedule import describe_fault, Fault, FAULT_KINDS, FAULTED_OUTPUTS, parse_faults
+from .schedule import (
+    ACTUATOR_FAULTS,
+    describe_fault,
+    Fault,
+    FAULT_KINDS,
+    FAULTED_OUTPUTS,
+    parse_faults,
+)
 
 __all__ = [
+    'ACTUATOR_FAULTS',
+    'ActuatorFaults',
     'FAULTED_OUTPUTS',
     'FAULT_KINDS',
     'NOISE_PARAMETERS',
     'Fault',
     'FaultInjector',
+    'check_actuator_faults',
     'describe_fault',
     'parse_faults',
     'parse_noise_changes',

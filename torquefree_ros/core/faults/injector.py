@@ -40,7 +40,7 @@ from typing import Callable
 
 import numpy as np
 
-from .schedule import Fault, FAULTED_OUTPUTS, spike_period_samples
+from .schedule import ACTUATOR_FAULTS, Fault, FAULTED_OUTPUTS, spike_period_samples
 from ..effects.sensors import NOT_PROVIDED
 from ..frames import quaternion
 from ..timing.grid import first_sample_at_or_after
@@ -98,6 +98,8 @@ class FaultInjector:
         before = {window.fault.index: window for window in self.windows}
         windows = []
         for fault in faults:
+            if fault.kind in ACTUATOR_FAULTS:  # on the command holds: .actuators
+                continue
             kept = before.get(fault.index)
             if kept is not None and kept.fault == fault:
                 windows.append(kept)

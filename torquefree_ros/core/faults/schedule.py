@@ -13,7 +13,7 @@
 # limitations under the License.
 
 """
-The faults of sensor outputs: their kinds, their fields and the columns each acts on.
+The faults of sensor outputs and actuators: their kinds, their fields and where each acts.
 
 A fault is a one-key mapping ``- KIND: {output, start, end, ...}`` (as effects are named)::
 
@@ -46,6 +46,22 @@ What each kind does (SI values, in the output's unit: rad/s for the ``imu``, T f
   period``;
 * ``dropout``: no message at all.
 
+The actuators' faults (:data:`ACTUATOR_FAULTS`) act on the inputs a commanded effect holds, not
+on rows, on the run's own samples ``k`` (``t_k = k / rate``, the same rule) and the intervals
+``[t_k, t_k+1)`` they start (:mod:`.actuators`)::
+
+    - wheel_stuck:        {wheel: rw1, start: 2.0, end: 4.0}   # no motor torque: friction only
+    - magnetorquer_stuck: {start: 2.0, end: 4.0}               # at the last dipole, or
+    - magnetorquer_stuck: {start: 2.0, value: [0.1, 0.0, 0.0]} # at a given one, A m^2
+
+* ``wheel_stuck``: the wheel named (a wheel of commanded ``reaction_wheels``) ignores commands and
+  its drive is off: its input is the one it has with no command in force (zero torque; a speed
+  drive off), so friction alone acts on it;
+* ``magnetorquer_stuck``: every ``magnetorquers`` effect holds the dipole it was asked for on the
+  interval before the window (zero when the window starts at sample 0 or no command was in
+  force), or ``value``, through the rods' saturation as any command: ``value: [0, 0, 0]`` turns
+  them off.
+
 A row that carries no measurement (a gyro's or star tracker's latency start, a star tracker with
 no solution, a sun sensor without the Sun) stays as it is under bias, noise and spikes. Faults of
 one output apply in list order; ``stuck`` replaces what the faults before it did, ``dropout``
@@ -54,7 +70,7 @@ removes the message whatever the others do.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 import math
 
 from ..checks.schema import (
@@ -110,6 +126,14 @@ class Fault:
     magnitude: float | None = None  # spikes
     probability: float | None = None  # spikes on each sample with it
     period: float | None = None  # spikes every period from start
+    wheel: str | None = None  # wheel_stuck: the wheel's name
+    #: where it was written (``faults[1].wheel_stuck``): errors found later name it
+    path: str = field(default='', compare=False)
+
+    @property
+    def target(self) -> str:
+        """Return what it acts on: the output's topic, the wheel's name or the effect's."""
+        return self.wheel or self.output or ACTUATOR_FAULTS.get(self.kind, '')
 
 
 _TIME = number(minimum=0.0, maximum=MAX_FAULT_TIME, unit='s')
@@ -129,6 +153,15 @@ FAULT_KINDS = {
     },
     'dropout': {},
 }
+#: actuator fault kind -> the effect it acts on (its fields replace ``output``)
+ACTUATOR_FAULTS = {'wheel_stuck': 'reaction_wheels', 'magnetorquer_stuck': 'magnetorquers'}
+_ACTUATOR_KINDS = {
+    'wheel_stuck': {'wheel': Param(text(), description="the wheel's name")},
+    'magnetorquer_stuck': {
+        'value': Param(vector(3, unit='A m^2'), None, 'default: the last dipole asked for')
+    },
+}
+_WINDOW = {key: _COMMON[key] for key in ('start', 'end')}
 
 
 def parse_faults(data, path: str, outputs, first_index: int = 0) -> tuple[Fault, ...]:
@@ -143,8 +176,13 @@ def parse_faults(data, path: str, outputs, first_index: int = 0) -> tuple[Fault,
     faults = []
     for place, entry in enumerate(entries):
         where = child(path, place)
-        kind, parameters = one_key(entry, where, FAULT_KINDS, 'fault kind')
+        kind, parameters = one_key(entry, where, {**FAULT_KINDS, **_ACTUATOR_KINDS}, 'fault kind')
         where = child(where, kind)
+        if kind in ACTUATOR_FAULTS:
+            values = fields(parameters, where, {**_WINDOW, **_ACTUATOR_KINDS[kind]})
+            _check_window(values, where)
+            faults.append(_actuator_fault(kind, values, where, first_index + place))
+            continue
         values = fields(parameters, where, {**_COMMON, **FAULT_KINDS[kind]})
         output = by_topic.get(values['output'])
         if output is None or output.name not in FAULTED_OUTPUTS:
@@ -155,13 +193,32 @@ def parse_faults(data, path: str, outputs, first_index: int = 0) -> tuple[Fault,
                 f'(sensors: {", ".join(sensors) or "none"}; faults act on '
                 f'{", ".join(FAULTED_OUTPUTS)})',
             )
-        end = values['end']
-        if end is not None and end <= values['start']:
-            raise FieldError(
-                child(where, 'end'), f'must be after start ({values["start"]:g} s), got {end:g} s'
-            )
+        _check_window(values, where)
         faults.append(_fault(kind, values, output.name, where, first_index + place))
     return tuple(faults)
+
+
+def _check_window(values: dict, where: str) -> None:
+    end = values['end']
+    if end is not None and end <= values['start']:
+        raise FieldError(
+            child(where, 'end'), f'must be after start ({values["start"]:g} s), got {end:g} s'
+        )
+
+
+def _actuator_fault(kind: str, values: dict, where: str, index: int) -> Fault:
+    """Return an actuator's fault; what it names is checked against a run's effects later."""
+    value = values.get('value')
+    return Fault(
+        kind=kind,
+        output='',
+        start=values['start'],
+        end=values['end'],
+        index=index,
+        value=None if value is None else tuple(float(x) for x in value),
+        wheel=values.get('wheel'),
+        path=where,
+    )
 
 
 def _fault(kind: str, values: dict, name: str, where: str, index: int) -> Fault:
@@ -227,8 +284,12 @@ def describe_fault(fault: Fault) -> str:
         if fault.magnitude is not None
         else '',
         'dropout': 'no message',
+        'wheel_stuck': 'no motor torque',
+        'magnetorquer_stuck': 'at the last dipole'
+        if fault.value is None
+        else 'at ' + _values(fault.value) + ' A m^2',
     }[fault.kind]
-    return f'{fault.kind} {fault.output} [{fault.start:g}, {end}) s {detail}'.rstrip()
+    return f'{fault.kind} {fault.target} [{fault.start:g}, {end}) s {detail}'.rstrip()
 
 
 def _values(values) -> str:
@@ -253,6 +314,7 @@ def spike_period_samples(fault: Fault, rate: float, first: int, stop: int) -> li
 
 
 __all__ = [
+    'ACTUATOR_FAULTS',
     'FAULTED_OUTPUTS',
     'FAULT_KINDS',
     'Fault',

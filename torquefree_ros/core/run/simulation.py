@@ -25,7 +25,9 @@ those, numbered ``j = k / n``.
 The run's faults (``core.faults``) act on the outputs' rows after the sensors computed them; a
 dropout removes the sample from its output (its position is left out). :meth:`Simulation.retune`
 changes the faults and the sensors' noise from a given sample on (the node's run-time parameters,
-a replay of them): the samples computed ahead are then :meth:`Simulation.refaulted`.
+a replay of them): the samples computed ahead are then :meth:`Simulation.refaulted`. The
+actuators' faults act on the inputs the command holds keep instead (``core.faults.actuators``),
+from the sample given on: the motion from it on, which is not computed yet.
 """
 
 from __future__ import annotations
@@ -39,7 +41,7 @@ import numpy as np
 from .accuracy import estimate_accuracy
 from ..effects.commands import command_inputs
 from ..exact.regime import GyrostatRegime
-from ..faults import describe_fault, FaultInjector
+from ..faults import ActuatorFaults, describe_fault, FaultInjector
 from ..propagators import motion_regime, Propagator
 from ..timing.grid import check_rate, sample_stamp_ns, stamps_ns
 
@@ -112,6 +114,7 @@ class Simulation:
         self._injector = FaultInjector(
             faults, self.outputs, self.rate, self._every, self._raw_row
         )
+        self._actuator_faults = ActuatorFaults(faults, propagator.effects, self.rate)
         dynamics = propagator.dynamics
         #: (effect, its part of the states, its monitor) of the effects /diagnostics reports on
         self.monitors = tuple(
@@ -234,7 +237,12 @@ class Simulation:
     @property
     def faults(self) -> tuple:
         """Return the faults in force (``core.faults.Fault``), in their list's order."""
-        return self._injector.faults
+        return tuple(
+            sorted(
+                self._injector.faults + self._actuator_faults.faults,
+                key=lambda fault: fault.index,
+            )
+        )
 
     def retune(self, from_index: int, faults=None, outputs=None) -> None:
         """
@@ -243,8 +251,12 @@ class Simulation:
         ``faults``: the faults in force from then (None: unchanged); ``outputs``: ``{position:
         output effect}``, sensors rebuilt with other noise parameters (``core.faults.retuned``),
         whose rows from then on are the rebuilt sensor's. Samples computed before are not changed;
-        those computed ahead of ``from_index`` are made again by :meth:`refaulted`.
+        those computed ahead of ``from_index`` are made again by :meth:`refaulted`. The actuators'
+        faults act on the intervals from ``from_index`` on (not integrated yet); one that names
+        what the run has not is refused first (``FieldError``), nothing changed.
         """
+        if faults is not None:
+            self._actuator_faults.replace(faults, from_index)
         for position, output in (outputs or {}).items():
             every = self._every[position]
             output = output.for_run(self.propagator)
@@ -292,13 +304,14 @@ class Simulation:
         ``faults_active``: those acting at the last sample out, ``faults``: how many are in force
         (none: nothing is said).
         """
-        faults = self._injector.faults
+        faults = self.faults
         if not faults:
             return {}
         active = []
         if k is not None:
             for position, output in enumerate(self.outputs):
                 active += self._injector.active(position, k // self._every[position])
+            active += self._actuator_faults.active(k)
         return {
             'faults': str(len(faults)),
             'faults_active': '; '.join(describe_fault(f) for f in active) or 'none',

@@ -31,8 +31,8 @@ Schema (SI units; every error names the file, the field path and the reason)::
       tle: [line1, line2]                       # ... or a two-line element set (SGP4)
       start: 2026-03-20T13:00:00Z               # the scene's t = 0 (default: the orbit's epoch)
     effects: [- NAME: {parameters}]             # see core.effects; none = torque-free
-    faults: [- KIND: {output, start, end, ...}] # optional: faults of the sensor outputs
-                                                # (core.faults.schedule)
+    faults: [- KIND: {output, start, end, ...}] # optional: faults of the sensor outputs and
+                                                # commanded actuators (core.faults.schedule)
     accuracy: 1e-10                             # integrator tolerance when an effect needs one
     sweep: {members: 9}                         # optional: a family at the initial |H| (members())
     watch: 900                                  # optional: seconds its story takes
@@ -74,7 +74,7 @@ from ..checks.schema import (
 )
 from ..effects import MotionEffect, OutputEffect, parse_effect
 from ..environment.place import Place
-from ..faults import parse_faults, parse_noise_changes
+from ..faults import check_actuator_faults, parse_faults, parse_noise_changes
 from ..propagators import make_propagator, Propagator
 from ..propagators.base import overflowing_message, unrepresentable_state
 from ..propagators.dynamics import Dynamics
@@ -111,7 +111,7 @@ class Scene:
     sweep_members: int | None = None  # an energy sweep: how many members
     watch: float | None = None  # s: how long the scene must be watched to show what it is about
     orbit: Place | None = None  # where the body is: its orbit and the UTC instant of t = 0
-    faults: tuple = ()  # core.faults.Fault instances: what the sensor outputs suffer, and when
+    faults: tuple = ()  # core.faults.Fault instances: what the sensors and actuators suffer, when
 
     @property
     def torque_free(self) -> bool:
@@ -307,6 +307,7 @@ def scene_from_mapping(data, source: str = '<built-in default>') -> Scene:
             'faults',
             [effect for effect in values['effects'] if isinstance(effect, OutputEffect)],
         )
+        check_actuator_faults(faults, values['effects'])
         rigid_body = RigidBody.from_inertia(values['body']['inertia'])
         _check_state_scale(rigid_body, values)
         _check_effect_scales(rigid_body, values)

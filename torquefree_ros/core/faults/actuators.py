@@ -1,0 +1,148 @@
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+A run's actuator faults applied to the inputs its commanded effects hold.
+
+An actuator's fault changes the motion, so it acts before the equations, not on rows: it
+overrides components of a command hold (:class:`~torquefree_ros.core.commands.hold.Override`) on
+the run's sample intervals ``[t_k, t_k+1)``, ``k`` from the first sample at or after ``start`` to
+the last before the first at or after ``end`` (the sensors' rule, on the run's grid). A commanded
+effect's inputs change at sample times only and every piece starts at one, so the hold is where
+both propagation paths, the outputs reporting the inputs and a replay read them.
+
+``wheel_stuck``: the wheel's component of its ``reaction_wheels``' hold is its ``off`` value (zero
+torque; a speed drive off, NaN) on the window. ``magnetorquer_stuck``: the three components of
+each ``magnetorquers``' hold are its ``value``, or what held on the interval before the window.
+
+Faults set while a run goes on (:meth:`ActuatorFaults.replace`) act from a given sample on, as
+the sensors' do: a window that started earlier starts there; a fault equal to the one at its
+place before goes on as it was (a stuck dipole keeps the value it read).
+"""
+
+from __future__ import annotations
+
+from .schedule import ACTUATOR_FAULTS, Fault
+from ..checks.schema import child, FieldError
+from ..commands.hold import Override
+from ..timing.grid import first_sample_at_or_after
+
+
+def actuator_faults(faults) -> tuple[Fault, ...]:
+    """Return the actuators' faults among ``faults``."""
+    return tuple(fault for fault in faults if fault.kind in ACTUATOR_FAULTS)
+
+
+def targets(fault: Fault, effects) -> list[tuple]:
+    """
+    Return ``(effect, components)`` for each of ``effects`` a fault acts on.
+
+    ``FieldError`` at the fault's path when the effects have nothing for it: no commanded effect
+    of its kind, an unknown wheel.
+    """
+    name = ACTUATOR_FAULTS[fault.kind]
+    of_kind = [effect for effect in effects if effect.name == name]
+    commanded = [effect for effect in of_kind if getattr(effect, 'mode', 'torque') != 'schedule']
+    if not commanded:
+        raise FieldError(
+            fault.path,
+            f'the scene has no {name} to act on'
+            if not of_kind
+            else f'its {name} are in mode schedule: a fault acts on commanded wheels (mode '
+            'torque or speed)',
+        )
+    if fault.kind == 'magnetorquer_stuck':
+        return [(effect, (0, 1, 2)) for effect in commanded]
+    found = [
+        (effect, (effect.names.index(fault.wheel),))
+        for effect in commanded
+        if fault.wheel in effect.names
+    ]
+    if len(found) != 1:
+        known = ', '.join(n for effect in commanded for n in effect.names)
+        raise FieldError(
+            child(fault.path, 'wheel'),
+            f'{fault.wheel[:80]!r} is not a commanded wheel of the scene (wheels: {known[:200]})'
+            if not found
+            else f'{fault.wheel[:80]!r} names wheels of {len(found)} reaction_wheels effects',
+        )
+    return found
+
+
+def check_actuator_faults(faults, effects) -> None:
+    """Refuse (``FieldError`` with the field path) actuator faults ``effects`` cannot take."""
+    for fault in actuator_faults(faults):
+        targets(fault, effects)
+
+
+class ActuatorFaults:
+    """
+    A run's actuator faults on its command holds.
+
+    ``effects``: the run's effects, bound (each commanded one with its hold); ``rate``: the run's
+    sample rate, Hz.
+    """
+
+    def __init__(self, faults, effects, rate: float):
+        self.effects = tuple(effects)
+        self.rate = float(rate)
+        self.windows: tuple[tuple[Fault, int, int | None], ...] = ()  # (fault, first, stop)
+        self.replace(faults, 0)
+
+    @property
+    def faults(self) -> tuple[Fault, ...]:
+        return tuple(fault for fault, _, _ in self.windows)
+
+    def replace(self, faults, from_sample: int) -> None:
+        """
+        Put the actuator faults among ``faults`` in force from interval ``from_sample`` on.
+
+        ``FieldError`` (and nothing changed) when one names what the run has not.
+        """
+        faults = actuator_faults(faults)
+        check_actuator_faults(faults, self.effects)
+        before = {fault.index: (fault, first, stop) for fault, first, stop in self.windows}
+        windows = []
+        for fault in faults:
+            kept = before.get(fault.index)
+            if kept is not None and kept[0] == fault:
+                windows.append(kept)
+                continue
+            first = max(first_sample_at_or_after(fault.start, self.rate), from_sample)
+            stop = None if fault.end is None else first_sample_at_or_after(fault.end, self.rate)
+            if stop is None or first < stop:
+                windows.append((fault, first, stop))
+        self.windows = tuple(windows)
+        overrides = {id(effect): [] for effect in self.effects}
+        for fault, first, stop in self.windows:
+            for effect, components in targets(fault, self.effects):
+                if fault.kind == 'wheel_stuck':
+                    values = tuple(float(effect.hold.off[i]) for i in components)
+                else:
+                    values = fault.value
+                overrides[id(effect)].append(Override(first, stop, components, values))
+        for effect in self.effects:
+            if getattr(effect, 'hold', None) is not None:
+                effect.hold.override(overrides[id(effect)])
+
+    def active(self, k: int) -> list[Fault]:
+        """Return the faults acting on interval ``k`` (from sample ``k`` to the next)."""
+        return [
+            fault
+            for fault, first, stop in self.windows
+            if first <= k and (stop is None or k < stop)
+        ]
+
+
+__all__ = ['ActuatorFaults', 'actuator_faults', 'check_actuator_faults', 'targets']
