@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 
+from conftest import require_numba
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
@@ -709,7 +710,7 @@ def test_the_compiled_right_hand_side_equals_the_python_one_in_speed_mode():
     Same operations, other order of the torques' sum: within 16 eps of the terms' size.
     """
     if not switch.AVAILABLE:
-        pytest.skip('numba is not installed')
+        require_numba()
     wheels = [dict(w, name=f'rw{i}') for i, w in enumerate(PYRAMID['wheels'])]
     simulation, effect = commanded('speed', wheels, PYRAMID_INERTIA, PYRAMID_OMEGA)
     dynamics = simulation.propagator.dynamics
@@ -741,7 +742,7 @@ def test_the_compiled_right_hand_side_equals_the_python_one_for_several_wheels()
     Same operations, other order of the torques' sum: within 16 eps of the terms' size.
     """
     if not switch.AVAILABLE:
-        pytest.skip('numba is not installed')
+        require_numba()
     p = pyramid().propagator('dop853')
     dynamics = p.dynamics
     rng = np.random.default_rng(40)
@@ -773,7 +774,7 @@ def test_the_compiled_run_equals_the_reference_run(monkeypatch):
     components), 1e-7 (rad).
     """
     if not switch.AVAILABLE:
-        pytest.skip('numba is not installed')
+        require_numba()
     times = np.linspace(0.0, PYRAMID_END, 101)
     runs = []
     for enabled in (True, False):
