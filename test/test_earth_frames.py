@@ -127,6 +127,23 @@ def test_teme_reaches_the_gcrs_within_the_frames_stated_error():
 
 
 @needs_numba
+def test_a_place_gives_the_frame_at_scene_times_on_both_paths(monkeypatch):
+    from torquefree_ros.core.environment.orbit import KeplerOrbit
+    from torquefree_ros.core.environment.place import Place
+    from torquefree_ros.core.numerics import kernels as switch
+
+    place = Place(KeplerOrbit(7.0e6, epoch='2026-03-20T12:00:00Z'), start=_instants(1)[0])
+    times = np.linspace(0.0, 86400.0, 12).reshape(3, 4)
+    monkeypatch.setattr(switch, 'ENABLED', True)
+    compiled, single = place.earth_fixed(times), place.earth_fixed(7.5)
+    monkeypatch.setattr(switch, 'ENABLED', False)
+    assert compiled.shape == (3, 4, 3, 3) and single.shape == (3, 3)
+    # as the kernels' test below: a few ulp of numpy's sin/cos
+    assert np.abs(compiled - place.earth_fixed(times)).max() <= 32 * EPS
+    assert np.abs(single - place.earth_fixed(7.5)).max() <= 32 * EPS
+
+
+@needs_numba
 def test_the_frame_kernels_equal_the_numpy_path_and_may_be_held_for_an_hour():
     seconds = _instants(41)
     matrices = earth.earth_fixed_matrix(seconds)

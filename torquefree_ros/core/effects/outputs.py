@@ -62,7 +62,6 @@ from .base import OutputEffect, OutputStream, register
 from .sensors import ARCSEC, IMU_ROW, NOT_PROVIDED  # noqa: F401  (their old home: kept importable)
 from .sensors import body_frame
 from ..checks.schema import FieldError, number, Param, retired, shown, topic_name
-from ..environment import earth
 from ..frames import quaternion
 from ..numerics.ops import COLUMNS
 
@@ -198,7 +197,7 @@ class _OrbitFramesStream(OutputStream):
             position, velocity = self.place.state(times)
             rows[:, 3:7] = q_NB
             rows[:, 7:10] = -position
-            W = earth.earth_fixed_matrix(self.place.instants(times))
+            W = self.place.earth_fixed(times)
             rows[:, 10:14] = _quaternions(np.swapaxes(W, -1, -2))
             rows[:, 17:21] = _quaternions(lvlh_axes(position, velocity))
         return rows

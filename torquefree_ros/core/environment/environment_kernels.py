@@ -430,6 +430,12 @@ def earth_fixed_matrix(seconds, out):
     earth_fixed_matrix_held(seconds, celestial, equation_of_equinoxes, out)
 
 
+def earth_fixed_matrices(seconds, out):
+    """Write :func:`earth_fixed_matrix` at each of the UTC ``seconds`` into ``out[i]``."""
+    for i in range(seconds.shape[0]):
+        earth_fixed_matrix(seconds[i], out[i])
+
+
 # ---------------------------------------------------------------------------------------------
 # The magnetic field
 
@@ -671,6 +677,7 @@ _FAMILY = KernelFamily(
         'celestial_matrix',
         'earth_fixed_matrix_held',
         'earth_fixed_matrix',
+        'earth_fixed_matrices',
         'igrf_earth_fixed',
         'dipole_earth_fixed',
         'field_inertial_with',

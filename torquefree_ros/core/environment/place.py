@@ -56,7 +56,7 @@ import threading
 
 import numpy as np
 
-from . import environment_kernels, epochs, magnetic, sun
+from . import earth, environment_kernels, epochs, magnetic, sun
 from .earth import GM
 from .orbit import ELEMENTS, KeplerOrbit
 from .tle import TLEOrbit
@@ -241,6 +241,22 @@ class Place:
         environment_kernels.kernel('kepler_states')(flat, self._row, out)
         out = out.reshape(orbit_t.shape + (6,))
         return out[..., :3], out[..., 3:]
+
+    def earth_fixed(self, t) -> np.ndarray:
+        """
+        Return ``W`` (``r_EF = W r_N``) at the scene times ``t``, shape ``t.shape + (3, 3)``.
+
+        :func:`.earth.earth_fixed_matrix`; with the kernels enabled instant by instant through
+        :func:`.environment_kernels.earth_fixed_matrices` (a frame's sample in a closed loop),
+        which the tests hold to numpy's to a few ulp.
+        """
+        seconds = self.instants(t)
+        if not switch.ENABLED:
+            return earth.earth_fixed_matrix(seconds)
+        flat = np.ascontiguousarray(seconds.reshape(-1))
+        out = np.empty((flat.size, 3, 3))
+        environment_kernels.kernel('earth_fixed_matrices')(flat, out)
+        return out.reshape(seconds.shape + (3, 3))
 
     def field_N(self, t, position_N, model: str = 'igrf') -> np.ndarray:
         """
