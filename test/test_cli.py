@@ -124,12 +124,15 @@ def _interrupt_when_output_appears(argv, sig, tmp_path, delay=0.5):
         text=True,
         cwd=tmp_path,
     )
-    deadline = time.monotonic() + TIMEOUT
-    while not any(tmp_path.rglob('*.mcap')) and time.monotonic() < deadline:
-        time.sleep(0.05)
-    time.sleep(delay)  # into the work
-    process.send_signal(sig)
-    out, err = process.communicate(timeout=TIMEOUT)
+    try:
+        deadline = time.monotonic() + TIMEOUT
+        while not any(tmp_path.rglob('*.mcap')) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        time.sleep(delay)  # into the work
+        process.send_signal(sig)
+        out, err = process.communicate(timeout=TIMEOUT)
+    finally:  # (a node left running would publish into the next session given this domain)
+        process.kill()
     return process.returncode, out, err
 
 

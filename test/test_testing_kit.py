@@ -122,9 +122,13 @@ def _run_inner(directory: Path, out: Path, spins: list, **env_extra) -> subproce
 def test_two_runs_of_two_xdist_workers_at_once_each_see_only_their_own_samples(tmp_path):
     outs, spins = [tmp_path / 'run0', tmp_path / 'run1'], [0.5, 1.0, 1.5, 2.0]
     runs = [_run_inner(tmp_path, out, spins) for out in outs]
-    for run in runs:
-        output = run.communicate(timeout=600)[0]
-        assert run.returncode == 0 and f'{len(spins)} passed' in output, output
+    try:
+        for run in runs:
+            output = run.communicate(timeout=600)[0]
+            assert run.returncode == 0 and f'{len(spins)} passed' in output, output
+    finally:  # (nothing of a failed run goes on beside the next tests)
+        for run in runs:
+            run.kill()
     simulators = [json.loads(path.read_text()) for out in outs for path in out.iterdir()]
     assert len(simulators) == len(outs) * len(spins)  # one simulator per inner test
     assert {s['worker'] for s in simulators} == {f'gw{i}' for i in range(WORKERS)}
@@ -149,10 +153,13 @@ def test_the_parallel_check_fails_when_the_simulators_share_a_domain(tmp_path):
     from torquefree_ros.testing.domains import claim_domain
 
     claim = claim_domain()  # a domain no one else uses, for both workers
+    run = None
     try:
         run = _run_inner(tmp_path, tmp_path / 'out', [0.5, 1.0], KIT_SABOTAGE=str(claim.domain_id))
         output = run.communicate(timeout=600)[0]
     finally:
+        if run is not None:
+            run.kill()  # (before the domain is free again)
         claim.release()
     assert run.returncode == 1 and 'failed' in output, output
 
