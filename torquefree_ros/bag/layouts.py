@@ -76,18 +76,29 @@ def _orbit_transforms(
     last '/'); ``place`` moves all three by the body's position, so that they stay where the body
     sees them.
     """
-    namespace = body_frame[: body_frame.rfind('/') + 1]
-    children = (body_frame, namespace + earth_frame, namespace + lvlh_frame)
-    if len({frame_id, *children}) != 4:
-        raise ValueError(
-            f'tf: the frames {frame_id!r} (inertial), {children[0]!r} (body), '
-            f'{children[1]!r} (earth_frame), {children[2]!r} (lvlh_frame) must all differ'
-        )
+    children = orbit_frames(frame_id, body_frame, earth_frame, lvlh_frame)
     if place is not None:
         rows = rows.copy()
         for start in (0, 7, 14):
             rows[:, start: start + 3] += place
     return encode_transform_lists(stamps_ns, [(frame_id, child) for child in children], rows)
+
+
+def orbit_frames(frame_id, body_frame, earth_frame='earth_fixed', lvlh_frame='lvlh') -> tuple:
+    """
+    Return the child frames of an orbit's TFMessage: body, Earth-fixed, LVLH.
+
+    The Earth-fixed and LVLH frames take the body frame's namespace (its part up to its last '/').
+    ``ValueError`` when two of the four frames (the parent ``frame_id`` among them) share a name.
+    """
+    namespace = body_frame[: body_frame.rfind('/') + 1]
+    children = (body_frame, namespace + earth_frame, namespace + lvlh_frame)
+    if len({frame_id, *children}) != 4:
+        raise ValueError(
+            f'the frames {frame_id!r} (inertial), {children[0]!r} (body), '
+            f'{children[1]!r} (earth_frame), {children[2]!r} (lvlh_frame) must all differ'
+        )
+    return children
 
 
 @layout('odometry')

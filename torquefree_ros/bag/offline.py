@@ -39,6 +39,7 @@ import numpy as np
 from .cdr import decode_joint_state, decode_stamped_doubles
 from .reader import BagReader
 from .samples import (
+    check_output_frames,
     encode_block,
     encode_command,
     INERTIA_KEY,
@@ -206,6 +207,7 @@ def write_scene_bag(
             f'duration: the last stamp would be {last_stamp_s:.6g} s, past what '
             f'builtin_interfaces/Time holds (2^31 s)'
         )
+    check_output_frames(scene.outputs, body_frame, inertial_frame)
     members = scene.members()
     namespaces = (
         [member_namespace(namespace, j) for j in range(len(members))]

@@ -30,7 +30,7 @@ from typing import Callable, NamedTuple
 import numpy as np
 
 from .cdr import encode_joint_state, encode_stamped_doubles, encode_times
-from .layouts import LAYOUTS
+from .layouts import LAYOUTS, orbit_frames
 from .markers import body_offset
 from .qos import BagQos
 from .writer import BagWriter
@@ -128,10 +128,33 @@ def encode_trailing(
     return tuple(columns)
 
 
+def check_output_frames(outputs, body_frame: str, inertial_frame: str) -> None:
+    """
+    Raise ``ValueError`` naming the output when its messages' frames would clash.
+
+    The same rule the encoding applies (``layouts.orbit_frames``), checked before a run starts so
+    that a clash is refused there rather than found at the first sample.
+    """
+    for output in outputs:
+        if output.layout == 'orbit_transforms':
+            try:
+                orbit_frames(
+                    _output_frame(output, body_frame, inertial_frame),
+                    body_frame,
+                    **output.layout_options,
+                )
+            except ValueError as error:
+                raise ValueError(f'{output.name} output: {error}') from None
+
+
+def _output_frame(output, body_frame: str, inertial_frame: str) -> str:
+    return body_frame if output.frame == 'body' else inertial_frame
+
+
 def _encode_output(
     output, stamps, rows, body_frame: str, inertial_frame: str, place
 ) -> list[bytes]:
-    frame = body_frame if output.frame == 'body' else inertial_frame
+    frame = _output_frame(output, body_frame, inertial_frame)
     if place is not None and output.layout in PLACED:
         rows = rows.copy()
         # these rows start with the body's position (zero: the core moves no body)

@@ -42,6 +42,7 @@ from rclpy.parameter import Parameter
 from .guarded_parameters import refusal
 from .qos import message_class
 from .sample_loop import RunRequest, SensorChanges
+from ..bag.samples import check_output_frames
 from ..bag.sensor_changes import change_text
 from ..core import PROPAGATORS
 from ..core.body.rigid_body import RigidBody
@@ -502,6 +503,7 @@ def run_request(values: dict) -> RunRequest:
             f"frame_prefix: with body_frame '{clip(values['body_frame'], 40)}' the body frame has "
             f'{len(body_frame)} characters, at most {MAX_FRAME_LENGTH} are allowed'
         )
+    check_output_frames(outputs, body_frame, values['inertial_frame'])
     return RunRequest(
         propagator,
         values['publish_rate'],
