@@ -203,18 +203,6 @@ def test_a_stuck_wheel_on_a_tumbling_body_keeps_the_inertial_momentum_and_equals
     assert abs(h_b[11] - h_b[12]) > 1e-3 and abs(h_b[26] - h_b[25]) > 1e-3  # -0.15 N m * 0.1 s
 
 
-def test_the_plant_refuses_actuator_faults_rather_than_ignoring_them():
-    from torquefree_ros import Plant
-
-    faulted = wheel_scene([{'wheel_stuck': {'wheel': 'z', 'start': 1.0}}])
-    refused = r'scene\[1\]: faults\[0\].wheel_stuck: the plant does not'
-    with pytest.raises(ValueError, match=refused):
-        Plant([wheel_scene(), faulted], 10.0)
-    with pytest.raises(ValueError, match=r'^scene: faults\[0\].wheel_stuck: '):
-        Plant(faulted, 10.0)
-    Plant(wheel_scene(), 10.0).step(wheels=[0.01])  # without the fault it steps
-
-
 def test_a_speed_drive_stuck_is_off_and_the_wheel_coasts():
     """Speed mode: the stuck drive's input is the drive off (NaN), so its motor torque is zero."""
     effect = {**ONE_WHEEL, 'mode': 'speed'}

@@ -29,8 +29,8 @@ A script, not a test: it prints what it measured and the machine.
   factor, misalignment, saturation and quantization; the sun sensor with noise, bias,
   misalignment, field of view and quantized angles), per body-step: the plant's own step alone
   (the floor the sensors add to), the plant with the sensors' rows one sample at a time (lock-step:
-  ``step`` then every body's sensors), and the open-loop ``run`` of a block with the sensors' rows
-  of the block.
+  ``step`` then ``Plant.sensors().read()``, every body's sensors at once), and the open-loop
+  ``run`` of a block with the sensors' rows of the block (each body's streams).
 
 Wall time (``perf_counter``) of the fastest of several calls (the two gyros' calls alternating,
 ten times as many); ``--rounds`` rounds give median (min–max), ratios taken within each round
@@ -47,7 +47,7 @@ import sys
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_report import fastest, Report, spread  # noqa: E402
+from bench_report import commanded_scene, dispersed_bodies, fastest, Report, spread  # noqa: E402
 
 GYRO_CALLS = 10  # per round, each gyro's calls alternating with the other's (the same load)
 
@@ -57,7 +57,7 @@ GYRO_BLOCK = 1_000
 GYRO_ONE = 2_000  # samples timed one at a time
 BODIES = 1_000
 RATE = 10.0
-LOCKSTEP_STEPS = 2
+LOCKSTEP_STEPS = 64  # a whole period of the batched sensors' normals drawn ahead
 RUN_SECONDS = 120.0
 
 LEO = {
@@ -196,30 +196,18 @@ def _gyro_round(calls: int) -> dict:
 
 
 def _batch_scenes(sensors: bool):
-    import numpy as np
-    from torquefree_ros.core.scene.loader import scene_from_mapping
-
-    rng = np.random.default_rng(1)
-    scenes = []
-    for _ in range(BODIES):
-        inertia = np.array([0.03, 0.035, 0.01]) * (1 + 0.02 * rng.standard_normal(3))
-        omega = np.array([0.05, -0.08, 0.06]) + 0.01 * rng.standard_normal(3)
-        effects = [
-            {'damper': {'inertia': 0.001, 'damping': 0.0005}},
-            {'torque_command': {'max_torque': 1.0}},
-        ]
-        scenes.append(
-            scene_from_mapping(
-                {
-                    'body': {'inertia': inertia.tolist()},
-                    'initial': {'angular_velocity': omega.tolist()},
-                    'orbit': LEO,
-                    'effects': effects + (FULL_SENSORS if sensors else []),
-                    'accuracy': 1e-10,
-                }
-            )
-        )
-    return scenes
+    inertia, omega = dispersed_bodies(
+        BODIES,
+        seed=1,
+        inertia=[0.03, 0.035, 0.01],
+        angular_velocity=[0.05, -0.08, 0.06],
+        inertia_spread=0.02,
+        rate_spread=0.01,
+        body_by_body=True,
+    )
+    damper = {'inertia': 0.001, 'damping': 0.0005}
+    effects = FULL_SENSORS if sensors else []
+    return [commanded_scene(i, w, damper, effects, orbit=LEO) for i, w in zip(inertia, omega)]
 
 
 def _batch_round(calls: int) -> dict:
@@ -237,10 +225,6 @@ def _batch_round(calls: int) -> dict:
             for stream in body:
                 stream.rows(first, times, omega[b], q[b], internal[b])
 
-    def shaped(state):
-        """Return the state of one sample as (bodies, 1, n) arrays, as the streams take them."""
-        return state.omega_B[:, None], state.q_NB[:, None], state.internal[:, None]
-
     plant = Plant(scenes, RATE)
     plant.step(torques)  # compile or load the kernels outside the timing
 
@@ -251,14 +235,13 @@ def _batch_round(calls: int) -> dict:
     alone = fastest(plant_alone, calls) / LOCKSTEP_STEPS / BODIES
 
     looped = Plant(scenes, RATE)
-    each = streams()
-    sensor_rows(each, 0, np.zeros(1), *shaped(looped.state))  # sample 0: the initial state
+    sensors = looped.sensors()
+    sensors.read()  # sample 0: the initial state
 
     def lockstep():
         for _ in range(LOCKSTEP_STEPS):
-            state = looped.step(torques)
-            k = looped.k
-            sensor_rows(each, k, np.array([k / RATE]), *shaped(state))
+            looped.step(torques)
+            sensors.read()
 
     lockstep()
     with_sensors = fastest(lockstep, calls) / LOCKSTEP_STEPS / BODIES
@@ -357,7 +340,7 @@ def main(argv=None) -> int:
     report.add('| path | plant alone, µs | plant + sensors, µs | ratio | target ≤ 10 µs | met |')
     report.add('|---|---|---|---|---|---|')
     report.add(
-        f"| lock-step: `step` then every body's sensors, one sample ({LOCKSTEP_STEPS} steps) | "
+        f'| lock-step: `step` then `sensors().read()`, one sample ({LOCKSTEP_STEPS} steps) | '
         f'{column(batch, "step_alone_us")} | {column(batch, "step_sensors_us")} | '
         f'{column(batch, "step_ratio")} | ≤ 10 | {met(batch, "step_sensors_us", 10.0)} |'
     )
@@ -370,10 +353,10 @@ def main(argv=None) -> int:
     report.add(
         'The sensors of one body, and the bodies of a batch on one orbit, evaluate the '
         'environment (orbit position, the Sun, its shadow, the field) of a block once '
-        "(`sensors.environment_at`). In lock-step every body's star tracker, magnetometer and "
-        'sun sensor go through their numpy path for a block of one sample (the gyro alone has a '
-        'path of Python floats for one sample), body after body; sensors evaluated for every '
-        'body of a batch in one call (not built yet) are the way to the target there.'
+        '(`sensors.environment_at`). In lock-step `Plant.sensors().read()` computes each sensor '
+        'for every body of the batch in a few numpy calls (`core.effects.sensor_batch`: each '
+        "body's seeded draws drawn ahead, its parameters as columns), bit for bit each body's "
+        "own stream; the open loop runs each body's streams on the whole block."
     )
     report.save(args.output)
     return 0

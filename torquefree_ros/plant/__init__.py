@@ -20,5 +20,6 @@ physics). It depends on the core only: scenes, effects and the compiled integrat
 """
 
 from .plant import Plant, PlantState
+from .sensors import PlantSensors, SensorReadings
 
-__all__ = ['Plant', 'PlantState']
+__all__ = ['Plant', 'PlantSensors', 'PlantState', 'SensorReadings']

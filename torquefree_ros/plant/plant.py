@@ -30,6 +30,12 @@ holds N bodies, each with its own inertia, initial state and effect parameters; 
 every body. A body of a batch is bit for bit the same body alone: both run the same kernel
 (``motion_kernels.dop853_outputs_batch``) with the same numbers.
 
+A scene's actuator faults (``core.faults.actuators``: a stuck wheel, a wheel's torque error, stuck
+magnetorquers, a stuck or erring commanded torque) act on each body's inputs on the sample
+intervals of their windows, as in the node: the windows are ``ActuatorFaults``' and the inputs
+are changed by the hold's own rule (``commands.hold.overridden``), body by body (the bodies of a
+batch may have different faults).
+
 The plant integrates with DOP853 at the scene's ``accuracy`` (``auto``'s settings) through
 ``drivers.DOP853Bodies``, the engine the ``dop853`` propagator runs with one body: the node's
 closed loop and its offline replay run the same object (the stepping starts again at every sample
@@ -39,18 +45,19 @@ its own).
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
-from ..core.commands.hold import timed_out, torque_refusal, torque_refusals
+from ..core.commands.hold import overridden, timed_out, torque_refusal, torque_refusals
 from ..core.compiled import drivers
 from ..core.compiled import motion_kernels as kernels
 from ..core.effects.actuators import ReactionWheels
 from ..core.effects.commands import command_inputs
 from ..core.effects.magnetorquers import dipole_too_large, Magnetorquers
-from ..core.faults.actuators import actuator_faults
+from ..core.faults.actuators import ActuatorFaults
 from ..core.propagators import ATOL_PER_RTOL, DEFAULT_ACCURACY, MAX_STEPS_PER_SAMPLE
 from ..core.scene.loader import load_scene, Scene
 from ..core.timing.grid import check_rate, sample_stamp_ns
@@ -90,14 +97,6 @@ class Plant:
         )
         if not scenes:
             raise ValueError('scene: a batch needs at least one scene')
-        for index, checked in enumerate(scenes):
-            faulted = actuator_faults(checked.faults)
-            if faulted:  # (sensor faults act on outputs, which the plant does not compute)
-                where = f'scene[{index}]' if self.batch else 'scene'
-                raise ValueError(
-                    f'{where}: {faulted[0].path}: the plant does not apply actuator faults yet; '
-                    'run the scene through the node or torquefree_bag, or remove the fault'
-                )
         self.rate = check_rate(rate)
         self.scenes = scenes
         self._build()
@@ -136,6 +135,12 @@ class Plant:
         """Return the commanded ``reaction_wheels`` of scene 0 (names, mode, limits), or None."""
         return self._wheels.effect if self._wheels is not None else None
 
+    def sensors(self):
+        """Return the reader of the scene's outputs at the plant's samples (``PlantSensors``)."""
+        from .sensors import PlantSensors
+
+        return PlantSensors(self)
+
     # -- stepping --------------------------------------------------------------------------------
     def step(self, torque=None, wheels=None, dipole=None) -> PlantState:
         """
@@ -158,11 +163,9 @@ class Plant:
             dipole = self._checked_dipole(dipole)
         stamp = sample_stamp_ns(self.k, self.rate)
         if torque is not None:
-            self._commands.torque[:] = torque
-            self._commands.stamp_ns[:] = stamp
+            self._commands.accept(torque, stamp)
         if wheels is not None:
-            self._wheels.values[:] = wheels
-            self._wheels.stamp_ns[:] = stamp
+            self._wheels.accept(wheels, stamp)
         if dipole is not None:
             self._dipoles.accept(dipole, stamp)
         self._advance(np.array([(self.k + 1) / self.rate]))
@@ -249,26 +252,19 @@ class Plant:
         # applied dipole in the magnetorquers' slot at the end
         width = drivers.held_width(propagators[0].dynamics) if wheels[0] or rods[0] else 6
         self._command_helds = np.zeros((count, width))
-        self._wheels = (
-            _WheelCommands.of([w[0] for w in wheels], propagators[0]) if wheels[0] else None
-        )
-        if commands[0]:
-            effects = [c[0] for c in commands]
-            self._commands = _Commands(
-                inertial=effects[0].inertial,
-                timeout_ns=np.array([e.hold.timeout_ns for e in effects], dtype=np.int64),
-                max_torque=np.array([e.hold.max_torque for e in effects]),
-                torque=np.zeros((count, 3)),
-                stamp_ns=np.full(count, np.iinfo(np.int64).min // 2, dtype=np.int64),
-            )
-        else:
-            self._commands = None
-        self._dipoles = (
-            _DipoleCommands.of([r[0] for r in rods], propagators[0]) if rods[0] else None
-        )
-        self._commanded = (
-            self._commands is not None or self._wheels is not None or self._dipoles is not None
-        )
+        self._wheels = _WheelInputs([w[0] for w in wheels], propagators[0]) if wheels[0] else None
+        self._commands = _TorqueInputs([c[0] for c in commands]) if commands[0] else None
+        self._dipoles = _DipoleInputs([r[0] for r in rods], propagators[0]) if rods[0] else None
+        inputs = [i for i in (self._commands, self._wheels, self._dipoles) if i is not None]
+        self._commanded = bool(inputs)
+        # each body's actuator faults: their windows put overrides on its effects' holds, which
+        # the plant applies to that body's inputs (sensor faults act on outputs, not on motion)
+        self._faulted_inputs = []
+        for body, (scene, propagator) in enumerate(zip(self.scenes, propagators)):
+            if ActuatorFaults(scene.faults, propagator.effects, self.rate).windows:
+                self._faulted_inputs += [
+                    _FaultedInput(i, body) for i in inputs if i.effects[body].hold.overrides
+                ]
 
     def _checked_torque(self, torque) -> np.ndarray:
         commands = self._commands
@@ -286,6 +282,8 @@ class Plant:
         if values.shape != shape:
             raise ValueError(f'torque: expected shape {shape}, got {values.shape}')
         values = values.reshape(self.size, 3)
+        if not self.batch and not torque_refusal(values[0].tolist(), commands.max_torque[0]):
+            return values  # (one body: the hold's rule on one command, on Python floats)
         not_finite, over = torque_refusals(values, commands.max_torque)
         if not_finite.any():
             b = int(np.argmax(not_finite))
@@ -319,6 +317,8 @@ class Plant:
                 f'{", ".join(commands.effect.names)}), got {values.shape}'
             )
         values = values.reshape(self.size, n)
+        if not self.batch and all(map(math.isfinite, values[0].tolist())):
+            return values  # (one body: on Python floats, cheaper than numpy's per-call cost)
         not_finite = ~np.all(np.isfinite(values), axis=1)
         if not_finite.any():
             b = int(np.argmax(not_finite))
@@ -357,31 +357,17 @@ class Plant:
         Set the commanded inputs over ``[t_k, t_k+1)`` for every body.
 
         The torque in force (zero once it timed out), in its frame, added to the scene's constant
-        torques; the wheels' inputs in force (``off`` once timed out: zero torque, a drive off) at
-        their places (CommandHold's rule, for every body at once).
+        torques; the wheels' inputs in force (``off`` once timed out: zero torque, a drive off) and
+        the dipole the rods apply at their places (CommandHold's rule, for every body at once);
+        then, body by body, what its actuator faults make of them on this interval.
         """
         now = sample_stamp_ns(self.k, self.rate)
-        commands = self._commands
-        if commands is not None:
-            in_force = ~timed_out(now, commands.stamp_ns, commands.timeout_ns)
-            held = np.where(in_force[:, None], commands.torque, 0.0)
-            self._command_helds[:, :6] = 0.0
-            if commands.inertial:
-                self._command_helds[:, 3:6] = held
-            else:
-                self._command_helds[:, :3] = held
-        wheels = self._wheels
-        if wheels is not None:
-            in_force = ~timed_out(now, wheels.stamp_ns, wheels.timeout_ns)
-            self._command_helds[:, wheels.columns] = np.where(
-                in_force[:, None], wheels.values, wheels.off
-            )
-        dipoles = self._dipoles
-        if dipoles is not None:
-            in_force = ~timed_out(now, dipoles.stamp_ns, dipoles.timeout_ns)
-            self._command_helds[:, dipoles.columns] = np.where(
-                in_force[:, None], dipoles.applied, dipoles.off
-            )
+        helds = self._command_helds
+        for inputs in (self._commands, self._wheels, self._dipoles):
+            if inputs is not None:
+                helds[:, inputs.columns] = inputs.in_force(now)
+        for faulted in self._faulted_inputs:
+            faulted.write(self.k, now, helds)
 
     def _advance(self, times: np.ndarray) -> np.ndarray:
         if self._failed is not None:
@@ -391,9 +377,8 @@ class Plant:
         self._hold()
         sample_rate = self.rate if self._commanded else 0.0
         out = self._bodies.advance(times, self._command_helds, sample_rate)
-        failed = np.flatnonzero(self._bodies.status != kernels.DONE)
-        if failed.size:
-            self._fail(int(failed[0]), times)
+        if np.count_nonzero(self._bodies.status != kernels.DONE):
+            self._fail(int(np.flatnonzero(self._bodies.status != kernels.DONE)[0]), times)
         self.k += times.size
         self._sample = out[:, -1:, :].copy() if times.size else self._sample
         return out
@@ -416,76 +401,123 @@ class Plant:
     def _shaped(self, rows: np.ndarray, samples_axis: bool = False) -> PlantState:
         rows = rows if samples_axis else rows[:, -1, :]
         speeds = self._speeds(rows)
+        rows = rows.copy() if self.batch else rows[0].copy()  # (one copy; its parts are views)
         if not self.batch:
-            rows, speeds = rows[0], speeds[0]
-        return PlantState(
-            rows[..., :3].copy(), rows[..., 3:7].copy(), rows[..., 7:].copy(), speeds
-        )
+            speeds = speeds[0]
+        return PlantState(rows[..., :3], rows[..., 3:7], rows[..., 7:], speeds)
 
 
-class _Commands(NamedTuple):
-    inertial: bool
-    timeout_ns: np.ndarray
-    max_torque: np.ndarray
-    torque: np.ndarray  # the last accepted command per body
-    stamp_ns: np.ndarray  # the stamp of the sample it was given at
+#: the stamp of "no command yet": timed out at every sample of the run
+_NEVER_NS = int(np.iinfo(np.int64).min // 2)
 
 
-class _WheelCommands(NamedTuple):
-    effect: ReactionWheels  # scene 0's (names, mode)
-    columns: np.ndarray  # where each wheel's input goes in the held inputs
-    off: np.ndarray  # the input while none is in force: zero torque, or a drive off (NaN)
-    unit: str
-    timeout_ns: np.ndarray
-    values: np.ndarray  # the last accepted inputs per body
-    stamp_ns: np.ndarray
+class _Inputs:
+    """
+    A commanded input of every body: the last command and the hold's timeout rule on it.
 
-    @classmethod
-    def of(cls, effects, propagator) -> '_WheelCommands':
+    ``effects``: each body's effect (its hold: timeout, ``off``, a fault's overrides);
+    ``columns``: where the input goes in the held inputs; ``asked`` ``(N, n)``: the last command
+    per body, as the hold keeps it; ``held``: what the kernels read of it (the same array, or the
+    dipole the rods apply); ``off``: what they read while none is in force. A step gives every
+    body its command at once, so one stamp serves them all.
+    """
+
+    def __init__(self, effects, columns, off, width: int, applies=None):
+        self.effects = effects
+        self.columns = columns
+        self.off = off
+        self.asked = np.zeros((len(effects), width))
+        self.applies = applies  # each body's map from asked to held (None: the same)
+        self.held = self.asked if applies is None else np.array(off, dtype=float)
+        self.timeout_ns = np.array([e.hold.timeout_ns for e in effects], dtype=np.int64)
+        self.shortest_timeout_ns = int(self.timeout_ns.min())
+        self.stamp_ns = _NEVER_NS
+
+    def accept(self, values: np.ndarray, stamp_ns: int) -> None:
+        """Hold ``values`` (a row per body) from the sample stamped ``stamp_ns``."""
+        self.asked[:] = values
+        if self.applies is not None:
+            for b, apply in enumerate(self.applies):
+                self.held[b] = apply(values[b])
+        self.stamp_ns = stamp_ns
+
+    def in_force(self, now_ns: int) -> np.ndarray:
+        """Return what every body's kernels read on the interval stamped ``now_ns``."""
+        if not timed_out(now_ns, self.stamp_ns, self.shortest_timeout_ns):
+            return self.held  # (every body's command in force: the usual case, no array work)
+        in_force = ~timed_out(now_ns, self.stamp_ns, self.timeout_ns)
+        return np.where(in_force[:, None], self.held, self.off)
+
+
+class _TorqueInputs(_Inputs):
+    """Each body's ``torque_command``: a torque in the body or the inertial frame's columns."""
+
+    def __init__(self, effects):
+        super().__init__(effects, slice(3, 6) if effects[0].inertial else slice(0, 3), 0.0, 3)
+        self.max_torque = np.array([e.hold.max_torque for e in effects])
+
+
+class _WheelInputs(_Inputs):
+    """Each body's commanded ``reaction_wheels``: an input per wheel, at its momentum's column."""
+
+    def __init__(self, effects, propagator):
         effect = effects[0]
         dynamics = propagator.dynamics
         (part,) = [p for e, p in zip(dynamics.effects, dynamics.slices) if e is effect]
-        # the momentum h_i of wheel i is state 2 i of its effect: its input goes there
+        # the momentum h_i of wheel i is state 2 i of its effect: its input goes there; while none
+        # is in force, zero torque or a drive off (NaN)
         columns = kernels.HELD_TORQUES + part.start + 2 * np.arange(effect.count)
-        return cls(
-            effect,
-            columns,
-            np.array(effect.off),
-            'speed set-point (rad/s)' if effect.mode == 'speed' else 'motor torque (N m)',
-            np.array([e.hold.timeout_ns for e in effects], dtype=np.int64),
-            np.zeros((len(effects), effect.count)),
-            np.full(len(effects), np.iinfo(np.int64).min // 2, dtype=np.int64),
-        )
+        super().__init__(effects, columns, np.array(effect.off), effect.count)
+        self.effect = effect  # scene 0's (names, mode)
+        self.unit = 'speed set-point (rad/s)' if effect.mode == 'speed' else 'motor torque (N m)'
 
 
-class _DipoleCommands(NamedTuple):
-    effects: list  # each body's Magnetorquers (its rods, limits, timeout)
-    columns: np.ndarray  # the magnetorquers' slot in the held inputs
-    off: np.ndarray  # each body's applied dipole while none is in force (of a zero command)
-    timeout_ns: np.ndarray
-    applied: np.ndarray  # the dipole the rods apply for the last accepted command, per body
-    stamp_ns: np.ndarray
+class _DipoleInputs(_Inputs):
+    """Each body's ``magnetorquers``: the dipole asked for, and the one its rods apply."""
 
-    @classmethod
-    def of(cls, effects, propagator) -> '_DipoleCommands':
+    def __init__(self, effects, propagator):
         dynamics = propagator.dynamics
         (slot,) = [
             s for e, s in zip(dynamics.effects, drivers.held_slots(dynamics)) if e is effects[0]
         ]
-        return cls(
-            effects,
-            slot + np.arange(effects[0].held_slot_size),
-            np.array([e.applied_dipole(e.hold.off) for e in effects]),
-            np.array([e.hold.timeout_ns for e in effects], dtype=np.int64),
-            np.zeros((len(effects), 3)),
-            np.full(len(effects), np.iinfo(np.int64).min // 2, dtype=np.int64),
+        applies = [e.applied_dipole for e in effects]
+        off = np.array([apply(e.hold.off) for apply, e in zip(applies, effects)])
+        columns = slot + np.arange(effects[0].held_slot_size)
+        super().__init__(effects, columns, off, 3, applies)
+
+
+class _FaultedInput:
+    """
+    A body's input its actuator faults change: the overrides on its effect's hold, applied.
+
+    By the hold's rule (``overridden``) on what the hold would give (the command in force, or
+    ``off``), keeping what held on the interval before a window that holds it.
+    """
+
+    def __init__(self, inputs: _Inputs, body: int):
+        self.inputs, self.body = inputs, body
+        self.hold = inputs.effects[body].hold
+        self.timeout_ns = int(inputs.timeout_ns[body])
+        self.previous = self.hold.off  # what held on the interval before (off before sample 0)
+        self.kept: dict = {}
+
+    def write(self, k: int, now_ns: int, helds: np.ndarray) -> None:
+        """Write the body's input on interval ``k`` (stamped ``now_ns``) into ``helds``."""
+        inputs, body = self.inputs, self.body
+        asked = (
+            self.hold.off
+            if timed_out(now_ns, inputs.stamp_ns, self.timeout_ns)
+            else inputs.asked[body].copy()
+        )
+        values = overridden(asked, k, self.hold.overrides, self._kept)
+        self.previous = values
+        helds[body, inputs.columns] = (
+            values if inputs.applies is None else inputs.applies[body](values)
         )
 
-    def accept(self, wanted: np.ndarray, stamp_ns: int) -> None:
-        """Hold ``wanted`` (a row per body) from ``stamp_ns``: the dipoles the rods apply."""
-        for b, effect in enumerate(self.effects):
-            self.applied[b] = effect.applied_dipole(wanted[b])
-        self.stamp_ns[:] = stamp_ns
+    def _kept(self, override) -> np.ndarray:
+        # first read on the window's first interval: the previous is the one before it
+        return self.kept.setdefault(override, self.previous)
 
 
 _NO_SPEEDS = np.empty(0)

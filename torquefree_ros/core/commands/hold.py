@@ -35,11 +35,14 @@ in force, or since the start), the values are ``off`` (zero torque; a wheel driv
 :func:`torque_refusal` and :func:`timed_out` are the rules on one command; the plant applies the
 same two to a batch of bodies at once (:func:`torque_refusals`).
 
-Overrides (:meth:`CommandHold.override`, an actuator's faults: ``core.faults.actuators``) replace
+Overrides (:meth:`CommandHold.override`, an actuator's faults: ``core.faults.actuators``) change
 some components of what holds on the intervals ``first .. stop - 1``, whatever the commands say:
-with given values, or (``values`` None) with what held on interval ``first - 1`` (``off`` before
-sample 0), kept once read. They act where every reader of the hold looks
-(:meth:`CommandHold.held_on`), so both propagation paths and the outputs see them.
+replaced with given values, or (``values`` None) with what held on interval ``first - 1`` (``off``
+before sample 0), kept once read; or (``scale``, ``bias``) turned into ``scale * value + bias``,
+whatever holds (a command, or ``off``). Those acting on one interval apply in their order
+(:func:`overridden`, the one rule: the plant applies it to its bodies too). They act where every
+reader of the hold looks (:meth:`CommandHold.held_on`), so both propagation paths and the outputs
+see them.
 """
 
 from __future__ import annotations
@@ -69,15 +72,48 @@ class Command(NamedTuple):
 
 
 class Override(NamedTuple):
-    """Components of a hold replaced on intervals ``first .. stop - 1`` (an actuator's fault)."""
+    """Components of a hold changed on intervals ``first .. stop - 1`` (an actuator's fault)."""
 
     first: int
     stop: int | None  # None: to the run's end
-    components: tuple  # the indices replaced
-    values: tuple | None  # one a component; None: what held on interval first - 1
+    components: tuple  # the indices changed
+    values: tuple | None  # replaced: one a component; None: what held on interval first - 1
+    # or (both given, values unused) turned into scale * value + bias, one of each a component
+    scale: tuple | None = None
+    bias: tuple | None = None
 
     def covers(self, k: int) -> bool:
         return self.first <= k and (self.stop is None or k < self.stop)
+
+
+def holds_last(override: Override) -> bool:
+    """Tell whether ``override`` holds what held on the interval before its window."""
+    return override.values is None and override.scale is None
+
+
+def overridden(values: np.ndarray, k: int, overrides, kept) -> np.ndarray:
+    """
+    Return ``values`` (what holds on interval ``k``) with the ``overrides`` covering ``k`` applied.
+
+    In their order; ``kept(override)``: what held on interval ``override.first - 1``, for one that
+    holds it. ``values`` itself when none acts, else a read-only copy.
+    """
+    acting = [override for override in overrides if override.covers(k)]
+    if not acting:
+        return values
+    values = values.copy()
+    for override in acting:
+        components = list(override.components)
+        if override.scale is not None:
+            values[components] = (
+                values[components] * np.array(override.scale) + np.array(override.bias)
+            )
+        elif holds_last(override):
+            values[components] = kept(override)[components]
+        else:
+            values[components] = override.values
+    values.flags.writeable = False
+    return values
 
 
 def torque_refusal(torque_values: list, max_torque: float) -> str:
@@ -285,7 +321,7 @@ class CommandHold:
             self.sealed = max(self.sealed, through)
             sealed = self.commands[first: bisect.bisect_right(self._starts, self.sealed)]
             for override in self.overrides:  # read before the commands it needs are forgotten
-                if override.first - 1 <= through:
+                if holds_last(override) and override.first - 1 <= through:
                     self._kept(override)
             # the one in force on through - 1
             keep = bisect.bisect_right(self._starts, through - 1) - 1
@@ -329,19 +365,7 @@ class CommandHold:
             values = self.off
         else:
             values = command.values
-        acting = [override for override in self.overrides if override.covers(k)]
-        if not acting:
-            return values
-        values = values.copy()
-        for override in acting:
-            components = list(override.components)
-            values[components] = (
-                self._kept(override)[components]
-                if override.values is None
-                else override.values
-            )
-        values.flags.writeable = False
-        return values
+        return overridden(values, k, self.overrides, self._kept)
 
     def _kept(self, override: Override) -> np.ndarray:  # (under the lock)
         kept = self._before_override.get(override)

@@ -85,7 +85,9 @@ or a campaign (a skip forward draws the skipped samples' noise, a skip back star
 white noise and the rate random walk draw 6 normals a sample from ``PCG64(seed)`` (as before the
 datasheet terms: old scenes give the same numbers), the Gauss-Markov bias 3 a sample from
 ``PCG64(SeedSequence(seed, spawn_key=(1,)))``, the turn-on bias 3 once from ``spawn_key=(2,)``;
-the star tracker 3 a sample from ``PCG64(seed)``.
+the star tracker 3 a sample from ``PCG64(seed)``. :mod:`.sensor_batch` computes one sample of many
+bodies' sensors at once (a plant batch's lock-step) with these draws and the one-sample path's
+operations, bit for bit.
 """
 
 from __future__ import annotations

@@ -13,14 +13,15 @@
 # limitations under the License.
 
 """
-Faults of the sensor outputs and run-time changes of their noise.
+Faults of the sensor outputs and actuators, and run-time changes of the sensors' noise.
 
-- :mod:`.schedule`: the fault kinds (stuck, bias, noise, spikes, dropout), checked field by field
-  against a scene's outputs, and the columns each acts on per output;
+- :mod:`.schedule`: the fault kinds (stuck, bias, noise, spikes, dropout; the actuators'),
+  checked field by field against a scene's outputs, and the columns each acts on per output;
 - :mod:`.injector`: a run's faults applied to its outputs' rows after the sensors computed them,
   on each output's own sample grid, with seeded draws;
-- :mod:`.actuators`: a run's actuator faults (a wheel that stops responding, stuck
-  magnetorquers) applied to the inputs its command holds keep;
+- :mod:`.actuators`: a run's actuator faults (a wheel that stops responding or errs in its
+  motor torque, stuck magnetorquers, a stuck or erring commanded torque) applied to the inputs
+  its command holds keep;
 - :mod:`.retune`: a sensor output rebuilt with new noise parameters while a run goes on.
 
 Beside :mod:`..propagators`, under :mod:`..scene` and :mod:`..run`. May import: :mod:`..effects`

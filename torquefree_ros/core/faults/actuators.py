@@ -23,8 +23,12 @@ effect's inputs change at sample times only and every piece starts at one, so th
 both propagation paths, the outputs reporting the inputs and a replay read them.
 
 ``wheel_stuck``: the wheel's component of its ``reaction_wheels``' hold is its ``off`` value (zero
-torque; a speed drive off, NaN) on the window. ``magnetorquer_stuck``: the three components of
-each ``magnetorquers``' hold are its ``value``, or what held on the interval before the window.
+torque; a speed drive off, NaN) on the window. ``magnetorquer_stuck`` and ``torque_stuck``: the
+three components of each ``magnetorquers``' (``torque_command``'s) hold are its ``value``, or what
+held on the interval before the window. ``torque_error`` and ``wheel_torque_error``: the held
+torque (each ``torque_command``'s three components, in its frame; the wheel's motor torque) is
+``scale * value + bias``; a wheel's before its limits, which the equations apply to what the hold
+gives (a faulted wheel still saturates and stops at its speed limit).
 
 Faults set while a run goes on (:meth:`ActuatorFaults.replace`) act from a given sample on, as
 the sensors' do: a window that started earlier starts there; a fault equal to the one at its
@@ -33,7 +37,7 @@ place before goes on as it was (a stuck dipole keeps the value it read).
 
 from __future__ import annotations
 
-from .schedule import ACTUATOR_FAULTS, Fault
+from .schedule import ACTUATOR_FAULTS, ERROR_FAULTS, Fault
 from ..checks.schema import child, FieldError
 from ..commands.hold import Override
 from ..timing.grid import first_sample_at_or_after
@@ -62,7 +66,7 @@ def targets(fault: Fault, effects) -> list[tuple]:
             else f'its {name} are in mode schedule: a fault acts on commanded wheels (mode '
             'torque or speed)',
         )
-    if fault.kind == 'magnetorquer_stuck':
+    if fault.kind in ('magnetorquer_stuck', 'torque_stuck', 'torque_error'):
         return [(effect, (0, 1, 2)) for effect in commanded]
     found = [
         (effect, (effect.names.index(fault.wheel),))
@@ -76,6 +80,12 @@ def targets(fault: Fault, effects) -> list[tuple]:
             f'{fault.wheel[:80]!r} is not a commanded wheel of the scene (wheels: {known[:200]})'
             if not found
             else f'{fault.wheel[:80]!r} names wheels of {len(found)} reaction_wheels effects',
+        )
+    if fault.kind == 'wheel_torque_error' and found[0][0].mode != 'torque':
+        raise FieldError(
+            fault.path,
+            f'the wheel {fault.wheel[:80]!r} is in mode {found[0][0].mode}: its motor torque is '
+            "its speed loop's; a torque error acts on commanded motor torques (mode torque)",
         )
     return found
 
@@ -127,11 +137,7 @@ class ActuatorFaults:
         overrides = {id(effect): [] for effect in self.effects}
         for fault, first, stop in self.windows:
             for effect, components in targets(fault, self.effects):
-                if fault.kind == 'wheel_stuck':
-                    values = tuple(float(effect.hold.off[i]) for i in components)
-                else:
-                    values = fault.value
-                overrides[id(effect)].append(Override(first, stop, components, values))
+                overrides[id(effect)].append(_override(fault, first, stop, effect, components))
         for effect in self.effects:
             if getattr(effect, 'hold', None) is not None:
                 effect.hold.override(overrides[id(effect)])
@@ -143,6 +149,16 @@ class ActuatorFaults:
             for fault, first, stop in self.windows
             if first <= k and (stop is None or k < stop)
         ]
+
+
+def _override(fault: Fault, first: int, stop, effect, components: tuple) -> Override:
+    """Return what ``fault`` does to ``effect``'s hold on its window."""
+    if fault.kind in ERROR_FAULTS:
+        return Override(first, stop, components, None, fault.scale, fault.bias)
+    if fault.kind == 'wheel_stuck':
+        off = tuple(float(effect.hold.off[i]) for i in components)
+        return Override(first, stop, components, off)
+    return Override(first, stop, components, fault.value)
 
 
 __all__ = ['ActuatorFaults', 'actuator_faults', 'check_actuator_faults', 'targets']

@@ -53,6 +53,10 @@ on rows, on the run's own samples ``k`` (``t_k = k / rate``, the same rule) and 
     - wheel_stuck:        {wheel: rw1, start: 2.0, end: 4.0}   # no motor torque: friction only
     - magnetorquer_stuck: {start: 2.0, end: 4.0}               # at the last dipole, or
     - magnetorquer_stuck: {start: 2.0, value: [0.1, 0.0, 0.0]} # at a given one, A m^2
+    - torque_stuck:       {start: 1.0, end: 3.0}               # at the last torque, or
+    - torque_stuck:       {start: 1.0, value: [0.0, 0.0, 0.0]} # at a given one, N m
+    - torque_error:       {start: 1.0, bias: [1e-3, 0.0, 0.0], scale: 0.8}
+    - wheel_torque_error: {wheel: rw1, start: 2.0, bias: 1e-3, scale: 0.5}
 
 * ``wheel_stuck``: the wheel named (a wheel of commanded ``reaction_wheels``) ignores commands and
   its drive is off: its input is the one it has with no command in force (zero torque; a speed
@@ -60,7 +64,18 @@ on rows, on the run's own samples ``k`` (``t_k = k / rate``, the same rule) and 
 * ``magnetorquer_stuck``: every ``magnetorquers`` effect holds the dipole it was asked for on the
   interval before the window (zero when the window starts at sample 0 or no command was in
   force), or ``value``, through the rods' saturation as any command: ``value: [0, 0, 0]`` turns
-  them off.
+  them off;
+* ``torque_stuck``: every ``torque_command`` effect holds the torque it held on the interval
+  before the window (zero when none was in force), or ``value`` (N m, in the effect's frame);
+* ``torque_error``: every ``torque_command`` effect's torque (in its frame) is ``scale * torque +
+  bias`` (``scale`` a number or one per axis, default 1; ``bias`` N m, default zero), whatever
+  holds: a command, or zero once it timed out;
+* ``wheel_torque_error``: the motor torque asked of the wheel named (of ``reaction_wheels`` in
+  mode ``torque``) is ``scale * u + bias`` (N m; default 1 and 0), before the wheel's torque and
+  speed limits, which still bound what the motor applies.
+
+A stuck or a given value replaces what the faults before it in the list did; an error acts on
+what they left (faults on one input apply in list order).
 
 A row that carries no measurement (a gyro's or star tracker's latency start, a star tracker with
 no solution, a sun sensor without the Sun) stays as it is under bias, noise and spikes. Faults of
@@ -126,7 +141,9 @@ class Fault:
     magnitude: float | None = None  # spikes
     probability: float | None = None  # spikes on each sample with it
     period: float | None = None  # spikes every period from start
-    wheel: str | None = None  # wheel_stuck: the wheel's name
+    wheel: str | None = None  # wheel_stuck, wheel_torque_error: the wheel's name
+    bias: tuple | None = None  # torque_error, wheel_torque_error: added, N m (one a component)
+    scale: tuple | None = None  # torque_error, wheel_torque_error: the factor (one a component)
     #: where it was written (``faults[1].wheel_stuck``): errors found later name it
     path: str = field(default='', compare=False)
 
@@ -154,11 +171,41 @@ FAULT_KINDS = {
     'dropout': {},
 }
 #: actuator fault kind -> the effect it acts on (its fields replace ``output``)
-ACTUATOR_FAULTS = {'wheel_stuck': 'reaction_wheels', 'magnetorquer_stuck': 'magnetorquers'}
+ACTUATOR_FAULTS = {
+    'wheel_stuck': 'reaction_wheels',
+    'wheel_torque_error': 'reaction_wheels',
+    'magnetorquer_stuck': 'magnetorquers',
+    'torque_stuck': 'torque_command',
+    'torque_error': 'torque_command',
+}
+#: the actuator faults that scale and offset an input (the others replace it)
+ERROR_FAULTS = ('torque_error', 'wheel_torque_error')
+
+
+def _per_axis(value, path):
+    """Check a number, or three (one per axis); return three."""
+    if isinstance(value, (list, tuple)):
+        return vector(3)(value, path)
+    return (number()(value, path),) * 3
+
+
+_WHEEL = Param(text(), description="the wheel's name")
 _ACTUATOR_KINDS = {
-    'wheel_stuck': {'wheel': Param(text(), description="the wheel's name")},
+    'wheel_stuck': {'wheel': _WHEEL},
+    'wheel_torque_error': {
+        'wheel': _WHEEL,
+        'bias': Param(number(unit='N m'), None, 'added to the motor torque asked, N m'),
+        'scale': Param(number(), None, 'the factor of the motor torque asked'),
+    },
     'magnetorquer_stuck': {
         'value': Param(vector(3, unit='A m^2'), None, 'default: the last dipole asked for')
+    },
+    'torque_stuck': {
+        'value': Param(vector(3, unit='N m'), None, 'default: the last torque held')
+    },
+    'torque_error': {
+        'bias': Param(vector(3, unit='N m'), None, "added to the torque, in the effect's frame"),
+        'scale': Param(_per_axis, None, "the torque's factor: a number, or one per axis"),
     },
 }
 _WINDOW = {key: _COMMON[key] for key in ('start', 'end')}
@@ -209,6 +256,16 @@ def _check_window(values: dict, where: str) -> None:
 def _actuator_fault(kind: str, values: dict, where: str, index: int) -> Fault:
     """Return an actuator's fault; what it names is checked against a run's effects later."""
     value = values.get('value')
+    errors = {}
+    if kind in ERROR_FAULTS:
+        bias, scale = values['bias'], values['scale']
+        if bias is None and scale is None:
+            raise FieldError(where, "give 'bias' (N m), 'scale' or both")
+        width = 3 if kind == 'torque_error' else 1
+        errors = {
+            'bias': (0.0,) * width if bias is None else _floats(bias, width),
+            'scale': (1.0,) * width if scale is None else _floats(scale, width),
+        }
     return Fault(
         kind=kind,
         output='',
@@ -218,7 +275,13 @@ def _actuator_fault(kind: str, values: dict, where: str, index: int) -> Fault:
         value=None if value is None else tuple(float(x) for x in value),
         wheel=values.get('wheel'),
         path=where,
+        **errors,
     )
+
+
+def _floats(values, width: int) -> tuple:
+    """Return a number or numbers as ``width`` Python floats."""
+    return tuple(float(x) for x in (values if width > 1 else (values,)))
 
 
 def _fault(kind: str, values: dict, name: str, where: str, index: int) -> Fault:
@@ -288,12 +351,26 @@ def describe_fault(fault: Fault) -> str:
         'magnetorquer_stuck': 'at the last dipole'
         if fault.value is None
         else 'at ' + _values(fault.value) + ' A m^2',
+        'torque_stuck': 'at the last torque'
+        if fault.value is None
+        else 'at ' + _values(fault.value) + ' N m',
+        'torque_error': _error(fault),
+        'wheel_torque_error': _error(fault),
     }[fault.kind]
     return f'{fault.kind} {fault.target} [{fault.start:g}, {end}) s {detail}'.rstrip()
 
 
 def _values(values) -> str:
     return '[' + ', '.join(f'{x:g}' for x in values) + ']'
+
+
+def _error(fault: Fault) -> str:
+    """Say an error fault's factor and bias: ``scale 0.5 bias 0.001 N m``."""
+    if fault.scale is None:
+        return ''
+    if len(fault.scale) == 1:
+        return f'scale {fault.scale[0]:g} bias {fault.bias[0]:g} N m'
+    return f'scale {_values(fault.scale)} bias {_values(fault.bias)} N m'
 
 
 def spike_period_samples(fault: Fault, rate: float, first: int, stop: int) -> list:
@@ -315,6 +392,7 @@ def spike_period_samples(fault: Fault, rate: float, first: int, stop: int) -> li
 
 __all__ = [
     'ACTUATOR_FAULTS',
+    'ERROR_FAULTS',
     'FAULTED_OUTPUTS',
     'FAULT_KINDS',
     'Fault',

@@ -1,0 +1,391 @@
+# Copyright 2026 torquefree_ros maintainers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Faults of a commanded torque and a wheel's torque error, on the node's path and the plant's.
+
+``torque_stuck``, ``torque_error`` (``torque_command``) and ``wheel_torque_error``. References
+computed here, not by the code under test: a sphere at rest under held body torques, whose rate is
+the sum of the impulses (``I w' = tau``: no gyroscopic term), the torque of each interval written
+out by hand; a frictionless wheel on a principal axis of a body at rest, whose speed is linear
+under a constant motor torque (``Js_eff Omega' = u``), its slope changed exactly by the fault's
+scale and bias and bounded by the wheel's ``max_torque`` after them; a faulted run against the
+run whose controller sends the faulted torque itself, which must agree bit for bit; and a
+running node's recording against its offline replay, byte for byte.
+"""
+
+from __future__ import annotations
+
+import json
+
+from geometry_msgs.msg import Vector3Stamped, WrenchStamped
+import numpy as np
+import pytest
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from torquefree_ros import Plant
+from torquefree_ros.bag import BagReader
+from torquefree_ros.bag.offline import write_scene_bag
+from torquefree_ros.core.checks.schema import FieldError
+from torquefree_ros.core.commands.hold import CommandHold, Override
+from torquefree_ros.core.run.simulation import Simulation
+from torquefree_ros.core.scene.loader import faults_from_text, scene_from_mapping, SceneError
+from torquefree_ros.testing import simulator
+
+RATE = 10.0
+SPHERE = 5.0  # kg m^2: I w' = tau exactly (w x I w = 0)
+I_Z, JS = 6.0, 0.2  # the body's moment about the wheel's axis z, the wheel's spin inertia
+JS_EFF = JS * (I_Z - JS) / I_Z  # a wheel against a free body about its principal axis
+U, MAX_TORQUE, SPEED0 = 0.05, 0.1, 10.0  # N m, N m, rad/s
+
+
+def torque_scene(faults=(), inertia=(SPHERE, SPHERE, SPHERE), omega=(0.0, 0.0, 0.0),
+                 frame='body', timeout=0.55):
+    return scene_from_mapping(
+        {
+            'body': {'inertia': list(inertia)},
+            'initial': {'angular_velocity': list(omega)},
+            'effects': [{'torque_command': {'frame': frame, 'timeout': timeout,
+                                            'max_torque': 0.1}}],
+            'faults': list(faults),
+            'accuracy': 1e-12,
+        },
+        source='s.yaml',
+    )
+
+
+def wheel_scene(faults=(), mode='torque'):
+    wheel = {'name': 'z', 'axis': [0.0, 0.0, 1.0], 'spin_inertia': JS, 'max_torque': MAX_TORQUE,
+             'max_speed': 1000.0, 'speed': SPEED0}
+    return scene_from_mapping(
+        {
+            'body': {'inertia': [4.0, 5.0, I_Z]},
+            'initial': {'angular_velocity': [0.0, 0.0, 0.0]},
+            'effects': [{'reaction_wheels': {'mode': mode, 'timeout': 100.0, 'wheels': [wheel]}},
+                        {'wheel_states': {}}],
+            'faults': list(faults),
+            'accuracy': 1e-12,
+        },
+        source='s.yaml',
+    )
+
+
+def torque_run(scene, torques):
+    """Return the Simulation and its samples 0 .. len(torques), ``torques[k]`` sent at sample k."""
+    simulation = Simulation(scene.propagator(), RATE, faults=scene.faults)
+    ((_, hold),) = simulation.command_holds
+    omega = [simulation.samples(0, 1).omega_B[0]]
+    for k, torque in enumerate(torques):
+        if torque is not None:
+            assert hold.receive(hold.stamp_ns(k), torque)[0]
+        hold.seal(k)
+        omega.append(simulation.samples(k + 1, 1).omega_B[0])
+    return simulation, np.array(omega)
+
+
+# -- a commanded torque ---------------------------------------------------------------------------
+TORQUES = [[1e-3 * (k + 1), -2e-3, 5e-4 * (-1) ** k] for k in range(14)] + [None] * 8 + [
+    [-3e-3, 1e-3, 2e-3]
+] * 8  # a gap past the 0.55 s timeout (intervals 19 .. 21: zero torque), then a constant
+
+
+def by_hand(k):
+    """Return the torque the faults below leave on interval ``k``, written out from their text."""
+    commanded = (
+        np.array(TORQUES[k]) if TORQUES[k] is not None
+        else np.array(TORQUES[13]) if k < 19 else np.zeros(3)  # 13 stamped 1.3 s: out at 1.85 s
+    )
+    if 3 <= k < 8:  # torque_error [0.25, 0.8): scale per axis, bias
+        return commanded * np.array([0.5, 2.0, -1.0]) + np.array([1e-3, 0.0, -2e-3])
+    if 8 <= k < 12:  # torque_stuck [0.8, 1.2): what held on interval 7, the error's result
+        return by_hand(7)
+    if 19 <= k < 24:  # torque_error [1.9, 2.4), scale 0: the bias alone, timed out or not
+        return np.array([0.0, 4e-4, 0.0])
+    return commanded
+
+
+FAULTS = [
+    {'torque_error': {'start': 0.25, 'end': 0.8, 'scale': [0.5, 2.0, -1.0],
+                      'bias': [1e-3, 0.0, -2e-3]}},
+    {'torque_stuck': {'start': 0.8, 'end': 1.2}},
+    {'torque_error': {'start': 1.9, 'end': 2.4, 'scale': 0.0, 'bias': [0.0, 4e-4, 0.0]}},
+]
+
+
+@pytest.mark.usefixtures('integrator_path')
+def test_a_sphere_s_rate_is_the_sum_of_the_faulted_torques_written_out_by_hand():
+    """
+    ``w_k = sum_{j < k} tau_j / (I rate)``: the torque of each interval as the faults leave it.
+
+    DOP853 at rtol 1e-12 is exact on a linear rate up to rounding: 1e-12 of the largest rate.
+    The windows' intervals are those of ``k`` with ``start <= k / rate < end``; the stuck
+    window holds what held on the interval before it (the error's result), and a bias acts on
+    the zero torque of a timed-out command too.
+    """
+    _, omega = torque_run(torque_scene(FAULTS), TORQUES)
+    impulses = np.array([by_hand(k) for k in range(len(TORQUES))]) / (SPHERE * RATE)
+    expected = np.vstack([np.zeros(3), np.cumsum(impulses, axis=0)])
+    size = np.abs(expected).max()
+    np.testing.assert_allclose(omega, expected, rtol=0, atol=1e-12 * size)
+
+
+def test_a_faulted_torque_equals_the_controller_sending_it_bit_for_bit():
+    """A tumbling body, both frames: the faulted run is the one commanded with by_hand's."""
+    for frame in ('body', 'inertial'):
+        shape = {'inertia': (4.0, 5.0, 6.0), 'omega': (0.3, -0.2, 0.25), 'frame': frame,
+                 'timeout': 100.0}
+        torques = TORQUES[:14]
+        _, faulted = torque_run(torque_scene(FAULTS, **shape), torques)
+        sent = [by_hand(k).tolist() for k in range(14)]
+        _, reference = torque_run(torque_scene(**shape), sent)
+        np.testing.assert_array_equal(faulted, reference)
+
+
+@pytest.mark.parametrize('frame', ['body', 'inertial'])
+def test_the_plant_applies_torque_faults_as_the_node_s_path_bit_for_bit(frame):
+    """Plant.step with the same torques: the same samples as the Simulation, bit for bit."""
+    shape = {'inertia': (4.0, 5.0, 6.0), 'omega': (0.3, -0.2, 0.25), 'frame': frame}
+    _, omega = torque_run(torque_scene(FAULTS, **shape), TORQUES)
+    plant = Plant(torque_scene(FAULTS, **shape), RATE)
+    stepped = [plant.state.omega_B] + [plant.step(torque).omega_B for torque in TORQUES]
+    np.testing.assert_array_equal(np.array(stepped), omega)
+    free = Plant(torque_scene(**shape), RATE)
+    for torque in TORQUES:
+        free.step(torque)
+    assert np.abs(free.state.omega_B - plant.state.omega_B).max() > 1e-4  # (the faults acted)
+
+
+# -- a wheel's torque error -----------------------------------------------------------------------
+WHEEL_FAULTS = [
+    {'wheel_torque_error': {'wheel': 'z', 'start': 1.0, 'end': 2.0, 'scale': 0.6, 'bias': 0.01}},
+    {'wheel_torque_error': {'wheel': 'z', 'start': 2.5, 'end': 3.0, 'scale': 3.0}},
+]
+
+
+def motor_torque(k):
+    """Return the motor torque of interval ``k``: U, the fault's ``scale U + bias``, clipped."""
+    if 10 <= k < 20:
+        return 0.6 * U + 0.01  # 0.04 N m
+    if 25 <= k < 30:
+        return min(3.0 * U, MAX_TORQUE)  # 0.15 asked: the wheel's limit, 0.1, after the fault
+    return U
+
+
+def test_a_wheel_torque_error_changes_the_speed_s_slope_by_exactly_its_scale_and_bias(
+    integrator_path,
+):
+    """
+    ``Omega(t) = Omega_0 + sum u_k / (Js_eff rate)``: linear under each interval's motor torque.
+
+    ``u`` is 0.05 N m outside the windows, ``0.6 u + 0.01`` in ``[1, 2)`` s and ``min(3 u,
+    max_torque)`` in ``[2.5, 3)`` s: the limit bounds what the fault asks. DOP853 at rtol 1e-12 is
+    exact on a linear speed up to rounding: 1e-12 of the largest speed, so each interval's slope
+    ``(Omega_k+1 - Omega_k) rate`` is its ``u / Js_eff`` to 2e-11 of ``Omega``'s size times the
+    rate. The body takes up what the wheel gains: ``I_z w_z = Js (Omega_0 - Omega)``, and
+    ``wheel_states`` reports each interval's ``u`` exactly (the same operations). The plant
+    meets the same closed form, and equals the node's compiled path bit for bit.
+    """
+    count = 40
+    scene = wheel_scene(WHEEL_FAULTS)
+    simulation = Simulation(scene.propagator(), RATE, outputs=scene.outputs, faults=scene.faults)
+    ((effect, hold),) = simulation.command_holds
+    blocks = [simulation.samples(0, 1)]
+    for k in range(count):
+        assert effect.receive(hold.stamp_ns(k), '', ['z'], [], [U])[0]
+        hold.seal(k)
+        blocks.append(simulation.samples(k + 1, 1))
+    omega = np.concatenate([b.omega_B for b in blocks])
+    internal = np.concatenate([b.internal for b in blocks])
+    speeds = effect.wheel_speeds(omega, internal)[:, 0]
+    u = np.array([motor_torque(k) for k in range(count)])
+    expected = SPEED0 + np.concatenate([[0.0], np.cumsum(u / (JS_EFF * RATE))])
+    np.testing.assert_allclose(speeds, expected, rtol=1e-12)
+    slopes = np.diff(speeds) * RATE
+    np.testing.assert_allclose(
+        slopes, u / JS_EFF, rtol=0, atol=2e-11 * np.abs(speeds).max() * RATE
+    )
+    # the slope in the first window differs from the commanded one by (scale - 1) U + bias
+    change = (0.6 - 1.0) * U + 0.01
+    assert abs((slopes[15] - slopes[5]) - change / JS_EFF) < 2e-11 * speeds.max() * RATE
+    np.testing.assert_allclose(omega[:, 2], JS * (SPEED0 - speeds) / I_Z, rtol=1e-10, atol=1e-15)
+    # wheel_states: the motor torque of the interval ending at each sample, fault and limit applied
+    efforts = np.concatenate([b.outputs[0][:, 2] for b in blocks])
+    assert efforts[1:].tolist() == u.tolist()
+    plant = Plant(wheel_scene(WHEEL_FAULTS), RATE)
+    stepped = [plant.state.wheel_speeds]
+    stepped += [plant.step(wheels=[U]).wheel_speeds for _ in range(count)]
+    stepped = np.array(stepped)[:, 0]
+    np.testing.assert_allclose(stepped, expected, rtol=1e-12)
+    if integrator_path == 'compiled':  # (the plant runs the kernels; the reference is scipy's)
+        np.testing.assert_array_equal(stepped, speeds)
+
+
+# -- the rule on a hold ---------------------------------------------------------------------------
+def test_overrides_on_one_interval_apply_in_list_order():
+    """
+    An error after a stuck value acts on the value; a stuck value after an error replaces it.
+
+    By hand: ``[1, 2, 3]`` held; error ``x 2 + 1`` on component 0; stuck ``[9, ., 7]``.
+    """
+    hold = CommandHold(100.0, width=3)
+    hold.start(RATE, 0)
+    assert hold.receive(hold.stamp_ns(0), [1.0, 2.0, 3.0])[0]
+    error = Override(2, 4, (0,), None, (2.0,), (1.0,))
+    stuck = Override(3, 5, (0, 2), (9.0, 7.0))
+    hold.override([error, stuck])
+    assert [hold.held_on(k).tolist() for k in range(6)] == [
+        [1, 2, 3], [1, 2, 3], [3, 2, 3], [9, 2, 7], [9, 2, 7], [1, 2, 3]
+    ]
+    hold.override([stuck, error])
+    assert hold.held_on(3).tolist() == [19, 2, 7]
+
+
+# -- bad definitions ------------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    'faults, scene, path',
+    [
+        ([{'torque_error': {'start': 0.0}}], 'torque',
+         r"faults\[0\]\.torque_error: give 'bias' \(N m\), 'scale' or both"),
+        ([{'torque_error': {'start': 0.0, 'scale': [1.0, 2.0]}}], 'torque',
+         r'faults\[0\]\.torque_error\.scale: expected 3 numbers, got 2'),
+        ([{'torque_error': {'start': 0.0, 'bias': [0.0, float('nan'), 0.0]}}], 'torque',
+         r'faults\[0\]\.torque_error\.bias: every entry must be finite'),
+        ([{'torque_error': {'start': 1.0, 'end': 0.5, 'scale': 2.0}}], 'torque',
+         r'faults\[0\]\.torque_error\.end: must be after start'),
+        ([{'torque_stuck': {'start': 0.0, 'value': [1.0]}}], 'torque',
+         r'faults\[0\]\.torque_stuck\.value: expected 3 numbers'),
+        ([{'torque_stuck': {'start': 0.0}}], 'wheels',
+         r'faults\[0\]\.torque_stuck: the scene has no torque_command'),
+        ([{'wheel_torque_error': {'wheel': 'z', 'start': 0.0, 'bias': 'x'}}], 'wheels',
+         r'faults\[0\]\.wheel_torque_error\.bias: expected a finite number N m'),
+        ([{'wheel_torque_error': {'wheel': 'y', 'start': 0.0, 'scale': 2.0}}], 'wheels',
+         r'faults\[0\]\.wheel_torque_error\.wheel: .y. is not a commanded wheel'),
+        ([{'wheel_torque_error': {'wheel': 'z', 'start': 0.0, 'scale': 2.0}}], 'speed',
+         r'faults\[0\]\.wheel_torque_error: the wheel .z. is in mode speed'),
+        ([{'wheel_torque_error': {'wheel': 'z', 'start': 0.0, 'scale': [2.0]}}], 'wheels',
+         r'faults\[0\]\.wheel_torque_error\.scale: expected a finite number'),
+    ],
+)
+def test_bad_command_faults_are_refused_with_the_field_path(faults, scene, path):
+    with pytest.raises(SceneError, match=r'^s\.yaml: ' + path):
+        if scene == 'torque':
+            torque_scene(faults)
+        else:
+            wheel_scene(faults, 'speed' if scene == 'speed' else 'torque')
+
+
+def test_a_run_time_torque_fault_is_checked_and_shown_in_the_diagnostics():
+    scene = torque_scene()
+    simulation = Simulation(scene.propagator(), RATE)
+    bad = faults_from_text('[{wheel_torque_error: {wheel: z, start: 0, bias: 1}}]', ())
+    with pytest.raises(FieldError, match=r'^faults\[0\]\.wheel_torque_error: the scene has no '):
+        simulation.retune(3, bad)
+    assert simulation.faults == ()
+    text = ('[{torque_error: {start: 0.5, end: 1, scale: 0.5, bias: [0, 0, 1e-3]}}, '
+            '{torque_stuck: {start: 0.7, value: [0, 0, 0]}}]')
+    simulation.retune(3, faults_from_text(text, ()))
+    assert simulation.fault_diagnostics(2)['faults_active'] == 'none'
+    assert simulation.fault_diagnostics(7) == {
+        'faults': '2',
+        'faults_active': 'torque_error torque_command [0.5, 1) s scale [0.5, 0.5, 0.5] bias '
+        '[0, 0, 0.001] N m; torque_stuck torque_command [0.7, ...) s at [0, 0, 0] N m',
+    }
+    wheel = faults_from_text('[{wheel_torque_error: {wheel: z, start: 0, scale: 0.5}}]', ())
+    scene = wheel_scene()
+    simulation = Simulation(scene.propagator(), RATE, faults=wheel)
+    assert simulation.fault_diagnostics(0)['faults_active'] == (
+        'wheel_torque_error z [0, ...) s scale 0.5 bias 0 N m'
+    )
+
+
+# -- on a running node ----------------------------------------------------------------------------
+NODE_SCENE = {
+    'body': {'inertia': [4.0, 5.0, 6.0]},
+    'initial': {'angular_velocity': [0.3, -0.2, 0.25]},
+    'effects': [{'torque_command': {'max_torque': 0.1}}],
+    'accuracy': 1e-12,
+}
+GAIN = 0.05  # N m s: K w, under max_torque
+
+
+class Damping(Node):
+    """Answer each sample with the torque ``-K w`` for the interval after it."""
+
+    def __init__(self, context):
+        super().__init__('damping', context=context)
+        self.commands = self.create_publisher(WrenchStamped, 'torque_command', 10)
+        self.create_subscription(Vector3Stamped, 'angular_velocity', self.answer, 10)
+
+    def answer(self, sample: Vector3Stamped) -> None:
+        command = WrenchStamped()
+        command.header.stamp, command.header.frame_id = sample.header.stamp, 'body'
+        torque = command.wrench.torque
+        torque.x, torque.y, torque.z = (-GAIN * sample.vector.x, -GAIN * sample.vector.y,
+                                        -GAIN * sample.vector.z)
+        self.commands.publish(command)
+
+
+def test_a_torque_error_set_on_a_running_node_replays_byte_for_byte(tmp_path):
+    """
+    Set between samples 5 and 6: it acts from interval 6, as the core's run with it from 6.
+
+    The node's rates equal the core's (the same commands, the fault put in force at sample 6),
+    bit for bit; ``/diagnostics``' values name it; ``torquefree_bag --commands``' replay of the
+    recording gives the same bytes.
+    """
+    path = tmp_path / 'damping.yaml'
+    path.write_text(json.dumps(NODE_SCENE))
+    first, more = 6, 10
+    text = '[{torque_error: {start: 0.0, scale: 0.5, bias: [1e-3, 0, -1e-3]}}]'
+    recorded = tmp_path / 'live'
+    with simulator(str(path), publish_rate=RATE, record_bag=str(recorded)) as sim:
+        sim.add_node(Damping(sim.context))
+        rates = sim.tap('angular_velocity', Vector3Stamped)
+        sim.advance(first)
+        result = sim.node.set_parameters_atomically([Parameter('faults', value=text)])
+        assert result.successful, result.reason
+        sim.advance(more)
+        rates.wait(first + more)
+        diagnostics = sim.node.sample_loop.simulation.fault_diagnostics(first)
+        received = rates.messages[: first + more]
+        epoch = sim.samples[0].stamp_ns
+    live = np.array([[m.vector.x, m.vector.y, m.vector.z] for m in received])
+    scene = scene_from_mapping(NODE_SCENE)
+    simulation = Simulation(scene.propagator(), RATE)
+    ((_, hold),) = simulation.command_holds
+    offline = [simulation.samples(0, 1).omega_B[0]]
+    for k in range(first + more - 1):
+        if k == first:
+            simulation.retune(k, faults_from_text(text, ()))
+        assert hold.receive(hold.stamp_ns(k), -GAIN * offline[-1], frame_id='')[0]
+        hold.seal(k)
+        offline.append(simulation.samples(k + 1, 1).omega_B[0])
+    np.testing.assert_array_equal(live, np.array(offline))
+    assert diagnostics == {
+        'faults': '1',
+        'faults_active': 'torque_error torque_command [0, ...) s scale [0.5, 0.5, 0.5] bias '
+        '[0.001, 0, -0.001] N m',
+    }
+    replay = tmp_path / 'replay'
+    write_scene_bag(scene, replay, (first + more - 1) / RATE, RATE, epoch_ns=epoch,
+                    commands_bag=recorded)
+    window = (epoch, epoch + (first + more - 1) * round(1e9 / RATE))
+
+    def messages(bag, topic):
+        return [m.data for m in BagReader(bag).messages([topic])
+                if window[0] <= m.log_time_ns <= window[1]]
+
+    for topic in ('/angular_velocity', '/sensor_changes'):
+        recorded_messages = messages(recorded, topic)
+        assert recorded_messages and recorded_messages == messages(replay, topic), topic
