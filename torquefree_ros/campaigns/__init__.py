@@ -21,15 +21,16 @@ The room, in the order a campaign flows through it:
   the field path): the base scene (by name, by file, or written inline), the runs, the seed, the
   time grid, the dispersions, what to do with an impossible body, the metrics.
 * :mod:`.dispersions` — **dispersions** (Basilisk's vocabulary): per target of the scene (the
-  body's moments or tensor, the initial rate, the attitude, any number or vector of an effect by
-  its path, list items by index), a mode (relative, absolute, replace) and a distribution (normal,
+  body's moments or tensor, the initial rate, the attitude, any number or vector of an effect or
+  an output by its path, list items by index, a sensor fault's numbers, the orbit's Keplerian
+  elements), a mode (relative, absolute, replace) and a distribution (normal,
   uniform, truncated normal, a list of values for a sweep); a vector per component or as a whole
   (its direction turned within a cone or by a small rotation, a wheel's axis tilted by a
   misalignment, its magnitude dispersed). Run ``i``
   draws from ``SeedSequence(seed).spawn(runs)[i]`` only.
 * :mod:`.metrics` — **metrics**: what a run keeps (final rates, settle time, cone angle, flips,
   energy and momentum drift of the whole system, attitude error from the nominal run, the wheels'
-  momentum peak and saturation time), one registry and a decorator
+  momentum peak, each wheel's peak and saturation time), one registry and a decorator
   (:func:`metric`) for adding one as a Python function.
 * :mod:`.engine` — the **engine**: chunks of runs through the batch paths (``propagate_batch``, the
   batched ``Plant``), in this process or on Dask workers (by default whichever finishes first:
@@ -54,6 +55,18 @@ from __future__ import annotations
 
 from .metrics import Metric, metric, METRICS, Samples
 from .spec import Campaign, CampaignError, library_campaigns, load_campaign
+
+
+def run_scene(path_or_mapping, run: int) -> dict:
+    """
+    Return run ``run``'s scene as a scene file's mapping: the campaign's scene with its draws.
+
+    Written out (``yaml.safe_dump``) and loaded as a scene, it is the scene the run ran: its body,
+    initial state, effects, outputs, faults and orbit (see ``engine.scene_document``).
+    """
+    from .engine import run_scene as scene_of_run
+
+    return scene_of_run(load_campaign(path_or_mapping), run)
 
 
 def run_campaign(
@@ -156,4 +169,5 @@ __all__ = [
     'load_campaign',
     'metric',
     'run_campaign',
+    'run_scene',
 ]

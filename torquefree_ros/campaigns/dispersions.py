@@ -39,7 +39,18 @@ Targets: ``body.moments`` (principal moments; a scene given as a tensor keeps it
 of numbers of an effect: ``effects[i].NAME.PARAMETER`` (the scene's ``i``-th effect, which must be
 ``NAME``), followed by list items by index and mapping keys down to a number or a vector
 (``effects[0].external_torque.schedule[2].torque``, ``effects[0].external_torque.torque[1]``,
-``effects[0].rotor.axis``).
+``effects[0].rotor.axis``). An output's parameters are an effect's
+(``effects[2].imu.gyro_noise_density``, ``effects[1].magnetometer.bias``; its ``seed`` is not
+dispersed: every run keeps the scene's), and so are a fault's numbers in ``faults:``
+(``faults[i].KIND.FIELD``: ``faults[0].bias.start``, ``faults[1].noise.sigma``,
+``faults[0].bias.step``; an actuator's fault, its window and the fields the scene gives it,
+``faults[0].magnetorquer_stuck.value``). ``orbit.ELEMENT`` disperses a Keplerian element of the
+scene's orbit (:data:`ORBIT_ELEMENTS`, in the scene's SI units: m and rad); the epoch, the start
+and ``j2`` are not dispersed, nor a TLE orbit (SGP4 propagates its mean elements whole). Every
+such number is checked again in each run's scene as a scene file's is (a negative noise, an
+eccentricity outside ``[0, 1)``, a perigee inside the Earth): a run whose draw the scene refuses is
+a row ``invalid_scene`` whose reason names the field (``orbit.eccentricity: the perigee radius ...
+is inside the Earth``).
 
 A **vector** takes one dispersion (every component, independently), a list with one per component
 (``null``: that component kept), or, for a vector in space (``initial.angular_velocity``, a
@@ -93,6 +104,7 @@ from ..core.checks.schema import (
     one_key,
     Param,
     shown,
+    text,
 )
 from ..core.effects.wheel_presets import PRESETS, with_preset
 from ..core.frames import quaternion
@@ -394,13 +406,19 @@ class OrientationTarget:
 
 @dataclass(frozen=True)
 class EffectTarget:
-    """A number or a vector of an effect: where it sits in the scene, and how it is drawn."""
+    """
+    A number or a vector of an effect or a fault: where it sits in the scene, how it is drawn.
 
-    path: str  # effects[i].NAME.PARAMETER, then [k] and .KEY down to the dispersed value
+    ``section``: the scene's list it is in, ``effects`` or ``faults`` (both lists of one-key
+    mappings ``- NAME: {parameters}``).
+    """
+
+    path: str  # SECTION[i].NAME.PARAMETER, then [k] and .KEY down to the dispersed value
     index: int
-    effect: str
+    effect: str  # the effect's name, or the fault's kind
     keys: tuple  # the parameter, then the list indices and mapping keys down to the value
     inner: NumberTarget | VectorTarget | WholeVectorTarget
+    section: str = 'effects'
 
     @property
     def parameter(self) -> str:
@@ -416,15 +434,19 @@ class EffectTarget:
     def overlaps(self, other: EffectTarget) -> bool:
         """Tell whether the two targets reach the same number (one holds the other)."""
         shorter = min(len(self.keys), len(other.keys))
-        return self.index == other.index and self.keys[:shorter] == other.keys[:shorter]
+        return (
+            self.section == other.section
+            and self.index == other.index
+            and self.keys[:shorter] == other.keys[:shorter]
+        )
 
-    def place(self, effects: list, values: np.ndarray) -> None:
+    def place(self, document: dict, values: np.ndarray) -> None:
         """
-        Write drawn ``values`` into ``effects``, a run's own copy of the scene file's effects.
+        Write drawn ``values`` into ``document``, a run's own copy of the scene file's mapping.
 
         A number is written as a number, a vector as a list.
         """
-        entry = effects[self.index]
+        entry = document[self.section][self.index]
         parameters = entry[self.effect] = dict(entry[self.effect] or {})
         holder = parameters
         for key in self.keys[:-1]:
@@ -436,9 +458,30 @@ class EffectTarget:
         )
 
 
+@dataclass(frozen=True)
+class OrbitTarget:
+    """A Keplerian element of the scene's ``orbit:`` (SI: m, rad, as the scene writes it)."""
+
+    path: str  # orbit.ELEMENT
+    element: str
+    inner: NumberTarget
+
+    @property
+    def columns(self) -> tuple:
+        return self.inner.columns
+
+    def draw(self, rng, run) -> np.ndarray:
+        return self.inner.draw(rng, run)
+
+    def place(self, document: dict, values: np.ndarray) -> None:
+        """Write the drawn element into ``document``, a run's own copy of the scene's mapping."""
+        orbit = document['orbit'] = dict(document['orbit'])
+        orbit[self.element] = float(values[0])
+
+
 _NAME = r'[A-Za-z_][A-Za-z0-9_]*'
 _EFFECT_PATH = re.compile(
-    rf'^effects\[(\d+)\]\.({_NAME})\.({_NAME})((?:\[\d+\]|\.{_NAME})*)$'
+    rf'^(effects|faults)\[(\d+)\]\.({_NAME})\.({_NAME})((?:\[\d+\]|\.{_NAME})*)$'
 )
 _STEP = re.compile(rf'\[(\d+)\]|\.({_NAME})')
 TARGETS = (
@@ -447,6 +490,18 @@ TARGETS = (
     'initial.angular_velocity',
     'initial.orientation',
     'effects[i].NAME.PARAMETER (then [k] and .KEY down to a number or a list of numbers)',
+    'orbit.ELEMENT (a Keplerian element: semi_major_axis, eccentricity, inclination, raan, '
+    'argument_of_perigee, mean_anomaly)',
+    'faults[i].KIND.FIELD (then [k])',
+)
+#: the orbit's elements a campaign disperses (numbers; the epoch, start, j2 and a TLE are not)
+ORBIT_ELEMENTS = (
+    'semi_major_axis',
+    'eccentricity',
+    'inclination',
+    'raan',
+    'argument_of_perigee',
+    'mean_anomaly',
 )
 WHOLE = ('direction', 'misalignment', 'magnitude')
 ARCSEC = math.pi / (180.0 * 3600.0)  # rad
@@ -499,38 +554,115 @@ def parse_target(
             },
         )
         return OrientationTarget(key, tuple(scene.orientation), 'small_rotation', values['sigma'])
+    if str(key).startswith('orbit.'):
+        return _orbit_target(str(key), value, path, document)
     return _effect_target(key, value, path, document)
+
+
+def _orbit_target(key: str, value, path: str, document) -> OrbitTarget:
+    """
+    Parse the dispersion of a Keplerian element of the scene's ``orbit:``.
+
+    The element is checked again in each run's scene (``KeplerOrbit``: ``0 <= e < 1``, the
+    inclination in ``[0, pi]``, the perigee above the Earth's surface): a run whose drawn elements
+    make no orbit is a row ``invalid_scene`` naming the element.
+    """
+    from ..core.environment.orbit import ELEMENTS
+
+    element = key[len('orbit.'):]
+    orbit = document.get('orbit')
+    if not isinstance(orbit, dict):
+        raise FieldError(path, 'outside the scene: it has no orbit')
+    if 'tle' in orbit:
+        raise FieldError(
+            path,
+            "the scene's orbit is a two-line element set (orbit.tle), which SGP4 propagates "
+            'whole: its elements are not dispersed; write the orbit as Keplerian elements at an '
+            'epoch to disperse them',
+        )
+    if element in ('epoch', 'start'):
+        raise FieldError(
+            path,
+            f'orbit.{element} is an instant (UTC), not dispersed; disperse orbit.mean_anomaly for '
+            'where the body is on its orbit',
+        )
+    if element == 'j2':
+        raise FieldError(path, 'orbit.j2 is a switch (true or false), not a number to disperse')
+    if element not in ORBIT_ELEMENTS:
+        raise FieldError(
+            path,
+            f'outside the scene: the orbit has no element {shown(element)}'
+            f'{_hint(element, ORBIT_ELEMENTS)} (elements dispersed: {", ".join(ORBIT_ELEMENTS)})',
+        )
+    # a number: the scene's load has checked the element
+    nominal = float(orbit.get(element, ELEMENTS[element].default))
+    return OrbitTarget(key, element, NumberTarget(key, nominal, parse_dispersion(value, path)))
+
+
+def _fault_parameters(kind: str, given) -> dict:
+    """
+    Return the fields of a fault of ``kind`` the scene writes as ``given``.
+
+    A sensor's fault: its window, its output and its kind's own fields (``core.faults.schedule``);
+    an actuator's: its window and the fields the scene gives it (a field it leaves out is not
+    dispersed). The scene's load checks every drawn value.
+    """
+    from ..core.faults.schedule import FAULT_KINDS
+
+    window = {
+        'start': Param(number(), description='s of the run'),
+        'end': Param(number(), None),
+    }
+    if kind in FAULT_KINDS:
+        return {**window, 'output': Param(text()), **FAULT_KINDS[kind]}
+    return {**window, **{key: Param(text()) for key in (given or {}) if key not in window}}
 
 
 def _effect_target(key, value, path: str, document) -> EffectTarget:
     from ..core.effects import EFFECTS
+    from ..core.effects.base import OutputEffect
 
     match = _EFFECT_PATH.match(str(key))
     if not match:
         raise FieldError(path, f'not a target; expected one of {", ".join(TARGETS)}')
-    index, name, parameter = int(match.group(1)), match.group(2), match.group(3)
-    steps = tuple(int(item) if item else name_ for item, name_ in _STEP.findall(match.group(4)))
-    effects = document.get('effects') or []
-    if index >= len(effects):
+    section, index, name, parameter = (
+        match.group(1),
+        int(match.group(2)),
+        match.group(3),
+        match.group(4),
+    )
+    steps = tuple(int(item) if item else name_ for item, name_ in _STEP.findall(match.group(5)))
+    entries = document.get(section) or []
+    noun = 'effect' if section == 'effects' else 'fault'
+    if index >= len(entries):
         raise FieldError(
             path,
-            f'outside the scene: it has {len(effects)} effect{"s" if len(effects) != 1 else ""}'
-            + (f' (effects[0] to effects[{len(effects) - 1}])' if effects else ''),
+            f'outside the scene: it has {len(entries)} {noun}{"s" if len(entries) != 1 else ""}'
+            + (f' ({section}[0] to {section}[{len(entries) - 1}])' if entries else ''),
         )
-    ((actual, given),) = effects[index].items()
+    ((actual, given),) = entries[index].items()
     if actual != name:
         raise FieldError(
-            path, f'outside the scene: effects[{index}] is {actual}, not {shown(name)}'
+            path, f'outside the scene: {section}[{index}] is {actual}, not {shown(name)}'
         )
-    declared = EFFECTS[actual].parameters
+    declared = (
+        EFFECTS[actual].parameters if section == 'effects' else _fault_parameters(actual, given)
+    )
     if parameter not in declared:
         raise FieldError(
             path,
-            f'outside the scene: {actual} has no parameter {shown(parameter)}'
-            f'{_hint(parameter, declared)} (parameters: {", ".join(declared)})',
+            f'outside the scene: {actual} has no {"parameter" if noun == "effect" else "field"} '
+            f'{shown(parameter)}{_hint(parameter, declared)} '
+            f'({"parameters" if noun == "effect" else "fields"}: {", ".join(declared)})',
         )
-    if actual in ('imu', 'star_tracker') and parameter == 'seed':
-        raise FieldError(path, 'a seed is not a physical parameter')
+    if parameter == 'seed':
+        raise FieldError(
+            path,
+            'a seed is not a physical parameter (a sensor draws its errors from its own seed and '
+            "the sample index: every run of the campaign keeps the scene's)"
+            if section == 'effects' and issubclass(EFFECTS[actual], OutputEffect)
+            else 'a seed is not a physical parameter',
+        )
     where = f'{actual}.{parameter}'
     if parameter in (given or {}):
         nominal = given[parameter]
@@ -566,7 +698,7 @@ def _effect_target(key, value, path: str, document) -> EffectTarget:
             path,
             f'only a number or a list of numbers can be dispersed; {where} is {shown(nominal)}',
         )
-    return EffectTarget(key, index, actual, (parameter, *steps), inner)
+    return EffectTarget(key, index, actual, (parameter, *steps), inner, section)
 
 
 def _step(value, step, where: str, path: str) -> tuple:

@@ -47,7 +47,7 @@ import uuid
 
 import numpy as np
 
-from .dispersions import EffectTarget, RefusedDraw, run_generator
+from .dispersions import EffectTarget, OrbitTarget, RefusedDraw, run_generator
 from .metrics import Samples
 from ..core import propagate_batch
 from ..core.body.rigid_body import RigidBody
@@ -207,27 +207,49 @@ def draw_run(campaign, run: int) -> Draw:
             draw.redraws += 1
 
 
-def _scene_of(campaign, draw: Draw):
+def scene_document(campaign, draw: Draw) -> dict:
     """
-    Build the run's scene, for a scene with effects.
+    Return the run's scene as a scene file's mapping: the campaign's scene with the drawn values.
 
-    It is the scene file's mapping with the drawn values.
+    The body is written as its inertia (3 moments or 6 tensor elements), the initial state whole,
+    and each effect, fault or orbit element a target draws at its place; the rest is the scene
+    file's own. Written out as YAML (``yaml.safe_dump``, which writes a float so that it reads back
+    the same) and loaded, it is the run's scene.
     """
     document = {
-        key: value for key, value in campaign.scene_document.items() if key not in ('sweep',)
+        key: copy.deepcopy(value)
+        for key, value in campaign.scene_document.items()
+        if key not in ('sweep',)
     }
     document['body'] = {'inertia': [float(x) for x in draw.inertia]}
     document['initial'] = {
         'angular_velocity': [float(x) for x in draw.omega],
         'orientation': [float(x) for x in draw.q],
     }
-    # the run's own copy: a target may write into a list or a mapping inside an effect
-    effects = copy.deepcopy(campaign.scene_document.get('effects') or [])
+    document['effects'] = document.get('effects') or []
     for target in campaign.targets:
-        if isinstance(target, EffectTarget):
-            target.place(effects, draw.values[target.path])
-    document['effects'] = effects
-    return scene_from_mapping(document, source=f'run {draw.run}')
+        if isinstance(target, (EffectTarget, OrbitTarget)):
+            target.place(document, draw.values[target.path])
+    return document
+
+
+def run_scene(campaign, run: int) -> dict:
+    """
+    Return run ``run``'s scene as a scene file's mapping (see :func:`scene_document`).
+
+    A run whose draw makes no body (``invalid_body``) or none of a whole vector (a negative
+    magnitude) raises ``ValueError`` with its reason; a mapping the scene's checks refuse
+    (``invalid_scene``) is returned as drawn: loading it raises the run's reason.
+    """
+    draw = draw_run(campaign, run)
+    if draw.status != OK:
+        raise ValueError(f'run {run}: {draw.status}: {draw.reason}')
+    return scene_document(campaign, draw)
+
+
+def _scene_of(campaign, draw: Draw):
+    """Build the run's scene (:func:`scene_document`), checked as a scene file is."""
+    return scene_from_mapping(scene_document(campaign, draw), source=f'run {draw.run}')
 
 
 # -- a chunk --------------------------------------------------------------------------------------
@@ -247,13 +269,18 @@ def _run_chunk(campaign, start: int, stop: int) -> dict:
     draws = [draw_run(campaign, run) for run in range(start, stop)]
     times = np.arange(campaign.samples) / campaign.rate
     scenes = {}
-    if not campaign.scene.torque_free:
+    if campaign.builds_run_scenes:
+        # every run's scene is checked as a scene file is, also where only its outputs, faults or
+        # orbit are drawn (a torque-free motion, propagated without it)
         for draw in draws:
             if draw.status == OK:
                 try:
-                    scenes[draw.run] = draw.scene = _scene_of(campaign, draw)
+                    draw.scene = _scene_of(campaign, draw)
                 except SceneError as error:
                     draw.status, draw.reason = INVALID_SCENE, str(error).split(': ', 1)[-1]
+                    continue
+                if not campaign.scene.torque_free:
+                    scenes[draw.run] = draw.scene
     ready = [draw for draw in draws if draw.status == OK]
     nominal = _nominal(campaign, times) if campaign.needs_nominal and ready else None
     ok, blocks, size = [], [], block_runs(campaign)
@@ -292,7 +319,7 @@ def _run_chunk(campaign, start: int, stop: int) -> dict:
     rows = np.array(sorted(index), dtype=np.int64)
     picked = np.array([index[r] for r in rows], dtype=np.int64)
     for use in campaign.metrics:
-        for column in use.metric.columns:
+        for column in use.columns:
             array = np.zeros(len(draws), dtype=use.metric.dtype)
             if rows.size:
                 array[rows] = metric_values[column][picked]
@@ -400,7 +427,7 @@ def _samples(times, draws, omega, q, internal, nominal=None) -> Samples:
 
 def _systems(draws) -> tuple | None:
     """Return each run's body with its motion effects, or None for a torque-free scene."""
-    if draws[0].scene is None:
+    if draws[0].scene is None or draws[0].scene.torque_free:
         return None
     return tuple(Dynamics(d.body, d.scene.effects) for d in draws)
 
@@ -418,7 +445,7 @@ def _metrics(campaign, ok: list, trajectories: dict, times, nominal) -> dict:
 
 
 def _metric_one_by_one(use, ok, stacked, times, nominal) -> dict:
-    columns = {column: np.zeros(len(ok), dtype=use.metric.dtype) for column in use.metric.columns}
+    columns = {column: np.zeros(len(ok), dtype=use.metric.dtype) for column in use.columns}
     for i, draw in enumerate(ok):
         try:
             values = use.evaluate(

@@ -35,6 +35,10 @@ once). The function gets a :class:`Samples` of ``n`` runs (``omega_B (n, M, 3)``
 motion effects, for scenes with effects), the ``times (M,)`` of samples ``0 .. M-1`` including the
 initial state) and the checked parameters, and returns an ``(n,)`` array (one column,
 named after the metric) or a dict ``column -> (n,)`` array whose keys are the ``columns`` declared.
+``columns`` may instead be a function of the campaign's scene (``columns(scene) -> tuple``, a
+``ValueError`` when the scene has nothing to measure): a metric with a column per wheel, named
+after the wheel (``wheel_momentum_peak``). Every run of a campaign has its scene's effects (a
+dispersion changes numbers, never names), so a run's columns are the scene's.
 It must treat each run on its own (a row may not depend on the other runs of its chunk: the table
 does not depend on chunking). In a table, a metric is null for a run that failed and NaN where it
 is undefined for a run that did not (``settle_time`` of a run that never settles). Metrics run on
@@ -70,7 +74,7 @@ from ..core.propagators.dynamics import Dynamics
 class Metric:
     name: str
     function: Callable
-    columns: tuple
+    columns: tuple | Callable  # the columns, or a function of the scene giving them
     parameters: dict = field(default_factory=dict)
     unit: str = ''
     dtype: str = 'float64'  # float64 | int64
@@ -104,7 +108,7 @@ def metric(
         METRICS[name] = Metric(
             name,
             function,
-            tuple(columns or (name,)),
+            columns if callable(columns) else tuple(columns or (name,)),
             dict(parameters or {}),
             unit,
             dtype,
@@ -118,23 +122,24 @@ def metric(
 
 @dataclass(frozen=True)
 class MetricUse:
-    """A metric as a campaign names it: the metric and its checked parameters."""
+    """A metric as a campaign names it: the metric, its checked parameters and its columns."""
 
     metric: Metric
     values: dict
+    columns: tuple  # the metric's columns, or those its function gives for the campaign's scene
 
     def evaluate(self, samples: 'Samples') -> dict:
         result = self.metric.function(samples, **self.values)
         if not isinstance(result, dict):
-            result = {self.metric.columns[0]: result}
-        if set(result) != set(self.metric.columns):
+            result = {self.columns[0]: result}
+        if set(result) != set(self.columns):
             raise ValueError(
                 f'metric {self.metric.name} returned columns {sorted(result)}, declared '
-                f'{list(self.metric.columns)}'
+                f'{list(self.columns)}'
             )
         n = samples.count
         out = {}
-        for column in self.metric.columns:
+        for column in self.columns:
             array = np.asarray(result[column], dtype=self.metric.dtype)
             if array.shape != (n,):
                 raise ValueError(
@@ -148,7 +153,13 @@ class MetricUse:
 DEFAULT_METRICS = ('final_rates', 'cone_angle', 'flips', 'energy_drift', 'momentum_drift')
 
 
-def parse_metrics(value, path: str) -> tuple:
+def parse_metrics(value, path: str, scene=None) -> tuple:
+    """
+    Check a campaign's ``metrics`` list; return a :class:`MetricUse` for each entry.
+
+    ``scene``: the campaign's scene, which gives the columns of a metric that declares them as a
+    function of it (None: only metrics with fixed columns).
+    """
     if not isinstance(value, list) or not value:
         raise FieldError(
             path,
@@ -165,11 +176,19 @@ def parse_metrics(value, path: str) -> tuple:
             raise FieldError(where, f'{name} is already metrics[{seen[name]}]')
         seen[name] = index
         found = METRICS[name]
-        for column in found.columns:
+        values = fields(parameters, child(where, name), found.parameters)
+        if callable(found.columns):
+            try:
+                own = tuple(found.columns(scene))
+            except ValueError as error:
+                raise FieldError(where, f'{name}: {error}') from None
+        else:
+            own = found.columns
+        for column in own:
             if column in columns:
                 raise FieldError(where, f"{name}'s column {column} is also {columns[column]}'s")
             columns[column] = name
-        uses.append(MetricUse(found, fields(parameters, child(where, name), found.parameters)))
+        uses.append(MetricUse(found, values, own))
     return tuple(uses)
 
 
@@ -468,6 +487,62 @@ def momentum_peak(samples):
             )
             out[run] = norm(stored).max()
     return out
+
+
+def wheel_labels(effects) -> tuple:
+    """
+    Return a label per reaction wheel of ``effects`` (a scene's motion effects), in order.
+
+    A wheel's name (``ReactionWheels.names``), or ``NAME#m`` when another ``reaction_wheels``
+    effect has a wheel of the same name (``m`` counts the motion effects, as a trajectory's
+    ``EFFECT#m`` columns do).
+    """
+    wheels = [
+        (m, name)
+        for m, effect in enumerate(effects)
+        if isinstance(effect, ReactionWheels)
+        for name in effect.names
+    ]
+    names = [name for _, name in wheels]
+    return tuple(name if names.count(name) == 1 else f'{name}#{m}' for m, name in wheels)
+
+
+def _wheel_columns(scene) -> tuple:
+    labels = wheel_labels(scene.effects if scene is not None else ())
+    if not labels:
+        raise ValueError('the scene has no reaction wheels: no wheel to measure')
+    return tuple(f'wheel_momentum_peak[{label}]' for label in labels)
+
+
+@metric('wheel_momentum_peak', columns=_wheel_columns, unit='N m s')
+def wheel_momentum_peak(samples):
+    """
+    Return each reaction wheel's largest stored momentum over the run, N m s, a column per wheel.
+
+    ``max_k |Js_i Omega_i|`` over the samples, ``Omega_i`` the wheel's speed relative to the body
+    (``ReactionWheels.wheel_speeds``); the columns ``wheel_momentum_peak[NAME]`` follow the scene's
+    wheels (:func:`wheel_labels`). Beside ``momentum_peak`` (the array's vector sum) it tells
+    which wheel a run loads most. A scene without reaction wheels is refused when the campaign is
+    loaded.
+    """
+    columns = None
+    for run in range(samples.count):
+        wheels = samples.wheels(run)
+        peaks = np.concatenate(
+            [
+                (np.abs(effect.spin_inertias * effect.wheel_speeds(samples.omega_B[run], state)))
+                .max(axis=0)
+                for effect, state in wheels
+            ]
+        )
+        if columns is None:
+            labels = wheel_labels(samples.systems[run].effects)
+            columns = {
+                f'wheel_momentum_peak[{label}]': np.empty(samples.count) for label in labels
+            }
+        for column, peak in zip(columns, peaks):
+            columns[column][run] = peak
+    return columns
 
 
 @metric('saturation_time', unit='s')

@@ -82,7 +82,7 @@ def build_table(campaign, parts: list[dict]):
         arrays[column] = pa.array(joined(column), pa.float64())
     for use in campaign.metrics:
         kind = pa.int64() if use.metric.dtype == 'int64' else pa.float64()
-        for column in use.metric.columns:
+        for column in use.columns:
             arrays[column] = pa.array(joined(column), kind, mask=failed)
     summary = {
         'source': campaign.source,
@@ -105,7 +105,7 @@ def build_table(campaign, parts: list[dict]):
         ),
         'metrics': {
             use.metric.name: {
-                'columns': list(use.metric.columns),
+                'columns': list(use.columns),
                 'unit': use.metric.unit,
                 'parameters': _plain(use.values),
             }

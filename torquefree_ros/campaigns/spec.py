@@ -65,7 +65,14 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from .dispersions import EffectTarget, parse_target, RefusedDraw, run_generator, VectorTarget
+from .dispersions import (
+    EffectTarget,
+    OrbitTarget,
+    parse_target,
+    RefusedDraw,
+    run_generator,
+    VectorTarget,
+)
 from .metrics import DEFAULT_METRICS, parse_metrics
 from ..core.body.rigid_body import RigidBody
 from ..core.checks.schema import (
@@ -159,7 +166,19 @@ class Campaign:
 
     @property
     def metric_columns(self) -> tuple:
-        return tuple(column for use in self.metrics for column in use.metric.columns)
+        return tuple(column for use in self.metrics for column in use.columns)
+
+    @property
+    def builds_run_scenes(self) -> bool:
+        """
+        Tell whether each run's scene is built and checked (:func:`.engine.scene_document`).
+
+        A scene with motion effects (the plant runs it), or a target drawn into an effect, a fault
+        or the orbit.
+        """
+        return not self.scene.torque_free or any(
+            isinstance(target, (EffectTarget, OrbitTarget)) for target in self.targets
+        )
 
     @property
     def needs_nominal(self) -> bool:
@@ -223,7 +242,7 @@ _TOP = {
     'invalid_body': Param(choice('redraw', 'fail'), 'redraw'),
     'max_redraws': Param(integer(0, 10_000), 100),
     'dispersions': Param(lambda value, path: value, {}),  # checked against the scene below
-    'metrics': Param(parse_metrics, None),
+    'metrics': Param(lambda value, path: value, None),  # checked against the scene below
     'trajectories': Param(lambda value, path: value, None),  # checked against the time grid below
 }
 
@@ -243,10 +262,10 @@ def campaign_from_mapping(data, source: str, text_: str, base: Path) -> Campaign
                 f'{MAX_SAMPLES:,} samples a run',
             )
         targets, body_target = _dispersions(values['dispersions'], scene, document)
-        metrics = (
-            values['metrics']
-            if values['metrics'] is not None
-            else parse_metrics(list(DEFAULT_METRICS), 'metrics')
+        metrics = parse_metrics(
+            values['metrics'] if values['metrics'] is not None else list(DEFAULT_METRICS),
+            'metrics',
+            scene,
         )
         campaign = Campaign(
             source,
