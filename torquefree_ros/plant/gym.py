@@ -25,7 +25,8 @@ this module registers the id ``torquefree_ros/Attitude-v0``:
 
 The task (both environments)
 ----------------------------
-A scene that takes torque (it names a ``torque_command`` effect) is stepped by a
+A scene that takes torque (it names a ``torque_command`` effect; wheels and magnetorquers below)
+is stepped by a
 :class:`~torquefree_ros.Plant` at ``rate`` Hz. Step ``k`` holds the action ``tau_k`` (N m, in the
 ``torque_command`` effect's frame: body or inertial) over ``[t_k, t_k+1)``, ``t_k = k / rate``, and
 observes the state at ``k + 1``.
@@ -44,15 +45,30 @@ observes the state at ``k + 1``.
   (a ``torque_command`` beside them gets no command: zero torque). The observation then ends with
   the wheel speeds, and ``tau_k / max_torque`` in the reward is the action over its bound, wheel
   by wheel.
+* **Magnetorquers**: on a scene with ``magnetorquers`` the action is the body dipole ``m_k`` (A
+  m^2, body frame) the rods are commanded with (``Plant.step(dipole=...)``: their least-norm
+  allocation, each rod clipped to its ``max_dipole``), in ``Box(-m_max, m_max, (3,))``, ``m_max_j =
+  min(sum_i max_dipole_i |a_i . e_j|, max_command)`` (the largest body-axis component the rods
+  ``a_i`` can make; a rod per axis: its ``max_dipole``), clipped to the box and reported as
+  ``info["dipole"]``. The observation then ends with ``B_B`` (3, T): the Earth's field (the model
+  the rods feel, their ``field``) at the orbit's position at ``t_k+1``, in body axes, the
+  **truth** (an exact magnetometer's reading, without a sensor's errors; the scene's
+  ``magnetometer`` output is not read), for a B-dot policy's ``dB/dt``. ``tau_k / max_torque`` in
+  the reward is ``m_k / m_max``, axis by axis.
+* **Which**: a scene that takes several (say ``magnetorquers`` beside a ``torque_command``) is
+  commanded by the first of ``wheels``, ``dipole``, ``torque`` it takes, unless ``actuator`` (the
+  constructor's) names one (:func:`_actuator`, the one place the choice is made); the others get
+  no command.
 * **Observation**: ``[omega_B (3, rad/s, body frame), q_NB (4, x y z w), the effects' own
-  states, the wheels' speeds relative to the body (n, rad/s; none without wheels)]``, float64
-  (the plant's state, bit for bit). Bounds: the quaternion's components in
-  ``[-1, 1]``; when the scene's only motion effect is ``torque_command``, each rate within
-  ``(|H_0| + sqrt(3) max_torque max_steps / rate) / I_min`` (the momentum the box can add in an
-  episode, ``|H_0| <= I_max |omega_0|`` over the initial rates ``reset`` can draw) and the
-  effects' own states unbounded; when its only motion effects are reaction wheels, every entry
-  within the bounds the kinetic energy puts on it (the motors add at most ``sum max_torque_i
-  max_speed_i`` watts, friction only takes energy out: ``_wheel_bounds``); else unbounded
+  states, the wheels' speeds relative to the body (n, rad/s; none without wheels), B_B (3, T;
+  a dipole's only)]``, float64 (the plant's state, bit for bit). Bounds: ``B_B`` unbounded; the
+  quaternion's components in ``[-1, 1]``; when the scene's only motion effect is
+  ``torque_command``, each rate within ``(|H_0| + sqrt(3) max_torque max_steps / rate) / I_min``
+  (the momentum the box can add in an episode, ``|H_0| <= I_max |omega_0|`` over the initial
+  rates ``reset`` can draw) and the effects' own states unbounded; when its only motion effects
+  are reaction wheels, every entry within the bounds the kinetic energy puts on it (the motors
+  add at most ``sum max_torque_i max_speed_i`` watts, friction only takes energy out:
+  ``_wheel_bounds``); else unbounded
   (Gymnasium's checker then warns about the infinite bounds: none is known for other effects).
   With speed set-points for actions the checker also recommends a normalised action space.
 * **Reward** (:class:`DetumbleReward`, the default; ``h = 1 / rate``)::
@@ -60,8 +76,9 @@ observes the state at ``k + 1``.
       r_k = -h * ( |omega_B(t_k+1)|^2 / omega_ref^2 + c * |tau_k|^2 / max_torque^2 )
 
   ``omega_ref = |omega_0|`` of the scene (its own initial rate; 1 rad/s if that is zero), ``c =
-  torque_weight`` (default 0.1), ``tau_k`` the torque held (wheels: ``|tau_k|^2 / max_torque^2`` is
-  ``sum_i (a_i / a_max_i)^2``, ``a`` the inputs held, ``a_max`` the action's bound). The return is
+  torque_weight`` (default 0.1), ``tau_k`` the torque held (wheels and dipoles: ``|tau_k|^2 /
+  max_torque^2`` is ``sum_i (a_i / a_max_i)^2``, ``a`` the inputs held, ``a_max`` the action's
+  bound). The return is
   a right Riemann sum of the quadratic cost ``-integral (|omega|^2 / omega_ref^2 + c |tau|^2 /
   max_torque^2) dt``: about the same for any rate, ``-T`` for ``T`` seconds of the initial tumble
   left alone. ``reward`` may be any callable ``reward(state, torque, next_state)`` of two
@@ -72,7 +89,7 @@ observes the state at ``k + 1``.
   episode again raises ``RuntimeError`` (``reset()`` first); a terminated one may go on until
   ``max_steps``.
 * **info**: ``t`` (s since the episode began, ``t_k+1``), ``torque`` (N m, the torque held,
-  ``(3,)``), ``clipped`` (bool).
+  ``(3,)``; ``wheels`` or ``dipole`` instead, the inputs held), ``clipped`` (bool).
 * **reset(seed=..., options=...)**: ``seed`` seeds ``np_random`` (Gymnasium's rule). The episode
   starts from the scene's own initial state, unless ``randomize`` (the constructor's, or
   ``options={"randomize": True}`` for this reset): then the initial body rate is drawn from
@@ -83,13 +100,13 @@ observes the state at ``k + 1``.
 The vector environment
 ----------------------
 :class:`AttitudeVectorEnv` holds N such bodies (one scene for all, or a list of scenes with the
-same kinds of motion effects and the same ``max_torque``), observations ``(N, 7 + m)``, actions
-``(N, 3)`` (wheels: ``(N, n)``), with Gymnasium 1.x's **next-step autoreset**
-(``metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP``): a body whose episode ended on step
-``k`` is reset on step ``k + 1`` (its action is ignored, its reward 0, terminated and truncated
-False, its observation the new episode's first). Body ``i`` is bit for bit an :class:`AttitudeEnv`
-of its scene reset with seed ``seed + i`` (``reset(seed=seed)``; a list gives each its own) under
-the same actions, episode after episode: the same plant, the same draws.
+same kinds of motion effects and the same action box), observations ``(N, 7 + m)`` (and the wheel
+speeds, ``B_B``), actions ``(N, 3)`` (wheels: ``(N, n)``), with Gymnasium 1.x's **next-step
+autoreset** (``metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP``): a body whose episode
+ended on step ``k`` is reset on step ``k + 1`` (its action is ignored, its reward 0, terminated
+and truncated False, its observation the new episode's first). Body ``i`` is bit for bit an
+:class:`AttitudeEnv` of its scene reset with seed ``seed + i`` (``reset(seed=seed)``; a list gives
+each its own) under the same actions, episode after episode: the same plant, the same draws.
 
 Bodies that begin their episodes on the same step share one batched :class:`~torquefree_ros.Plant`
 (a *cohort*), advanced by one compiled call a step; a plant's bodies share its clock, and a body's
@@ -124,6 +141,7 @@ except ImportError as error:  # pragma: no cover - the extra is not installed
 
 from .plant import _as_scene, Plant, PlantState
 from ..core.body.rigid_body import RigidBody
+from ..core.frames import quaternion
 from ..core.scene.loader import Scene
 
 __all__ = ['ENV_ID', 'AttitudeEnv', 'AttitudeVectorEnv', 'DetumbleReward']
@@ -133,6 +151,8 @@ OMEGA_TOL = 1e-3  # rad/s
 MAX_STEPS = 1000
 SPREAD = 0.25
 TORQUE_WEIGHT = 0.1
+#: what an action commands, in the order the default picks the first the scene takes
+ACTUATORS = ('wheels', 'dipole', 'torque')
 
 
 class DetumbleReward:
@@ -175,7 +195,9 @@ class AttitudeEnv(gymnasium.Env):
     One body of a scene that takes torque, as a Gymnasium environment (the module's docstring).
 
     ``scene``: a :class:`~torquefree_ros.Scene`, a scene file's path or a library scene's name,
-    with a ``torque_command`` effect or commanded ``reaction_wheels`` (else ``ValueError``);
+    with a ``torque_command`` effect, commanded ``reaction_wheels`` or ``magnetorquers`` (else
+    ``ValueError``); ``actuator``: ``'wheels'``, ``'dipole'`` or ``'torque'``, what the actions
+    command (default: the first of these the scene takes);
     ``rate``: Hz; ``max_steps``: the episode's length (truncation); ``reward``: ``reward(state,
     torque, next_state) -> float``, default :class:`DetumbleReward`; ``omega_tol``: rad/s, the rate
     below which the episode terminates; ``randomize``, ``spread``: the initial rate drawn at every
@@ -195,6 +217,7 @@ class AttitudeEnv(gymnasium.Env):
         randomize: bool = False,
         spread: float = SPREAD,
         torque_weight: float = TORQUE_WEIGHT,
+        actuator: str | None = None,
         render_mode: str | None = None,
     ):
         if render_mode is not None:
@@ -206,13 +229,10 @@ class AttitudeEnv(gymnasium.Env):
         self.omega_tol = _non_negative(omega_tol, 'omega_tol')
         self.spread = _non_negative(spread, 'spread')
         self.randomize = bool(randomize)
-        self.max_torque = _max_torque(plant, 'scene')
-        self.wheels = plant.takes_wheels
-        self.frame = (
-            'wheels'
-            if self.wheels
-            else 'inertial' if _command_effect(plant.scenes[0]).inertial else 'body'
-        )
+        self.actuator = _actuator(plant, actuator, 'scene')
+        self.max_torque = _action_bound(self.scene, self.actuator)
+        self.wheels = self.actuator == 'wheels'
+        self.frame = _frame(self.scene, self.actuator)
         self.reward = (
             DetumbleReward(_omega_ref(self.scene), self.max_torque, 1.0 / self.rate, torque_weight)
             if reward is None
@@ -231,6 +251,7 @@ class AttitudeEnv(gymnasium.Env):
             self.max_torque,
             self.max_steps / self.rate,
             self.spread,
+            self.actuator,
         )
         self._tol2 = self.omega_tol * self.omega_tol
         self._plant: Plant | None = None
@@ -249,6 +270,7 @@ class AttitudeEnv(gymnasium.Env):
                 'randomize': randomize,
                 'spread': spread,
                 'torque_weight': torque_weight,
+                'actuator': actuator,
             },
         )
 
@@ -270,7 +292,7 @@ class AttitudeEnv(gymnasium.Env):
         scene = _disperse(self.scene, self.spread, self.np_random) if randomize else self.scene
         self._plant = Plant(scene, self.rate)
         self._state = self._plant.state
-        return _observation(self._state), {'t': 0.0}
+        return self._observed(), {'t': 0.0}
 
     def step(self, action):
         """Hold ``action`` (clipped to the box, reported in ``info``) over one sample interval."""
@@ -283,18 +305,25 @@ class AttitudeEnv(gymnasium.Env):
             )
         torque, clipped = _clip(action, self._shape, self.max_torque)
         before = self._state
-        self._state = plant.step(wheels=torque) if self.wheels else plant.step(torque)
+        self._state = plant.step(**{self.actuator: torque})
         reward = float(self.reward(before, torque, self._state))
         terminated = bool(_squared_norm(self._state.omega_B) < self._tol2)
         truncated = plant.k >= self.max_steps
-        held = 'wheels' if self.wheels else 'torque'
         return (
-            _observation(self._state),
+            self._observed(),
             reward,
             terminated,
             truncated,
-            {'t': plant.t, held: torque, 'clipped': bool(clipped)},
+            {'t': plant.t, self.actuator: torque, 'clipped': bool(clipped)},
         )
+
+    def _observed(self) -> np.ndarray:
+        """Return the observation of the plant's sample: its state, then ``B_B`` for a dipole."""
+        observed = _observation(self._state)
+        if self.actuator != 'dipole':
+            return observed
+        field_B = _field_B(self._plant.scenes, self._plant.t, self._state.q_NB[None, :])
+        return np.concatenate([observed, field_B[0]])
 
 
 class AttitudeVectorEnv(VectorEnv):
@@ -310,8 +339,8 @@ class AttitudeVectorEnv(VectorEnv):
     seeds or ``None`` (each body keeps its generator); ``options``: ``randomize`` (bool, this
     reset) and Gymnasium's ``reset_mask`` (``(N,)`` bool: reset only these bodies).
     ``step(actions)``: ``(N, 3)`` (wheels: ``(N, n)``); ``info``: ``t``, ``torque`` (wheels:
-    ``wheels``) and ``clipped`` per body, each with Gymnasium's ``_key`` mask (False for a body
-    reset on this step).
+    ``wheels``, magnetorquers: ``dipole``) and ``clipped`` per body, each with Gymnasium's
+    ``_key`` mask (False for a body reset on this step).
     """
 
     metadata = {'autoreset_mode': AutoresetMode.NEXT_STEP, 'render_modes': []}
@@ -328,6 +357,7 @@ class AttitudeVectorEnv(VectorEnv):
         randomize: bool = False,
         spread: float = SPREAD,
         torque_weight: float = TORQUE_WEIGHT,
+        actuator: str | None = None,
         render_mode: str | None = None,
     ):
         if render_mode is not None:
@@ -349,14 +379,17 @@ class AttitudeVectorEnv(VectorEnv):
         self.omega_tol = _non_negative(omega_tol, 'omega_tol')
         self.spread = _non_negative(spread, 'spread')
         self.randomize = bool(randomize)
-        self.max_torque = _max_torque(
-            plant, 'scene[0]' if isinstance(scene, (list, tuple)) else 'scene'
+        self.actuator = _actuator(
+            plant, actuator, 'scene[0]' if isinstance(scene, (list, tuple)) else 'scene'
         )
-        self.wheels = plant.takes_wheels
-        limits = [_action_bound(s) for s in scenes]
+        self.max_torque = _action_bound(scenes[0], self.actuator)
+        self.wheels = self.actuator == 'wheels'
+        limits = [_action_bound(s, self.actuator) for s in scenes]
         for index, limit in enumerate(limits):
             if not np.array_equal(limit, self.max_torque):
-                what = 'wheel bounds' if self.wheels else 'max_torque'
+                what = {'wheels': 'wheel bounds', 'dipole': 'dipole bounds'}.get(
+                    self.actuator, 'max_torque'
+                )
                 raise ValueError(
                     f"scene[{index}]: its {what} {_shown(limit)} differs from scene[0]'s "
                     f'{_shown(self.max_torque)}: the bodies of a vector environment share one '
@@ -376,7 +409,9 @@ class AttitudeVectorEnv(VectorEnv):
             text = f'reward: expected a callable reward(state, torque, next_state), got {reward!r}'
             raise ValueError(text[:300])
         self._internal = plant.state.internal.shape[1]
-        self._width = 7 + self._internal + plant.state.wheel_speeds.shape[1]
+        self._speeds = plant.state.wheel_speeds.shape[1]
+        self._field = self.actuator == 'dipole'
+        self._width = 7 + self._internal + self._speeds + (3 if self._field else 0)
         self._shape = np.shape(self.max_torque) or (3,)
         self.single_action_space = spaces.Box(
             -self.max_torque, self.max_torque, self._shape, np.float64
@@ -384,7 +419,12 @@ class AttitudeVectorEnv(VectorEnv):
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         bounds = [
             _observation_space(
-                s, self._width - 7, self.max_torque, self.max_steps / self.rate, self.spread
+                s,
+                self._internal + self._speeds,
+                self.max_torque,
+                self.max_steps / self.rate,
+                self.spread,
+                self.actuator,
             )
             for s in _distinct(scenes)
         ]
@@ -460,12 +500,12 @@ class AttitudeVectorEnv(VectorEnv):
         n = self.num_envs
         torques, clipped = _clip(actions, (n, *self._shape), self.max_torque)
         resetting = self._autoreset.copy()
-        before = _split(self._obs, self._internal)
+        before = _split(self._obs, self._internal, self._speeds)
         for cohort in list(self._cohorts):
             self._advance(cohort, torques)
         stepped = ~resetting
         self._steps[stepped] += 1
-        after = _split(self._obs, self._internal)
+        after = _split(self._obs, self._internal, self._speeds)
         held = np.where(stepped[:, None], torques, 0.0)
         rewards = np.where(
             stepped, np.asarray(self.reward(before, held, after), dtype=np.float64), 0.0
@@ -476,7 +516,7 @@ class AttitudeVectorEnv(VectorEnv):
         if resetting.any():
             self._begin(np.flatnonzero(resetting), self.randomize)
         self._autoreset = terminated | truncated
-        key = 'wheels' if self.wheels else 'torque'
+        key = self.actuator
         info = {
             't': self._t.copy(),
             '_t': np.ones(n, dtype=bool),
@@ -498,7 +538,7 @@ class AttitudeVectorEnv(VectorEnv):
             _disperse(self.scenes[b], self.spread, self._rngs[b]) if randomize else self.scenes[b]
             for b in bodies
         ]
-        cohort = _Cohort(Plant(scenes, self.rate), bodies)
+        cohort = _Cohort(Plant(scenes, self.rate), bodies, self._field)
         for row, b in enumerate(bodies):
             old = self._cohort_of[b]
             if old is not None:
@@ -516,8 +556,7 @@ class AttitudeVectorEnv(VectorEnv):
             return
         held = np.zeros((cohort.bodies.size, *self._shape))
         held[alive] = torques[cohort.bodies[alive]]
-        plant = cohort.plant
-        rows = cohort.rows(plant.step(wheels=held) if self.wheels else plant.step(held))
+        rows = cohort.rows(cohort.plant.step(**{self.actuator: held}))
         self._obs[cohort.bodies[alive]] = rows[alive]
         self._t[cohort.bodies[alive]] = cohort.plant.t
 
@@ -526,19 +565,21 @@ class _Cohort:
     """
     Bodies that began their episodes on the same step, in one batched plant.
 
-    Row ``r`` is body ``bodies[r]`` while ``alive[r]``.
+    Row ``r`` is body ``bodies[r]`` while ``alive[r]``; ``field``: the rows end with ``B_B``.
     """
 
-    def __init__(self, plant: Plant, bodies: np.ndarray):
+    def __init__(self, plant: Plant, bodies: np.ndarray, field: bool = False):
         self.plant = plant
         self.bodies = np.asarray(bodies, dtype=np.int64)
         self.alive = np.ones(self.bodies.size, dtype=bool)
+        self.field = field
 
-    @staticmethod
-    def rows(state: PlantState) -> np.ndarray:
-        return np.concatenate(
-            [state.omega_B, state.q_NB, state.internal, state.wheel_speeds], axis=1
-        )
+    def rows(self, state: PlantState) -> np.ndarray:
+        """Return the observations of the plant's sample ``state``, a row per body."""
+        columns = [state.omega_B, state.q_NB, state.internal, state.wheel_speeds]
+        if self.field:
+            columns.append(_field_B(self.plant.scenes, self.plant.t, state.q_NB))
+        return np.concatenate(columns, axis=1)
 
 
 # -- helpers -------------------------------------------------------------------------------------
@@ -556,10 +597,38 @@ def _observation(state: PlantState) -> np.ndarray:
     return np.concatenate([state.omega_B, state.q_NB, state.internal, state.wheel_speeds])
 
 
-def _split(rows: np.ndarray, internal: int) -> PlantState:
+def _split(rows: np.ndarray, internal: int, speeds: int) -> PlantState:
     end = 7 + internal
     return PlantState(
-        rows[:, :3].copy(), rows[:, 3:7].copy(), rows[:, 7:end].copy(), rows[:, end:].copy()
+        rows[:, :3].copy(),
+        rows[:, 3:7].copy(),
+        rows[:, 7:end].copy(),
+        rows[:, end: end + speeds].copy(),
+    )
+
+
+def _field_B(scenes: list, t: float, q_NB: np.ndarray) -> np.ndarray:
+    """
+    Return the Earth's field in each body's frame at scene time ``t``, T, a row per body.
+
+    ``B_B = R(q_NB)^T B_N(r(t), t)``: the field model the scene's ``magnetorquers`` feel (their
+    ``field``), evaluated exactly at the orbit's position at ``t`` (``Place.field_N``, as the
+    ``magnetometer`` does), turned into body axes with the magnetometer's operations
+    (``quaternion.rotate_values`` by the conjugate, on columns: each row the same floats as
+    alone). The truth, without a sensor's errors. Bodies on one orbit share one evaluation.
+    """
+    times = np.array([float(t)])
+    fields: dict = {}
+    field_N = np.empty((len(scenes), 3))
+    for row, scene in enumerate(scenes):
+        key = (scene.orbit, _rods(scene).values['field'])
+        if key not in fields:
+            place, model = key
+            fields[key] = place.field_N(times, place.state(times)[0], model)[0]
+        field_N[row] = fields[key]
+    q = np.asarray(q_NB, dtype=float)
+    return np.column_stack(
+        quaternion.rotate_values(quaternion.conjugate_values(q.T), field_N.T)
     )
 
 
@@ -600,26 +669,75 @@ def _command_effect(scene: Scene):
     return commands[0] if commands else None
 
 
-def _max_torque(plant: Plant, where: str):
+def _actuator(plant: Plant, wanted, where: str) -> str:
     """
-    Return the action's bound: ``max_torque`` of the torque, or one per wheel (an array).
+    Return what the actions command: ``wanted``, or the first of :data:`ACTUATORS` the scene takes.
 
-    Wheels: their ``max_torque`` (mode ``torque``) or ``max_speed`` (mode ``speed``).
+    The one place the environments choose between a body torque (``torque_command``), the
+    commanded ``reaction_wheels``' inputs and the ``magnetorquers``' dipole; ``wanted`` (the
+    constructor's ``actuator``) must be one the scene takes.
     """
-    if not (plant.takes_torque or plant.takes_wheels):
-        raise ValueError(
-            f'{where}: {plant.scenes[0].source} takes no torque (it names no torque_command '
-            'effect and no commanded reaction_wheels); an attitude environment needs one'
+    taken = [
+        name
+        for name, takes in zip(
+            ACTUATORS, (plant.takes_wheels, plant.takes_dipole, plant.takes_torque)
         )
-    return _action_bound(plant.scenes[0])
+        if takes
+    ]
+    source = plant.scenes[0].source
+    if wanted is None:
+        if not taken:
+            raise ValueError(
+                f'{where}: {source} takes no torque (it names no torque_command effect, no '
+                'commanded reaction_wheels and no magnetorquers); an attitude environment needs '
+                'one'
+            )
+        return taken[0]
+    if not isinstance(wanted, str) or wanted not in ACTUATORS:
+        known = ', '.join(map(repr, ACTUATORS))
+        text = f'actuator: expected one of {known} or None, got {wanted!r}'
+        raise ValueError(text[:300])
+    if wanted not in taken:
+        raise ValueError(
+            f"actuator: {source} takes no {wanted} (it takes {', '.join(taken) or 'no command'})"
+        )
+    return wanted
 
 
-def _action_bound(scene: Scene):
-    wheels = [e for e in scene.effects if e.name == 'reaction_wheels' and e.mode != 'schedule']
-    if wheels:
-        column = 5 if wheels[0].mode == 'speed' else 4  # (the kernel row's max speed, torque)
-        return np.array([row[column] for row in wheels[0].rows])
+def _action_bound(scene: Scene, actuator: str):
+    """
+    Return the action's bound: ``max_torque`` of the torque, or one per input (an array).
+
+    Wheels: their ``max_torque`` (mode ``torque``) or ``max_speed`` (mode ``speed``), wheel by
+    wheel. Dipole: per body axis ``j``, the largest component the rods can make, ``sum_i
+    max_dipole_i |a_i . e_j|`` (the support of their dipoles' zonotope along ``e_j``; a rod per
+    axis: its ``max_dipole``), and at most ``max_command`` (beyond which the plant refuses).
+    """
+    if actuator == 'wheels':
+        (wheels,) = [
+            e for e in scene.effects if e.name == 'reaction_wheels' and e.mode != 'schedule'
+        ]
+        key = 'max_speed' if wheels.mode == 'speed' else 'max_torque'
+        return np.array([float(wheel[key]) for wheel in wheels.values['wheels']])
+    if actuator == 'dipole':
+        rods = _rods(scene)
+        reach = np.abs(rods.axes).T @ rods.max_dipoles
+        return np.minimum(reach, rods.values['max_command'])
     return float(_command_effect(scene).values['max_torque'])
+
+
+def _rods(scene: Scene):
+    (rods,) = [e for e in scene.effects if e.name == 'magnetorquers']
+    return rods
+
+
+def _frame(scene: Scene, actuator: str) -> str:
+    """Return the frame of the actions: ``wheels``, ``body`` (a dipole) or the torque's frame."""
+    if actuator == 'wheels':
+        return 'wheels'
+    if actuator == 'dipole':
+        return 'body'
+    return 'inertial' if _command_effect(scene).inertial else 'body'
 
 
 def _shown(bound) -> str:
@@ -645,15 +763,32 @@ def _disperse(scene: Scene, spread: float, rng: np.random.Generator) -> Scene:
 
 
 def _observation_space(
-    scene: Scene, internal: int, max_torque: float, duration: float, spread: float
+    scene: Scene,
+    internal: int,
+    max_torque: float,
+    duration: float,
+    spread: float,
+    actuator: str = 'torque',
 ) -> spaces.Box:
     """
     Return the observation space with the module's bounds.
 
     The rates within what the box can add to the initial momentum in ``duration`` when
     ``torque_command`` is the only motion effect (|omega| <= |H| / I_min); every entry within
-    :func:`_wheel_bounds` when reaction wheels are the only ones; else unbounded.
+    :func:`_wheel_bounds` when reaction wheels are the only ones; else unbounded. A dipole's
+    environment observes ``B_B`` last, unbounded (three more entries).
     """
+    space = _state_space(scene, internal, max_torque, duration, spread)
+    if actuator != 'dipole':
+        return space
+    high = np.concatenate([space.high, np.full(3, np.inf)])
+    return spaces.Box(-high, high, dtype=np.float64)
+
+
+def _state_space(
+    scene: Scene, internal: int, max_torque: float, duration: float, spread: float
+) -> spaces.Box:
+    """Return the bounds of the plant's state in the observation (:func:`_observation_space`)."""
     omega0 = float(np.linalg.norm(np.asarray(scene.angular_velocity, dtype=float)))
     omega0 *= 1.0 + math.sqrt(3.0) * spread  # the largest rate reset can draw
     if scene.effects and all(e.name == 'reaction_wheels' for e in scene.effects):
