@@ -528,9 +528,10 @@ def test_auto_takes_the_gyrostat_only_for_coasting_wheels_along_a_principal_axis
         assert chosen([coasting([0, 0, 1], 0.2, 20.0, **friction)]) == 'dop853', friction
     assert chosen(mode='torque') == 'dop853'
     assert chosen(mode='speed') == 'dop853'
-    # h = sum h_i g_i off every principal axis; or zero (the angles need the rates' integral)
+    # h = sum h_i g_i off every principal axis; zero is the free body with I_s
+    # (test_gyrostat_null_momentum.py)
     assert chosen([wheel, coasting([1, 0, 0], 0.1, 1.0)]) == 'dop853'
-    assert chosen([coasting([0, 0, 1], 0.2, 0.4)]) == 'dop853'  # h = 0.2 (0.4 - 0.4)
+    assert chosen([coasting([0, 0, 1], 0.2, 0.4)]) == 'gyrostat'  # h = 0.2 (0.4 - 0.4)
     # beside a rotor: their momenta add; beside another effect: DOP853
     rotor = {'rotor': {'momentum': 1.0, 'axis': [0.0, 0.0, 1.0]}}
     damper = {'damper': {'inertia': 0.1, 'damping': 0.1}}

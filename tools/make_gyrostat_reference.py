@@ -44,6 +44,13 @@ alongside, and their floor adds the responses to each ``h_i``'s rounding and ``|
 Run: ``.venv/bin/python tools/make_gyrostat_reference.py [--jobs 2] [--only NAME ...]`` (30 CPU
 minutes, of which the 1e5 s case takes 15: about 20 minutes on 2 cores; ``pip install gmpy2``
 makes mpmath about 3x faster). ``--only`` recomputes the cases named and keeps the others.
+
+``--oblique`` makes test/data/gyrostat_oblique_cases.json instead: ``h`` off every principal axis
+(``rotor_vector``, principal frame), the reference of
+:mod:`torquefree_ros.core.exact.gyrostat_oblique` (about 10 CPU minutes). Its states next to a
+separatrix come from the saddles among the relative equilibria (``w_i = h_i / (mu - I_i)``,
+``mu`` a real root of a sextic, in mpmath), at ``2T = 2T_saddle (1 + distance)`` on the saddle's
+momentum sphere.
 """
 
 from __future__ import annotations
@@ -56,21 +63,19 @@ import platform
 import sys
 import time
 
+import mp_taylor
+from mp_taylor import axis_angle as _q
+from mp_taylor import changes, check_invariants, ROUNDING_UNIT, sample_grid
 import mpmath as mp
 import numpy as np
 
 DIGITS = 40
 ORDER = 32
 STEP_FRACTION = 0.18  # of the radius of convergence: truncation ~ 0.18**32 ~ 1e-24
-ROUNDING_UNIT = 2.0**-53
+INVARIANT_DIGITS = 20  # T, |I w + h| and |q| hold to 1e-20 relative, or the reference is refused
 OUTPUT = (
     Path(__file__).resolve().parent.parent / 'torquefree_ros' / 'bench' / 'gyrostat_cases.json'
 )
-
-
-def _q(axis, angle):
-    axis = np.asarray(axis, float) / np.linalg.norm(axis)
-    return [*(axis * np.sin(angle / 2)), float(np.cos(angle / 2))]
 
 
 def _unit(k):
@@ -348,100 +353,235 @@ WHEEL_CASES = {
 CASES.update(WHEEL_CASES)
 
 
-class TaylorGyrostat:
-    """Taylor-series integrator of the free gyrostat in the principal frame, in mpmath."""
+# -- the oblique gyrostat (h off every principal axis): test/data/gyrostat_oblique_cases.json ----
+OBLIQUE_OUTPUT = (
+    Path(__file__).resolve().parent.parent / 'test' / 'data' / 'gyrostat_oblique_cases.json'
+)
 
-    def __init__(self, inertia, h, wheels=()):
-        # wheels: (g, h_i / Js_i) per coasting wheel, whose angle theta_i' = h_i / Js_i - g . w
-        # follows the attitude in the state
-        self.wheels = tuple(wheels)
-        I1, I2, I3 = (mp.mpf(x) for x in inertia)
-        self.gains = ((I2 - I3) / I1, (I3 - I1) / I2, (I1 - I2) / I3)
-        h1, h2, h3 = (mp.mpf(x) for x in h)
-        # I_i w_i' = (m x w)_i = (I_j - I_k) w_j w_k + h_j w_k - h_k w_j
-        self.linear = ((h2 / I1, h3 / I1), (h3 / I2, h1 / I2), (h1 / I3, h2 / I3))
 
-    def coefficients(self, state):
-        """
-        Return the Taylor coefficients of w1..w3, qx, qy, qz, qw about t0.
+def oblique_equilibria(inertia, h, H):
+    """
+    Return the relative equilibria on the sphere ``|m| = H``: ``[(m, 2T, kind)]`` (mpmath).
 
-        One list of length ORDER + 1 per component.
-        """
-        c = [[value] + [mp.mpf(0)] * ORDER for value in state]
-        g1, g2, g3 = self.gains
-        (a1, b1), (a2, b2), (a3, b3) = self.linear
-        half = mp.mpf(1) / 2
+    ``I w + h = mu w`` (``m`` parallel to ``w``), so ``w_i = h_i / (mu - I_i)`` and
+    ``mu^2 sum h_i^2 / (mu - I_i)^2 = H^2``: a sextic in ``mu`` (Volterra's equilibria; Elipe &
+    Lanchares 2008). ``kind`` is 'saddle' when ``E = (m - h) . I^-1 (m - h)``'s Hessian on the
+    sphere, ``2 P (I^-1 - 1/mu) P``, is indefinite, 'center' otherwise.
+    """
+    J = [mp.mpf(x) for x in inertia]
+    h = [mp.mpf(x) for x in h]
+    H = mp.mpf(H)
 
-        def product(a, b, k):
-            return mp.fsum(a[i] * b[k - i] for i in range(k + 1))
-
-        w1, w2, w3, qx, qy, qz, qw = c[:7]
-        angles = c[7:]
-        for k in range(ORDER):
-            for theta, (g, spin) in zip(angles, self.wheels):
-                theta[k + 1] = (
-                    (spin if k == 0 else 0) - (g[0] * w1[k] + g[1] * w2[k] + g[2] * w3[k])
-                ) / (k + 1)
-            scale = 1 / mp.mpf(k + 1)
-            w1[k + 1] = (g1 * product(w2, w3, k) + a1 * w3[k] - b1 * w2[k]) * scale
-            w2[k + 1] = (g2 * product(w3, w1, k) + a2 * w1[k] - b2 * w3[k]) * scale
-            w3[k + 1] = (g3 * product(w1, w2, k) + a3 * w2[k] - b3 * w1[k]) * scale
-            # q ⊗ (w, 0), Hamilton, scalar last
-            qx[k + 1] = (
-                half * scale * (product(qw, w1, k) + product(qy, w3, k) - product(qz, w2, k))
-            )
-            qy[k + 1] = (
-                half * scale * (product(qw, w2, k) - product(qx, w3, k) + product(qz, w1, k))
-            )
-            qz[k + 1] = (
-                half * scale * (product(qw, w3, k) + product(qx, w2, k) - product(qy, w1, k))
-            )
-            qw[k + 1] = (
-                -half * scale * (product(qx, w1, k) + product(qy, w2, k) + product(qz, w3, k))
-            )
-        return c
-
-    @staticmethod
-    def radius(coefficients):
-        """Radius of convergence estimated from the last coefficients (Cauchy-Hadamard)."""
-        estimates = []
-        for k in (ORDER - 1, ORDER):
-            size = max(abs(series[k]) for series in coefficients)
-            if size > 0:
-                estimates.append(size ** (-mp.mpf(1) / k))
-        return min(estimates) if estimates else mp.inf
-
-    def integrate(self, state, times):
-        """Return the state at each of the sorted ``times`` (mpf) from ``state`` at t = 0."""
-        t = mp.mpf(0)
-        out = []
-        for target in times:
-            while t < target:
-                c = self.coefficients(state)
-                h = min(target - t, STEP_FRACTION * self.radius(c))
-                state = [mp.polyval(series[::-1], h) for series in c]
-                t = target if h == target - t else t + h
-            out.append(list(state))
+    def poly_mul(a, b):
+        out = [mp.mpf(0)] * (len(a) + len(b) - 1)
+        for i, x in enumerate(a):
+            for j, y in enumerate(b):
+                out[i + j] += x * y
         return out
 
+    squares = [poly_mul([1, -J[i]], [1, -J[i]]) for i in range(3)]  # (mu - I_i)^2, highest first
+    total = [mp.mpf(0)] * 7
+    for i in range(3):
+        others = poly_mul(squares[(i + 1) % 3], squares[(i + 2) % 3])
+        term = poly_mul([h[i] ** 2, 0, 0], others)
+        for k, c in enumerate(term):
+            total[k + 7 - len(term)] += c
+    everything = poly_mul(poly_mul(squares[0], squares[1]), squares[2])
+    for k, c in enumerate(everything):
+        total[k] -= H * H * c
+    found = []
+    for mu in mp.polyroots(total, maxsteps=200, extraprec=200):
+        if abs(mp.im(mu)) > mp.mpf(10) ** -30:
+            continue
+        mu = mp.re(mu)
+        w = [h[i] / (mu - J[i]) for i in range(3)]
+        m = [mu * x for x in w]
+        norm = mp.sqrt(mp.fsum(x * x for x in m))
+        e = [x / norm for x in m]
+        # a tangent basis at m and the Hessian of E - |m|^2 / mu restricted to it
+        k = min(range(3), key=lambda i: abs(e[i]))
+        t1 = [(1 if i == k else 0) - e[k] * e[i] for i in range(3)]
+        n1 = mp.sqrt(mp.fsum(x * x for x in t1))
+        t1 = [x / n1 for x in t1]
+        t2 = [
+            e[1] * t1[2] - e[2] * t1[1],
+            e[2] * t1[0] - e[0] * t1[2],
+            e[0] * t1[1] - e[1] * t1[0],
+        ]
+        g = [1 / J[i] - 1 / mu for i in range(3)]
+        a = mp.fsum(g[i] * t1[i] ** 2 for i in range(3))
+        b = mp.fsum(g[i] * t1[i] * t2[i] for i in range(3))
+        c = mp.fsum(g[i] * t2[i] ** 2 for i in range(3))
+        two_T = mp.fsum(J[i] * w[i] ** 2 for i in range(3))
+        found.append((m, two_T, 'saddle' if a * c - b * b < 0 else 'center', (t1, t2, a, b, c)))
+    return found
 
-def _check_invariants(inertia, h, states, name):
-    """Raise unless T, |I w + h| and |q| hold to 1e-20 relative: only then is it trusted."""
-    moments = [mp.mpf(x) for x in inertia]
-    h = [mp.mpf(x) for x in h]
 
-    def invariants(s):
-        energy = mp.fsum(moments[i] * s[i] ** 2 for i in range(3))
-        momentum = mp.fsum((moments[i] * s[i] + h[i]) ** 2 for i in range(3))
-        return energy, momentum, mp.fsum(x * x for x in s[3:])
+def _oblique_near_separatrix(inertia, h, H, saddle_index, distance):
+    """
+    Rates with ``|m| = H`` and ``2T = 2T_saddle (1 + distance)``, as float64.
 
-    first = invariants(states[0])
-    for s in states:
-        for a, b in zip(invariants(s), first):
-            if abs(a - b) > mp.mpf(10) ** -20 * max(abs(b), mp.mpf(10) ** -300):
-                raise RuntimeError(
-                    f'{name}: invariant drift {mp.nstr(abs(a - b) / b, 3)} in the reference'
-                )
+    From the saddle along the great circle whose tangent is the Hessian's eigenvector of the sign
+    of ``distance``, the energy crossing the target (bisection in mpmath, 50 digits).
+    """
+    mp.mp.dps = 50
+    J = [mp.mpf(x) for x in inertia]
+    hm = [mp.mpf(x) for x in h]
+    saddles = [e for e in oblique_equilibria(inertia, h, H) if e[2] == 'saddle']
+    saddles.sort(key=lambda e: e[1])
+    m_s, two_T_s, _, (t1, t2, a, b, c) = saddles[saddle_index]
+    target = two_T_s * (1 + mp.mpf(distance))
+    # eigenvectors of [[a, b], [b, c]]
+    mean, radius = (a + c) / 2, mp.sqrt(((a - c) / 2) ** 2 + b * b)
+    value = mean + radius if distance > 0 else mean - radius
+    x, y = (b, value - a) if abs(b) > abs(value - c) else (value - c, b)
+    norm = mp.sqrt(x * x + y * y)
+    x, y = x / norm, y / norm
+    direction = [x * t1[i] + y * t2[i] for i in range(3)]
+    H = mp.sqrt(mp.fsum(v * v for v in m_s))
+    e = [v / H for v in m_s]
+
+    def momentum(theta):
+        return [H * (mp.cos(theta) * e[i] + mp.sin(theta) * direction[i]) for i in range(3)]
+
+    def gap(theta):
+        m = momentum(theta)
+        return mp.fsum((m[i] - hm[i]) ** 2 / J[i] for i in range(3)) - target
+
+    low, high = mp.mpf(0), mp.mpf(10) ** -6
+    while gap(low) * gap(high) > 0:
+        high *= 2
+    for _ in range(200):
+        middle = (low + high) / 2
+        low, high = (low, middle) if gap(low) * gap(middle) <= 0 else (middle, high)
+    m = momentum((low + high) / 2)
+    return [float((m[i] - hm[i]) / J[i]) for i in range(3)]
+
+
+def _oblique_near_center(inertia, h, H, angle):
+    """Rates with ``|m| = H``, ``angle`` rad from the lowest-energy centre along its ``t1``."""
+    mp.mp.dps = 50
+    J = [mp.mpf(x) for x in inertia]
+    hm = [mp.mpf(x) for x in h]
+    centres = sorted((e for e in oblique_equilibria(inertia, h, H) if e[2] == 'center'),
+                     key=lambda e: e[1])
+    m_c, _, _, (t1, _, _, _, _) = centres[0]
+    size = mp.sqrt(mp.fsum(v * v for v in m_c))
+    theta = mp.mpf(angle)
+    m = [mp.cos(theta) * m_c[i] + size * mp.sin(theta) * t1[i] for i in range(3)]
+    return [float((m[i] - hm[i]) / J[i]) for i in range(3)]
+
+
+def oblique_separatrix_distance(inertia, h, omega):
+    """``2T / 2T_saddle - 1`` of the nearest saddle at the rounded state's own ``|m|``."""
+    mp.mp.dps = 50
+    J = [mp.mpf(x) for x in inertia]
+    w = [mp.mpf(x) for x in omega]
+    hm = [mp.mpf(x) for x in h]
+    m = [J[i] * w[i] + hm[i] for i in range(3)]
+    H = mp.sqrt(mp.fsum(x * x for x in m))
+    two_T = mp.fsum(J[i] * w[i] ** 2 for i in range(3))
+    ratios = [two_T / e[1] - 1 for e in oblique_equilibria(inertia, h, H) if e[2] == 'saddle']
+    return float(min(ratios, key=abs))
+
+
+# I = diag(1, 2, 3) at |m| = 1: h = 0.3 (1, 1, 1) / sqrt 3 leaves one saddle (four equilibria),
+# h = 0.05 (1, 1, 1) / sqrt 3 two (six, next to the free body's), the second taken
+_OBLIQUE_SADDLES = {
+    'one_saddle': (([1.0, 2.0, 3.0], [0.3 / 3**0.5] * 3), 0, (6, 10)),
+    'two_saddles': (([1.0, 2.0, 3.0], [0.05 / 3**0.5] * 3), 1, (6,)),
+}
+
+
+def _oblique_separatrix_cases():
+    cases = {}
+    for label, ((inertia, h), index, exponents) in _OBLIQUE_SADDLES.items():
+        for exponent in exponents:
+            for side, sign in (('above', 1), ('below', -1)):
+                omega = _oblique_near_separatrix(inertia, h, 1.0, index, sign * 10.0**-exponent)
+                cases[f'oblique_separatrix_{label}_{side}_1e-{exponent}'] = {
+                    'inertia': inertia,
+                    'angular_velocity': omega,
+                    'orientation': _q([1, 2, 3], 0.4),
+                    'rotor_vector': h,
+                    'horizon': 40.0,
+                    'samples': 21,
+                    'oblique_separatrix': True,
+                }
+    return cases
+
+
+# name: inertia, angular velocity, orientation, rotor_vector (h in the principal frame, N m s)
+OBLIQUE_CASES = {
+    'oblique_generic': {
+        'inertia': [1.0, 2.0, 3.0],
+        'angular_velocity': [0.3, 0.5, -0.4],
+        'orientation': _q([1, 2, 0], 0.9),
+        'rotor_vector': [0.45, -1.5, 0.3],
+        'horizon': 20.0,
+        'samples': 21,
+    },
+    'oblique_small_h': {
+        'inertia': [2.0, 3.0, 4.0],
+        'angular_velocity': [0.4, 0.3, 0.5],
+        'orientation': _q([1, -1, 2], 0.7),
+        'rotor_vector': [0.01, 0.02, -0.015],
+        'horizon': 20.0,
+        'samples': 21,
+    },
+    'oblique_dominant_h': {
+        'inertia': [1.0, 2.0, 3.0],
+        'angular_velocity': [0.02, 0.3, 0.2],
+        'orientation': _q([0, 1, 1], 1.1),
+        'rotor_vector': [20.0, 10.0, -6.0],
+        'horizon': 10.0,
+        'samples': 21,
+    },
+    'oblique_near_principal': {
+        'inertia': [1.0, 3.0, 2.0],
+        'angular_velocity': [0.5, 0.6, -0.3],
+        'orientation': _q([2, 1, 0], -0.6),
+        'rotor_vector': [1e-4, -2e-4, -1.0],
+        'horizon': 20.0,
+        'samples': 21,
+    },
+    'oblique_near_center': {
+        'inertia': [1.0, 2.0, 3.0],
+        'angular_velocity': _oblique_near_center([1.0, 2.0, 3.0], [0.3 / 3**0.5] * 3, 1.0, 1e-3),
+        'orientation': _q([1, 1, 0], 0.6),
+        'rotor_vector': [0.3 / 3**0.5] * 3,
+        'horizon': 20.0,
+        'samples': 21,
+    },
+    'oblique_long_horizon': {
+        'inertia': [2.0, 3.0, 4.5],
+        'angular_velocity': [0.1, -0.2, 0.15],
+        'orientation': _q([0, 1, 2], -1.2),
+        'rotor_vector': [0.05, 0.1, -0.08],
+        'horizon': 2000.0,
+        'samples': 41,
+    },
+    **_oblique_separatrix_cases(),
+}
+
+
+def _case(name):
+    """Return the case of that name, principal-axis or oblique."""
+    return CASES[name] if name in CASES else OBLIQUE_CASES[name]
+
+
+def _rotor_h(case, scale=1):
+    """``h`` in the principal frame, in mpmath, its size times ``scale``."""
+    if 'rotor_vector' in case:
+        return [mp.mpf(x) * scale for x in case['rotor_vector']]
+    return rotor_vector({**case['rotor'], 'momentum': mp.mpf(case['rotor']['momentum']) * scale})
+
+
+class TaylorGyrostat(mp_taylor.TaylorGyrostat):
+    """The shared Taylor integrator of the free gyrostat, at this script's order and step."""
+
+    order = ORDER
+    step_fraction = STEP_FRACTION
 
 
 def rotor_vector(rotor):
@@ -484,11 +624,7 @@ def reference_wheel_case(name):
     mp.mp.dps = DIGITS
     case = CASES[name]
     omega = case['angular_velocity']
-    q0 = list(np.asarray(case['orientation']) / np.linalg.norm(case['orientation']))
-    times = [float(x) for x in np.linspace(0.0, case['horizon'], case['samples'])]
-    t_mp = [mp.mpf(x) for x in times]
-    q_norm = mp.sqrt(mp.fsum(mp.mpf(x) ** 2 for x in q0))
-    q0_mp = [mp.mpf(x) / q_norm for x in q0]
+    q0, times, q0_mp, t_mp = sample_grid(case['orientation'], case['horizon'], case['samples'])
     count = len(case['wheels'])
     started = time.time()
 
@@ -500,11 +636,11 @@ def reference_wheel_case(name):
         return moments, h, integrator, states
 
     moments, h, integrator, nominal = run()
-    _check_invariants(moments, h, [s[:7] for s in nominal], name)
+    check_invariants(moments, h, nominal, name, INVARIANT_DIGITS)
     perturbations = [('moment', j) for j in range(3)] + [('speed', i) for i in range(count)]
     responses = []
     for perturb in perturbations:
-        responses.append(_changes(nominal, run(perturb)[3]))
+        responses.append(changes(nominal, run(perturb)[3]))
     for j in range(3):
         if omega[j] == 0:
             continue
@@ -513,7 +649,7 @@ def reference_wheel_case(name):
         states = TaylorGyrostat(moments, h, wheel_gyrostat(case)[2]).integrate(
             w + q0_mp + [mp.mpf(0)] * count, t_mp
         )
-        responses.append(_changes(nominal, states))
+        responses.append(changes(nominal, states))
     rate_floor, attitude_floor, angle_floor = [], [], []
     for k, state in enumerate(nominal):
         w = state[:3]
@@ -551,44 +687,23 @@ def reference_wheel_case(name):
     }
 
 
-def _changes(nominal, perturbed):
-    """Per sample: (|dw|, the rotation angle between the attitudes, the largest |d theta|)."""
-    changes = []
-    for a, b in zip(nominal, perturbed):
-        dw = mp.sqrt(mp.fsum((a[i] - b[i]) ** 2 for i in range(3)))
-        (ax, ay, az, aw), (bx, by, bz, bw) = a[3:7], b[3:7]
-        vector = [
-            aw * bx - ax * bw - ay * bz + az * by,
-            aw * by + ax * bz - ay * bw - az * bx,
-            aw * bz - ax * by + ay * bx - az * bw,
-        ]
-        scalar = aw * bw + ax * bx + ay * by + az * bz
-        angle = 2 * mp.atan2(mp.sqrt(mp.fsum(v * v for v in vector)), abs(scalar))
-        theta = max((abs(x - y) for x, y in zip(a[7:], b[7:])), default=mp.mpf(0))
-        changes.append((dw, angle, theta))
-    return changes
-
-
 def reference_case(name):
-    if 'wheels' in CASES[name]:
+    if 'wheels' in _case(name):
         return reference_wheel_case(name)
     mp.mp.dps = DIGITS
-    case = CASES[name]
+    case = _case(name)
     inertia, omega = case['inertia'], case['angular_velocity']
-    q0 = list(np.asarray(case['orientation']) / np.linalg.norm(case['orientation']))
-    times = [float(x) for x in np.linspace(0.0, case['horizon'], case['samples'])]
-    t_mp = [mp.mpf(x) for x in times]
-    q_norm = mp.sqrt(mp.fsum(mp.mpf(x) ** 2 for x in q0))
-    q0_mp = [mp.mpf(x) / q_norm for x in q0]
-    h = rotor_vector(case['rotor'])
+    q0, times, q0_mp, t_mp = sample_grid(case['orientation'], case['horizon'], case['samples'])
+    h = _rotor_h(case)
     started = time.time()
     nominal = TaylorGyrostat(inertia, h).integrate([mp.mpf(x) for x in omega] + q0_mp, t_mp)
-    _check_invariants(inertia, h, nominal, name)
+    check_invariants(inertia, h, nominal, name, INVARIANT_DIGITS)
     responses = []  # per perturbed input: list over samples of (rate change, attitude change)
     for index in range(7):
         moments = [mp.mpf(x) for x in inertia]
         w = [mp.mpf(x) for x in omega]
-        momentum = mp.mpf(case['rotor']['momentum'])
+        momentum = mp.mpf(1) if 'rotor_vector' in case else mp.mpf(case['rotor']['momentum'])
+        scale = 1
         if index < 6:
             target = moments if index < 3 else w
             j = index % 3
@@ -598,23 +713,10 @@ def reference_case(name):
         elif momentum == 0:
             continue
         else:
-            momentum *= 1 + mp.mpf(ROUNDING_UNIT)
-        perturbed_h = rotor_vector({**case['rotor'], 'momentum': momentum})
+            scale = 1 + mp.mpf(ROUNDING_UNIT)
+        perturbed_h = _rotor_h(case, scale)
         perturbed = TaylorGyrostat(moments, perturbed_h).integrate(w + q0_mp, t_mp)
-        changes = []
-        for a, b in zip(nominal, perturbed):
-            dw = mp.sqrt(mp.fsum((a[i] - b[i]) ** 2 for i in range(3)))
-            # rotation angle of conj(qa) ⊗ qb from its vector and scalar parts
-            (ax, ay, az, aw), (bx, by, bz, bw) = a[3:], b[3:]
-            vector = [
-                aw * bx - ax * bw - ay * bz + az * by,
-                aw * by + ax * bz - ay * bw - az * bx,
-                aw * bz - ax * by + ay * bx - az * bw,
-            ]
-            scalar = aw * bw + ax * bx + ay * by + az * bz
-            angle = 2 * mp.atan2(mp.sqrt(mp.fsum(v * v for v in vector)), abs(scalar))
-            changes.append((dw, angle))
-        responses.append(changes)
+        responses.append(changes(nominal, perturbed))
     integrator = TaylorGyrostat(inertia, h)
     rate_floor, attitude_floor = [], []
     for k, state in enumerate(nominal):
@@ -635,7 +737,11 @@ def reference_case(name):
         'inertia': inertia,
         'angular_velocity': omega,
         'orientation': q0,
-        'rotor': case['rotor'],
+        **(
+            {'rotor': case['rotor']}
+            if 'rotor' in case
+            else {'rotor_vector': case['rotor_vector']}
+        ),
         'times': times,
         'omega': [[float(x) for x in s[:3]] for s in nominal],
         'q': [[float(x) for x in s[3:]] for s in nominal],
@@ -643,6 +749,10 @@ def reference_case(name):
         'attitude_floor': attitude_floor,
         'seconds': round(time.time() - started, 1),
     }
+    if 'oblique_separatrix' in case:
+        result['separatrix_distance'] = oblique_separatrix_distance(
+            inertia, case['rotor_vector'], omega
+        )
     if 'saddle' in case:
         rotor_axis = int(np.argmax(np.abs(case['rotor']['axis'])))
         result['saddle'] = case['saddle']
@@ -656,19 +766,24 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--jobs', type=int, default=2)
     parser.add_argument('--only', nargs='*', help='case names to recompute (others are kept)')
+    parser.add_argument(
+        '--oblique', action='store_true',
+        help=f'the oblique-h cases, written to {OBLIQUE_OUTPUT.relative_to(OUTPUT.parents[2])}',
+    )
     args = parser.parse_args(argv)
-    names = args.only or list(CASES)
-    unknown = [n for n in names if n not in CASES]
+    cases, output = (OBLIQUE_CASES, OBLIQUE_OUTPUT) if args.oblique else (CASES, OUTPUT)
+    names = args.only or list(cases)
+    unknown = [n for n in names if n not in cases]
     if unknown:
-        parser.error(f'unknown case {unknown[0]!r}; known: {", ".join(CASES)}')
+        parser.error(f'unknown case {unknown[0]!r}; known: {", ".join(cases)}')
     existing = {}
-    if OUTPUT.exists():
-        existing = {c['name']: c for c in json.loads(OUTPUT.read_text())['cases']}
+    if output.exists():
+        existing = {c['name']: c for c in json.loads(output.read_text())['cases']}
     if not args.only:
         existing = {}
 
     def work(name):
-        case = CASES[name]
+        case = cases[name]
         return case['horizon'] * np.linalg.norm(case['angular_velocity']) * case['samples']
 
     # longest first so the workers finish together
@@ -677,11 +792,11 @@ def main(argv=None):
         for case in pool.imap_unordered(reference_case, order):
             existing[case['name']] = case
             print(f'{case["name"]:40s} {case["seconds"]:8.1f} s', flush=True)
-            _write(existing)
-    print(f'wrote {OUTPUT}')
+            _write(existing, cases, output)
+    print(f'wrote {output}')
 
 
-def _write(existing):
+def _write(existing, cases=CASES, output=OUTPUT):
     document = {
         'provenance': {
             'generator': 'tools/make_gyrostat_reference.py',
@@ -698,10 +813,10 @@ def _write(existing):
             'python': sys.version.split()[0],
             'machine': platform.platform(),
         },
-        'cases': [existing[n] for n in CASES if n in existing],
+        'cases': [existing[n] for n in cases if n in existing],
     }
-    OUTPUT.parent.mkdir(parents=True, exist_ok=True)
-    OUTPUT.write_text(json.dumps(document, indent=1) + '\n')
+    output.parent.mkdir(parents=True, exist_ok=True)
+    output.write_text(json.dumps(document, indent=1) + '\n')
 
 
 if __name__ == '__main__':

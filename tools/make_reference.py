@@ -20,10 +20,10 @@ High-precision reference solutions of the torque-free rigid body for the hard ca
 float64 floor of each sample.
 
 Independence: the reference integrates Euler's equations in the principal frame and
-``q' = 1/2 q ⊗ (w, 0)`` with a Taylor-series method in mpmath (45 significant digits, order 40,
-step at most a fifth of the estimated radius of convergence so the truncation is below 1e-27). It
-shares nothing with the closed form in ``torquefree_ros.core.exact.polhode`` but the equations of
-motion.
+``q' = 1/2 q ⊗ (w, 0)`` with a Taylor-series method in mpmath (``tools/mp_taylor.py``, 45
+significant digits, order 40, step at most a fifth of the estimated radius of convergence so the
+truncation is below 1e-27). It shares nothing with the closed form in
+``torquefree_ros.core.exact.polhode`` but the equations of motion.
 
 The floor of a sample is what float64 itself allows: the change of the exact solution when an input
 moves by one rounding unit (2**-53 relative). Each of the six dynamic inputs (moments, rates) is
@@ -31,7 +31,8 @@ perturbed in turn and integrated alongside; the responses add in quadrature, plu
 the sample time (``|w'| t u`` for the rate, ``|w| t u`` for the attitude) and of ``q0`` (``u``).
 
 Run: ``.venv/bin/python tools/make_reference.py [--jobs 2] [--only NAME ...]`` (about 10 minutes
-on 2 cores; ``pip install gmpy2`` makes mpmath about 3x faster).
+on 2 cores; ``pip install gmpy2`` makes mpmath about 3x faster). ``--check`` recomputes the cases
+(``--only``: those named) and compares them with the file, digit for digit, writing nothing.
 """
 
 from __future__ import annotations
@@ -44,19 +45,17 @@ import platform
 import sys
 import time
 
+from mp_taylor import axis_angle as _q
+from mp_taylor import changes, check_cases, check_invariants, ROUNDING_UNIT, sample_grid
+from mp_taylor import separatrix_sides, TaylorGyrostat
 import mpmath as mp
 import numpy as np
 
 DIGITS = 45
 ORDER = 40
 STEP_FRACTION = 0.2  # of the radius of convergence: truncation ~ 0.2**40 ~ 1e-28
-ROUNDING_UNIT = 2.0**-53
+INVARIANT_DIGITS = 25  # T, |H| and |q| hold to 1e-25 relative, or the reference is refused
 OUTPUT = Path(__file__).resolve().parent.parent / 'torquefree_ros' / 'bench' / 'hard_cases.json'
-
-
-def _q(axis, angle):
-    axis = np.asarray(axis, float) / np.linalg.norm(axis)
-    return [*(axis * np.sin(angle / 2)), float(np.cos(angle / 2))]
 
 
 def _near_separatrix(inertia, distance):
@@ -70,36 +69,21 @@ def _near_separatrix(inertia, distance):
     return [float(np.sqrt(-b / a)), 1.0, z]
 
 
+# near the separatrix of I = (1, 2, 2.5), 1e-6 and 1e-10 above and below it: (orientation,
+# horizon, samples) by exponent
+_NEAR_SEPARATRIX = {6: (_q([1, 2, 3], 0.4), 80.0, 41), 10: (_q([0, 1, 0], 1.0), 120.0, 61)}
+
 # name: inertia, angular velocity, orientation, horizon (s), samples
 CASES = {
-    'near_separatrix_above_1e-6': (
-        [1.0, 2.0, 2.5],
-        _near_separatrix([1.0, 2.0, 2.5], 1e-6),
-        _q([1, 2, 3], 0.4),
-        80.0,
-        41,
-    ),
-    'near_separatrix_below_1e-6': (
-        [1.0, 2.0, 2.5],
-        _near_separatrix([1.0, 2.0, 2.5], -1e-6),
-        _q([1, 2, 3], 0.4),
-        80.0,
-        41,
-    ),
-    'near_separatrix_above_1e-10': (
-        [1.0, 2.0, 2.5],
-        _near_separatrix([1.0, 2.0, 2.5], 1e-10),
-        _q([0, 1, 0], 1.0),
-        120.0,
-        61,
-    ),
-    'near_separatrix_below_1e-10': (
-        [1.0, 2.0, 2.5],
-        _near_separatrix([1.0, 2.0, 2.5], -1e-10),
-        _q([0, 1, 0], 1.0),
-        120.0,
-        61,
-    ),
+    **{
+        f'near_separatrix_{side}': (
+            [1.0, 2.0, 2.5],
+            _near_separatrix([1.0, 2.0, 2.5], distance),
+            *_NEAR_SEPARATRIX[exponent],
+        )
+        for exponent in _NEAR_SEPARATRIX
+        for side, distance in separatrix_sides(exponent)
+    },
     'separatrix_exact': ([3.0, 4.0, 6.0], [2.0, 0.5, 1.0], [0.0, 0.0, 0.0, 1.0], 30.0, 31),
     'dzhanibekov_1e-4': ([1.0, 2.0, 3.0], [1e-4, 1.0, 1e-4], [0.0, 0.0, 0.0, 1.0], 40.0, 41),
     'dzhanibekov_1e-8': ([1.0, 2.0, 3.0], [1e-8, 1.0, 1e-8], [0.0, 0.0, 0.0, 1.0], 60.0, 61),
@@ -124,101 +108,21 @@ CASES = {
 }
 
 
-class TaylorRigidBody:
-    """Taylor-series integrator of the torque-free rigid body in the principal frame, in mpmath."""
+class TaylorRigidBody(TaylorGyrostat):
+    """The shared Taylor integrator with no rotor (``h = 0``), at this script's order and step."""
 
-    def __init__(self, inertia):
-        I1, I2, I3 = (mp.mpf(x) for x in inertia)
-        self.gains = ((I2 - I3) / I1, (I3 - I1) / I2, (I1 - I2) / I3)
-
-    def coefficients(self, state):
-        """
-        Return the Taylor coefficients of w1..w3, qx, qy, qz, qw about t0.
-
-        One list of length ORDER + 1 per component.
-        """
-        c = [[value] + [mp.mpf(0)] * ORDER for value in state]
-        g1, g2, g3 = self.gains
-        half = mp.mpf(1) / 2
-
-        def product(a, b, k):
-            return mp.fsum(a[i] * b[k - i] for i in range(k + 1))
-
-        w1, w2, w3, qx, qy, qz, qw = c
-        for k in range(ORDER):
-            scale = 1 / mp.mpf(k + 1)
-            w1[k + 1] = g1 * product(w2, w3, k) * scale
-            w2[k + 1] = g2 * product(w3, w1, k) * scale
-            w3[k + 1] = g3 * product(w1, w2, k) * scale
-            # q ⊗ (w, 0), Hamilton, scalar last
-            qx[k + 1] = (
-                half * scale * (product(qw, w1, k) + product(qy, w3, k) - product(qz, w2, k))
-            )
-            qy[k + 1] = (
-                half * scale * (product(qw, w2, k) - product(qx, w3, k) + product(qz, w1, k))
-            )
-            qz[k + 1] = (
-                half * scale * (product(qw, w3, k) + product(qx, w2, k) - product(qy, w1, k))
-            )
-            qw[k + 1] = (
-                -half * scale * (product(qx, w1, k) + product(qy, w2, k) + product(qz, w3, k))
-            )
-        return c
-
-    @staticmethod
-    def radius(coefficients):
-        """Radius of convergence estimated from the last coefficients (Cauchy-Hadamard)."""
-        estimates = []
-        for k in (ORDER - 1, ORDER):
-            size = max(abs(series[k]) for series in coefficients)
-            if size > 0:
-                estimates.append(size ** (-mp.mpf(1) / k))
-        return min(estimates) if estimates else mp.inf
-
-    def integrate(self, state, times):
-        """Return the state at each of the sorted ``times`` (mpf) from ``state`` at t = 0."""
-        t = mp.mpf(0)
-        out = []
-        for target in times:
-            while t < target:
-                c = self.coefficients(state)
-                h = min(target - t, STEP_FRACTION * self.radius(c))
-                state = [mp.polyval(series[::-1], h) for series in c]
-                t = target if h == target - t else t + h
-            out.append(list(state))
-        return out
-
-
-def _check_invariants(inertia, states, name):
-    """Raise unless T, |H| and |q| hold to 1e-25 relative: only then is the integration trusted."""
-    moments = [mp.mpf(x) for x in inertia]
-
-    def invariants(s):
-        energy = mp.fsum(moments[i] * s[i] ** 2 for i in range(3))
-        momentum = mp.fsum((moments[i] * s[i]) ** 2 for i in range(3))
-        return energy, momentum, mp.fsum(x * x for x in s[3:])
-
-    first = invariants(states[0])
-    for s in states:
-        for a, b in zip(invariants(s), first):
-            if abs(a - b) > mp.mpf(10) ** -25 * max(abs(b), mp.mpf(10) ** -300):
-                raise RuntimeError(
-                    f'{name}: invariant drift {mp.nstr(abs(a - b) / b, 3)} in the reference'
-                )
+    order = ORDER
+    step_fraction = STEP_FRACTION
 
 
 def reference_case(name):
     mp.mp.dps = DIGITS
-    inertia, omega, q0, horizon, count = CASES[name]
-    q0 = list(np.asarray(q0) / np.linalg.norm(q0))
-    times = [float(x) for x in np.linspace(0.0, horizon, count)]
-    t_mp = [mp.mpf(x) for x in times]
+    inertia, omega, orientation, horizon, count = CASES[name]
     # the propagators normalise q0 as given; so does the reference, at full precision
-    q_norm = mp.sqrt(mp.fsum(mp.mpf(x) ** 2 for x in q0))
-    q0_mp = [mp.mpf(x) / q_norm for x in q0]
+    q0, times, q0_mp, t_mp = sample_grid(orientation, horizon, count)
     started = time.time()
     nominal = TaylorRigidBody(inertia).integrate([mp.mpf(x) for x in omega] + q0_mp, t_mp)
-    _check_invariants(inertia, nominal, name)
+    check_invariants(inertia, (0, 0, 0), nominal, name, INVARIANT_DIGITS)
     responses = []  # per perturbed input: list over samples of (rate change, attitude change)
     for index in range(6):
         moments = [mp.mpf(x) for x in inertia]
@@ -229,21 +133,7 @@ def reference_case(name):
             continue  # zero is exact in float64
         target[j] *= 1 + mp.mpf(ROUNDING_UNIT)
         perturbed = TaylorRigidBody(moments).integrate(w + q0_mp, t_mp)
-        changes = []
-        for a, b in zip(nominal, perturbed):
-            dw = mp.sqrt(mp.fsum((a[i] - b[i]) ** 2 for i in range(3)))
-            # rotation angle of conj(qa) ⊗ qb from its vector and scalar parts: exact for tiny
-            # angles and independent of |q| (1 - (qa.qb)^2 is swamped by |q0|^2 - 1 ~ 1e-16)
-            (ax, ay, az, aw), (bx, by, bz, bw) = a[3:], b[3:]
-            vector = [
-                aw * bx - ax * bw - ay * bz + az * by,
-                aw * by + ax * bz - ay * bw - az * bx,
-                aw * bz - ax * by + ay * bx - az * bw,
-            ]
-            scalar = aw * bw + ax * bx + ay * by + az * bz
-            angle = 2 * mp.atan2(mp.sqrt(mp.fsum(v * v for v in vector)), abs(scalar))
-            changes.append((dw, angle))
-        responses.append(changes)
+        responses.append(changes(nominal, perturbed))
     gains = TaylorRigidBody(inertia).gains
     rate_floor, attitude_floor = [], []
     for k, state in enumerate(nominal):
@@ -282,11 +172,18 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--jobs', type=int, default=2)
     parser.add_argument('--only', nargs='*', help='case names to recompute (others are kept)')
+    parser.add_argument(
+        '--check',
+        action='store_true',
+        help='compare the cases recomputed with the file, digit for digit; write nothing',
+    )
     args = parser.parse_args(argv)
     names = args.only or list(CASES)
     unknown = [n for n in names if n not in CASES]
     if unknown:
         parser.error(f'unknown case {unknown[0]!r}; known: {", ".join(CASES)}')
+    if args.check:
+        return 1 if check_cases(OUTPUT, reference_case, names, args.jobs) else 0
     existing = {}
     if args.only and OUTPUT.exists():
         existing = {c['name']: c for c in json.loads(OUTPUT.read_text())['cases']}
@@ -316,7 +213,8 @@ def main(argv=None):
     OUTPUT.parent.mkdir(parents=True, exist_ok=True)
     OUTPUT.write_text(json.dumps(document, indent=1) + '\n')
     print(f'wrote {OUTPUT}')
+    return 0
 
 
 if __name__ == '__main__':
-    main()
+    sys.exit(main())

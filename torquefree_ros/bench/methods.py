@@ -19,7 +19,11 @@ They are each registered propagator, scipy's ``solve_ivp`` (RK45, DOP853, Radau,
 ``mujoco`` is importable, MuJoCo's RK4 free body.
 
 A method has one setting it sweeps (a fixed step, a tolerance or nothing) and runs a case from its
-initial state to a sorted array of output times, returning ``(omega_B, q_NB)``.
+initial state to a sorted array of output times, returning ``(omega_B, q_NB)``. It runs the cases
+it ``applies`` to: the free body's exact solution (``analytic``) and MuJoCo's free body the
+torque-free cases, the exact gyrostat (``gyrostat``) the gyrostat cases it solves (a rotor or
+coasting wheels whose momentum lies along a principal axis), every integrator every case (a
+gyrostat case's effects through the scene, as ``auto`` would run them).
 """
 
 from __future__ import annotations
@@ -34,7 +38,9 @@ from .cases import Case
 from ..core.body.rigid_body import RigidBody
 from ..core.propagators import ATOL_PER_RTOL, make_propagator, PROPAGATORS
 from ..core.propagators.dynamics import Dynamics
+from ..core.propagators.gyrostat import free_gyrostat
 from ..core.propagators.numerical import FixedStepPropagator
+from ..core.scene.loader import scene_from_mapping
 
 #: relative tolerances of the adaptive methods (``atol = rtol * ATOL_PER_RTOL``, as ``auto`` uses)
 TOLERANCES = (1e-4, 1e-6, 1e-8, 1e-10, 1e-12, 1e-13)
@@ -58,6 +64,31 @@ class Method:
     run: Callable[[Case, float | None, np.ndarray], tuple[np.ndarray, np.ndarray]]
     #: (case, setting, span) -> steps a fixed-step method would take over ``span`` seconds
     steps: Callable[[Case, float, float], float] | None = None
+    #: (case) -> whether the method runs the case
+    applies: Callable[[Case], bool] = lambda case: True
+
+
+def torque_free(case: Case) -> bool:
+    return not case.effects
+
+
+def exact_gyrostat(case: Case) -> bool:
+    """Whether the exact gyrostat solves the case: its effects make a free gyrostat it solves."""
+    if not case.effects:
+        return False  # (the free body: the analytic propagator itself)
+    scene = scene_from_mapping(case.scene_mapping())
+    return not isinstance(
+        free_gyrostat(scene.inertia, scene.effects, case.angular_velocity), str
+    )
+
+
+def _propagator(case: Case, name: str, **options):
+    """Build a propagator of ``name`` for the case: the free body's, or the case's scene's."""
+    if not case.effects:
+        return make_propagator(
+            case.inertia, case.angular_velocity, case.orientation, name, **options
+        )
+    return scene_from_mapping(case.scene_mapping()).propagator(name, **options)
 
 
 def _ours(name: str) -> Method:
@@ -70,9 +101,7 @@ def _ours(name: str) -> Method:
             return tuple(case.rotation_period / n for n in counts)
 
         def run(case, step, times):
-            return make_propagator(
-                case.inertia, case.angular_velocity, case.orientation, name, step=step
-            )(times)
+            return _propagator(case, name, step=step)(times)
 
         return Method(
             name,
@@ -85,21 +114,15 @@ def _ours(name: str) -> Method:
     if 'rtol' in cls.options:
 
         def run(case, rtol, times):
-            return make_propagator(
-                case.inertia,
-                case.angular_velocity,
-                case.orientation,
-                name,
-                rtol=rtol,
-                atol=rtol * ATOL_PER_RTOL,
-            )(times)
+            return _propagator(case, name, rtol=rtol, atol=rtol * ATOL_PER_RTOL)(times)
 
         return Method(name, 'torquefree_ros', 'rtol', _tolerances, run)
 
     def run(case, _, times):
-        return make_propagator(case.inertia, case.angular_velocity, case.orientation, name)(times)
+        return _propagator(case, name)(times)
 
-    return Method(name, 'torquefree_ros', '', lambda case, smoke: (None,), run)
+    applies = exact_gyrostat if name == 'gyrostat' else torque_free
+    return Method(name, 'torquefree_ros', '', lambda case, smoke: (None,), run, applies=applies)
 
 
 def _tolerances(case, smoke):
@@ -110,9 +133,13 @@ def _scipy(solver: str) -> Method:
     def run(case, rtol, times):
         # the same right-hand side as the numerical propagators,
         # so the comparison is of the drivers
-        dynamics = Dynamics(RigidBody.from_inertia(case.inertia))
+        if case.effects:  # the scene's: its effects bound to the body, their initial states
+            propagator = _propagator(case, 'dop853')
+            dynamics, x0 = propagator.dynamics, propagator.x0
+        else:
+            dynamics, x0 = Dynamics(RigidBody.from_inertia(case.inertia)), np.empty(0)
         y0 = np.concatenate(
-            [case.angular_velocity, case.orientation / np.linalg.norm(case.orientation)]
+            [case.angular_velocity, case.orientation / np.linalg.norm(case.orientation), x0]
         )
         solution = solve_ivp(
             lambda t, y: dynamics.derivative(t, y, 0.0),
@@ -202,15 +229,9 @@ def _mujoco_run(case, dt, times):
 
 
 def all_methods(include_mujoco: bool = True) -> list[Method]:
-    """
-    Return every registered propagator, then the scipy baselines, then MuJoCo if importable.
-
-    But ``gyrostat``: on these torque-free cases it is the ``analytic`` propagator itself.
-    """
+    """Return every registered propagator, then the scipy baselines, then MuJoCo if importable."""
     methods = [
-        _ours(name)
-        for name in sorted(PROPAGATORS, key=lambda n: (not PROPAGATORS[n].exact, n))
-        if name != 'gyrostat'
+        _ours(name) for name in sorted(PROPAGATORS, key=lambda n: (not PROPAGATORS[n].exact, n))
     ]
     methods += [_scipy(solver) for solver in ('RK45', 'DOP853', 'Radau', 'LSODA')]
     if include_mujoco and mujoco_available():
@@ -222,6 +243,7 @@ def all_methods(include_mujoco: bool = True) -> list[Method]:
                 _mujoco_settings,
                 _mujoco_run,
                 steps=lambda case, dt, span: span / dt,
+                applies=torque_free,
             )
         )
     return methods

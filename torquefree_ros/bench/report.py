@@ -30,7 +30,11 @@ import sys
 
 import numpy as np
 
+from .cases import GYROSTAT_PREFIX, load_cases
+
 TARGETS = (1e-6, 1e-9, 1e-12)
+#: the exact propagators: the free body's and the free gyrostat's, each on its own cases
+EXACT_METHODS = ('analytic', 'gyrostat')
 #: the accuracy grid on which "where RK4 stops being worth it" is read
 _CROSSOVER_TARGETS = tuple(10.0**-k for k in range(2, 14))
 
@@ -122,7 +126,11 @@ def _cost(value: float) -> str:
 
 
 def case_table(measurements, case: str) -> str:
-    """Markdown: per method, the cost (µs per simulated second at 100 Hz) to reach each target."""
+    """
+    Markdown: per method, the cost (µs per simulated second at 100 Hz) to reach each target.
+
+    A gyrostat case's table opens with a sentence naming its effects.
+    """
     rows = [m for m in measurements if m.case == case]
     best = {}
     for m in rows:
@@ -147,6 +155,8 @@ def case_table(measurements, case: str) -> str:
             )
         reached = f'{best[method].attitude_error_rad:.1e}' if method in best else 'failed'
         lines.append(f'| {method} | ' + ' | '.join(cells) + f' | {reached} |')
+    if case.startswith(GYROSTAT_PREFIX):
+        lines[:0] = [f'The free gyrostat: {load_cases([case])[0].describe_effects()}.', '']
     return '\n'.join(lines)
 
 
@@ -156,7 +166,7 @@ def targets(measurements) -> list[str]:
 
     A section is left out when its methods were not run.
     """
-    exact = {m.case: m for m in measurements if m.method == 'analytic' and m.ok}
+    exact = {m.case: m for m in measurements if m.method in EXACT_METHODS and m.ok}
     methods = _method_order(measurements)
     sections = [
         _exact_vs_dop853(
@@ -242,7 +252,7 @@ def _ours_vs_scipy_dop853(measurements, methods: list) -> list[str]:
     ours = [
         name
         for name in methods
-        if name != 'analytic'
+        if name not in EXACT_METHODS
         and any(m.method == name and m.family == 'torquefree_ros' for m in measurements)
     ]
     if not ours or 'scipy DOP853' not in methods:
@@ -347,7 +357,12 @@ def plot(path, measurements) -> bool:
         ax.grid(True, which='major', alpha=0.3)
     for ax in axes.flat[len(cases):]:
         ax.axis('off')
-    handles, labels = axes.flat[0].get_legend_handles_labels()
+    legend = {}  # every method once, from whichever panel has it (the exact ones differ by case)
+    for ax in axes.flat[: len(cases)]:
+        for handle, label in zip(*ax.get_legend_handles_labels()):
+            legend.setdefault(label, handle)
+    labels = [method for method in methods if method in legend]
+    handles = [legend[label] for label in labels]
     columns_in_legend = min(len(labels), 2 * columns + 1)
     legend_rows = math.ceil(len(labels) / columns_in_legend)
     figure.legend(handles, labels, loc='lower center', ncol=columns_in_legend, fontsize=8)

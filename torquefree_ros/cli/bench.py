@@ -45,8 +45,8 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(
         prog='torquefree_bench',
         description='The work-precision report: every propagator, scipy solve_ivp and MuJoCo RK4 '
-        'on the hard cases; writes work_precision.csv, work_precision.png and results.md (about '
-        '11 minutes; --smoke: a minute).',
+        "on the hard cases and the free gyrostat's; writes work_precision.csv, work_precision.png "
+        'and results.md (tens of minutes: results.md records how long; --smoke: a few minutes).',
     )
     parser.add_argument(
         '--output-dir',
@@ -144,7 +144,8 @@ def _markdown(measurements, cases, env, plotted: bool) -> str:
         'Machine and versions: ' + '; '.join(f'{k} {v}' for k, v in env.items()) + '.',
         '',
         "Error: the largest attitude error (rad) over each case's reference samples (mpmath, 45 "
-        'digits), from a run to those samples alone (its CPU time is the cost to the horizon in '
+        'digits for the free body, 40 for the gyrostat), from a run to those samples alone (its '
+        'CPU time is the cost to the horizon in '
         'the CSV). Cost: CPU time (construction included) to produce a 100 Hz output, per '
         'simulated second. Adaptive methods use `atol = rtol / 100`; fixed steps are given in '
         "seconds (swept as 8 … 2048 steps per rotation, 2π/|ω0|). scipy's `solve_ivp` gets the "

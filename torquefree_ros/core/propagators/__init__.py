@@ -54,8 +54,9 @@ def make_propagator(
 
     ``auto`` is the exact solution when no effect changes the motion, the exact free gyrostat
     (``gyrostat``) when the only ones are ``rotor`` effects and coasting ``reaction_wheels`` whose
-    summed momentum lies along a principal axis (:func:`.gyrostat.free_gyrostat`, to
-    :data:`.gyrostat.ROTOR_AXIS_TOLERANCE`), else DOP853 held to ``accuracy`` (``rtol``;
+    summed momentum lies along a principal axis or is zero (the free body with the inertia less
+    the wheels' spin; :func:`.gyrostat.free_gyrostat`, to :data:`.gyrostat.ROTOR_AXIS_TOLERANCE`),
+    else DOP853 held to ``accuracy`` (``rtol``;
     ``atol = accuracy / 100``; default :data:`DEFAULT_ACCURACY`). ``effects``: motion effects only
     (outputs never reach a propagator).
     """
@@ -84,14 +85,17 @@ def motion_regime(propagator: Propagator) -> MotionRegime | GyrostatRegime:
 
     A free gyrostat's (rotors and coasting wheels along a principal axis, whichever propagator
     runs it: :func:`.gyrostat.free_gyrostat`) is the gyrostat's own, with its equilibria and
-    separatrices (:func:`.exact.regime.classify_gyrostat`); any other scene's is the torque-free
+    separatrices (:func:`.exact.regime.classify_gyrostat`), or at ``h = 0`` the free body's with
+    the inertia less the wheels' spin; any other scene's is the torque-free
     regime of the body at the initial rates (:meth:`RigidBody.classify`), which effects that
     change the motion make a reading of the start only.
     """
     omega0 = propagator.omega0_B
     found = gyrostat.free_gyrostat(propagator.body, propagator.effects, omega0)
-    if isinstance(found, str) or found.momentum == 0.0:
+    if isinstance(found, str):
         return propagator.body.classify(omega0)
+    if found.momentum == 0.0:  # the free body with the inertia less the wheels' spin
+        return found.inertia.classify(omega0)
     inertia = found.inertia
     omega_P = inertia.to_principal(omega0)
     return classify_gyrostat(inertia.moments, omega_P, found.axis, found.momentum)

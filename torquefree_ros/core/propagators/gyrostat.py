@@ -21,13 +21,28 @@ momentum ``h_i`` is then constant) is the free gyrostat ``I_s w' + w x (I_s w + 
 ``I_s = I - sum Js g g^T`` (``I`` for rotors alone) and ``h = sum h_rotor + sum h_i g_i``; this
 propagator solves it exactly when ``h`` lies along a principal axis of ``I_s``. The regime and
 every constant are chosen once in the constructor; evaluation is a pure, vectorised function of
-time. ``h = 0`` with rotors alone is the free body, evaluated by the ``analytic`` propagator
-itself.
+time.
 
-A coasting wheel's state is ``h_i`` (constant) and its angle relative to the body,
-``theta_i = (h_i / Js_i) t - g_i . ∫_0^t w dt``: the rates' integral comes from
+``h = 0`` is the free body ``I_s w' + w x I_s w = 0``, its rates and attitude evaluated by the
+``analytic`` propagator itself (with ``I_s``): rotors whose momenta cancel, or coasting wheels
+whose *absolute* momenta cancel, ``sum h_i g_i = 0`` (a null-motion distribution of a pyramid,
+or two wheels on opposite axes with equal ``h_i``). Their relative momenta then cancel the
+wheels' share of the body's rotation, ``sum Js_i Omega_i g_i = -sum Js_i g_i (g_i . w)``, which
+the motion changes: cancelling *relative* momenta, ``sum Js_i Omega_i g_i = 0``, are not a free
+body (``sum h_i g_i = sum Js_i g_i (g_i . w0)``, a gyrostat like any other).
+
+A coasting wheel's state is ``h_i`` (constant: ``h_i' = u_i - f_i = 0``) and its angle relative
+to the body, ``theta_i' = Omega_i = h_i / Js_i - g_i . w``, so
+``theta_i = (h_i / Js_i) t - g_i . ∫_0^t w dt``: the relative speed is not constant (the body's
+rate along ``g_i`` moves it), ``h = 0`` or not. The rates' integral comes from
 :class:`~torquefree_ros.core.exact.gyrostat.RateIntegrals` (their Chebyshev series, at the
-float64 floor), in closed form for a uniform precession and a relative equilibrium.
+float64 floor), in closed form for a uniform precession and a relative equilibrium; for
+``h = 0`` from the gyrostat's closed form of the same rates at ``h = 0`` (with ``I_s``'s
+largest or distinct moment as the solver's axis 3).
+
+A wheel *held* at a constant relative speed ``Omega_i`` (an ideal drive whose torque is
+``u_i = Js_i g_i . w'``) is the ``rotor`` effect, not this: ``I w' + w x (I w + h) = 0`` with the
+locked inertia ``I`` and ``h = Js_i Omega_i g_i``, and the wheel's angle is ``Omega_i t``.
 """
 
 from __future__ import annotations
@@ -45,6 +60,7 @@ from ..effects.actuators import ReactionWheels
 from ..effects.internal import Rotor
 from ..exact.gyrostat import (
     GyrostatAttitude,
+    GyrostatRates,
     RateIntegrals,
     solve_gyrostat,
     solver_frame,
@@ -62,7 +78,7 @@ class FreeGyrostat(NamedTuple):
     """A scene's free gyrostat: its inertia, the principal axis ``h`` lies along, and ``h``."""
 
     inertia: RigidBody  # I_s: the scene's inertia less the wheels' spin
-    axis: int  # the principal axis of ``inertia`` (its column) that h lies along
+    axis: int  # the principal axis of ``inertia`` (its column) h lies along (h = 0: the solver's)
     momentum: float  # h along that axis, N m s, signed
 
 
@@ -74,15 +90,18 @@ def free_gyrostat(body, effects, omega0_B) -> FreeGyrostat | str:
     (:meth:`ReactionWheels.coasting_problem`);
     ``h`` (rotors' ``h_B`` plus the wheels' ``h_i g_i``, ``h_i`` at ``omega0_B``) must lie along a
     principal axis of ``I_s`` within :data:`ROTOR_AXIS_TOLERANCE`. No effect: the free body,
-    ``h = 0``. Wheels whose momenta sum to zero are refused: the free body's path gives no
-    integral of the rates, which their angles need.
+    ``h = 0``; so are momenta whose sum is within :data:`ROTOR_AXIS_TOLERANCE` of the sum of their
+    sizes (its own rounding: a pyramid's null-motion momenta add to a few rounding units, in no
+    particular direction), which the gyrostat takes as ``h = 0``: the free body with ``I_s``.
     """
     body = RigidBody.from_inertia(body)
     omega0_B = np.asarray(omega0_B, dtype=float)
     h_B, spin, wheels = np.zeros(3), np.zeros((3, 3)), False
+    total = 0.0  # the sum of the momenta's sizes, N m s
     for effect in effects:
         if isinstance(effect, Rotor):
             h_B = h_B + effect.h_B
+            total += float(np.linalg.norm(effect.h_B))
             continue
         if not isinstance(effect, ReactionWheels):
             return f"effects other than 'rotor' and coasting 'reaction_wheels' ({effect.name})"
@@ -91,6 +110,7 @@ def free_gyrostat(body, effects, omega0_B) -> FreeGyrostat | str:
             return problem
         momenta = effect.momenta(effect.initial_state(omega0_B))
         h_B = h_B + momenta @ effect.axes
+        total += float(np.abs(momenta).sum())
         spin = spin + effect.spin_inertia_B()
         wheels = True
     inertia = body
@@ -102,15 +122,32 @@ def free_gyrostat(body, effects, omega0_B) -> FreeGyrostat | str:
     h_P = h_B @ inertia.principal_axes
     axis = int(np.argmax(np.abs(h_P)))
     size = float(np.linalg.norm(h_P))
+    if size <= ROTOR_AXIS_TOLERANCE * total:  # (0 <= 0 too: no momentum at all)
+        return FreeGyrostat(inertia, free_body_axis(inertia.moments), 0.0)
     across = math.hypot(*(float(h_P[k]) for k in range(3) if k != axis))
     if across > ROTOR_AXIS_TOLERANCE * size:
         return (
             f'a rotor momentum {h_B.tolist()} off every principal axis '
             f'(the general oblique gyrostat is not solved in closed form here)'
         )
-    if wheels and size == 0.0:
-        return 'coasting wheels whose momenta sum to zero (their angles need the rates integrated)'
     return FreeGyrostat(inertia, axis, float(h_P[axis]))
+
+
+def free_body_axis(moments) -> int:
+    """
+    Return the principal axis the gyrostat's solver takes as its axis 3 when ``h = 0``.
+
+    The moment the other two share, if two are equal (the solver's ``J1 = J2``: a uniform
+    precession), else the largest.
+    """
+    a, b, c = (float(m) for m in moments)
+    if a == b:
+        return 2
+    if a == c:
+        return 1
+    if b == c:
+        return 0
+    return int(np.argmax(moments))
 
 
 def spin_less_inertia(tensor: np.ndarray) -> RigidBody:
@@ -160,25 +197,44 @@ class GyrostatPropagator(Propagator):
         self._free = self._attitude = self._integrals = None
         self._stationary = False
         self._wheels = self._wheel_parts()
-        if h == 0.0:  # rotors alone: the free body, through its own path (bit for bit)
-            self._free = AnalyticPropagator(self.body, self.omega0_B, self.q0_NB)
-            return
         inertia = found.inertia
-        frame = solver_frame(inertia.moments, inertia.principal_axes, found.axis, h)
+        if h == 0.0:
+            # the free body with I_s (the body's inertia for rotors alone), through its own path
+            # (bit for bit); the wheels' angles from the gyrostat's rates at h = 0
+            self._free = AnalyticPropagator(inertia, self.omega0_B, self.q0_NB)
+            if self._wheels:
+                self._rate_integrals(inertia, found.axis, 0.0, attitude=False)
+            return
+        self._rate_integrals(inertia, found.axis, h, attitude=True)
+
+    def _rate_integrals(self, inertia: RigidBody, axis: int, h: float, attitude: bool) -> None:
+        """
+        Choose the closed form of the motion, and of the rates' integral when wheels need it.
+
+        ``attitude``: the rates and attitude come from it too (else from the free body's path).
+        """
+        frame = solver_frame(inertia.moments, inertia.principal_axes, axis, h)
         J1, J2, J3 = frame.moments
         omega_S = [sum(r * w for r, w in zip(row, self.omega0_B.tolist())) for row in frame.rows]
-        if J1 == J2:  # a rotor on the symmetry axis: a uniform precession
+        free_stationary = not attitude and self._free._attitude is None
+        if J1 == J2 and not free_stationary:  # a rotor on the symmetry axis: a uniform precession
+            # (at h = 0 only its rates' integral is read: the free body's path gives the rest)
             self._attitude = UniformPrecession(
-                J1, J3, h, inertia.principal_axes[:, found.axis], self.omega0_B, self.q0_NB
+                J1, J3, h, inertia.principal_axes[:, axis], self.omega0_B, self.q0_NB
             )
             return
-        self.motion = solve_gyrostat(frame.moments, omega_S, h)
-        if self.motion is None:  # a relative equilibrium: a constant rate
+        motion = None if free_stationary else solve_gyrostat(frame.moments, omega_S, h)
+        if motion is None:  # a relative equilibrium (a steady spin at h = 0): a constant rate
             self._stationary = True
             return
-        self._attitude = GyrostatAttitude(self.motion, frame, self.q0_NB)
+        if attitude:
+            self.motion = motion
+            self._attitude = GyrostatAttitude(motion, frame, self.q0_NB)
+            rates = self._attitude.rates
+        else:
+            rates = GyrostatRates(motion)
         if self._wheels:
-            self._integrals = RateIntegrals(self._attitude.rates)
+            self._integrals = RateIntegrals(rates)
             self._solver_rows = np.array(frame.rows)  # v_S = C v_B
 
     def _wheel_parts(self) -> tuple:
@@ -193,8 +249,10 @@ class GyrostatPropagator(Propagator):
 
     def _evaluate(self, times):
         if self._free is not None:
-            return self._free._evaluate(times)
-        if self._stationary:
+            omega, q, x = self._free._evaluate(times)
+            if not self._wheels:
+                return omega, q, x
+        elif self._stationary:
             omega = np.empty((times.size, 3))
             omega[:] = self.omega0_B
             q = spin_attitude(self.omega0_B, self.q0_NB, times)
