@@ -13,7 +13,7 @@
 # limitations under the License.
 
 """
-Independent readers for the bag tests.
+Independent readers for the bag tests, and what the tests read out of the messages they decode.
 
 The ``mcap`` library with mcap-ros2-support's decoder, and ``rosbags`` (AnyReader with the Jazzy
 typestore). Neither shares code with our writer.
@@ -118,4 +118,32 @@ def vectors(messages) -> np.ndarray:
 def quaternions(messages) -> np.ndarray:
     return np.array(
         [[m.quaternion.x, m.quaternion.y, m.quaternion.z, m.quaternion.w] for *_, m in messages]
+    )
+
+
+def transform_table(message) -> tuple[list, list, np.ndarray]:
+    """
+    Read a tf2_msgs/TFMessage as (frame pairs, stamps in ns, a row of numbers per transform).
+
+    The message as any reader decodes it (rclpy, rosbags, mcap): pairs are ``(header.frame_id,
+    child_frame_id)``; a row is the translation x, y, z then the rotation x, y, z, w, the layout of
+    the ``tf`` output's rows.
+    """
+    transforms = message.transforms
+    rows = [
+        [
+            t.transform.translation.x,
+            t.transform.translation.y,
+            t.transform.translation.z,
+            t.transform.rotation.x,
+            t.transform.rotation.y,
+            t.transform.rotation.z,
+            t.transform.rotation.w,
+        ]
+        for t in transforms
+    ]
+    return (
+        [(t.header.frame_id, t.child_frame_id) for t in transforms],
+        [stamp_ns(t.header) for t in transforms],
+        np.array(rows).reshape(len(transforms), 7),
     )

@@ -17,30 +17,14 @@
 from __future__ import annotations
 
 import pytest
+from test_tf_orbit import LEO, tf_scene_mapping
 from torquefree_ros.bag.offline import write_scene_bag
 from torquefree_ros.bag.samples import check_output_frames
 from torquefree_ros.core.scene.loader import scene_from_mapping
 
-ORBIT = {
-    'epoch': '2026-03-20T12:00:00Z',
-    'semi_major_axis': 6878137.0,
-    'eccentricity': 0.001,
-    'inclination': 1.7,
-    'raan': 0.3,
-    'argument_of_perigee': 0.5,
-    'mean_anomaly': 0.2,
-}
 
-
-def _scene(tf, orbit=ORBIT):
-    data = {
-        'body': {'inertia': [3.0, 2.0, 1.0]},
-        'initial': {'angular_velocity': [0.001, 1.0, 0.001]},
-        'effects': [{'tf': tf}],
-    }
-    if orbit is not None:
-        data['orbit'] = orbit
-    return scene_from_mapping(data, source='s.yaml')
+def _scene(tf, orbit=LEO):
+    return scene_from_mapping(tf_scene_mapping(tf, orbit), source='s.yaml')
 
 
 @pytest.mark.parametrize(

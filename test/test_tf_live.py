@@ -28,6 +28,8 @@ at start).
 
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 import pytest
 
@@ -35,31 +37,48 @@ pytest.importorskip(
     'tf2_msgs.msg', reason='needs tf2_msgs for Python; test_tf.py builds it and runs this file'
 )
 
+#: a body with the tf output and no orbit: one transform, the attitude, per sample
+TF_SCENE = (
+    'body: {inertia: [3.0, 2.0, 1.0]}\ninitial: {angular_velocity: [0.001, 1.0, 0.001]}\n'
+    'effects:\n  - tf: {}\n'
+)
 
-def test_the_node_publishes_tf_that_a_tf2_msgs_subscriber_receives_bit_for_bit(tmp_path):
+
+@contextlib.contextmanager
+def _receiving_tf(scene_file, **node_options):
+    """
+    Run a node at 100 Hz on ``scene_file``, reset, with a client subscribed to /tf.
+
+    Yields the harness, the TFMessages received (the list grows while the harness spins) and the
+    reset's epoch in ns; ``node_options`` go to the node (``body_frame``, ``frame_prefix``).
+    """
     from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
-    from sim_harness import connected_harness, reset_epoch_ns, stamp_ns
+    from sim_harness import connected_harness, reset_epoch_ns
     from tf2_msgs.msg import TFMessage
-    from torquefree_ros import load_scene
-    from torquefree_ros.core.run.simulation import Simulation
 
-    scene_file = tmp_path / 'tf_scene.yaml'
-    scene_file.write_text(
-        'body: {inertia: [3.0, 2.0, 1.0]}\ninitial: {angular_velocity: [0.001, 1.0, 0.001]}\n'
-        'effects:\n  - tf: {}\n'
-    )
     qos = QoSProfile(
         history=HistoryPolicy.KEEP_LAST, depth=10000, reliability=ReliabilityPolicy.RELIABLE
     )
     with connected_harness(
-        publish_rate=100.0, body_frame='satellite', scene_directories=[str(tmp_path)]
+        publish_rate=100.0, scene_directories=[str(scene_file.parent)], **node_options
     ) as harness:
         received = []
         harness.client.create_subscription(TFMessage, '/tf', received.append, qos)
         assert harness.set_parameters(scene=str(scene_file))[0].successful
         response = harness.reset()
         assert response.success and 'not published' not in response.message, response.message
-        epoch = reset_epoch_ns(response)
+        yield harness, received, reset_epoch_ns(response)
+
+
+def test_the_node_publishes_tf_that_a_tf2_msgs_subscriber_receives_bit_for_bit(tmp_path):
+    from bag_checks import transform_table
+    from sim_harness import stamp_ns
+    from torquefree_ros import load_scene
+    from torquefree_ros.core.run.simulation import Simulation
+
+    scene_file = tmp_path / 'tf_scene.yaml'
+    scene_file.write_text(TF_SCENE)
+    with _receiving_tf(scene_file, body_frame='satellite') as (harness, received, epoch):
         harness.spin_until(
             lambda: (
                 len(
@@ -74,41 +93,27 @@ def test_the_node_publishes_tf_that_a_tf2_msgs_subscriber_receives_bit_for_bit(t
             ),
             what='100 transforms',
         )
-        transforms = [
-            t for m in received for t in m.transforms if stamp_ns(t.header.stamp) >= epoch
-        ]
-        assert all(len(m.transforms) == 1 for m in received)
+        tables = [transform_table(m) for m in received]
         types = dict(
             harness.node.get_publisher_names_and_types_by_node(
                 harness.node.get_name(), harness.node.get_namespace()
             )
         )
         assert types['/tf'] == ['tf2_msgs/msg/TFMessage']  # absolute: outside the node's namespace
-    k = (np.array([stamp_ns(t.header.stamp) for t in transforms]) - epoch) * 100 // 10**9
+    assert all(len(pairs) == 1 for pairs, _, _ in tables)
+    after_reset = [table for table in tables if table[1][0] >= epoch]
+    pairs = [pair for table in after_reset for pair in table[0]]
+    stamps = np.array([stamp for table in after_reset for stamp in table[1]])
+    rows = np.concatenate([table[2] for table in after_reset])
+    k = (stamps - epoch) * 100 // 10**9
     np.testing.assert_array_equal(np.diff(k), 1)  # every sample, in order
     block = Simulation(load_scene(scene_file).propagator(), 100.0, epoch).samples(
         0, int(k.max()) + 1
     )
-    assert {(t.header.frame_id, t.child_frame_id) for t in transforms} == {('world', 'satellite')}
-    np.testing.assert_array_equal(
-        [stamp_ns(t.header.stamp) for t in transforms], block.stamps_ns[k]
-    )
-    np.testing.assert_array_equal(
-        [
-            [
-                t.transform.rotation.x,
-                t.transform.rotation.y,
-                t.transform.rotation.z,
-                t.transform.rotation.w,
-            ]
-            for t in transforms
-        ],
-        block.q_NB[k],
-    )
-    assert all(
-        t.transform.translation.x == t.transform.translation.y == t.transform.translation.z == 0.0
-        for t in transforms
-    )
+    assert set(pairs) == {('world', 'satellite')}
+    np.testing.assert_array_equal(stamps, block.stamps_ns[k])
+    np.testing.assert_array_equal(rows[:, 3:7], block.q_NB[k])
+    assert not np.any(rows[:, 0:3])  # zero translation
 
 
 def test_two_namespaced_nodes_publish_two_body_frames_on_tf_under_one_inertial_frame(tmp_path):
@@ -117,10 +122,7 @@ def test_two_namespaced_nodes_publish_two_body_frames_on_tf_under_one_inertial_f
     from tf2_msgs.msg import TFMessage
 
     scene_file = tmp_path / 'tf_scene.yaml'
-    scene_file.write_text(
-        'body: {inertia: [3.0, 2.0, 1.0]}\ninitial: {angular_velocity: [0.001, 1.0, 0.001]}\n'
-        'effects:\n  - tf: {}\n'
-    )
+    scene_file.write_text(TF_SCENE)
     qos = QoSProfile(
         history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE
     )
@@ -143,60 +145,29 @@ def test_two_namespaced_nodes_publish_two_body_frames_on_tf_under_one_inertial_f
 
 def test_on_an_orbit_the_node_publishes_the_earth_fixed_and_lvlh_frames_beside_the_body(tmp_path):
     import yaml
-    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
-    from sim_harness import connected_harness, reset_epoch_ns, stamp_ns
-    from test_tf_orbit import BODY, INITIAL, LEO
-    from tf2_msgs.msg import TFMessage
+    from bag_checks import transform_table
+    from sim_harness import stamp_ns
+    from test_tf_orbit import orbit_frame_pairs, tf_scene_mapping
     from torquefree_ros import load_scene
     from torquefree_ros.core.run.simulation import Simulation
 
     scene_file = tmp_path / 'orbit_tf.yaml'
-    scene_file.write_text(
-        yaml.safe_dump({'body': BODY, 'initial': INITIAL, 'effects': [{'tf': {}}], 'orbit': LEO})
-    )
-    qos = QoSProfile(
-        history=HistoryPolicy.KEEP_LAST, depth=10000, reliability=ReliabilityPolicy.RELIABLE
-    )
-    with connected_harness(
-        publish_rate=100.0, frame_prefix='sat1/', scene_directories=[str(tmp_path)]
-    ) as harness:
-        received = []
-        harness.client.create_subscription(TFMessage, '/tf', received.append, qos)
-        assert harness.set_parameters(scene=str(scene_file))[0].successful
-        response = harness.reset()
-        assert response.success and 'not published' not in response.message, response.message
-        epoch = reset_epoch_ns(response)
+    scene_file.write_text(yaml.safe_dump(tf_scene_mapping()))
+    with _receiving_tf(scene_file, frame_prefix='sat1/') as (harness, received, epoch):
 
         def after_reset():
             return [m for m in received if stamp_ns(m.transforms[0].header.stamp) >= epoch]
 
         harness.spin_until(lambda: len(after_reset()) >= 20, what='20 TFMessages')
-        messages = after_reset()
-    k = (np.array([stamp_ns(m.transforms[0].header.stamp) for m in messages]) - epoch) * 100
-    k //= 10**9
+        tables = [transform_table(m) for m in after_reset()]
+    k = (np.array([stamps[0] for _, stamps, _ in tables]) - epoch) * 100 // 10**9
     np.testing.assert_array_equal(np.diff(k), 1)  # every sample, in order
     scene = load_scene(scene_file)
     block = Simulation(scene.propagator(), 100.0, epoch, outputs=scene.outputs).samples(
         0, int(k.max()) + 1
     )
-    for index, message in zip(k, messages):
-        assert [(t.header.frame_id, t.child_frame_id) for t in message.transforms] == [
-            ('world', 'sat1/body'),
-            ('world', 'sat1/earth_fixed'),
-            ('world', 'sat1/lvlh'),
-        ]
-        assert {stamp_ns(t.header.stamp) for t in message.transforms} == {block.stamps_ns[index]}
-        values = [
-            [
-                t.transform.translation.x,
-                t.transform.translation.y,
-                t.transform.translation.z,
-                t.transform.rotation.x,
-                t.transform.rotation.y,
-                t.transform.rotation.z,
-                t.transform.rotation.w,
-            ]
-            for t in message.transforms
-        ]
+    for index, (pairs, stamps, rows) in zip(k, tables):
+        assert pairs == orbit_frame_pairs('sat1/')
+        assert set(stamps) == {block.stamps_ns[index]}
         # bit for bit: the core's rows, through the node's encoder and rclpy's deserializer
-        np.testing.assert_array_equal(np.ravel(values), block.outputs[0][index])
+        np.testing.assert_array_equal(rows.ravel(), block.outputs[0][index])

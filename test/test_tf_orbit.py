@@ -52,11 +52,21 @@ EARTH_RATE = 7.292115e-5
 ROUND_TRIP = 1e-15 * 8
 
 
-def _scene(tf=None, orbit=LEO):
+def tf_scene_mapping(tf=None, orbit=LEO):
+    """Return the tests' scene: BODY, INITIAL, the ``tf`` output and ``orbit`` (None: none)."""
     data = {'body': BODY, 'initial': INITIAL, 'effects': [{'tf': tf or {}}]}
     if orbit is not None:
         data['orbit'] = orbit
-    return scene_from_mapping(data, source='s.yaml')
+    return data
+
+
+def orbit_frame_pairs(prefix):
+    """Return the (parent, child) frames of the default ``tf`` on an orbit, children prefixed."""
+    return [('world', f'{prefix}{child}') for child in ('body', 'earth_fixed', 'lvlh')]
+
+
+def _scene(tf=None, orbit=LEO):
+    return scene_from_mapping(tf_scene_mapping(tf, orbit), source='s.yaml')
 
 
 def _run(scene, count=601, rate=1.0):
@@ -237,13 +247,11 @@ def test_bad_frame_names_are_refused_with_their_field_path(tf, orbit, path, reas
 
 def test_a_bag_carries_the_three_frames_in_both_independent_readers(tmp_path):
     import yaml
-    from bag_checks import read_with_mcap, read_with_rosbags, stamp_ns
+    from bag_checks import read_with_mcap, read_with_rosbags, transform_table
     from torquefree_ros.cli.bag import main as bag_main
 
     scene_file = tmp_path / 'orbit_tf.yaml'
-    scene_file.write_text(
-        yaml.safe_dump({'body': BODY, 'initial': INITIAL, 'effects': [{'tf': {}}], 'orbit': LEO})
-    )
+    scene_file.write_text(yaml.safe_dump(tf_scene_mapping()))
     bag = tmp_path / 'bag'
     arguments = [str(scene_file), '--duration', '2', '--rate', '10', '--output', str(bag)]
     assert bag_main(arguments + ['--body-frame', 'sat1/body']) == 0
@@ -256,23 +264,8 @@ def test_a_bag_carries_the_three_frames_in_both_independent_readers(tmp_path):
         messages['/tf'], decoded['/tf'], block.outputs[0], block.stamps_ns
     ):
         for message in (by_rosbags[1], by_mcap):
-            assert [(t.header.frame_id, t.child_frame_id) for t in message.transforms] == [
-                ('world', 'sat1/body'),
-                ('world', 'sat1/earth_fixed'),
-                ('world', 'sat1/lvlh'),
-            ]
-            assert {stamp_ns(t.header) for t in message.transforms} == {stamp}
-            values = [
-                [
-                    t.transform.translation.x,
-                    t.transform.translation.y,
-                    t.transform.translation.z,
-                    t.transform.rotation.x,
-                    t.transform.rotation.y,
-                    t.transform.rotation.z,
-                    t.transform.rotation.w,
-                ]
-                for t in message.transforms
-            ]
-            np.testing.assert_array_equal(np.ravel(values), row)
+            pairs, stamps, values = transform_table(message)
+            assert pairs == orbit_frame_pairs('sat1/')
+            assert set(stamps) == {stamp}
+            np.testing.assert_array_equal(values.ravel(), row)
     assert len(messages['/tf']) == len(decoded['/tf']) == 21

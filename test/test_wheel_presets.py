@@ -13,15 +13,17 @@
 # limitations under the License.
 
 """
-Reaction wheel presets: a wheel's ``preset`` fills its datasheet fields; what is given wins.
+Reaction wheel presets: a wheel's ``preset`` fills its documented fields; what is given wins.
 
-The expected numbers are the datasheets' own (momentum capacity, top speed in rpm, torque),
-converted here, not read back from the table.
+The expected numbers are transcribed here from the documents each row rests on (momentum
+capacity, top speed in rpm or rotor inertia, torque, Coulomb level), independently of the table,
+and converted here, not read back from it.
 """
 
 from __future__ import annotations
 
 import math
+import re
 
 import pytest
 from torquefree_ros.core.effects.wheel_presets import PRESETS
@@ -29,13 +31,29 @@ from torquefree_ros.core.scene.loader import scene_from_mapping, SceneError
 
 RPM = math.pi / 30.0
 
-# name: (momentum N m s, top speed rpm, max torque N m, Coulomb N m), by the datasheets
-DATASHEETS = {
-    'bct_rwp015': (0.015, 6000.0, 0.004, 5.0e-5),
-    'nanoavionics_rw0': (0.020, 6500.0, 0.0032, 5.0e-5),
-    'honeywell_hr12_12': (12.0, 6000.0, 0.200, 5.0e-4),
-    'honeywell_hr16_100': (100.0, 6000.0, 0.200, 5.0e-4),
+# name: (momentum N m s, top speed rpm or None, rotor inertia kg m^2 or None, torque N m,
+#        Coulomb N m or None where the document gives none), each from the document beside it
+DOCUMENTS = {
+    # Basilisk src/utilities/simIncludeRW.py at babdff7a (2026-07-24), BCT_RWP015:
+    # maxMomentum = 0.015, Omega_max = 6000.0 rpm, u_max = 0.004, fCoulomb = 0.00005
+    'bct_rwp015': (0.015, 6000.0, None, 0.004, 5.0e-5),
+    # the same file, NanoAvionics_RW0: maxMomentum = 20.0e-3, Omega_max = 6500.0 rpm,
+    # u_max = 3.2e-3, fCoulomb = 0.00005
+    'nanoavionics_rw0': (20.0e-3, 6500.0, None, 3.2e-3, 5.0e-5),
+    # the same file, Honeywell_HR12 with maxMomentum = 12 (its small size): Omega_max = 6000.0 rpm,
+    # u_max = 0.200, fCoulomb = 0.0005
+    'honeywell_hr12_12': (12.0, 6000.0, None, 0.200, 0.0005),
+    # the same file, Honeywell_HR16 with maxMomentum = 100 (its large size): Omega_max = 6000.0
+    # rpm, u_max = 0.200, fCoulomb = 0.0005
+    'honeywell_hr16_100': (100.0, 6000.0, None, 0.200, 0.0005),
+    # Rocket Lab "RW-0.06 Data Sheet", Version 3.0, 2024-08-02: "Peak: +-0.18 Nms (at 28 V)",
+    # "+-20 mNm at 0.12 Nms (at 28 V)", no friction figure; "60 mNms RW-0.06 Interface Control
+    # Document", Rev. 2.0, 2021-06-28, Table 2: rotor inertia Izz 8.66 x 10^-5 kg-m2 (Z the spin
+    # axis, its Figure 1)
+    'rocketlab_rw_0_06': (0.18, None, 8.66e-5, 20.0e-3, None),
 }
+#: the rows whose numbers rest on Basilisk's table, not on a document read for this one
+FROM_BASILISK = {'bct_rwp015', 'nanoavionics_rw0', 'honeywell_hr12_12', 'honeywell_hr16_100'}
 
 
 def wheels_scene(*wheels):
@@ -48,16 +66,51 @@ def wheels_scene(*wheels):
     )
 
 
-@pytest.mark.parametrize('name', sorted(DATASHEETS))
-def test_a_preset_loads_its_datasheet_values(name):
-    """Js = H_max / top speed and the limits, to 2 rounding units (one division, one product)."""
-    momentum, rpm, torque, coulomb = DATASHEETS[name]
+def test_every_preset_has_its_documents_transcribed_here():
+    assert set(DOCUMENTS) == set(PRESETS)
+
+
+@pytest.mark.parametrize('name', sorted(DOCUMENTS))
+def test_a_preset_loads_its_documents_values(name):
+    """Js and the top speed from the document's pair, to 2 rounding units (product, division)."""
+    momentum, rpm, rotor_inertia, torque, coulomb = DOCUMENTS[name]
     (row,) = wheels_scene({'preset': name, 'axis': [0.0, 0.0, 1.0]}).effects[0].rows
-    top = rpm * RPM
+    if rpm is not None:  # the document gives the top speed: Js = H_max / top speed
+        top = rpm * RPM
+        spin_inertia = momentum / top
+    else:  # the document gives the rotor: the top speed is where it holds H_max
+        spin_inertia = rotor_inertia
+        top = momentum / rotor_inertia
     assert row[5] == pytest.approx(top, rel=4.5e-16)
-    assert row[3] == pytest.approx(momentum / top, rel=4.5e-16)
-    assert row[4] == torque and row[8] == coulomb
-    assert PRESETS[name].source  # every row names its datasheet
+    assert row[3] == pytest.approx(spin_inertia, rel=4.5e-16)
+    assert row[4] == torque
+    assert row[8] == (0.0 if coulomb is None else coulomb)  # none given: the wheel's default 0
+
+
+@pytest.mark.parametrize('name', sorted(DOCUMENTS))
+def test_a_preset_stores_its_capacity_at_its_top_speed(name):
+    """Js x top speed is the document's H_max, to 2 rounding units (a division, then a product)."""
+    (row,) = wheels_scene({'preset': name, 'axis': [1.0, 0.0, 0.0]}).effects[0].rows
+    assert row[3] * row[5] == pytest.approx(DOCUMENTS[name][0], rel=4.5e-16)
+
+
+@pytest.mark.parametrize('name', sorted(DOCUMENTS))
+def test_a_preset_names_what_its_numbers_rest_on(name):
+    source = PRESETS[name].source
+    assert re.search(r'\b(19|20)\d\d\b', source)  # a dated document
+    rests_on_basilisk = 'simIncludeRW.py' in source and 'not checked' in source
+    assert rests_on_basilisk == (name in FROM_BASILISK)
+
+
+def test_a_preset_without_a_friction_figure_leaves_the_wheels_own():
+    """The RW-0.06 documents give no friction: the wheel's coulomb is its own, default 0."""
+    effect = wheels_scene(
+        {'preset': 'rocketlab_rw_0_06', 'axis': [1.0, 0.0, 0.0]},
+        {'preset': 'rocketlab_rw_0_06', 'axis': [0.0, 1.0, 0.0], 'coulomb': 2.0e-4},
+    ).effects[0]
+    first, second = effect.rows
+    assert first[8] == 0.0 and second[8] == 2.0e-4
+    assert 'coulomb' not in PRESETS['rocketlab_rw_0_06'].fields()
 
 
 def test_a_field_given_beside_a_preset_wins():

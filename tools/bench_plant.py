@@ -39,48 +39,31 @@ import sys
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_report import fastest, Report, spread  # noqa: E402
+from bench_report import commanded_scene, dispersed_bodies, fastest, Report, spread  # noqa: E402
 
 BODIES = 1_000
 RATE = 10.0
 STEPS = 200  # one-body steps timed per call
 BATCH_STEPS = 10
 LONE = 20  # of the dispersed explorer1 bodies, each run alone: the per-body reference
-
-
-def _commanded_scene(inertia, omega):
-    from torquefree_ros.core.scene.loader import scene_from_mapping
-
-    return scene_from_mapping(
-        {
-            'body': {'inertia': list(inertia)},
-            'initial': {'angular_velocity': list(omega)},
-            'effects': [
-                {'damper': {'inertia': 0.05, 'damping': 0.01}},
-                {'torque_command': {'max_torque': 1.0}},
-            ],
-            'accuracy': 1e-10,
-        }
-    )
-
-
-def _dispersed(count, seed):
-    import numpy as np
-
-    rng = np.random.default_rng(seed)
-    inertia = np.array([2.0, 4.6, 4.95]) * (1 + 0.02 * rng.standard_normal((count, 3)))
-    omega = np.array([6.0, 0.05, 0.0]) + 0.1 * rng.standard_normal((count, 3))
-    return inertia, omega
+DAMPER = {'inertia': 0.05, 'damping': 0.01}
 
 
 def measure_round(calls: int) -> dict:
     import numpy as np
     from torquefree_ros import load_scene, Plant
 
-    inertia, omega = _dispersed(BODIES, seed=1)
+    inertia, omega = dispersed_bodies(
+        BODIES,
+        seed=1,
+        inertia=[2.0, 4.6, 4.95],
+        angular_velocity=[6.0, 0.05, 0.0],
+        inertia_spread=0.02,
+        rate_spread=0.1,
+    )
     torques = 0.01 * np.random.default_rng(2).standard_normal((BODIES, 3))
 
-    one = Plant(_commanded_scene(inertia[0], omega[0]), RATE)
+    one = Plant(commanded_scene(inertia[0], omega[0], DAMPER), RATE)
     one.step(torques[0])  # compile or load the kernels outside the timing
 
     def one_body():
@@ -89,7 +72,7 @@ def measure_round(calls: int) -> dict:
 
     step_one = fastest(one_body, calls) / STEPS
 
-    batch = Plant([_commanded_scene(i, w) for i, w in zip(inertia, omega)], RATE)
+    batch = Plant([commanded_scene(i, w, DAMPER) for i, w in zip(inertia, omega)], RATE)
     batch.step(torques)
 
     def batched():

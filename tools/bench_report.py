@@ -13,11 +13,12 @@
 # limitations under the License.
 
 """
-What every benchmark script prints and keeps.
+What every benchmark script prints and keeps, and the bodies the batch benchmarks share.
 
 The lines it measured, under a header with the command that made them, the date and the machine,
 written to ``--output`` (committed under ``docs/bench/``) so that every figure the README quotes
-has its source.
+has its source. The batch benchmarks (``bench_plant.py``, ``bench_sensors.py``) run seeded
+dispersions of one body with a damper under a commanded torque.
 """
 
 from __future__ import annotations
@@ -73,6 +74,63 @@ def _number(value: float) -> str:
     if abs(value) >= 1000:
         return f'{float(f"{value:.3g}"):,.0f}'
     return f'{value:.3g}'
+
+
+def dispersed_bodies(
+    count: int,
+    *,
+    seed: int,
+    inertia,
+    angular_velocity,
+    inertia_spread: float,
+    rate_spread: float,
+    body_by_body: bool = False,
+):
+    """
+    Return ``count`` seeded bodies about a nominal one: inertias and rates, each ``(count, 3)``.
+
+    An inertia is the nominal times ``1 + inertia_spread N``, a rate the nominal plus
+    ``rate_spread N`` (rad/s), the N standard normals of ``numpy.random.default_rng(seed)`` drawn
+    all the inertias' first, then all the rates', or ``body_by_body``: each body's inertia, then
+    its rates.
+    """
+    import numpy as np
+
+    rng = np.random.default_rng(seed)
+    if body_by_body:
+        draws = rng.standard_normal((count, 2, 3))
+        inertia_draws, rate_draws = draws[:, 0], draws[:, 1]
+    else:
+        inertia_draws = rng.standard_normal((count, 3))
+        rate_draws = rng.standard_normal((count, 3))
+    return (
+        np.asarray(inertia, float) * (1 + inertia_spread * inertia_draws),
+        np.asarray(angular_velocity, float) + rate_spread * rate_draws,
+    )
+
+
+def commanded_scene(inertia, angular_velocity, damper: dict, effects=(), **fields):
+    """
+    Return a body with a damper under a commanded torque (at most 1 N m), DOP853 at 1e-10.
+
+    ``damper``: the damper's parameters; ``effects`` follow the two; ``fields``: further scene
+    fields (``orbit``).
+    """
+    from torquefree_ros.core.scene.loader import scene_from_mapping
+
+    return scene_from_mapping(
+        {
+            'body': {'inertia': [float(x) for x in inertia]},
+            'initial': {'angular_velocity': [float(x) for x in angular_velocity]},
+            'effects': [
+                {'damper': damper},
+                {'torque_command': {'max_torque': 1.0}},
+                *effects,
+            ],
+            'accuracy': 1e-10,
+            **fields,
+        }
+    )
 
 
 class Report:

@@ -96,9 +96,9 @@ w_c`` where the ideal law has it stuck. In the band the wheel's time constant is
 F(w_c)``: an explicit integrator's steps there are a few of it (DOP853's stability bound).
 
 Presets. A wheel's ``preset: NAME`` names a published wheel (:mod:`.wheel_presets`: the table,
-each row with its datasheet and date) and fills its ``spin_inertia``, ``max_torque``,
-``max_speed`` and ``coulomb``; any of them written beside the preset wins. An unknown name is
-refused at ``wheels[i].preset`` with the known ones.
+each row with its source and date) and fills its ``spin_inertia``, ``max_torque``,
+``max_speed`` and ``coulomb`` where its source gives one; any of them written beside the preset
+wins. An unknown name is refused at ``wheels[i].preset`` with the known ones.
 
 The ``wheel_states`` output (:class:`WheelStates`) reports each wheel's angle, speed and the motor
 torque it applies after the limits; :class:`WheelMonitor` what ``/diagnostics`` says of them.
@@ -163,7 +163,8 @@ _WHEEL_FIELDS = {
     'preset': Param(
         choice(*PRESETS),
         None,
-        'a published wheel whose spin_inertia, max_torque, max_speed and coulomb it fills '
+        'a published wheel whose spin_inertia, max_torque, max_speed and coulomb (where its '
+        'source gives one) it fills '
         '(any of them given beside it wins): ' + ', '.join(PRESETS),
     ),
     'name': Param(

@@ -15,13 +15,21 @@
 """
 Reaction wheel presets: published wheels by name (a wheel's ``preset: NAME`` in a scene).
 
-A preset fills a wheel's ``spin_inertia``, ``max_torque``, ``max_speed`` and ``coulomb``; any of
-them written beside the preset wins. Each row names its datasheet and that datasheet's date. A
-datasheet gives the momentum capacity ``H_max`` at the top speed, not the spin inertia: ``Js =
-H_max / max_speed``, as Basilisk's ``simIncludeRW.rwFactory`` derives it. Datasheets do not give
-the friction: the Coulomb levels are Basilisk's own estimates for these wheels
-(``src/utilities/simIncludeRW.py``, the factory every Basilisk user takes wheels from), so that the
-two simulators start from the same wheel; a scene that knows better writes its own ``coulomb``.
+A preset fills a wheel's ``spin_inertia``, ``max_torque`` and ``max_speed``, and its ``coulomb``
+where its source gives one; any of them written beside the preset wins. A wheel's documents give
+the momentum capacity ``H_max`` and either the top speed (then ``Js = H_max / max_speed``, as
+Basilisk's ``simIncludeRW.rwFactory`` derives it) or the rotor's inertia about the spin axis (then
+the top speed is ``H_max / Js``). A row's ``source`` names what its numbers rest on, and a row
+rests on one of two things:
+
+- the manufacturer's own documents, read for this table (``rocketlab_rw_0_06``): every number is
+  theirs, and where they give no friction the preset leaves ``coulomb`` to the wheel (default 0);
+- Basilisk's ``src/utilities/simIncludeRW.py`` (the factory Basilisk users take wheels from), whose
+  numbers the row carries because the datasheet it cites is not at hand to read (the four others):
+  the source names that datasheet and says it was not checked; the Coulomb level is Basilisk's own
+  estimate (it names no source for it), so the two simulators start from the same wheel.
+
+A scene that knows better writes its own fields beside the preset.
 """
 
 from __future__ import annotations
@@ -33,66 +41,106 @@ RPM = 2.0 * math.pi / 60.0  # rad/s per rpm
 
 
 class WheelPreset(NamedTuple):
-    """One published wheel: its numbers in SI units and where they come from."""
+    """One published wheel: its numbers in SI units and what they rest on."""
 
-    momentum: float  # N m s at max_speed (the datasheet's capacity)
-    max_speed: float  # rad/s
+    momentum: float  # N m s, the capacity H_max at the top speed
+    max_speed: float | None  # rad/s, where the source gives the top speed (else H_max / Js)
     max_torque: float  # N m
-    coulomb: float  # N m (an estimate: see the module's docstring)
+    coulomb: float | None  # N m, where the source gives one (None: the wheel's own, default 0)
     source: str
+    rotor_inertia: float | None = None  # kg m^2 about the spin axis, where the source gives it
 
     @property
     def spin_inertia(self) -> float:
-        """Return ``Js = momentum / max_speed``, kg m^2."""
+        """Return ``Js``, kg m^2: the rotor's inertia where given, else ``H_max / max_speed``."""
+        if self.rotor_inertia is not None:
+            return self.rotor_inertia
         return self.momentum / self.max_speed
+
+    @property
+    def top_speed(self) -> float:
+        """Return the top speed, rad/s: the source's where given, else ``H_max / Js``."""
+        if self.max_speed is not None:
+            return self.max_speed
+        return self.momentum / self.rotor_inertia
 
     def fields(self) -> dict:
         """Return the wheel fields it fills, by their scene names."""
-        return {
+        filled = {
             'spin_inertia': self.spin_inertia,
             'max_torque': self.max_torque,
-            'max_speed': self.max_speed,
-            'coulomb': self.coulomb,
+            'max_speed': self.top_speed,
         }
+        if self.coulomb is not None:
+            filled['coulomb'] = self.coulomb
+        return filled
 
+
+_BASILISK = "Basilisk's src/utilities/simIncludeRW.py (AVSLab/basilisk at babdff7a, 2026-07-24)"
 
 #: preset name -> wheel
 PRESETS: dict[str, WheelPreset] = {
-    # Blue Canyon Technologies RWP015: 0.015 N m s, 4 mN m, 6000 rpm
+    # 0.015 N m s, 6000 rpm, 4 mN m; Coulomb 50 uN m
     'bct_rwp015': WheelPreset(
         0.015,
         6000.0 * RPM,
         0.004,
         5.0e-5,
-        'Blue Canyon Technologies, "Reaction Wheels" datasheet '
-        '(BCT_DataSheet_Components_ReactionWheels_F2.pdf, October 2019)',
+        f'Blue Canyon Technologies RWp015, the numbers as {_BASILISK} carries them in '
+        "BCT_RWP015 ('Not complete; fields not listed are estimates'), citing BCT's "
+        '"Reaction Wheels" datasheet (BCT_DataSheet_Components_ReactionWheels_F2.pdf, October '
+        "2019), which was not at hand: not checked against it; Coulomb is Basilisk's estimate",
     ),
-    # NanoAvionics RW0: 20 mN m s, 3.2 mN m, 6500 rpm
+    # 20 mN m s, 6500 rpm, 3.2 mN m; Coulomb 50 uN m
     'nanoavionics_rw0': WheelPreset(
         0.020,
         6500.0 * RPM,
         0.0032,
         5.0e-5,
-        'NanoAvionics, "CubeSat Reaction Wheels Control System SatBus 4RW0" product page '
-        '(undated; its numbers as Basilisk simIncludeRW.py carries them, read 2026-11-28)',
+        f'NanoAvionics RW0, the numbers as {_BASILISK} carries them in NanoAvionics_RW0 (added '
+        '2025-10-13), citing the NanoAvionics web page "CubeSat Reaction Wheels Control System '
+        'SatBus 4RW0" (undated); not checked against the data sheet "Reaction Wheels" '
+        'NA-4RW0-G0-R9 (Rev. 9, 2019-09-19), whose tables its stored copy does not reach; '
+        'Coulomb is the Basilisk estimate (its "Guestimate")',
     ),
-    # Honeywell HR12 in its 12 N m s size: 0.2 N m, 6000 rpm
+    # 12 N m s (the smallest of 12, 25, 50), 6000 rpm, 0.2 N m; Coulomb 0.5 mN m
     'honeywell_hr12_12': WheelPreset(
         12.0,
         6000.0 * RPM,
         0.200,
         5.0e-4,
-        'Honeywell, "Constellation Series Reaction Wheels" datasheet (undated PDF; its numbers '
-        'as Basilisk simIncludeRW.py carries them, read 2026-11-28)',
+        f'Honeywell HR12 in its 12 N m s size, the numbers as {_BASILISK} carries them in '
+        'Honeywell_HR12, citing the Honeywell "Constellation Series Reaction Wheels" datasheet '
+        '(Constellation_Series_Reaction_Wheels.pdf, undated), which was not at hand: not checked '
+        "against it; Coulomb is Basilisk's estimate",
     ),
-    # Honeywell HR16 in its 100 N m s size: 0.2 N m, 6000 rpm
+    # 100 N m s (the largest of 50, 75, 100), 6000 rpm, 0.2 N m; Coulomb 0.5 mN m
     'honeywell_hr16_100': WheelPreset(
         100.0,
         6000.0 * RPM,
         0.200,
         5.0e-4,
-        'Honeywell, "Constellation Series Reaction Wheels" datasheet (undated PDF; its numbers '
-        'as Basilisk simIncludeRW.py carries them, read 2026-11-28)',
+        f'Honeywell HR16 in its 100 N m s size, the numbers as {_BASILISK} carries them in '
+        'Honeywell_HR16, citing the Honeywell "Constellation Series Reaction Wheels" datasheet '
+        '(Constellation_Series_Reaction_Wheels.pdf, undated), which was not at hand: not checked '
+        "against it; Coulomb is Basilisk's estimate",
+    ),
+    # 0.18 N m s peak at 28 V, rotor 8.66e-5 kg m^2 (so 2079 rad/s, 19 848 rpm), 20 mN m; no
+    # friction figure. Its torque box at 28 V holds about 20 mN m out to about 0.17 N m s, so a
+    # constant limit up to the peak fits it. Its steady-state input power (0.5 W at 0.06 N m s,
+    # 0.9 W at 0.12 N m s) bounds the drag torque at those speeds (input power >= drag torque x
+    # speed) by 0.72 and 0.65 mN m.
+    'rocketlab_rw_0_06': WheelPreset(
+        0.18,
+        None,
+        0.020,
+        None,
+        'Rocket Lab (Sinclair Interplanetary) RW-0.06, read from "Reaction Wheel RW-0.06 Data '
+        'Sheet" (Version 3.0, 2024-08-02: momentum peak 0.18 N m s at 28 V, torque 20 mN m) and '
+        '"Reaction Wheel 60 mNms RW-0.06 Interface Control Document" (Rev. 2.0, 2021-06-28, '
+        'Table 2: RW3-0.06 rotor inertia Izz 8.66e-5 kg m^2 about the spin axis); they give no '
+        "friction, so the wheel's own coulomb applies",
+        rotor_inertia=8.66e-5,
     ),
 }
 
