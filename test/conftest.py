@@ -105,6 +105,35 @@ def pytest_collection_modifyitems(items):
     assert not missing, f'give ACCURATE_SETTINGS for new propagators: {missing}'
 
 
+# -- one DDS participant a process: Fast DDS can deadlock destroying a participant while another
+# participant of the same process discovers it (seen: a test's node teardown spinning forever in
+# DomainParticipant::set_listener while the other participant's event thread waited on its
+# discovery mutex). Each rclpy context is one participant, with one 'dds.ev.N' thread. A test that
+# leaves a second one alive (a module's shared node beside a test's own) fails here, by name.
+def _dds_participants() -> int:
+    tasks = f'/proc/{os.getpid()}/task'
+    if not os.path.isdir(tasks):  # not Linux: nothing to count by
+        return 0
+    count = 0
+    for task in os.listdir(tasks):
+        try:
+            with open(f'{tasks}/{task}/comm') as comm:
+                count += comm.read().startswith('dds.ev')
+        except OSError:  # the thread ended meanwhile
+            pass
+    return count
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_call(item):
+    yield
+    participants = _dds_participants()
+    assert participants <= 1, (
+        f'{participants} DDS participants alive in one test process during {item.nodeid}: run the '
+        "tests that start their own node before (or apart from) a module's shared one"
+    )
+
+
 # -- DDS isolation: each test session owns a ROS domain, so parallel runs never see each other ----
 _domain = None
 

@@ -313,97 +313,6 @@ BAD_VALUES = [
 ]
 
 
-@pytest.fixture(scope='module')
-def shared_harness():
-    with connected_harness(publish_rate=100.0) as h:
-        yield h
-
-
-@pytest.mark.parametrize(
-    'name, value, reason', BAD_VALUES, ids=[f'{n}={v!r}' for n, v, _ in BAD_VALUES]
-)
-def test_bad_values_are_rejected_with_a_reason_and_nothing_changes(
-    shared_harness, name, value, reason
-):
-    h = shared_harness
-    old = h.get_parameter(name)
-    (result,) = h.set_parameters(**{name: value})
-    assert not result.successful
-    assert name in result.reason and reason in result.reason, result.reason
-    assert h.get_parameter(name) == old
-    last = h.pairs()[-1][0] if h.pairs() else None
-    assert_run_follows(h.wait_samples(3, after=last), DEFAULT)
-
-
-def test_undeclared_and_unset_parameters_are_rejected(shared_harness):
-    from rclpy.parameter import Parameter
-
-    (result,) = shared_harness.set_parameters(no_such_parameter=1.0)
-    assert not result.successful and 'no_such_parameter: not a parameter' in result.reason
-    assert not shared_harness.node.has_parameter('no_such_parameter')
-    future = shared_harness.parameters.set_parameters(
-        [Parameter('publish_rate', Parameter.Type.NOT_SET)]
-    )
-    (result,) = shared_harness.wait_future(future, 'unset').results
-    assert not result.successful and 'publish_rate' in result.reason
-    assert shared_harness.get_parameter('publish_rate') == 100.0
-
-
-def test_rclpy_own_parameters_stay_settable(shared_harness):
-    (result,) = shared_harness.set_parameters(use_sim_time=False)
-    assert result.successful, result.reason
-
-
-def test_an_atomic_set_with_one_bad_value_changes_nothing(shared_harness):
-    result = shared_harness.set_parameters_atomically(
-        inertia=[1.0, 2.0, 3.0], angular_velocity=[1.0, math.inf, 0.0]
-    )
-    assert not result.successful and 'angular_velocity' in result.reason
-    assert shared_harness.get_parameter('inertia') is None  # still "the scene's"
-
-
-def test_a_run_needing_too_many_steps_per_sample_is_refused_at_once(shared_harness):
-    from torquefree_ros.ros.parameters import MAX_STEPS_PER_SAMPLE
-
-    started = time.monotonic()
-    # rk4's 1 ms step at 0.05 Hz: 20 000 steps per sample, over the node's bound
-    result = shared_harness.set_parameters_atomically(propagator='rk4', publish_rate=0.05)
-    assert time.monotonic() - started < 5.0
-    assert not result.successful
-    assert (
-        f'rk4: reaching t = 20 s needs more than {MAX_STEPS_PER_SAMPLE:,} steps' in result.reason
-    ), result.reason
-    assert shared_harness.get_parameter('propagator') == 'auto'
-    last = shared_harness.pairs()[-1][0]
-    assert_run_follows(shared_harness.wait_samples(3, after=last), DEFAULT)
-
-
-def test_reset_refuses_a_scene_that_became_unusable(shared_harness, tmp_path):
-    h = shared_harness
-    scene = tmp_path / 'scene.yaml'
-    scene.write_text(
-        'body: {inertia: [3.0, 2.0, 1.0]}\ninitial: {angular_velocity: [0.3, 0.2, 1.0]}\n'
-    )
-    (result,) = h.set_parameters(scene=str(scene))
-    assert result.successful, result.reason
-    scene.write_text(
-        'body: {inertia: [1.0, 1.0, 5.0]}\ninitial: {angular_velocity: [0.3, 0.2, 1.0]}\n'
-    )
-    before = h.node.sample_loop.simulation
-    response = h.reset()
-    assert not response.success
-    assert (
-        'scene' in response.message
-        and 'body.inertia' in response.message
-        and 'triangle' in response.message
-    )
-    assert h.node.sample_loop.simulation is before
-    last = h.pairs()[-1][0]
-    assert_run_follows(h.wait_samples(3, after=last), DEFAULT)
-    (result,) = h.set_parameters(scene='')
-    assert result.successful
-
-
 def test_bad_start_up_parameters_raise_a_configuration_error_naming_them():
     with pytest.raises(ConfigurationError, match='inertia.*triangle'):
         SimHarness(inertia=[1.0, 1.0, 3.0])
@@ -536,6 +445,100 @@ def test_the_installed_parameter_file_configures_the_node_in_any_namespace(tmp_p
         assert h.node.sample_loop.request.body_frame == 'sat1/hull'
     finally:
         h.close()
+
+
+# The node shared by the tests below: they come after every test that starts its own node in
+# this process, so that no two DDS participants live in one process at once (Fast DDS can
+# deadlock destroying one while the other discovers it).
+@pytest.fixture(scope='module')
+def shared_harness():
+    with connected_harness(publish_rate=100.0) as h:
+        yield h
+
+
+@pytest.mark.parametrize(
+    'name, value, reason', BAD_VALUES, ids=[f'{n}={v!r}' for n, v, _ in BAD_VALUES]
+)
+def test_bad_values_are_rejected_with_a_reason_and_nothing_changes(
+    shared_harness, name, value, reason
+):
+    h = shared_harness
+    old = h.get_parameter(name)
+    (result,) = h.set_parameters(**{name: value})
+    assert not result.successful
+    assert name in result.reason and reason in result.reason, result.reason
+    assert h.get_parameter(name) == old
+    last = h.pairs()[-1][0] if h.pairs() else None
+    assert_run_follows(h.wait_samples(3, after=last), DEFAULT)
+
+
+def test_undeclared_and_unset_parameters_are_rejected(shared_harness):
+    from rclpy.parameter import Parameter
+
+    (result,) = shared_harness.set_parameters(no_such_parameter=1.0)
+    assert not result.successful and 'no_such_parameter: not a parameter' in result.reason
+    assert not shared_harness.node.has_parameter('no_such_parameter')
+    future = shared_harness.parameters.set_parameters(
+        [Parameter('publish_rate', Parameter.Type.NOT_SET)]
+    )
+    (result,) = shared_harness.wait_future(future, 'unset').results
+    assert not result.successful and 'publish_rate' in result.reason
+    assert shared_harness.get_parameter('publish_rate') == 100.0
+
+
+def test_rclpy_own_parameters_stay_settable(shared_harness):
+    (result,) = shared_harness.set_parameters(use_sim_time=False)
+    assert result.successful, result.reason
+
+
+def test_an_atomic_set_with_one_bad_value_changes_nothing(shared_harness):
+    result = shared_harness.set_parameters_atomically(
+        inertia=[1.0, 2.0, 3.0], angular_velocity=[1.0, math.inf, 0.0]
+    )
+    assert not result.successful and 'angular_velocity' in result.reason
+    assert shared_harness.get_parameter('inertia') is None  # still "the scene's"
+
+
+def test_a_run_needing_too_many_steps_per_sample_is_refused_at_once(shared_harness):
+    from torquefree_ros.ros.parameters import MAX_STEPS_PER_SAMPLE
+
+    started = time.monotonic()
+    # rk4's 1 ms step at 0.05 Hz: 20 000 steps per sample, over the node's bound
+    result = shared_harness.set_parameters_atomically(propagator='rk4', publish_rate=0.05)
+    assert time.monotonic() - started < 5.0
+    assert not result.successful
+    assert (
+        f'rk4: reaching t = 20 s needs more than {MAX_STEPS_PER_SAMPLE:,} steps' in result.reason
+    ), result.reason
+    assert shared_harness.get_parameter('propagator') == 'auto'
+    last = shared_harness.pairs()[-1][0]
+    assert_run_follows(shared_harness.wait_samples(3, after=last), DEFAULT)
+
+
+def test_reset_refuses_a_scene_that_became_unusable(shared_harness, tmp_path):
+    h = shared_harness
+    scene = tmp_path / 'scene.yaml'
+    scene.write_text(
+        'body: {inertia: [3.0, 2.0, 1.0]}\ninitial: {angular_velocity: [0.3, 0.2, 1.0]}\n'
+    )
+    (result,) = h.set_parameters(scene=str(scene))
+    assert result.successful, result.reason
+    scene.write_text(
+        'body: {inertia: [1.0, 1.0, 5.0]}\ninitial: {angular_velocity: [0.3, 0.2, 1.0]}\n'
+    )
+    before = h.node.sample_loop.simulation
+    response = h.reset()
+    assert not response.success
+    assert (
+        'scene' in response.message
+        and 'body.inertia' in response.message
+        and 'triangle' in response.message
+    )
+    assert h.node.sample_loop.simulation is before
+    last = h.pairs()[-1][0]
+    assert_run_follows(h.wait_samples(3, after=last), DEFAULT)
+    (result,) = h.set_parameters(scene='')
+    assert result.successful
 
 
 def _start_node(*ros_args):
