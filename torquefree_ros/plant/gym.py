@@ -141,7 +141,7 @@ except ImportError as error:  # pragma: no cover - the extra is not installed
 
 from .plant import _as_scene, Plant, PlantState
 from ..core.body.rigid_body import RigidBody
-from ..core.frames import quaternion
+from ..core.effects.sensors import body_frame, environment_at
 from ..core.scene.loader import Scene
 
 __all__ = ['ENV_ID', 'AttitudeEnv', 'AttitudeVectorEnv', 'DetumbleReward']
@@ -612,24 +612,15 @@ def _field_B(scenes: list, t: float, q_NB: np.ndarray) -> np.ndarray:
     Return the Earth's field in each body's frame at scene time ``t``, T, a row per body.
 
     ``B_B = R(q_NB)^T B_N(r(t), t)``: the field model the scene's ``magnetorquers`` feel (their
-    ``field``), evaluated exactly at the orbit's position at ``t`` (``Place.field_N``, as the
-    ``magnetometer`` does), turned into body axes with the magnetometer's operations
-    (``quaternion.rotate_values`` by the conjugate, on columns: each row the same floats as
-    alone). The truth, without a sensor's errors. Bodies on one orbit share one evaluation.
+    ``field``) at the orbit's position at ``t``, through the magnetometer's own two steps
+    (``sensors.environment_at``: bodies on one orbit share one evaluation; ``sensors.body_frame``).
+    The truth, without a sensor's errors.
     """
     times = np.array([float(t)])
-    fields: dict = {}
-    field_N = np.empty((len(scenes), 3))
-    for row, scene in enumerate(scenes):
-        key = (scene.orbit, _rods(scene).values['field'])
-        if key not in fields:
-            place, model = key
-            fields[key] = place.field_N(times, place.state(times)[0], model)[0]
-        field_N[row] = fields[key]
-    q = np.asarray(q_NB, dtype=float)
-    return np.column_stack(
-        quaternion.rotate_values(quaternion.conjugate_values(q.T), field_N.T)
-    )
+    field_N = np.vstack([
+        environment_at(scene.orbit, times, _rods(scene).values['field']) for scene in scenes
+    ])
+    return body_frame(np.asarray(q_NB, dtype=float).reshape(-1, 4), field_N)
 
 
 def _mask(n: int, bodies: np.ndarray) -> np.ndarray:
