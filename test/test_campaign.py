@@ -325,7 +325,7 @@ def test_the_default_chunk_grows_with_the_runs_per_worker_within_its_bounds():
     from torquefree_ros.campaigns.engine import chunk_runs, expected_workers
 
     def campaign(runs, samples=1001):
-        return SimpleNamespace(runs=runs, samples=samples)
+        return SimpleNamespace(runs=runs, samples=samples, steps_plant=False)
 
     assert chunk_runs(campaign(10_000)) == 256  # workers unknown
     assert chunk_runs(campaign(10_000), None, 2) == 625  # 10 000 / (8 * 2): 16 chunks, 8 a worker
@@ -335,6 +335,9 @@ def test_the_default_chunk_grows_with_the_runs_per_worker_within_its_bounds():
     # 128 MiB of samples: 2**27 // (100 001 samples * 15 numbers * 8 bytes) = 11 runs
     assert chunk_runs(campaign(10_000, samples=100_001), None, 2) == 11
     assert chunk_runs(campaign(10_000), 7, 2) == 7
+    # a plant stepped with a controller: at most STEPPED_CHUNK_BODY_STEPS body-steps a chunk;
+    # 1 000 000 // (1 702 * 10 + 1) plant samples = 58 runs (the library's bdot_detumble)
+    assert chunk_runs(load_campaign('bdot_detumble'), None, 2) == 58
     assert expected_workers('in-process', None) == 1
     assert expected_workers('local', 3) == 3
     assert expected_workers(None, None) == (os.cpu_count() or 1)

@@ -35,8 +35,10 @@ import pytest
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from torquefree_ros import Plant
-from torquefree_ros.bag import BagReader
+from torquefree_ros.bag import BagReader, BagWriter
+from torquefree_ros.bag.cdr import decode_joint_state, decode_stamped_doubles
 from torquefree_ros.bag.offline import write_scene_bag
+from torquefree_ros.bag.samples import encode_command
 from torquefree_ros.core.checks.schema import FieldError
 from torquefree_ros.core.commands.hold import CommandHold, Override
 from torquefree_ros.core.run.simulation import Simulation
@@ -65,15 +67,15 @@ def torque_scene(faults=(), inertia=(SPHERE, SPHERE, SPHERE), omega=(0.0, 0.0, 0
     )
 
 
-def wheel_scene(faults=(), mode='torque'):
+def wheel_scene(faults=(), mode='torque', bandwidth=10.0):
     wheel = {'name': 'z', 'axis': [0.0, 0.0, 1.0], 'spin_inertia': JS, 'max_torque': MAX_TORQUE,
              'max_speed': 1000.0, 'speed': SPEED0}
+    wheels = {'mode': mode, 'timeout': 100.0, 'wheels': [wheel], 'speed_bandwidth': bandwidth}
     return scene_from_mapping(
         {
             'body': {'inertia': [4.0, 5.0, I_Z]},
             'initial': {'angular_velocity': [0.0, 0.0, 0.0]},
-            'effects': [{'reaction_wheels': {'mode': mode, 'timeout': 100.0, 'wheels': [wheel]}},
-                        {'wheel_states': {}}],
+            'effects': [{'reaction_wheels': wheels}, {'wheel_states': {}}],
             'faults': list(faults),
             'accuracy': 1e-12,
         },
@@ -231,6 +233,113 @@ def test_a_wheel_torque_error_changes_the_speed_s_slope_by_exactly_its_scale_and
         np.testing.assert_array_equal(stepped, speeds)
 
 
+# -- a speed drive's torque error -----------------------------------------------------------------
+BANDWIDTH, SET_POINT = 1e-3, 30.0  # rad/s: K = Js BANDWIDTH = 2e-4 N m s, under max_torque
+SPEED_FAULTS = [
+    {'wheel_torque_error': {'wheel': 'z', 'start': 1.0, 'end': 2.0, 'scale': 0.6, 'bias': 0.01}},
+    {'wheel_torque_error': {'wheel': 'z', 'start': 2.5, 'end': 3.0, 'scale': 3.0}},
+    {'wheel_torque_error': {'wheel': 'z', 'start': 2.5, 'end': 2.8, 'scale': 0.5, 'bias': -0.004}},
+]
+
+
+def loop_error(k):
+    """Return ``(scale, bias)`` of interval ``k`` from the faults' text (list order composed)."""
+    if 10 <= k < 20:
+        return 0.6, 0.01
+    if 25 <= k < 28:
+        return 0.5 * 3.0, -0.004  # 0.5 (3 u) - 0.004
+    if 28 <= k < 30:
+        return 3.0, 0.0
+    return 1.0, 0.0
+
+
+def test_a_speed_drive_s_torque_error_scales_and_offsets_its_loop_s_output(integrator_path):
+    """
+    ``Js_eff Omega' = s K (Omega_ref - Omega) + b``: an exponential in closed form per interval.
+
+    ``Omega(t) = Omega_inf + (Omega_k - Omega_inf) exp(-s K (t - t_k) / Js_eff)``, ``Omega_inf =
+    Omega_ref + b / (s K)``, interval after interval (a frictionless wheel on the principal axis
+    of a body at rest; every asked torque within ``max_torque``). DOP853 at rtol 1e-12: 1e-10
+    relative. ``wheel_states``' effort is ``s K (Omega_ref - Omega_k) + b`` of the interval ending
+    at each sample (the same operations: 1e-15 relative); the plant equals the node's compiled
+    path bit for bit.
+    """
+    count = 40
+    scene = wheel_scene(SPEED_FAULTS, mode='speed', bandwidth=BANDWIDTH)
+    simulation = Simulation(scene.propagator(), RATE, outputs=scene.outputs, faults=scene.faults)
+    ((effect, hold),) = simulation.command_holds
+    blocks = [simulation.samples(0, 1)]
+    for k in range(count):
+        assert effect.receive(hold.stamp_ns(k), '', ['z'], [SET_POINT], [])[0]
+        hold.seal(k)
+        blocks.append(simulation.samples(k + 1, 1))
+    omega = np.concatenate([b.omega_B for b in blocks])
+    speeds = effect.wheel_speeds(omega, np.concatenate([b.internal for b in blocks]))[:, 0]
+    gain = JS * BANDWIDTH
+    expected = [SPEED0]
+    for k in range(count):
+        scale, bias = loop_error(k)
+        settled = SET_POINT + bias / (scale * gain)
+        decay = np.exp(-scale * gain / (JS_EFF * RATE))
+        expected.append(settled + (expected[-1] - settled) * decay)
+    np.testing.assert_allclose(speeds, expected, rtol=1e-10)
+    errors = np.array([loop_error(k) for k in range(count)])
+    asked = errors[:, 0] * (gain * (SET_POINT - speeds[1:])) + errors[:, 1]
+    assert np.abs(asked).max() < MAX_TORQUE and np.ptp(asked) > 1e-2  # (unclipped; it acts)
+    efforts = np.concatenate([b.outputs[0][:, 2] for b in blocks])
+    np.testing.assert_allclose(efforts[1:], asked, rtol=1e-15, atol=0)
+    plant = Plant(wheel_scene(SPEED_FAULTS, mode='speed', bandwidth=BANDWIDTH), RATE)
+    stepped = [plant.state.wheel_speeds]
+    stepped += [plant.step(wheels=[SET_POINT]).wheel_speeds for _ in range(count)]
+    stepped = np.array(stepped)[:, 0]
+    np.testing.assert_allclose(stepped, expected, rtol=1e-10)
+    if integrator_path == 'compiled':  # (the plant runs the kernels; the reference is scipy's)
+        np.testing.assert_array_equal(stepped, speeds)
+
+
+def test_a_speed_drive_s_torque_error_replays_bit_for_bit(tmp_path):
+    """
+    ``torquefree_bag --commands``' replay of the node's recorded set-points: the same samples.
+
+    The node's path without DDS (the effect's hold, sealed sample by sample) records each
+    command that holds as the node's recorder does (``encode_command``, logged at the stamp of
+    the sample it holds from); ``write_scene_bag`` re-simulates the scene, its faults included,
+    from that recording: its ``wheel_states`` and rates equal the node path's bit for bit.
+    """
+    count = 30
+    scene = wheel_scene(SPEED_FAULTS, mode='speed', bandwidth=BANDWIDTH)
+    simulation = Simulation(scene.propagator(), RATE, outputs=scene.outputs, faults=scene.faults)
+    ((effect, hold),) = simulation.command_holds
+    blocks, commands = [simulation.samples(0, 1)], tmp_path / 'commands'
+    with BagWriter(commands) as writer:
+        channel = writer.add_topic('/wheel_command', 'sensor_msgs/msg/JointState')
+        for k in range(count):
+            set_point = SET_POINT + 5.0 * np.sin(k)  # a new one each sample
+            assert effect.receive(hold.stamp_ns(k), '', ['z'], [set_point], [])[0]
+            for command in hold.seal(k):
+                data = encode_command(command, effect)
+                writer.write(channel, hold.stamp_ns(command.start), data)
+            blocks.append(simulation.samples(k + 1, 1))
+    replay = tmp_path / 'replay'
+    write_scene_bag(scene, replay, count / RATE, RATE, commands_bag=commands)
+    messages = list(BagReader(replay).messages(['/wheel_states', '/angular_velocity']))
+    states = [decode_joint_state(m.data) for m in messages if m.topic == '/wheel_states']
+    rates = [m.data for m in messages if m.topic == '/angular_velocity']
+    assert len(states) == len(rates) == count + 1
+    replayed = np.array([[*position, *velocity, *effort]
+                         for _, _, _, position, velocity, effort in states])
+    np.testing.assert_array_equal(replayed, np.concatenate([b.outputs[0] for b in blocks]))
+    omega = np.concatenate([b.omega_B for b in blocks])
+    np.testing.assert_array_equal(
+        np.array([decode_stamped_doubles(data, 3)[2] for data in rates]), omega
+    )
+    unfaulted = wheel_scene(mode='speed', bandwidth=BANDWIDTH)
+    write_scene_bag(unfaulted, tmp_path / 'free', count / RATE, RATE, commands_bag=commands)
+    free = [decode_joint_state(m.data)[4][0]
+            for m in BagReader(tmp_path / 'free').messages(['/wheel_states'])]
+    assert np.abs(np.array(free) - replayed[:, 1]).max() > 1e-3  # (the faults acted)
+
+
 # -- the rule on a hold ---------------------------------------------------------------------------
 def test_overrides_on_one_interval_apply_in_list_order():
     """
@@ -271,8 +380,8 @@ def test_overrides_on_one_interval_apply_in_list_order():
          r'faults\[0\]\.wheel_torque_error\.bias: expected a finite number N m'),
         ([{'wheel_torque_error': {'wheel': 'y', 'start': 0.0, 'scale': 2.0}}], 'wheels',
          r'faults\[0\]\.wheel_torque_error\.wheel: .y. is not a commanded wheel'),
-        ([{'wheel_torque_error': {'wheel': 'z', 'start': 0.0, 'scale': 2.0}}], 'speed',
-         r'faults\[0\]\.wheel_torque_error: the wheel .z. is in mode speed'),
+        ([{'wheel_torque_error': {'wheel': 'z', 'start': 0.0, 'scale': 2.0}}], 'hold',
+         r'faults\[0\]\.wheel_torque_error: the wheel .z. is in mode hold'),
         ([{'wheel_torque_error': {'wheel': 'z', 'start': 0.0, 'scale': [2.0]}}], 'wheels',
          r'faults\[0\]\.wheel_torque_error\.scale: expected a finite number'),
     ],
@@ -282,7 +391,7 @@ def test_bad_command_faults_are_refused_with_the_field_path(faults, scene, path)
         if scene == 'torque':
             torque_scene(faults)
         else:
-            wheel_scene(faults, 'speed' if scene == 'speed' else 'torque')
+            wheel_scene(faults, scene if scene in ('speed', 'hold') else 'torque')
 
 
 def test_a_run_time_torque_fault_is_checked_and_shown_in_the_diagnostics():

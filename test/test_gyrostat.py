@@ -39,7 +39,11 @@ from torquefree_ros.core.exact import gyrostat as exact
 from torquefree_ros.core.frames import quaternion
 from torquefree_ros.core.numerics import kernels as switch
 from torquefree_ros.core.propagators import make_propagator
-from torquefree_ros.core.propagators.gyrostat import GyrostatPropagator, ROTOR_AXIS_TOLERANCE
+from torquefree_ros.core.propagators.gyrostat import (
+    GyrostatPropagator,
+    OBLIQUE,
+    ROTOR_AXIS_TOLERANCE,
+)
 from torquefree_ros.core.run.accuracy import trajectory_errors
 from torquefree_ros.core.scene.loader import load_scene, scene_from_mapping, SceneError
 
@@ -176,18 +180,29 @@ def test_coasting_wheels_keep_their_momenta_and_meet_the_reference_angles(name, 
     )
 
 
-def test_an_oblique_rotor_stays_on_the_numerical_path_at_its_tolerance():
+def test_a_rotor_beside_a_damper_stays_on_the_numerical_path_at_its_tolerance():
     """
-    The oblique gyrostat has no closed form here: auto takes DOP853 at the scene's accuracy.
+    A rotor and a damper are no free gyrostat: auto takes DOP853 at the scene's accuracy.
 
-    Its error against the reference is the integrator's (rtol 1e-10 over 20 s of ~1 rad/s: a few
-    1e-10), far above the closed form's: the numerical path is kept as the reference it was.
+    The oblique rotor's reference case with a damper beside it (its energy dissipates, so no
+    closed form). Its error is the integrator's (rtol 1e-10 over 20 s of ~1 rad/s: a few 1e-10):
+    the inertial momentum of body, rotor and damper, which the damper's internal torque keeps,
+    holds within 1e-8 of its size, and DOP853 at rtol 1e-13 agrees within 1e-8.
     """
     case = CASES['oblique_rotor']
-    propagator = case_scene(case).propagator()
+    damper = {'damper': {'inertia': 0.1, 'damping': 0.05}}
+    s = scene(case['inertia'], case['angular_velocity'], [{'rotor': case['rotor']}, damper],
+              case['orientation'])
+    propagator = s.propagator()
     assert propagator.name == 'dop853'
-    omega, q = propagator(np.array(case['times']))
-    rate_error, attitude_error = trajectory_errors(omega, q, case['omega'], case['q'])
+    times = np.array(case['times'])
+    omega, q, x = propagator.states(times)
+    H_N = quaternion.rotate(q, propagator.momentum_B(omega, x))
+    assert np.abs(H_N - H_N[0]).max() <= 1e-8 * np.linalg.norm(H_N[0])
+    energy = propagator.energy(omega, x)
+    assert energy[-1] < energy[0] * (1.0 - 1e-6)  # the damper dissipates: not a free gyrostat
+    w_ref, q_ref = s.propagator('dop853', rtol=1e-13, atol=1e-15)(times)
+    rate_error, attitude_error = trajectory_errors(omega, q, w_ref, q_ref)
     assert rate_error.max() < 1e-8 and attitude_error.max() < 1e-8
 
 
@@ -355,9 +370,11 @@ def test_auto_chooses_the_exact_gyrostat_for_rotors_along_a_principal_axis():
     # two wheels whose momenta add along a principal axis: one gyrostat
     wheels = [rotor, {'rotor': {'momentum': -0.5, 'axis': [0.0, 0.0, 1.0]}}]
     assert scene(INERTIA, OMEGA, wheels).propagator().name == 'gyrostat'
-    # off a principal axis by more than rounding, or beside another effect: DOP853
+    # off a principal axis by more than rounding: the oblique closed form (the same propagator)
     tilted = {'rotor': {'momentum': 1.0, 'axis': [0.0, 1e-12, 1.0]}}
-    assert scene(INERTIA, OMEGA, [tilted]).propagator().name == 'dop853'
+    oblique = scene(INERTIA, OMEGA, [tilted]).propagator()
+    assert oblique.name == 'gyrostat' and oblique.rotor_axis == OBLIQUE
+    # beside another effect: DOP853
     damper = {'damper': {'inertia': 0.1, 'damping': 0.1}}
     assert scene(INERTIA, OMEGA, [rotor, damper]).propagator().name == 'dop853'
     # within rounding of the axis
@@ -393,21 +410,25 @@ def test_a_zero_rotor_axis_is_refused_with_its_field_path():
 @pytest.mark.parametrize(
     'effects, words',
     [
-        ([{'rotor': {'momentum': 1.0, 'axis': [0.0, 0.6, 0.8]}}], 'off every principal axis'),
+        # a sphere with an oblique rotor: a circle on the momentum sphere, which the oblique
+        # closed form refuses (auto integrates it)
+        ([{'rotor': {'momentum': 1.0, 'axis': [0.0, 0.6, 0.8]}}],
+         'off every principal axis, which the oblique closed form refuses'),
         (
             [
                 {'rotor': {'momentum': 1.0, 'axis': [0.0, 0.0, 1.0]}},
                 {'external_torque': {'torque': [0.0, 0.0, 0.1]}},
             ],
-            "effects other than 'rotor' and coasting 'reaction_wheels' (external_torque)",
+            "effects other than 'rotor' and held or coasting 'reaction_wheels' (external_torque)",
         ),
     ],
 )
 def test_naming_the_gyrostat_where_it_does_not_apply_is_refused(effects, words):
     refusal = r"^propagator: 'gyrostat' is the exact gyrostat"
     with pytest.raises(ValueError, match=refusal) as raised:
-        scene(INERTIA, OMEGA, effects).propagator('gyrostat')
+        scene([1.0, 1.0, 1.0], OMEGA, effects).propagator('gyrostat')
     assert words in str(raised.value)
+    assert scene([1.0, 1.0, 1.0], OMEGA, effects).propagator().name == 'dop853'  # auto
 
 
 def test_the_gyrostat_propagator_refuses_what_every_propagator_refuses():
@@ -507,7 +528,7 @@ def test_coasting_wheels_on_a_full_tensor():
     np.testing.assert_allclose(x, x_ref, rtol=0, atol=5e-12 * np.abs(x_ref).max())
 
 
-def test_auto_takes_the_gyrostat_only_for_coasting_wheels_along_a_principal_axis():
+def test_auto_takes_the_gyrostat_only_for_coasting_wheels():
     body, omega = [1.0, 2.0, 3.0], [0.3, 0.5, -0.4]
     wheel = coasting([0, 0, 1], 0.2, 20.0)
 
@@ -528,9 +549,10 @@ def test_auto_takes_the_gyrostat_only_for_coasting_wheels_along_a_principal_axis
         assert chosen([coasting([0, 0, 1], 0.2, 20.0, **friction)]) == 'dop853', friction
     assert chosen(mode='torque') == 'dop853'
     assert chosen(mode='speed') == 'dop853'
-    # h = sum h_i g_i off every principal axis; zero is the free body with I_s
+    # h = sum h_i g_i off every principal axis: the oblique closed form
+    # (test_gyrostat_oblique_propagator.py); zero is the free body with I_s
     # (test_gyrostat_null_momentum.py)
-    assert chosen([wheel, coasting([1, 0, 0], 0.1, 1.0)]) == 'dop853'
+    assert chosen([wheel, coasting([1, 0, 0], 0.1, 1.0)]) == 'gyrostat'
     assert chosen([coasting([0, 0, 1], 0.2, 0.4)]) == 'gyrostat'  # h = 0.2 (0.4 - 0.4)
     # beside a rotor: their momenta add; beside another effect: DOP853
     rotor = {'rotor': {'momentum': 1.0, 'axis': [0.0, 0.0, 1.0]}}

@@ -20,7 +20,8 @@ An ideal drive holding ``Omega`` applies ``u = Js g . w'``; then ``H_B = I w + J
 effect, which ``auto`` solves exactly. ``reaction_wheels``' speed mode is a proportional loop of
 finite bandwidth (its speed lags ``Js g . w' / K`` behind the set-point): held to the set-point it
 approaches the rotor's exact motion as ``1 / speed_bandwidth``, which these tests measure against
-DOP853 on the wheels' own equations.
+DOP853 on the wheels' own equations. The limit itself is ``mode: hold`` (the rotor bit for bit:
+``test_wheels_hold.py``).
 """
 
 import numpy as np

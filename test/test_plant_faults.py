@@ -62,7 +62,15 @@ WHEEL_FAULTS = {
                                 'scale': 0.7}},
         {'wheel_torque_error': {'wheel': 'c', 'start': 1.0, 'bias': -0.02, 'scale': 2.0}},
     ],
-    'speed': [{'wheel_stuck': {'wheel': 'b', 'start': 0.3, 'end': 1.1}}],
+    'speed': [
+        {'wheel_stuck': {'wheel': 'b', 'start': 0.3, 'end': 1.1}},
+        # the speed loop's output: overlapping windows compose in list order, one across the gap
+        {'wheel_torque_error': {'wheel': 'a', 'start': 0.0, 'end': 1.55, 'bias': 0.01,
+                                'scale': 0.7}},
+        {'wheel_torque_error': {'wheel': 'a', 'start': 1.0, 'bias': -0.02, 'scale': 2.0}},
+        {'wheel_torque_error': {'wheel': 'c', 'start': 0.45, 'end': 2.05, 'scale': 0.0,
+                                'bias': 0.003}},
+    ],
 }
 
 
@@ -219,12 +227,12 @@ def test_a_scene_file_with_a_bad_actuator_fault_is_refused_with_the_field_path(t
     scene = {
         'body': {'inertia': [4.0, 5.0, 6.0]},
         'initial': {'angular_velocity': [0.0, 0.0, 0.0]},
-        'effects': [_wheels('speed')],
+        'effects': [_wheels('hold')],
         'faults': [{'wheel_torque_error': {'wheel': 'a', 'start': 0.0, 'bias': 0.01}}],
     }
     path = tmp_path / 'bad.yaml'
     path.write_text(json.dumps(scene))
-    refused = r'bad\.yaml: faults\[0\]\.wheel_torque_error: the wheel .a. is in mode speed'
+    refused = r'bad\.yaml: faults\[0\]\.wheel_torque_error: the wheel .a. is in mode hold'
     with pytest.raises(SceneError, match=refused):
         Plant([wheel_scene(), str(path)], RATE)
     scene['faults'] = [{'torque_stuck': {'start': 0.0}}]

@@ -316,6 +316,12 @@ def test_bad_bodies_name_the_field(body, where, reason):
     assert reason in str(error.value)
 
 
+WHEEL_X = {
+    'name': 'rw1', 'axis': [1, 0, 0], 'spin_inertia': 0.01, 'max_torque': 0.02, 'max_speed': 600.0
+}
+WHEEL_Y = {**WHEEL_X, 'name': 'rw2', 'axis': [0, 1, 0]}
+
+
 @pytest.mark.parametrize(
     'effects, where, reason',
     [
@@ -357,6 +363,27 @@ def test_bad_bodies_name_the_field(body, where, reason):
             'finite number',
         ),
         ([{'imu': {}}, {'imu': {}}], 'effects[1].imu.topic', 'already the topic of effects[0]'),
+        (  # wheels in two modes: each array's commands name only its own wheels
+            [
+                {'reaction_wheels': {'mode': 'torque', 'wheels': [WHEEL_X]}},
+                {'reaction_wheels': {'mode': 'speed', 'wheels': [WHEEL_Y]}},
+            ],
+            'effects[1].reaction_wheels.topic',
+            'already the topic of effects[0]',
+        ),
+        (
+            [
+                {'torque_command': {'topic': 'ctrl'}},
+                {'imu': {'topic': 'ctrl'}},
+            ],
+            'effects[1].imu.topic',
+            'already the topic of effects[0]',
+        ),
+        (
+            [{'torque_command': {'topic': '/diagnostics'}}],
+            'effects[0].torque_command.topic',
+            "simulator's own",
+        ),
         (
             [{'euler_angles': {'topic': 'attitude'}}],
             'effects[0].euler_angles.topic',
@@ -386,6 +413,22 @@ def test_bad_effects_name_the_path_and_the_reason(effects, where, reason):
         )
     assert str(error.value).startswith(f's.yaml: {where}: '), str(error.value)
     assert reason in str(error.value)
+
+
+def test_arrays_that_take_no_commands_share_the_default_topic():
+    """Only commanded arrays claim their topic: scheduled ones take no commands on it."""
+    scene = scene_from_mapping(
+        {
+            'body': {'inertia': [3, 2, 1]},
+            'initial': {'angular_velocity': [0, 0, 1]},
+            'effects': [
+                {'reaction_wheels': {'wheels': [WHEEL_X]}},
+                {'reaction_wheels': {'wheels': [WHEEL_Y]}},
+                {'reaction_wheels': {'mode': 'torque', 'wheels': [{**WHEEL_X, 'name': 'rw3'}]}},
+            ],
+        }
+    )
+    assert [effect.values['topic'] for effect in scene.effects] == ['wheel_command'] * 3
 
 
 def test_yaml_1_2_numbers_are_numbers(tmp_path):

@@ -17,7 +17,9 @@ Reaction wheel presets: a wheel's ``preset`` fills its documented fields; what i
 
 The expected numbers are transcribed here from the documents each row rests on (momentum
 capacity, top speed in rpm or rotor inertia, torque, Coulomb level), independently of the table,
-and converted here, not read back from it.
+and converted here, not read back from it. Only ``rocketlab_rw_0_06`` rests on the manufacturer's
+documents; for the four others no public datasheet is at hand, so their figures are Basilisk's, and
+their sources must say so and name the datasheet Basilisk cites.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ import math
 import re
 
 import pytest
+from torquefree_ros.core.effects.actuators import motor_torque
 from torquefree_ros.core.effects.wheel_presets import PRESETS
 from torquefree_ros.core.scene.loader import scene_from_mapping, SceneError
 
@@ -35,16 +38,17 @@ RPM = math.pi / 30.0
 #        Coulomb N m or None where the document gives none), each from the document beside it
 DOCUMENTS = {
     # Basilisk src/utilities/simIncludeRW.py at babdff7a (2026-07-24), BCT_RWP015:
-    # maxMomentum = 0.015, Omega_max = 6000.0 rpm, u_max = 0.004, fCoulomb = 0.00005
+    # maxMomentum = 0.015, Omega_max = 6000.0 rpm, u_max = 0.004, fCoulomb = 0.00005 (the BCT
+    # datasheet it cites, BCT_DataSheet_Components_ReactionWheels_F2.pdf: no public copy at hand)
     'bct_rwp015': (0.015, 6000.0, None, 0.004, 5.0e-5),
     # the same file, NanoAvionics_RW0: maxMomentum = 20.0e-3, Omega_max = 6500.0 rpm,
-    # u_max = 3.2e-3, fCoulomb = 0.00005
+    # u_max = 3.2e-3, fCoulomb = 0.00005 (data sheet NA-4RW0-G0-R9: its tables not at hand)
     'nanoavionics_rw0': (20.0e-3, 6500.0, None, 3.2e-3, 5.0e-5),
     # the same file, Honeywell_HR12 with maxMomentum = 12 (its small size): Omega_max = 6000.0 rpm,
-    # u_max = 0.200, fCoulomb = 0.0005
+    # u_max = 0.200, fCoulomb = 0.0005 (Constellation_Series_Reaction_Wheels.pdf: no public copy)
     'honeywell_hr12_12': (12.0, 6000.0, None, 0.200, 0.0005),
     # the same file, Honeywell_HR16 with maxMomentum = 100 (its large size): Omega_max = 6000.0
-    # rpm, u_max = 0.200, fCoulomb = 0.0005
+    # rpm, u_max = 0.200, fCoulomb = 0.0005 (the same Honeywell datasheet: no public copy)
     'honeywell_hr16_100': (100.0, 6000.0, None, 0.200, 0.0005),
     # Rocket Lab "RW-0.06 Data Sheet", Version 3.0, 2024-08-02: "Peak: +-0.18 Nms (at 28 V)",
     # "+-20 mNm at 0.12 Nms (at 28 V)", no friction figure; "60 mNms RW-0.06 Interface Control
@@ -54,6 +58,31 @@ DOCUMENTS = {
 }
 #: the rows whose numbers rest on Basilisk's table, not on a document read for this one
 FROM_BASILISK = {'bct_rwp015', 'nanoavionics_rw0', 'honeywell_hr12_12', 'honeywell_hr16_100'}
+#: what each row's source must name: the document read, or the datasheet Basilisk cites (its
+#: address as Basilisk gives it), so a reader can find what the numbers should be checked against
+CITED = {
+    'bct_rwp015': (
+        'storage.googleapis.com/blue-canyon-tech-news/1/2019/10/'
+        'BCT_DataSheet_Components_ReactionWheels_F2.pdf',
+    ),
+    'nanoavionics_rw0': (
+        'nanoavionics.com/cubesat-components/cubesat-reaction-wheels-control-system-satbus-4rw/',
+        'NA-4RW0-G0-R9',
+    ),
+    'honeywell_hr12_12': (
+        'www51.honeywell.com/aero/common/documents/Constellation_Series_Reaction_Wheels.pdf',
+        'HR12',
+    ),
+    'honeywell_hr16_100': (
+        'www51.honeywell.com/aero/common/documents/Constellation_Series_Reaction_Wheels.pdf',
+        'HR16',
+    ),
+    'rocketlab_rw_0_06': (
+        'RW-0.06 Data Sheet" (Version 3.0, 2024-08-02',
+        'Interface Control Document" (Rev. 2.0, 2021-06-28',
+        'rocketlabusa.com',
+    ),
+}
 
 
 def wheels_scene(*wheels):
@@ -67,7 +96,7 @@ def wheels_scene(*wheels):
 
 
 def test_every_preset_has_its_documents_transcribed_here():
-    assert set(DOCUMENTS) == set(PRESETS)
+    assert set(DOCUMENTS) == set(PRESETS) == set(CITED)
 
 
 @pytest.mark.parametrize('name', sorted(DOCUMENTS))
@@ -95,11 +124,38 @@ def test_a_preset_stores_its_capacity_at_its_top_speed(name):
 
 
 @pytest.mark.parametrize('name', sorted(DOCUMENTS))
+def test_a_preset_wheels_motor_stops_at_its_documents_torque_and_capacity(name):
+    """
+    The motor of a preset's wheel gives the document's torque and no momentum past its H_max.
+
+    Asked ten times the document's torque either way at rest it gives exactly that torque (a
+    clip, no arithmetic); at the document's top speed (``H_max / Js``, its stored momentum the
+    document's ``H_max``) it gives nothing more in the spin's direction and the full torque
+    against it, so the motor never stores more than the document's capacity.
+    """
+    momentum, rpm, rotor_inertia, torque, _ = DOCUMENTS[name]
+    top = rpm * RPM if rpm is not None else momentum / rotor_inertia
+    (row,) = wheels_scene({'preset': name, 'axis': [0.0, 1.0, 0.0]}).effects[0].rows
+    limits = (row[4], row[5], row[6])  # max_torque, max_speed, speed_band as loaded
+    assert motor_torque(0.0, 10.0 * torque, *limits) == torque
+    assert motor_torque(0.0, -10.0 * torque, *limits) == -torque
+    at_capacity = top * (1.0 + 1.0e-15)  # past the loaded top speed's rounding, by a few units
+    assert motor_torque(at_capacity, 10.0 * torque, *limits) == 0.0
+    assert motor_torque(-at_capacity, -10.0 * torque, *limits) == 0.0
+    assert motor_torque(at_capacity, -10.0 * torque, *limits) == -torque  # braking: unlimited
+
+
+@pytest.mark.parametrize('name', sorted(DOCUMENTS))
 def test_a_preset_names_what_its_numbers_rest_on(name):
     source = PRESETS[name].source
     assert re.search(r'\b(19|20)\d\d\b', source)  # a dated document
-    rests_on_basilisk = 'simIncludeRW.py' in source and 'not checked' in source
+    rests_on_basilisk = (
+        'simIncludeRW.py' in source
+        and 'no public datasheet found' in source
+        and 'not checked' in source
+    )
     assert rests_on_basilisk == (name in FROM_BASILISK)
+    assert all(cited in source for cited in CITED[name])
 
 
 def test_a_preset_without_a_friction_figure_leaves_the_wheels_own():

@@ -33,7 +33,13 @@ Basilisk's figures.
   the compute a local cluster's start-up outweighs, each in-process, on a local cluster started
   within the time, and with the default (which says what it picked), in this process and from the
   command line in a fresh process; and a local cluster's start-up, warm-up and close measured
-  beside ``engine.LOCAL_CLUSTER_STARTUP``. ``--switch-only`` measures this part alone.
+  beside ``engine.LOCAL_CLUSTER_STARTUP``. ``--switch-only`` measures this part alone;
+- the closed-loop detumble campaign (the library's ``bdot_detumble``: 1 000 runs of three orbits,
+  B-dot at 1 Hz on the batched plant) with the default engine, end to end as ``torquefree_campaign
+  run`` does it, beside the bare batch compute of some of its runs in one process: the plant
+  stepped alone (a held dipole), and the plant with its sensors read and the law answering (the
+  closed loop without draws, metrics, chunks or table). ``--only detumble`` measures this part
+  alone (one round: a campaign of several minutes).
 
 Wall time (``perf_counter``), and beside it the CPU time of this process and the workers (which
 shows the work done when other processes share the cores); ``--rounds`` rounds give median
@@ -355,6 +361,146 @@ def switch_round(directory: Path) -> dict:
     return result
 
 
+DETUMBLE_BARE_RUNS = 100  # runs of the detumble campaign whose bare compute is timed
+
+
+def detumble_bare(campaign, runs: int) -> dict:
+    """
+    Time the first ``runs`` runs' plant over the whole duration, in one batch, in this process.
+
+    The plant stepped alone at the controller's rate with a dipole held (the plant's own work:
+    the commands accepted, the held inputs, the compiled kernels), then the closed loop as the
+    engine runs it (``controllers.closed_loop``: the sensors read, the law answering, the
+    campaign's samples kept), without draws, metrics, chunks or table.
+    """
+    import numpy as np
+    from torquefree_ros.campaigns import engine
+    from torquefree_ros.campaigns.controllers import closed_loop, law_values
+    from torquefree_ros.plant import Plant
+
+    draws = [engine.draw_run(campaign, run) for run in range(runs)]
+    scenes = [engine._scene_of(campaign, draw) for draw in draws]
+    steps = engine.plant_steps(campaign)
+    dipole = np.full((runs, 3), 0.05)  # A m^2: within every run's rods
+
+    def plant_alone():
+        plant = Plant(scenes, campaign.controller.rate)
+        for _ in range(steps - 1):
+            plant.step(dipole=dipole)
+
+    with np.errstate(all='ignore'):
+        closed_loop(campaign, scenes[:2], law_values(campaign, draws[:2]))  # kernels loaded
+        plant_wall, plant_cpu, _ = wall_and_cpu(plant_alone)
+        loop_wall, loop_cpu, _ = wall_and_cpu(
+            lambda: closed_loop(campaign, scenes, law_values(campaign, draws))
+        )
+    return {
+        'runs': runs,
+        'steps': steps,
+        'plant': plant_wall,
+        'plant_cpu': plant_cpu,
+        'loop': loop_wall,
+        'loop_cpu': loop_cpu,
+    }
+
+
+def detumble_campaign_timed(campaign='bdot_detumble') -> dict:
+    """
+    Run the library's ``bdot_detumble`` with the default engine, end to end, timed.
+
+    As ``torquefree_campaign run bdot_detumble`` does it: ``run_campaign`` with no scheduler (the
+    first chunks timed here, the rest where it finishes first). Wall time, this process's CPU and
+    its finished children's (a local cluster's workers, once closed), the engine's choice and the
+    table's statuses.
+    """
+    import resource
+
+    from torquefree_ros.campaigns import run_campaign
+
+    picked = []
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    load = os.getloadavg()
+    wall, cpu, _ = wall_and_cpu(
+        lambda: picked.append(run_campaign(campaign, on_engine=picked.append))
+    )
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    table = picked.pop()
+    statuses = table.column('status').to_pylist()
+    settle = [x for x in table.column('settle_time').to_pylist() if x is not None]
+    return {
+        'wall': wall,
+        'cpu': cpu,
+        'children_cpu': (after.ru_utime + after.ru_stime)
+        - (children.ru_utime + children.ru_stime),
+        'engine': str(picked[0]) if picked else 'none',
+        'ok': statuses.count('ok'),
+        'runs': len(statuses),
+        'settled': sum(1 for x in settle if x == x),
+        'settle': settle,
+        'load_before': load,
+        'load_after': os.getloadavg(),
+    }
+
+
+def report_detumble(report, bare: dict, timed_campaign: dict, campaign='bdot_detumble') -> None:
+    """Add the detumble campaign's section."""
+    import numpy as np
+    from torquefree_ros.campaigns import load_campaign
+
+    campaign = load_campaign(campaign)
+    runs, steps = campaign.runs, bare['steps']
+    controller = campaign.controller
+    report.add('')
+    report.add('## The detumble campaign (closed loop)')
+    report.add('')
+    report.add(
+        f'`bdot_detumble` from the campaign library: {runs:,} runs of {campaign.duration:g} s '
+        f'(three orbits), B-dot (`{controller.name}`) at {controller.rate:g} Hz on the batched '
+        f'plant ({steps:,} plant samples a run, the magnetometer read and the law answering at '
+        f"each), metrics on the campaign's {campaign.rate:g} Hz grid ({campaign.samples:,} "
+        'samples). Load average (1, 5, 15 min) before the campaign: '
+        + ' '.join(f'{x:.2f}' for x in timed_campaign['load_before'])
+        + ', after: '
+        + ' '.join(f'{x:.2f}' for x in timed_campaign['load_after'])
+        + f' ({os.cpu_count()} cores, shared with other processes).'
+    )
+    report.add('')
+    wall = timed_campaign['wall']
+    cpu = timed_campaign['cpu'] + timed_campaign['children_cpu']
+    report.add('| measure | value | target (issue 41) | met |')
+    report.add('|---|---|---|---|')
+    report.add(
+        "| the campaign, default engine, end to end (`run_campaign('bdot_detumble')`) | "
+        f'{wall:,.0f} s ({runs / wall:.2f} runs/s; CPU {cpu:,.0f} s: this process '
+        f'{timed_campaign["cpu"]:,.0f} s, the local workers {timed_campaign["children_cpu"]:,.0f}'
+        f' s); engine: {timed_campaign["engine"]} | ≤ 600 s | '
+        f'{"yes" if wall <= 600 else "**no**"} |'
+    )
+    for key, what in (
+        ('plant', 'the plant stepped alone (a dipole held; no sensors, no law)'),
+        ('loop', 'the closed loop (plant, sensors read, law; no draws, metrics, chunks, table)'),
+    ):
+        per_run = bare[f'{key}_cpu'] / bare['runs']
+        report.add(
+            f'| bare batch compute, {bare["runs"]} runs in one batch, one process: {what} | '
+            f'{bare[key]:,.1f} s ({bare["runs"] / bare[key]:.2f} runs/s; CPU '
+            f'{bare[f"{key}_cpu"]:,.1f} s, {1e6 * per_run / steps:.1f} µs a body-step; '
+            f'{runs:,} runs: {runs * per_run:,.0f} s of CPU) | | |'
+        )
+    settle = np.array([x for x in timed_campaign['settle'] if x == x])
+    report.add('')
+    report.add(
+        f'{timed_campaign["ok"]:,} of {timed_campaign["runs"]:,} runs ok; '
+        f'{timed_campaign["settled"]:,} detumbled (|w| below 0.5 deg/s to the end)'
+        + (
+            f': detumble time median {np.median(settle):,.0f} s, 5-95 % '
+            f'{np.percentile(settle, 5):,.0f}-{np.percentile(settle, 95):,.0f} s.'
+            if settle.size
+            else '.'
+        )
+    )
+
+
 def report_switch(report, rounds: list[dict]) -> None:
     """Add the switch's tables: each case with each engine, and what the default picked."""
     from torquefree_ros.campaigns import engine, load_campaign
@@ -417,6 +563,11 @@ def main(argv=None) -> int:
         action='store_true',
         help="measure the default engine's switch alone (both sides of it)",
     )
+    parser.add_argument(
+        '--only',
+        choices=('detumble',),
+        help='measure one part alone: detumble, the closed-loop bdot_detumble campaign',
+    )
     args = parser.parse_args(argv)
 
     import dask
@@ -452,6 +603,14 @@ def main(argv=None) -> int:
         f'{args.rounds} round{"s" if args.rounds != 1 else ""}; each figure is the median '
         '(min–max) over the rounds (wall time unless it says CPU)'
     )
+    if args.only == 'detumble':
+        from torquefree_ros.campaigns import load_campaign as load
+
+        detumble = load('bdot_detumble')
+        bare = detumble_bare(detumble, DETUMBLE_BARE_RUNS)
+        report_detumble(report, bare, detumble_campaign_timed())
+        report.save(args.output)
+        return 0
     if args.switch_only:
         report.add(rounds_line + '.')
         with tempfile.TemporaryDirectory(prefix='bench_campaign_') as temporary:
@@ -485,6 +644,9 @@ def main(argv=None) -> int:
             for cluster, client in clusters.values():
                 client.close()
                 cluster.close()
+    detumble = load_campaign('bdot_detumble')
+    detumble_bare_compute = detumble_bare(detumble, DETUMBLE_BARE_RUNS)
+    detumble_timed = detumble_campaign_timed()
 
     def column(key, scale=1.0):
         return spread([scale * r[key] for r in rounds])
@@ -604,6 +766,7 @@ def main(argv=None) -> int:
             f'{rss:.0f} MiB ({peak:.0f} MiB) |'
         )
     report_switch(report, switches)
+    report_detumble(report, detumble_bare_compute, detumble_timed)
     report.save(args.output)
     return 0
 

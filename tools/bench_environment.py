@@ -22,8 +22,10 @@ A script, not a test: it prints (and with ``--output`` writes) what it measured 
   pays; no Python call in between), and once from Python (what a Python caller pays, numba's
   dispatch included); numpy per point over 10 000 instants (the vectorised reference) and for one
   instant (its fixed cost);
-- what an output pays per sample in a closed loop: ``Place.state`` and ``Place.field_N`` for one
-  sample from Python;
+- what an output pays per sample in a closed loop: ``Place.state``, ``Place.field_N``,
+  ``Place.position_and_field`` (the two in one compiled call) and ``Place.field_values`` (the
+  magnetometer's: its samples in order, computed ``place.AHEAD`` at a time) for one sample from
+  Python;
 - the library ``bdot_detumble`` scene stepped as a closed loop steps it, one sample at a time at
   10 Hz through ``Simulation.samples(k, 1)``, beside the same body (inertia, initial rates,
   accuracy; no orbit) under a constant body torque stepped the same way, CPU per simulated
@@ -65,6 +67,8 @@ SCENE = 'bdot_detumble'
 #: N m: the reference's constant body torque, of the rods' size (0.2 A m^2 x some 40 uT)
 TORQUE = [4.0e-6, -4.0e-6, 4.0e-6]
 DIPOLES = 64  # distinct commanded dipoles, cycled one a sample
+#: the magnetometer's own per-sample call: its samples in order, computed place.AHEAD at a time
+AHEAD_CASE = 'Place.field_values (IGRF-14), samples in order'
 
 
 def _cpu(function, calls: int) -> float:
@@ -218,6 +222,7 @@ def place_costs(calls: int) -> dict:
         'Place.state': lambda: place.state(times),
         'Place.field_N (IGRF-14)': lambda: place.field_N(times, position, 'igrf'),
         'Place.field_N (dipole)': lambda: place.field_N(times, position, 'dipole'),
+        'Place.position_and_field (IGRF-14)': lambda: place.position_and_field(123.4, 'igrf'),
     }
     costs = {}
     for name, call in cases.items():
@@ -228,6 +233,12 @@ def place_costs(calls: int) -> dict:
                 call()
 
         costs['place', name] = _cpu(repeated, calls) / PYTHON_CALLS
+
+    def in_order():  # a sensor's samples in order: place.AHEAD of them computed a call
+        for k in range(PYTHON_CALLS):
+            place.field_values(k / RATE, 'igrf', k, RATE)
+
+    costs['place', AHEAD_CASE] = _cpu(in_order, calls) / PYTHON_CALLS
     return costs
 
 
@@ -284,7 +295,8 @@ def stepped(case: str, span: float) -> float:
 
     ``case``: ``torque`` (the reference), ``torque_outputs`` (the reference with an ``imu`` and a
     ``pose``), ``bdot`` (the library scene with its outputs), ``magnetometer`` (with its
-    magnetometer only), ``bare`` (without its outputs), ``commanded`` (with its outputs, a dipole
+    magnetometer only), ``dipole_output`` (with its ``magnetorquer_dipole`` output only), ``bare``
+    (without its outputs), ``commanded`` (with its outputs, a dipole
     offered to the magnetorquers' hold before every sample, as a controller answering each sample
     would).
     """
@@ -297,6 +309,7 @@ def stepped(case: str, span: float) -> float:
     outputs = {
         'torque_outputs': scene.outputs, 'bdot': scene.outputs, 'commanded': scene.outputs,
         'magnetometer': tuple(o for o in scene.outputs if o.name == 'magnetometer'),
+        'dipole_output': tuple(o for o in scene.outputs if o.name == 'magnetorquer_dipole'),
     }.get(case, ())
     simulation = Simulation(scene.propagator(), RATE, outputs=outputs)
     dipoles = None
@@ -315,7 +328,9 @@ def stepped(case: str, span: float) -> float:
     return (time.process_time() - started) / span
 
 
-CLOSED_LOOP_CASES = ('torque', 'torque_outputs', 'bdot', 'magnetometer', 'bare', 'commanded')
+CLOSED_LOOP_CASES = (
+    'torque', 'torque_outputs', 'bdot', 'magnetometer', 'dipole_output', 'bare', 'commanded'
+)
 
 
 def closed_loop_costs(calls: int, span: float) -> dict:
@@ -423,6 +438,11 @@ def main(argv=None) -> int:
         f'{column(("ratio", "magnetometer"))} x the torque | | |'
     )
     report.add(
+        f'| `{SCENE}` with its applied dipole output (`magnetorquer_dipole`) only | '
+        f'{column(("loop", "dipole_output"), 1e6)} µs, {column(("ratio", "dipole_output"))} x '
+        'the torque | | |'
+    )
+    report.add(
         '| the constant-torque body with two outputs that need no environment (an exact `imu` '
         f'and the `pose`) | {column(("loop", "torque_outputs"), 1e6)} µs, '
         f'{column(("ratio", "torque_outputs"))} x the torque | | |'
@@ -446,11 +466,18 @@ def main(argv=None) -> int:
         "stamped at the sample) before every sample; a controller's own work is not included."
     )
     report.add('')
-    report.add('What an output pays per sample in a closed loop (one sample from Python):')
+    report.add(
+        'What an output pays per sample in a closed loop (one sample from Python). The '
+        "magnetometer takes the orbit's position and the field in one compiled call "
+        '(`Place.position_and_field`: the floats of `Place.state` and `Place.field_N`); with its '
+        f'samples in order (`Place.field_values`) those of the next {place_module.AHEAD} samples '
+        'in one call, kept:'
+    )
     report.add('')
     report.add('| call | µs a sample |')
     report.add('|---|---|')
-    for name in ('Place.state', 'Place.field_N (IGRF-14)', 'Place.field_N (dipole)'):
+    for name in ('Place.state', 'Place.field_N (IGRF-14)', 'Place.field_N (dipole)',
+                 'Place.position_and_field (IGRF-14)', AHEAD_CASE):
         report.add(f'| `{name}` | {column(("place", name), 1e6)} |')
     report.add('')
     report.add('Each kernel per evaluation: inside a compiled loop of '

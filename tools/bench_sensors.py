@@ -30,11 +30,15 @@ A script, not a test: it prints what it measured and the machine.
   misalignment, field of view and quantized angles), per body-step: the plant's own step alone
   (the floor the sensors add to), the plant with the sensors' rows one sample at a time (lock-step:
   ``step`` then ``Plant.sensors().read()``, every body's sensors at once), and the open-loop
-  ``run`` of a block with the sensors' rows of the block (each body's streams).
+  ``run`` of a block with the sensors' rows of the block (each body's streams);
+- the same batch with a fault on every sensor of every body (windows and values differing from
+  body to body): the lock-step with them, and the faults alone on the same sensor rows, applied
+  to every body's row at once (``core.faults.batch.FaultBatch``, the plant's path) against each
+  body's ``FaultInjector`` one body after another (the node's path, one Python call per body).
 
 Wall time (``perf_counter``) of the fastest of several calls (the two gyros' calls alternating,
-ten times as many); ``--rounds`` rounds give median (min–max), ratios taken within each round
-(the primary figures on a loaded machine).
+ten times as many), the faulted batch's in CPU time (``process_time``); ``--rounds`` rounds give
+median (min–max), ratios taken within each round (the primary figures on a loaded machine).
 """
 
 from __future__ import annotations
@@ -43,12 +47,14 @@ import argparse
 from pathlib import Path
 import statistics
 import sys
+import time
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from bench_report import commanded_scene, dispersed_bodies, fastest, Report, spread  # noqa: E402
 
+CPU = time.process_time  # the faulted batch's clock: this process's CPU time
 GYRO_CALLS = 10  # per round, each gyro's calls alternating with the other's (the same load)
 
 GYRO_RATE = 100.0
@@ -210,6 +216,102 @@ def _batch_scenes(sensors: bool):
     return [commanded_scene(i, w, damper, effects, orbit=LEO) for i, w in zip(inertia, omega)]
 
 
+def _faults(body: int) -> list:
+    """Return a fault on each sensor of body ``body``, its windows and values its own."""
+    start = 0.1 * (body % 7)
+    return [
+        {'noise': {'output': 'imu', 'start': start, 'sigma': 1e-4 * (1 + body % 3)}},
+        {'spikes': {'output': 'star_tracker', 'start': start, 'magnitude': 1e-3,
+                    'probability': 0.2}},
+        {'bias': {'output': 'magnetometer', 'start': 0.0, 'step': [1e-7 * (body % 5), 0.0, 0.0]}},
+        {'stuck': {'output': 'sun_sensor', 'start': 0.5 + start, 'end': 2.0 + start}}
+        if body % 2
+        else {'dropout': {'output': 'sun_sensor', 'start': start, 'end': 1.0 + start}},
+    ]
+
+
+def _faulted_round(calls: int) -> dict:
+    import dataclasses
+
+    import numpy as np
+    from torquefree_ros import Plant
+    from torquefree_ros.core.faults import FaultInjector, parse_faults
+    from torquefree_ros.core.faults.batch import FaultBatch
+
+    plain = _batch_scenes(sensors=True)
+    torques = 1e-6 * np.random.default_rng(2).standard_normal((BODIES, 3))
+
+    def lockstep_of(scenes, rows=None):
+        """Return a call stepping a plant of ``scenes`` in lock-step (its rows into ``rows``)."""
+        plant = Plant(scenes, RATE)
+        sensors = plant.sensors()
+        sensors.read()
+
+        def run():
+            for _ in range(LOCKSTEP_STEPS):
+                plant.step(torques)
+                readings = sensors.read()
+                if rows is not None:
+                    rows.append(readings.rows)
+
+        run()  # (the kernels and the draws ahead outside the timing)
+        return run
+
+    faulted = [
+        dataclasses.replace(scene, faults=parse_faults(_faults(body), 'faults', scene.outputs))
+        for body, scene in enumerate(plain)
+    ]
+    clean = fastest(lockstep_of(plain), calls, CPU) / LOCKSTEP_STEPS / BODIES
+    with_faults = fastest(lockstep_of(faulted), calls, CPU) / LOCKSTEP_STEPS / BODIES
+
+    # the faults alone, on the unfaulted rows of LOCKSTEP_STEPS samples
+    raws = []
+    lockstep_of(plain, raws)
+    outputs = faulted[0].outputs
+    every = [output.every(RATE) for output in outputs]
+
+    def injectors():
+        return {
+            body: FaultInjector(scene.faults, scene.outputs, RATE, every, None)
+            for body, scene in enumerate(faulted)
+        }
+
+    def batched():
+        batch = FaultBatch(injectors(), BODIES)
+        return lambda j, p, raw, before: batch.apply(p, j, raw, before)
+
+    def per_body():
+        each = injectors()
+
+        def apply(j, p, raw, before):
+            for body, injector in each.items():
+                injector.apply(p, j, raw[body: body + 1], None if before is None else before[body])
+
+        return apply
+
+    def timed(make):
+        apply = make()  # built outside the timing, as the plant builds it at its start
+
+        def run():
+            for j, rows in enumerate(raws, start=1):
+                for p, output in enumerate(outputs):
+                    before = raws[j - 2][output.topic] if j > 1 else None
+                    apply(j, p, rows[output.topic], before)
+
+        return run
+
+    per_body_s = min(fastest(timed(per_body), 1, CPU) for _ in range(calls))
+    batched_s = min(fastest(timed(batched), 1, CPU) for _ in range(calls))
+    return {
+        'clean_us': clean * 1e6,
+        'faulted_us': with_faults * 1e6,
+        'faulted_ratio': with_faults / clean,
+        'per_body_us': per_body_s / LOCKSTEP_STEPS / BODIES * 1e6,
+        'batched_us': batched_s / LOCKSTEP_STEPS / BODIES * 1e6,
+        'faults_ratio': per_body_s / batched_s,
+    }
+
+
 def _batch_round(calls: int) -> dict:
     import numpy as np
     from torquefree_ros import Plant
@@ -277,7 +379,14 @@ def main(argv=None) -> int:
     parser.add_argument('--output', help='write the report here (Markdown)')
     parser.add_argument('--rounds', type=int, default=3)
     parser.add_argument('--calls', type=int, default=3)
+    parser.add_argument(
+        '--faults-only', action='store_true', help='measure the faulted batch alone (no report)'
+    )
     args = parser.parse_args(argv)
+    if args.faults_only:
+        for faulted in (_faulted_round(args.calls) for _ in range(args.rounds)):
+            print(', '.join(f'{key} {value:.3g}' for key, value in faulted.items()))
+        return 0
 
     import numba
     import numpy
@@ -301,6 +410,7 @@ def main(argv=None) -> int:
     report.add('')
     gyro = [_gyro_round(args.calls) for _ in range(args.rounds)]
     batch = [_batch_round(args.calls) for _ in range(args.rounds)]
+    faulted = [_faulted_round(args.calls) for _ in range(args.rounds)]
 
     def column(rounds, key):
         return spread([r[key] for r in rounds])
@@ -348,6 +458,33 @@ def main(argv=None) -> int:
         f"| open loop: `run` {RUN_SECONDS:g} s, then the block's sensor rows | "
         f'{column(batch, "run_alone_us")} | {column(batch, "run_sensors_us")} | '
         f'{column(batch, "run_ratio")} | ≤ 10 | {met(batch, "run_sensors_us", 10.0)} |'
+    )
+    report.add('')
+    report.add(
+        f'## The same {BODIES:,} bodies with a fault on every sensor (CPU per body-step)'
+    )
+    report.add('')
+    report.add(
+        'Each body: a noise on the gyro, spikes on the star tracker, a bias on the magnetometer, '
+        'a stuck or a dropout sun sensor, their windows and values differing from body to body.'
+    )
+    report.add('')
+    report.add('| path | without faults, µs | with faults, µs | ratio |')
+    report.add('|---|---|---|---|')
+    report.add(
+        f'| lock-step: `step` then `sensors().read()` ({LOCKSTEP_STEPS} steps) | '
+        f'{column(faulted, "clean_us")} | {column(faulted, "faulted_us")} | '
+        f'{column(faulted, "faulted_ratio")} |'
+    )
+    report.add('')
+    report.add(
+        "| the faults alone on the same rows | each body's `FaultInjector` in turn, µs | "
+        'every body at once (`FaultBatch`), µs | speed-up |'
+    )
+    report.add('|---|---|---|---|')
+    report.add(
+        f'| {LOCKSTEP_STEPS} samples, four outputs | {column(faulted, "per_body_us")} | '
+        f'{column(faulted, "batched_us")} | {column(faulted, "faults_ratio")} |'
     )
     report.add('')
     report.add(

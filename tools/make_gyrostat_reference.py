@@ -561,6 +561,15 @@ OBLIQUE_CASES = {
         'horizon': 2000.0,
         'samples': 41,
     },
+    # the same motion slowed twenty times (w and h scaled by 1/20): 1e5 s is 5 000 s of it
+    'oblique_long_horizon_1e5': {
+        'inertia': [2.0, 3.0, 4.5],
+        'angular_velocity': [0.005, -0.01, 0.0075],
+        'orientation': _q([0, 1, 2], -1.2),
+        'rotor_vector': [0.0025, 0.005, -0.004],
+        'horizon': 1e5,
+        'samples': 51,
+    },
     **_oblique_separatrix_cases(),
 }
 

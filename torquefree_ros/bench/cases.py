@@ -47,7 +47,7 @@ FREE_BODY_CASES = (
 )
 #: the free gyrostat's cases of the full report: the library scene's rotor, a dominant rotor, next
 #: to a separatrix, coasting wheels on two axes, a long horizon, and a rotor off every principal
-#: axis (which the exact gyrostat leaves to the numerical methods while it does not solve it)
+#: axis (the exact gyrostat's oblique form)
 GYROSTAT_CASES = tuple(
     GYROSTAT_PREFIX + name
     for name in (

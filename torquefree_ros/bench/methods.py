@@ -22,7 +22,7 @@ A method has one setting it sweeps (a fixed step, a tolerance or nothing) and ru
 initial state to a sorted array of output times, returning ``(omega_B, q_NB)``. It runs the cases
 it ``applies`` to: the free body's exact solution (``analytic``) and MuJoCo's free body the
 torque-free cases, the exact gyrostat (``gyrostat``) the gyrostat cases it solves (a rotor or
-coasting wheels whose momentum lies along a principal axis), every integrator every case (a
+coasting wheels, their momentum along a principal axis or oblique), every integrator every case (a
 gyrostat case's effects through the scene, as ``auto`` would run them).
 """
 

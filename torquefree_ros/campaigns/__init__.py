@@ -30,12 +30,17 @@ The room, in the order a campaign flows through it:
   draws from ``SeedSequence(seed).spawn(runs)[i]`` only.
 * :mod:`.metrics` — **metrics**: what a run keeps (final rates, settle time, cone angle, flips,
   energy and momentum drift of the whole system, attitude error from the nominal run, the wheels'
-  momentum peak, each wheel's peak and saturation time), one registry and a decorator
+  momentum peak, each wheel's peak and saturation time, a sensor's peak reading, the rods' duty),
+  one registry and a decorator
   (:func:`metric`) for adding one as a Python function.
+* :mod:`.controllers` — **closed loop**: a ``controller:`` law (the built-in ``bdot``, or a user's
+  ``package.module:factory``) run per run at its own rate on the batched ``Plant``, reading its
+  sensors and commanding it; per-run sensor seeds (``sensor_seeds: per_run``).
 * :mod:`.engine` — the **engine**: chunks of runs through the batch paths (``propagate_batch``, the
-  batched ``Plant``), in this process or on Dask workers (by default whichever finishes first:
-  the first chunk timed here against a local cluster's start-up; or an existing cluster by
-  address); a run that fails is a row with its reason, never the end of the campaign.
+  batched ``Plant``, stepped with its sensors read for a controller), in this process or on Dask
+  workers (by default whichever finishes first: the first chunk timed here against a local
+  cluster's start-up; or an existing cluster by address); a run that fails is a row with its
+  reason, never the end of the campaign.
 * :mod:`.results` — **results**: one table (pyarrow, written as Parquet), a row per run with its
   drawn inputs, metrics and status, and the campaign file and versions in its metadata.
 

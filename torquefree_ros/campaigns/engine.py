@@ -47,6 +47,7 @@ import uuid
 
 import numpy as np
 
+from .controllers import closed_loop, law_values, sensor_seed
 from .dispersions import EffectTarget, OrbitTarget, RefusedDraw, run_generator
 from .metrics import Samples
 from ..core import propagate_batch
@@ -63,6 +64,13 @@ DEFAULT_CHUNK_RUNS = 256
 MAX_CHUNK_RUNS = 1024
 CHUNKS_PER_WORKER = 8
 CHUNK_BYTES = 128 * 2**20  # samples held by one chunk at most (then fewer runs a chunk)
+# A plant stepped sample by sample (a controller, sensors read) costs about the same per
+# body-sample whatever the batch (measured on 2 cores, the bdot_detumble campaign: 24 to 26 us a
+# body-step in batches of 32 to 256 runs; most of it each body's own Python work in the plant and
+# its sensors): its chunks hold at most this many body-steps (about 25 s of CPU), so that the
+# default engine, which times two chunks here before it starts a cluster, hands the rest over
+# early.
+STEPPED_CHUNK_BODY_STEPS = 1_000_000
 # Inside a chunk, runs are propagated and measured a block of at most this many body-samples at a
 # time (the same numbers: every run is computed on its own): a block's arrays (2 MB a quaternion
 # array) stay in cache and far under the mmap threshold below, whatever the chunk's size and the
@@ -89,7 +97,14 @@ TRAJECTORIES = '__trajectories__'
 
 
 def block_runs(campaign) -> int:
-    """Return how many runs are propagated and measured together inside a chunk."""
+    """
+    Return how many runs are propagated and measured together inside a chunk.
+
+    A plant stepped sample by sample (a controller, sensors read) takes the whole chunk as one
+    batch: its cost is a sample's Python work, shared by every body of the batch.
+    """
+    if campaign.steps_plant:
+        return MAX_CHUNK_RUNS
     return max(1, BLOCK_SAMPLES // campaign.samples)
 
 
@@ -109,8 +124,17 @@ def chunk_runs(campaign, requested: int | None = None, workers: int | None = Non
     if workers:
         share = -(-campaign.runs // (CHUNKS_PER_WORKER * workers))
         runs = max(runs, min(MAX_CHUNK_RUNS, share))
+    if campaign.steps_plant:
+        runs = max(1, min(runs, STEPPED_CHUNK_BODY_STEPS // plant_steps(campaign)))
     width = 7 + 8  # rates, attitude and a few effect states, float64
     return max(1, min(runs, CHUNK_BYTES // (campaign.samples * width * 8)))
+
+
+def plant_steps(campaign) -> int:
+    """Return a run's plant samples when the plant steps (at the controller's rate)."""
+    controller = campaign.controller
+    every = controller.every(campaign.rate) if controller else 1
+    return (campaign.samples - 1) * every + 1
 
 
 def check_workers(workers) -> None:
@@ -230,7 +254,27 @@ def scene_document(campaign, draw: Draw) -> dict:
     for target in campaign.targets:
         if isinstance(target, (EffectTarget, OrbitTarget)):
             target.place(document, draw.values[target.path])
+    if campaign.sensor_seeds == 'per_run':
+        _place_sensor_seeds(campaign, document, draw.run)
     return document
+
+
+def _place_sensor_seeds(campaign, document: dict, run: int) -> None:
+    """Write run ``run``'s seed into each output that takes one (``sensor_seeds: per_run``)."""
+    from ..core.effects.base import EFFECTS, OutputEffect
+
+    outputs = 0
+    effects = document['effects'] = list(document['effects'])
+    for index, entry in enumerate(effects):
+        ((name, parameters),) = entry.items()
+        kind = EFFECTS.get(name)
+        if kind is None or not issubclass(kind, OutputEffect):
+            continue
+        if 'seed' in kind.parameters:
+            parameters = dict(parameters or {})
+            parameters['seed'] = sensor_seed(campaign.seed, run, outputs)
+            effects[index] = {name: parameters}
+        outputs += 1
 
 
 def run_scene(campaign, run: int) -> dict:
@@ -279,7 +323,7 @@ def _run_chunk(campaign, start: int, stop: int) -> dict:
                 except SceneError as error:
                     draw.status, draw.reason = INVALID_SCENE, str(error).split(': ', 1)[-1]
                     continue
-                if not campaign.scene.torque_free:
+                if campaign.runs_plant:
                     scenes[draw.run] = draw.scene
     ready = [draw for draw in draws if draw.status == OK]
     nominal = _nominal(campaign, times) if campaign.needs_nominal and ready else None
@@ -295,7 +339,10 @@ def _run_chunk(campaign, start: int, stop: int) -> dict:
             ok += finished
             if kept is not None:  # after the metrics: a run a metric failed on has no trajectory
                 kept += [
-                    (draw.run, *(a[:: campaign.trajectory_every] for a in trajectories[draw.run]))
+                    (
+                        draw.run,
+                        *(a[:: campaign.trajectory_every] for a in trajectories[draw.run][:3]),
+                    )
                     for draw in finished
                     if draw.status == OK
                 ]
@@ -361,20 +408,32 @@ def _propagate(campaign, ok: list, scenes: dict, times: np.ndarray) -> dict:
         return {}
     try:
         arrays = _batch(campaign, ok, scenes, times)
-        return {draw.run: tuple(a[i] for a in arrays) for i, draw in enumerate(ok)}
+        return {draw.run: _run_of(arrays, i) for i, draw in enumerate(ok)}
     except (ValueError, RuntimeError, ArithmeticError):
         pass
     result = {}
     for draw in ok:  # one by one: the failure is pinned on its run
         try:
             arrays = _batch(campaign, [draw], scenes, times)
-            result[draw.run] = tuple(a[0] for a in arrays)
+            result[draw.run] = _run_of(arrays, 0)
         except (ValueError, RuntimeError, ArithmeticError) as error:
             draw.status, draw.reason = FAILED, str(error)
     return result
 
 
+def _run_of(arrays, i: int) -> tuple:
+    """Return run ``i``'s part of a batch's arrays (and of a dict of them, recorded ones)."""
+    return tuple(
+        {key: value[i] for key, value in a.items()} if isinstance(a, dict) else a[i]
+        for a in arrays
+    )
+
+
 def _batch(campaign, draws: list, scenes: dict, times: np.ndarray):
+    if campaign.steps_plant:
+        return closed_loop(
+            campaign, [scenes[d.run] for d in draws], law_values(campaign, draws)
+        )
     if campaign.scene.torque_free:
         omega, q = propagate_batch(
             np.array([d.inertia for d in draws]),
@@ -403,14 +462,13 @@ def _nominal(campaign, times) -> Samples:
         np.asarray(scene.angular_velocity, dtype=float),
         np.asarray(scene.orientation, dtype=float),
         body=RigidBody.from_inertia(scene.inertia),
-        scene=None if scene.torque_free else scene,
+        scene=None if not campaign.runs_plant else scene,
     )
-    scenes = {} if scene.torque_free else {-1: scene}
-    omega, q, internal = _batch(campaign, [draw], scenes, times)
-    return _samples(times, [draw], omega, q, internal)
+    scenes = {-1: scene} if campaign.runs_plant else {}
+    return _samples(times, [draw], *_batch(campaign, [draw], scenes, times))
 
 
-def _samples(times, draws, omega, q, internal, nominal=None) -> Samples:
+def _samples(times, draws, omega, q, internal, recorded=None, nominal=None) -> Samples:
     return Samples(
         times,
         omega,
@@ -422,6 +480,7 @@ def _samples(times, draws, omega, q, internal, nominal=None) -> Samples:
         nominal,
         # each run's body with its effects: the invariants count what the effects carry
         _systems(draws),
+        recorded,
     )
 
 
@@ -434,6 +493,11 @@ def _systems(draws) -> tuple | None:
 
 def _metrics(campaign, ok: list, trajectories: dict, times, nominal) -> dict:
     stacked = [np.stack([trajectories[d.run][k] for d in ok]) for k in range(3)]
+    if campaign.steps_plant:
+        recorded = trajectories[ok[0].run][3]
+        stacked.append(
+            {key: np.stack([trajectories[d.run][3][key] for d in ok]) for key in recorded}
+        )
     samples = _samples(times, ok, *stacked, nominal=nominal)
     result = {}
     for use in campaign.metrics:
@@ -449,7 +513,16 @@ def _metric_one_by_one(use, ok, stacked, times, nominal) -> dict:
     for i, draw in enumerate(ok):
         try:
             values = use.evaluate(
-                _samples(times, [draw], *(a[i: i + 1] for a in stacked), nominal=nominal)
+                _samples(
+                    times,
+                    [draw],
+                    *(
+                        {k: v[i: i + 1] for k, v in a.items()} if isinstance(a, dict)
+                        else a[i: i + 1]
+                        for a in stacked
+                    ),
+                    nominal=nominal,
+                )
             )
         except Exception as error:  # noqa: BLE001
             draw.status, draw.reason = (

@@ -44,6 +44,17 @@ does not depend on chunking). In a table, a metric is null for a run that failed
 is undefined for a run that did not (``settle_time`` of a run that never settles). Metrics run on
 Dask workers: define them in an importable module (or in ``__main__``, which Dask ships by value)
 and import it before the campaign is loaded.
+
+**Sensors and commands.** A metric registered with ``needs_sensors=True`` reads the scene's
+outputs at the campaign's samples: ``samples.sensor(topic)`` (``(n, M, width)``, each output's
+row as ``Plant.sensors().read()`` gives it, NaN where it sends nothing) and
+``samples.published(topic)`` (``(n, M)``); the campaign then steps the plant sample by sample
+and reads its sensors (also open loop). ``needs_commands=True``: it reads the controller's
+commands, ``samples.command(name)`` (``dipole``, ``torque``, ``wheels``: ``(n, M, width)``, what
+the law asked for at each sample, held until the next controller sample); refused in a campaign
+without a controller. ``check(values, scene)``: optional, raises ``ValueError`` when the
+parameters do not fit the scene (a topic it does not publish), refused when the campaign is
+loaded.
 """
 
 from __future__ import annotations
@@ -59,10 +70,12 @@ from ..core.checks.schema import (
     choice,
     FieldError,
     fields,
+    integer,
     number,
     one_key,
     Param,
     shown,
+    text,
     vector,
 )
 from ..core.effects.actuators import ReactionWheels
@@ -80,6 +93,9 @@ class Metric:
     dtype: str = 'float64'  # float64 | int64
     needs_nominal: bool = False  # the engine computes the undispersed run beside the chunk
     summary: str = ''
+    needs_sensors: bool = False  # reads the outputs' rows (the plant steps with its sensors read)
+    needs_commands: bool = False  # reads a controller's commands
+    check: Callable | None = None  # check(values, scene): a ValueError refuses the parameters
 
 
 #: metric name -> Metric
@@ -94,6 +110,9 @@ def metric(
     unit: str = '',
     dtype: str = 'float64',
     needs_nominal: bool = False,
+    needs_sensors: bool = False,
+    needs_commands: bool = False,
+    check: Callable | None = None,
 ):
     """
     Register ``function(samples, **parameters)`` as the metric ``name``.
@@ -114,6 +133,9 @@ def metric(
             dtype,
             needs_nominal,
             summary,
+            needs_sensors or needs_commands,
+            needs_commands,
+            check,
         )
         return function
 
@@ -153,12 +175,13 @@ class MetricUse:
 DEFAULT_METRICS = ('final_rates', 'cone_angle', 'flips', 'energy_drift', 'momentum_drift')
 
 
-def parse_metrics(value, path: str, scene=None) -> tuple:
+def parse_metrics(value, path: str, scene=None, *, commands: bool = False) -> tuple:
     """
     Check a campaign's ``metrics`` list; return a :class:`MetricUse` for each entry.
 
     ``scene``: the campaign's scene, which gives the columns of a metric that declares them as a
-    function of it (None: only metrics with fixed columns).
+    function of it (None: only metrics with fixed columns); ``commands``: whether the campaign has
+    a controller (a metric of its commands is refused without one).
     """
     if not isinstance(value, list) or not value:
         raise FieldError(
@@ -177,6 +200,15 @@ def parse_metrics(value, path: str, scene=None) -> tuple:
         seen[name] = index
         found = METRICS[name]
         values = fields(parameters, child(where, name), found.parameters)
+        if found.needs_commands and not commands:
+            raise FieldError(
+                where, f"{name} measures a controller's commands; the campaign has no controller"
+            )
+        if found.check is not None:
+            try:
+                found.check(values, scene)
+            except ValueError as error:
+                raise FieldError(child(where, name), str(error)) from None
         if callable(found.columns):
             try:
                 own = tuple(found.columns(scene))
@@ -214,10 +246,37 @@ class Samples:
     #: effects' parts of ``internal``, the inertia they carry); None for a torque-free scene, whose
     #: invariants are then the rigid body's, written out component by component
     systems: 'tuple[Dynamics, ...] | None' = None
+    #: a stepped plant's sensors and a controller's commands at the samples: ``sensor:TOPIC``,
+    #: ``published:TOPIC``, ``command:NAME`` -> ``(n, M, ...)`` (see :meth:`sensor`)
+    recorded: dict | None = None
 
     @property
     def count(self) -> int:
         return self.omega_B.shape[0]
+
+    def sensor(self, topic: str) -> np.ndarray:
+        """Return output ``topic``'s rows ``(n, M, width)``, NaN where it sends nothing."""
+        return self._recorded(f'sensor:{topic}')
+
+    def published(self, topic: str) -> np.ndarray:
+        """Return whether output ``topic`` sends at each sample, ``(n, M)``."""
+        return self._recorded(f'published:{topic}')
+
+    def command(self, name: str) -> np.ndarray:
+        """
+        Return the controller's ``name`` commands (``dipole``, ...) at the samples, ``(n, M, w)``.
+
+        NaN where the law gave none of them (a law that never commands ``name``: all NaN).
+        """
+        key = f'command:{name}'
+        if self.recorded is not None and key not in self.recorded:
+            return np.full(self.omega_B.shape[:2] + (1,), np.nan)
+        return self._recorded(key)
+
+    def _recorded(self, key: str) -> np.ndarray:
+        if self.recorded is None or (key not in self.recorded and key[:8] != 'command:'):
+            raise ValueError(f'{key}: not recorded (the metric must say needs_sensors)')
+        return self.recorded[key]
 
     def momentum_B(self) -> np.ndarray:
         """
@@ -579,3 +638,65 @@ def nominal_attitude_error(samples):
     # (1, M, 4) against (n, M, 4): quaternion's element-wise product,
     # so no run depends on its chunk
     return quaternion.angle_between(samples.nominal.q_NB, samples.q_NB).max(axis=1)
+
+
+def _check_topic(values, scene) -> None:
+    topics = [output.topic for output in (scene.outputs if scene is not None else ())]
+    if values['topic'] not in topics:
+        raise ValueError(
+            f'topic: the scene has no output on {values["topic"]!r} (outputs: '
+            f'{", ".join(topics) or "none"})'
+        )
+
+
+@metric(
+    'sensor_peak',
+    needs_sensors=True,
+    check=_check_topic,
+    parameters={
+        'topic': Param(text(), description="the output's topic (its name, by default)"),
+        'first': Param(integer(0, 1000), 0, "the vector's first number in the output's row"),
+        'count': Param(integer(1, 1000), 3, "the vector's numbers"),
+    },
+)
+def sensor_peak(samples, topic, first, count):
+    """
+    Return the largest norm of a vector of an output's readings over the run.
+
+    ``|row[first:first + count]|`` over the samples the output sends at (its row as
+    ``Plant.sensors().read()`` gives it: the message's numbers in order; by default the first
+    three, a magnetometer's field in T, a sun sensor's vector, a magnetorquer_dipole's A m^2), its
+    noise, bias and faults included. NaN when it sends at no sample.
+    """
+    rows = samples.sensor(topic)
+    if first + count > rows.shape[2]:
+        raise ValueError(f'{topic} rows have {rows.shape[2]} numbers, not {first + count}')
+    vector = rows[:, :, first: first + count]
+    norms = np.sqrt(np.sum(vector * vector, axis=2))
+    sent = samples.published(topic) & np.isfinite(norms)
+    return np.where(sent.any(axis=1), np.max(np.where(sent, norms, -np.inf), axis=1), np.nan)
+
+
+@metric('dipole_duty', needs_commands=True)
+def dipole_duty(samples):
+    """
+    Return the share of the samples at which the commanded dipole drives some rod to its limit.
+
+    Over the campaign's samples but the last (each command holds over the interval after its
+    sample): the commanded ``m`` counts when some rod's least-norm share ``|allocation_i . m|``
+    reaches its ``max_dipole`` (to 1e-12 relative: a law scaled into the rods lands on it up to
+    rounding). In [0, 1]; a sample without a dipole command counts as not saturated. NaN for a
+    run without magnetorquers.
+    """
+    commands = samples.command('dipole')[:, :-1, :]
+    out = np.full(samples.count, np.nan)
+    for run in range(samples.count):
+        system = samples.systems[run] if samples.systems else None
+        rods = [e for e in (system.effects if system else ()) if hasattr(e, 'max_dipoles')]
+        if not rods or commands.shape[2] != 3 or commands.shape[1] == 0:
+            continue
+        shares = np.abs(commands[run] @ rods[0].allocation.T) / rods[0].max_dipoles
+        with np.errstate(invalid='ignore'):
+            saturated = np.max(shares, axis=1) >= 1.0 - 1e-12
+        out[run] = np.count_nonzero(saturated) / commands.shape[1]
+    return out

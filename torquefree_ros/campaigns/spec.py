@@ -34,6 +34,14 @@ metrics::
     trajectories: {every: 10}                # optional: keep every 10th sample of each run, or
                                              # {rate: 1}: a rate (Hz) that divides `rate`
                                              # (see below)
+    controller: {law: bdot, rate: 1}         # optional: a law run per run (campaigns.controllers)
+    sensor_seeds: scene                      # scene (default) | per_run (see below)
+
+**Sensor seeds.** ``scene`` (the default): every run's outputs keep the scene's ``seed``, so every
+run's sensors draw the same noise. ``per_run``: the ``j``-th output of the scene (in the scene's
+order, ``Scene.outputs``) takes in run ``i`` the seed :func:`.controllers.sensor_seed` ``(seed,
+i, j)``, the first 63 bits of ``SeedSequence(seed, spawn_key=(i, j))`` (the campaign's ``seed``),
+written into the run's scene (``campaigns.run_scene(campaign, i)`` gives it, seeds included).
 
 **Trajectories** (optional; none by default). ``{every: N}`` keeps samples k = 0, N, 2N, ... up to
 ``samples - 1`` (``N`` in ``[1, samples - 1]``: at least two samples a run); ``{rate: HZ}`` says
@@ -65,6 +73,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from .controllers import Controller, controller_target, parse_controller
 from .dispersions import (
     EffectTarget,
     OrbitTarget,
@@ -129,6 +138,9 @@ class Campaign:
     body_acceptance: float | None = None
     # trajectories: keep samples k = 0, N, 2N, ... (None: none kept)
     trajectory_every: int | None = None
+    # the law run per run (None: open loop)
+    controller: Controller | None = None
+    sensor_seeds: str = 'scene'  # scene | per_run
 
     @property
     def samples(self) -> int:
@@ -173,12 +185,28 @@ class Campaign:
         """
         Tell whether each run's scene is built and checked (:func:`.engine.scene_document`).
 
-        A scene with motion effects (the plant runs it), or a target drawn into an effect, a fault
-        or the orbit.
+        A scene the plant runs, a target drawn into an effect, a fault or the orbit, or sensor
+        seeds drawn per run.
         """
-        return not self.scene.torque_free or any(
-            isinstance(target, (EffectTarget, OrbitTarget)) for target in self.targets
+        return (
+            self.runs_plant
+            or self.sensor_seeds == 'per_run'
+            or any(isinstance(target, (EffectTarget, OrbitTarget)) for target in self.targets)
         )
+
+    @property
+    def steps_plant(self) -> bool:
+        """
+        Tell whether the plant steps sample by sample with its sensors read.
+
+        A controller, or a metric of the sensors' readings (:func:`.controllers.closed_loop`).
+        """
+        return self.controller is not None or any(use.metric.needs_sensors for use in self.metrics)
+
+    @property
+    def runs_plant(self) -> bool:
+        """Tell whether the runs go through the batched plant (not ``propagate_batch``)."""
+        return not self.scene.torque_free or self.steps_plant
 
     @property
     def needs_nominal(self) -> bool:
@@ -244,6 +272,8 @@ _TOP = {
     'dispersions': Param(lambda value, path: value, {}),  # checked against the scene below
     'metrics': Param(lambda value, path: value, None),  # checked against the scene below
     'trajectories': Param(lambda value, path: value, None),  # checked against the time grid below
+    'controller': Param(lambda value, path: value, None),  # checked against the scene below
+    'sensor_seeds': Param(choice('scene', 'per_run'), 'scene'),
 }
 
 
@@ -261,11 +291,17 @@ def campaign_from_mapping(data, source: str, text_: str, base: Path) -> Campaign
                 f'{values["duration"]:g} s at {values["rate"]:g} Hz is more than '
                 f'{MAX_SAMPLES:,} samples a run',
             )
-        targets, body_target = _dispersions(values['dispersions'], scene, document)
+        controller = (
+            None
+            if values['controller'] is None
+            else parse_controller(values['controller'], 'controller', scene, values['rate'])
+        )
+        targets, body_target = _dispersions(values['dispersions'], scene, document, controller)
         metrics = parse_metrics(
             values['metrics'] if values['metrics'] is not None else list(DEFAULT_METRICS),
             'metrics',
             scene,
+            commands=controller is not None,
         )
         campaign = Campaign(
             source,
@@ -287,6 +323,8 @@ def campaign_from_mapping(data, source: str, text_: str, base: Path) -> Campaign
                 values['rate'],
                 int(math.floor(values['duration'] * values['rate'] + 1e-9)) + 1,
             ),
+            controller=controller,
+            sensor_seeds=values['sensor_seeds'],
         )
         if body_target is not None:
             campaign = _with_acceptance(campaign)
@@ -370,7 +408,7 @@ def _trajectories(value, rate: float, samples: int) -> int | None:
     return every
 
 
-def _dispersions(value, scene: Scene, document: dict):
+def _dispersions(value, scene: Scene, document: dict, controller: Controller | None = None):
     if not isinstance(value, dict):
         raise FieldError('dispersions', 'expected a mapping TARGET: DISPERSION')
     targets, body = [], None
@@ -380,6 +418,9 @@ def _dispersions(value, scene: Scene, document: dict):
         )
     for key, entry in value.items():
         where = child('dispersions', key)
+        if str(key).startswith('controller.'):
+            targets.append(controller_target(str(key), entry, where, controller))
+            continue
         target = parse_target(key, entry, where, scene, document)
         if key in ('body.moments', 'body.inertia'):
             body = target
@@ -432,12 +473,15 @@ def _with_acceptance(campaign: Campaign) -> Campaign:
 
 
 def _check_plant(campaign: Campaign) -> None:
-    """Check that a scene with effects is one the batched plant can run."""
-    if campaign.scene.torque_free:
+    """Check that a scene with effects is one the batched plant can run (and read, stepped)."""
+    if not campaign.runs_plant:
         return
     from ..plant import Plant
 
+    controller = campaign.controller
     try:
-        Plant([campaign.scene], campaign.rate)
+        plant = Plant([campaign.scene], controller.rate if controller else campaign.rate)
+        if campaign.steps_plant:
+            plant.sensors()
     except ValueError as error:
         raise FieldError('scene', str(error).split(': ', 1)[-1]) from None

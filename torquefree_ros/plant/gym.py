@@ -50,26 +50,35 @@ observes the state at ``k + 1``.
   allocation, each rod clipped to its ``max_dipole``), in ``Box(-m_max, m_max, (3,))``, ``m_max_j =
   min(sum_i max_dipole_i |a_i . e_j|, max_command)`` (the largest body-axis component the rods
   ``a_i`` can make; a rod per axis: its ``max_dipole``), clipped to the box and reported as
-  ``info["dipole"]``. The observation then ends with ``B_B`` (3, T): the Earth's field (the model
-  the rods feel, their ``field``) at the orbit's position at ``t_k+1``, in body axes, the
-  **truth** (an exact magnetometer's reading, without a sensor's errors; the scene's
-  ``magnetometer`` output is not read), for a B-dot policy's ``dB/dt``. ``tau_k / max_torque`` in
-  the reward is ``m_k / m_max``, axis by axis.
+  ``info["dipole"]``. The observation then ends with ``B_B`` (3, T), for a B-dot policy's
+  ``dB/dt``: by default (``observed_field="truth"``) the Earth's field (the model the rods feel,
+  their ``field``) at the orbit's position at ``t_k+1``, in body axes, without a sensor's errors;
+  with ``observed_field="magnetometer"`` the reading of the scene's first ``magnetometer`` output
+  at that sample, its errors and the scene's sensor faults in (``Plant.sensors()``: bit for bit
+  the row the node and ``torquefree_bag`` publish; NaN on a sample it publishes nothing, its own
+  slower ``rate`` or a ``dropout``). ``tau_k / max_torque`` in the reward is ``m_k / m_max``, axis
+  by axis.
 * **Which**: a scene that takes several (say ``magnetorquers`` beside a ``torque_command``) is
   commanded by the first of ``wheels``, ``dipole``, ``torque`` it takes, unless ``actuator`` (the
   constructor's) names one (:func:`_actuator`, the one place the choice is made); the others get
   no command.
 * **Observation**: ``[omega_B (3, rad/s, body frame), q_NB (4, x y z w), the effects' own
   states, the wheels' speeds relative to the body (n, rad/s; none without wheels), B_B (3, T;
-  a dipole's only)]``, float64 (the plant's state, bit for bit). Bounds: ``B_B`` unbounded; the
-  quaternion's components in ``[-1, 1]``; when the scene's only motion effect is
-  ``torque_command``, each rate within ``(|H_0| + sqrt(3) max_torque max_steps / rate) / I_min``
-  (the momentum the box can add in an episode, ``|H_0| <= I_max |omega_0|`` over the initial
-  rates ``reset`` can draw) and the effects' own states unbounded; when its only motion effects
-  are reaction wheels, every entry within the bounds the kinetic energy puts on it (the motors
-  add at most ``sum max_torque_i max_speed_i`` watts, friction only takes energy out:
-  ``_wheel_bounds``); else unbounded
-  (Gymnasium's checker then warns about the infinite bounds: none is known for other effects).
+  a dipole's only)]``, float64 (the plant's state, bit for bit). Bounds: the quaternion's
+  components in ``[-1, 1]``; when the scene's motion effects are ``torque_command`` and
+  ``magnetorquers`` only, each rate within ``(|H_0| + tau_max max_steps / rate) / I_min`` (the
+  momentum their torque can add in an episode, ``|H_0| <= I_max |omega_0|`` over the initial rates
+  ``reset`` can draw; ``tau_max`` sums ``sqrt(3) max_torque`` of the command's box and ``sum_i
+  max_dipole_i B_max`` of the rods, ``B_max`` the bound on the field's size along the orbit,
+  ``Place.field_bound``) and the effects' own states unbounded (a fault of the rods: the rates
+  too); ``B_B`` within ``B_max`` (the truth) or, read from the magnetometer, within the smaller
+  of its ``saturation`` and, without noise, ``sum_j |C_ij| B_max + |b_i|`` and half an LSB
+  (``C = I + S + M``, ``b`` its bias; unbounded with noise and no saturation, or with sensor
+  faults in the scene, which change its readings); when its only motion effects are reaction
+  wheels, every entry within the bounds the kinetic energy puts on it (the motors add at most
+  ``sum max_torque_i max_speed_i`` watts, friction only takes energy out: ``_wheel_bounds``);
+  else unbounded (Gymnasium's checker then warns about the infinite bounds: none is known for
+  other effects).
   With speed set-points for actions the checker also recommends a normalised action space.
 * **Reward** (:class:`DetumbleReward`, the default; ``h = 1 / rate``)::
 
@@ -141,7 +150,8 @@ except ImportError as error:  # pragma: no cover - the extra is not installed
 
 from .plant import _as_scene, Plant, PlantState
 from ..core.body.rigid_body import RigidBody
-from ..core.effects.sensors import body_frame, environment_at
+from ..core.effects.sensors import AxisErrors, body_frame, environment_at
+from ..core.faults.schedule import ACTUATOR_FAULTS
 from ..core.scene.loader import Scene
 
 __all__ = ['ENV_ID', 'AttitudeEnv', 'AttitudeVectorEnv', 'DetumbleReward']
@@ -153,6 +163,8 @@ SPREAD = 0.25
 TORQUE_WEIGHT = 0.1
 #: what an action commands, in the order the default picks the first the scene takes
 ACTUATORS = ('wheels', 'dipole', 'torque')
+#: what a dipole's environment observes as ``B_B``: the field itself, or the scene's magnetometer
+OBSERVED_FIELDS = ('truth', 'magnetometer')
 
 
 class DetumbleReward:
@@ -201,7 +213,9 @@ class AttitudeEnv(gymnasium.Env):
     ``rate``: Hz; ``max_steps``: the episode's length (truncation); ``reward``: ``reward(state,
     torque, next_state) -> float``, default :class:`DetumbleReward`; ``omega_tol``: rad/s, the rate
     below which the episode terminates; ``randomize``, ``spread``: the initial rate drawn at every
-    reset (see ``reset``); ``torque_weight``: ``c`` of the default reward.
+    reset (see ``reset``); ``torque_weight``: ``c`` of the default reward; ``observed_field``:
+    ``'truth'`` or ``'magnetometer'``, what a dipole's observation ends with (the module's
+    docstring).
     """
 
     metadata = {'render_modes': []}
@@ -218,6 +232,7 @@ class AttitudeEnv(gymnasium.Env):
         spread: float = SPREAD,
         torque_weight: float = TORQUE_WEIGHT,
         actuator: str | None = None,
+        observed_field: str = 'truth',
         render_mode: str | None = None,
     ):
         if render_mode is not None:
@@ -230,6 +245,8 @@ class AttitudeEnv(gymnasium.Env):
         self.spread = _non_negative(spread, 'spread')
         self.randomize = bool(randomize)
         self.actuator = _actuator(plant, actuator, 'scene')
+        #: the topic of the magnetometer observed as B_B (None: the truth)
+        self.magnetometer = _magnetometer_topic(plant, observed_field, self.actuator, 'scene')
         self.max_torque = _action_bound(self.scene, self.actuator)
         self.wheels = self.actuator == 'wheels'
         self.frame = _frame(self.scene, self.actuator)
@@ -248,13 +265,14 @@ class AttitudeEnv(gymnasium.Env):
         self.observation_space = _observation_space(
             self.scene,
             plant.state.internal.size + plant.state.wheel_speeds.size,
-            self.max_torque,
             self.max_steps / self.rate,
             self.spread,
             self.actuator,
+            self.magnetometer,
         )
         self._tol2 = self.omega_tol * self.omega_tol
         self._plant: Plant | None = None
+        self._sensors = None  # the episode's Plant.sensors(), reading the magnetometer
         self._state: PlantState | None = None
         # what gymnasium.make would give it: a spec that makes this environment again
         # (env.spec.make())
@@ -271,6 +289,7 @@ class AttitudeEnv(gymnasium.Env):
                 'spread': spread,
                 'torque_weight': torque_weight,
                 'actuator': actuator,
+                'observed_field': observed_field,
             },
         )
 
@@ -292,6 +311,7 @@ class AttitudeEnv(gymnasium.Env):
         scene = _disperse(self.scene, self.spread, self.np_random) if randomize else self.scene
         self._plant = Plant(scene, self.rate)
         self._state = self._plant.state
+        self._sensors = self._plant.sensors() if self.magnetometer else None
         return self._observed(), {'t': 0.0}
 
     def step(self, action):
@@ -322,8 +342,11 @@ class AttitudeEnv(gymnasium.Env):
         observed = _observation(self._state)
         if self.actuator != 'dipole':
             return observed
-        field_B = _field_B(self._plant.scenes, self._plant.t, self._state.q_NB[None, :])
-        return np.concatenate([observed, field_B[0]])
+        if self.magnetometer:
+            field_B = self._sensors.read().rows[self.magnetometer][0:3]
+        else:
+            field_B = _field_B(self._plant.scenes, self._plant.t, self._state.q_NB[None, :])[0]
+        return np.concatenate([observed, field_B])
 
 
 class AttitudeVectorEnv(VectorEnv):
@@ -358,6 +381,7 @@ class AttitudeVectorEnv(VectorEnv):
         spread: float = SPREAD,
         torque_weight: float = TORQUE_WEIGHT,
         actuator: str | None = None,
+        observed_field: str = 'truth',
         render_mode: str | None = None,
     ):
         if render_mode is not None:
@@ -379,9 +403,9 @@ class AttitudeVectorEnv(VectorEnv):
         self.omega_tol = _non_negative(omega_tol, 'omega_tol')
         self.spread = _non_negative(spread, 'spread')
         self.randomize = bool(randomize)
-        self.actuator = _actuator(
-            plant, actuator, 'scene[0]' if isinstance(scene, (list, tuple)) else 'scene'
-        )
+        where = 'scene[0]' if isinstance(scene, (list, tuple)) else 'scene'
+        self.actuator = _actuator(plant, actuator, where)
+        self.magnetometer = _magnetometer_topic(plant, observed_field, self.actuator, where)
         self.max_torque = _action_bound(scenes[0], self.actuator)
         self.wheels = self.actuator == 'wheels'
         limits = [_action_bound(s, self.actuator) for s in scenes]
@@ -421,10 +445,10 @@ class AttitudeVectorEnv(VectorEnv):
             _observation_space(
                 s,
                 self._internal + self._speeds,
-                self.max_torque,
                 self.max_steps / self.rate,
                 self.spread,
                 self.actuator,
+                self.magnetometer,
             )
             for s in _distinct(scenes)
         ]
@@ -538,7 +562,7 @@ class AttitudeVectorEnv(VectorEnv):
             _disperse(self.scenes[b], self.spread, self._rngs[b]) if randomize else self.scenes[b]
             for b in bodies
         ]
-        cohort = _Cohort(Plant(scenes, self.rate), bodies, self._field)
+        cohort = _Cohort(Plant(scenes, self.rate), bodies, self._field, self.magnetometer)
         for row, b in enumerate(bodies):
             old = self._cohort_of[b]
             if old is not None:
@@ -565,19 +589,26 @@ class _Cohort:
     """
     Bodies that began their episodes on the same step, in one batched plant.
 
-    Row ``r`` is body ``bodies[r]`` while ``alive[r]``; ``field``: the rows end with ``B_B``.
+    Row ``r`` is body ``bodies[r]`` while ``alive[r]``; ``field``: the rows end with ``B_B``, the
+    truth or, with ``magnetometer`` (a topic), that output's reading.
     """
 
-    def __init__(self, plant: Plant, bodies: np.ndarray, field: bool = False):
+    def __init__(
+        self, plant: Plant, bodies: np.ndarray, field: bool = False, magnetometer=None
+    ):
         self.plant = plant
         self.bodies = np.asarray(bodies, dtype=np.int64)
         self.alive = np.ones(self.bodies.size, dtype=bool)
         self.field = field
+        self.magnetometer = magnetometer
+        self.sensors = plant.sensors() if magnetometer else None
 
     def rows(self, state: PlantState) -> np.ndarray:
         """Return the observations of the plant's sample ``state``, a row per body."""
         columns = [state.omega_B, state.q_NB, state.internal, state.wheel_speeds]
-        if self.field:
+        if self.magnetometer:
+            columns.append(self.sensors.read().rows[self.magnetometer][:, 0:3])
+        elif self.field:
             columns.append(_field_B(self.plant.scenes, self.plant.t, state.q_NB))
         return np.concatenate(columns, axis=1)
 
@@ -695,6 +726,34 @@ def _actuator(plant: Plant, wanted, where: str) -> str:
     return wanted
 
 
+def _magnetometer_topic(plant: Plant, observed_field, actuator: str, where: str):
+    """
+    Return the topic of the magnetometer observed as ``B_B``, or None to observe the truth.
+
+    ``observed_field`` (the constructor's): ``'truth'``, or ``'magnetometer'``: the first
+    ``magnetometer`` output of the scenes (a batch's must have the same outputs: refused here,
+    with the reason, rather than at the first reset), for a dipole's observation only.
+    """
+    if not isinstance(observed_field, str) or observed_field not in OBSERVED_FIELDS:
+        known = ', '.join(map(repr, OBSERVED_FIELDS))
+        raise ValueError(f'observed_field: expected one of {known}, got {observed_field!r}'[:300])
+    if observed_field == 'truth':
+        return None
+    if actuator != 'dipole':
+        raise ValueError(
+            'observed_field: the field is observed with a dipole action only, the actions '
+            f'command {actuator}'
+        )
+    magnetometers = [o for o in plant.scenes[0].outputs if o.name == 'magnetometer']
+    if not magnetometers:
+        raise ValueError(
+            f'observed_field: {where} ({plant.scenes[0].source}) has no magnetometer output to '
+            'read'
+        )
+    plant.sensors()  # a batch's outputs that differ: refused now, with the reason
+    return magnetometers[0].topic
+
+
 def _action_bound(scene: Scene, actuator: str):
     """
     Return the action's bound: ``max_torque`` of the torque, or one per input (an array).
@@ -756,29 +815,58 @@ def _disperse(scene: Scene, spread: float, rng: np.random.Generator) -> Scene:
 def _observation_space(
     scene: Scene,
     internal: int,
-    max_torque: float,
     duration: float,
     spread: float,
     actuator: str = 'torque',
+    magnetometer: str | None = None,
 ) -> spaces.Box:
     """
     Return the observation space with the module's bounds.
 
-    The rates within what the box can add to the initial momentum in ``duration`` when
-    ``torque_command`` is the only motion effect (|omega| <= |H| / I_min); every entry within
-    :func:`_wheel_bounds` when reaction wheels are the only ones; else unbounded. A dipole's
-    environment observes ``B_B`` last, unbounded (three more entries).
+    The rates within what the torques can add to the initial momentum in ``duration`` when
+    ``torque_command`` and ``magnetorquers`` are the only motion effects (|omega| <= |H| /
+    I_min); every entry within :func:`_wheel_bounds` when reaction wheels are the only ones; else
+    unbounded. A dipole's environment observes ``B_B`` last (three more entries,
+    :func:`_field_bounds`).
     """
-    space = _state_space(scene, internal, max_torque, duration, spread)
+    space = _state_space(scene, internal, duration, spread)
     if actuator != 'dipole':
         return space
-    high = np.concatenate([space.high, np.full(3, np.inf)])
+    high = np.concatenate([space.high, _field_bounds(scene, magnetometer)])
     return spaces.Box(-high, high, dtype=np.float64)
 
 
-def _state_space(
-    scene: Scene, internal: int, max_torque: float, duration: float, spread: float
-) -> spaces.Box:
+def _field_bounds(scene: Scene, magnetometer: str | None) -> np.ndarray:
+    """
+    Return the bounds of the observed ``B_B``'s components, T.
+
+    The truth: ``B_max`` of the rods' field model on the orbit (``Place.field_bound``), with a
+    margin of 1e-6 for rounding. The magnetometer (``magnetometer``, its topic): its
+    ``saturation`` clips the reading; without noise ``|B_meas,i| <= sum_j |C_ij| B_max +
+    |b_i|`` (``C = I + S + M``, ``b`` the bias) and half an LSB with quantization; the smaller of
+    the two. Unbounded with noise and no saturation (a normal's tail), or with sensor faults in
+    the scene (they change the readings).
+    """
+    b_max = scene.orbit.field_bound(_rods(scene).values['field'])
+    if magnetometer is None:
+        return np.full(3, b_max * (1.0 + 1e-6))
+    (sensor,) = [o for o in scene.outputs if o.name == 'magnetometer' and o.topic == magnetometer]
+    if any(fault.kind not in ACTUATOR_FAULTS for fault in scene.faults):
+        return np.full(3, np.inf)
+    values = sensor.values
+    errors = AxisErrors(values, 'T')
+    high = np.full(3, np.inf)
+    if values['noise'] == 0.0:
+        matrix = np.eye(3) if errors.matrix is None else errors.matrix
+        high = np.abs(matrix).sum(axis=1) * b_max + np.abs(np.asarray(values['bias'], float))
+        if errors.lsb is not None:
+            high = high + 0.5 * errors.lsb
+    if errors.limit is not None:
+        high = np.minimum(high, errors.limit)
+    return high * (1.0 + 1e-6)
+
+
+def _state_space(scene: Scene, internal: int, duration: float, spread: float) -> spaces.Box:
     """Return the bounds of the plant's state in the observation (:func:`_observation_space`)."""
     omega0 = float(np.linalg.norm(np.asarray(scene.angular_velocity, dtype=float)))
     omega0 *= 1.0 + math.sqrt(3.0) * spread  # the largest rate reset can draw
@@ -787,12 +875,33 @@ def _state_space(
         high = np.concatenate([bounds[:3], np.ones(4), bounds[3:]])
         return spaces.Box(-high, high, dtype=np.float64)
     rate = math.inf
-    if all(e.name == 'torque_command' for e in scene.effects):
+    if all(e.name in ('torque_command', 'magnetorquers') for e in scene.effects):
         moments = RigidBody.from_inertia(scene.inertia).moments
-        momentum = float(moments.max()) * omega0 + math.sqrt(3.0) * max_torque * duration
+        momentum = float(moments.max()) * omega0 + _torque_bound(scene) * duration
         rate = momentum / float(moments.min()) * (1.0 + 1e-6)
     high = np.concatenate([np.full(3, rate), np.ones(4), np.full(internal, np.inf)])
     return spaces.Box(-high, high, dtype=np.float64)
+
+
+def _torque_bound(scene: Scene) -> float:
+    """
+    Return a bound on ``|tau|`` (N m) of the scene's ``torque_command`` and ``magnetorquers``.
+
+    The command's box: ``sqrt(3) max_torque``; the rods: ``|m x B| <= sum_i max_dipole_i B_max``
+    (each rod's dipole within its ``max_dipole`` along its unit axis, ``B_max`` the field's bound
+    along the orbit, ``Place.field_bound``, of the model the rods feel); none (inf) with a fault of
+    the rods.
+    """
+    if any(ACTUATOR_FAULTS.get(fault.kind) == 'magnetorquers' for fault in scene.faults):
+        return math.inf  # a stuck rod's value, the dipole's noise: not within max_dipole
+    bound = 0.0
+    for effect in scene.effects:
+        if effect.name == 'torque_command':
+            bound += math.sqrt(3.0) * float(effect.values['max_torque'])
+        else:
+            b_max = scene.orbit.field_bound(effect.values['field'])
+            bound += float(np.sum(effect.max_dipoles)) * b_max
+    return bound
 
 
 def _wheel_bounds(scene: Scene, omega0: float, duration: float) -> np.ndarray:

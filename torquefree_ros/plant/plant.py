@@ -253,6 +253,8 @@ class Plant:
         width = drivers.held_width(propagators[0].dynamics) if wheels[0] or rods[0] else 6
         self._command_helds = np.zeros((count, width))
         self._wheels = _WheelInputs([w[0] for w in wheels], propagators[0]) if wheels[0] else None
+        if self._wheels is not None and self._wheels.error_columns is not None:
+            self._command_helds[:, self._wheels.error_columns] = self._wheels.no_error
         self._commands = _TorqueInputs([c[0] for c in commands]) if commands[0] else None
         self._dipoles = _DipoleInputs([r[0] for r in rods], propagators[0]) if rods[0] else None
         inputs = [i for i in (self._commands, self._wheels, self._dipoles) if i is not None]
@@ -469,6 +471,14 @@ class _WheelInputs(_Inputs):
         columns = kernels.HELD_TORQUES + part.start + 2 * np.arange(effect.count)
         super().__init__(effects, columns, np.array(effect.off), effect.count)
         self.effect = effect  # scene 0's (names, mode)
+        # speed mode: the drives' torque errors (scale, bias) in the effect's slot, none acting
+        # (1, 0) unless a fault writes them (_FaultedInput)
+        slots = drivers.held_slots(dynamics)
+        (slot,) = [s for e, s in zip(dynamics.effects, slots) if e is effect]
+        self.error_columns = (
+            None if slot is None else slot + np.arange(effect.held_slot_size)
+        )
+        self.no_error = np.tile([1.0, 0.0], effect.count)
         self.unit = 'speed set-point (rad/s)' if effect.mode == 'speed' else 'motor torque (N m)'
 
 
@@ -514,6 +524,9 @@ class _FaultedInput:
         helds[body, inputs.columns] = (
             values if inputs.applies is None else inputs.applies[body](values)
         )
+        if getattr(inputs, 'error_columns', None) is not None:  # a speed drive's torque errors
+            scales, biases = inputs.effects[body].loop_errors(k)
+            helds[body, inputs.error_columns] = [x for pair in zip(scales, biases) for x in pair]
 
     def _kept(self, override) -> np.ndarray:
         # first read on the window's first interval: the previous is the one before it
@@ -524,14 +537,19 @@ _NO_SPEEDS = np.empty(0)
 
 
 class _WheelSpeeds:
-    """Each body's wheel speeds from its rows: ``Omega_i = h_i / Js_i - g_i . w``."""
+    """
+    Each body's wheel speeds from its rows: ``Omega_i = h_i / Js_i - g_i . w``.
 
-    def __init__(self, index, spin_inertias, axes):
+    A held array (``mode: hold``) has no state: its wheels' speeds are their scene speeds.
+    """
+
+    def __init__(self, index, spin_inertias, axes, held=None):
         self.index, self.spin_inertias, self.axes = index, spin_inertias, axes
+        self.held = held  # (N, n): the held wheels' speeds, NaN for the others; None: none held
 
     @classmethod
     def of(cls, propagators) -> '_WheelSpeeds':
-        index, spin, axes = [], [], []
+        index, spin, axes, held = [], [], [], []
         for body, propagator in enumerate(propagators):
             dynamics = propagator.dynamics
             wheels = [
@@ -539,23 +557,41 @@ class _WheelSpeeds:
                 for e, p in zip(dynamics.effects, dynamics.slices)
                 if isinstance(e, ReactionWheels)
             ]
-            if body == 0:
-                index = [7 + p.start + 2 * i for e, p in wheels for i in range(e.count)]
+            if body == 0:  # (a held wheel's column is any: its speed replaces what it reads)
+                index = [
+                    7 + p.start + 2 * i if e.state_size else 0
+                    for e, p in wheels
+                    for i in range(e.count)
+                ]
             spin.append(np.concatenate([e.spin_inertias for e, _ in wheels] or [np.empty(0)]))
             axes.append(np.concatenate([e.axes for e, _ in wheels] or [np.empty((0, 3))]))
-        return cls(np.array(index, dtype=np.int64), np.array(spin), np.array(axes))
+            held.append(
+                [s if e.holds_speeds() else math.nan for e, _ in wheels for s in e.speeds]
+            )
+        held = np.array(held, dtype=float)
+        return cls(
+            np.array(index, dtype=np.int64),
+            np.array(spin),
+            np.array(axes),
+            held if held.size and not np.isnan(held).all() else None,
+        )
 
     def __call__(self, rows: np.ndarray) -> np.ndarray:
         """Return the speeds of ``rows`` (``(N, n)``, or ``(N, M, n)`` with a samples axis)."""
         if not self.index.size:  # (no wheels: an empty array, not a computation)
             return _NO_SPEEDS.reshape(rows.shape[:-1] + (0,))
         if rows.ndim == 2:
-            return rows[:, self.index] / self.spin_inertias - np.einsum(
+            speeds = rows[:, self.index] / self.spin_inertias - np.einsum(
                 'bij,bj->bi', self.axes, rows[:, :3]
             )
-        return rows[..., self.index] / self.spin_inertias[:, None, :] - np.einsum(
-            'bij,bmj->bmi', self.axes, rows[..., :3]
-        )
+        else:
+            speeds = rows[..., self.index] / self.spin_inertias[:, None, :] - np.einsum(
+                'bij,bmj->bmi', self.axes, rows[..., :3]
+            )
+        if self.held is None:
+            return speeds
+        held = self.held if rows.ndim == 2 else self.held[:, None, :]
+        return np.where(np.isnan(held), speeds, held)
 
 
 def _as_scene(scene, where: str) -> Scene:

@@ -61,10 +61,34 @@ RELEASE_TIMEOUT = 1.0  # s: the longest retire waits for the thread to let go of
 
 
 def command_effects(request: RunRequest | None) -> dict:
-    """Map topic -> effect, for the effects of ``request`` that take commands."""
+    """
+    Map topic -> effect, for the effects of ``request`` that take or refuse commands.
+
+    Those that take them, and held ``reaction_wheels`` (:func:`refusing_effects`).
+    """
     if request is None:
         return {}
-    return {effect.topic: effect for effect in command_inputs(request.propagator.effects)}
+    taking = {effect.topic: effect for effect in command_inputs(request.propagator.effects)}
+    return {**refusing_effects(request), **taking}
+
+
+def refusing_effects(request: RunRequest | None) -> dict:
+    """
+    Map topic -> effect, for ``request``'s held ``reaction_wheels`` on a topic of their own.
+
+    A held array takes no commands: each one on its topic is refused and counted (``wrong
+    mode``, reported by the array's /diagnostics monitor), as a command in the wrong field is.
+    On a topic a commanded effect takes, the commands are that effect's.
+    """
+    if request is None:
+        return {}
+    effects = request.propagator.effects
+    taken = {effect.topic for effect in command_inputs(effects)}
+    return {
+        effect.topic: effect
+        for effect in effects
+        if getattr(effect, 'mode', None) == 'hold' and effect.topic not in taken
+    }
 
 
 def decode_wrench_stamped(data: bytes) -> tuple[int, str, tuple, tuple]:
@@ -174,6 +198,7 @@ class CommandInputs:
         self._qos = command_profile(depth)
         self._subscriptions: dict = {}
         self._logged: set = set()  # (id of the hold, what) already said
+        self._refusing: dict = {}  # topic -> the running run's held wheels (refusing_effects)
         self._group = _ServedApart()
         # the subscriptions' dict, shared by ensure/retire and the thread; a generation counts its
         # changes, and the thread says which generation it serves (it holds no older handle)
@@ -185,6 +210,7 @@ class CommandInputs:
         self._thread: threading.Thread | None = None
 
     def ensure(self, request: RunRequest) -> None:
+        self._refusing = refusing_effects(request)
         for topic, effect in command_effects(request).items():
             if topic not in self._subscriptions:
                 events = subscription_warnings(
@@ -205,6 +231,7 @@ class CommandInputs:
         self._wake_thread()
 
     def retire(self, request: RunRequest | None) -> None:
+        self._refusing = refusing_effects(request)
         with self._turnover:
             retired = [
                 self._subscriptions.pop(topic)
@@ -316,6 +343,16 @@ class CommandInputs:
             self._receive(topic, decode(taken[0]))
 
     def _receive(self, topic: str, decoded: tuple) -> None:
+        held = self._refusing.get(topic)
+        if held is not None and len(decoded) == 5:  # refused and counted by the effect
+            _, reason = held.receive(*decoded)
+            self._once(
+                held,
+                'wrong mode',
+                f'{topic}: command refused ({reason}); further refusals are only counted '
+                '(/diagnostics)',
+            )
+            return
         for effect, hold in self._holds():
             if effect.topic != topic:
                 continue

@@ -39,10 +39,11 @@ Overrides (:meth:`CommandHold.override`, an actuator's faults: ``core.faults.act
 some components of what holds on the intervals ``first .. stop - 1``, whatever the commands say:
 replaced with given values, or (``values`` None) with what held on interval ``first - 1`` (``off``
 before sample 0), kept once read; or (``scale``, ``bias``) turned into ``scale * value + bias``,
-whatever holds (a command, or ``off``). Those acting on one interval apply in their order
-(:func:`overridden`, the one rule: the plant applies it to its bodies too). They act where every
-reader of the hold looks (:meth:`CommandHold.held_on`), so both propagation paths and the outputs
-see them.
+whatever holds (a command, or ``off``); or (``noise``) added ``noise(k)`` on interval ``k`` (a
+seeded draw of the interval, ``core.faults.actuators.SeededNoise``), whatever holds. Those acting
+on one interval apply in their order (:func:`overridden`, the one rule: the plant applies it to
+its bodies too). They act where every reader of the hold looks (:meth:`CommandHold.held_on`), so
+both propagation paths and the outputs see them.
 """
 
 from __future__ import annotations
@@ -52,7 +53,7 @@ from collections import Counter
 import math
 import threading
 import time
-from typing import NamedTuple
+from typing import Callable, NamedTuple
 
 import numpy as np
 
@@ -81,6 +82,8 @@ class Override(NamedTuple):
     # or (both given, values unused) turned into scale * value + bias, one of each a component
     scale: tuple | None = None
     bias: tuple | None = None
+    # or (values unused) added noise(k) on interval k: one a component, the same on every call
+    noise: Callable[[int], np.ndarray] | None = None
 
     def covers(self, k: int) -> bool:
         return self.first <= k and (self.stop is None or k < self.stop)
@@ -88,7 +91,7 @@ class Override(NamedTuple):
 
 def holds_last(override: Override) -> bool:
     """Tell whether ``override`` holds what held on the interval before its window."""
-    return override.values is None and override.scale is None
+    return override.values is None and override.scale is None and override.noise is None
 
 
 def overridden(values: np.ndarray, k: int, overrides, kept) -> np.ndarray:
@@ -108,6 +111,8 @@ def overridden(values: np.ndarray, k: int, overrides, kept) -> np.ndarray:
             values[components] = (
                 values[components] * np.array(override.scale) + np.array(override.bias)
             )
+        elif override.noise is not None:
+            values[components] = values[components] + override.noise(k)
         elif holds_last(override):
             values[components] = kept(override)[components]
         else:

@@ -52,7 +52,9 @@ def build_model(dynamics) -> np.ndarray:
     parameters), or several (a reaction wheel each: its parameters a whole number of its code's
     count, its state split evenly among them). Effects that hold a piecewise-constant torque have
     no entry (see :func:`held_torques`). An effect with a slot in ``held`` (:func:`held_slots`)
-    has its slot's index in ``held`` where the others have their state's offset.
+    has its slot's index in ``held`` where the others have their state's offset; a speed-mode
+    wheel's entry has its state's offset, and the index of its pair (scale, bias) in its
+    effect's slot as its last parameter (``motion_kernels.REACTION_WHEEL``).
     """
     entries, count = [], 0
     slots = held_slots(dynamics)
@@ -68,11 +70,15 @@ def build_model(dynamics) -> np.ndarray:
                 f'states, its kernel reads {per_entry} per entry'
             )
         states = effect.state_size // several
+        wheels = effect.kernel_code == kernels.REACTION_WHEEL
         for k in range(several):
+            entry = parameters[k * per_entry: (k + 1) * per_entry]
+            if wheels and slot is not None:  # its torque error's pair in the effect's slot
+                entry[-1] = float(slot + 2 * k)
             entries += [
                 float(effect.kernel_code),
-                float(part.start + k * states if slot is None else slot),
-                *parameters[k * per_entry: (k + 1) * per_entry],
+                float(part.start + k * states if slot is None or wheels else slot),
+                *entry,
             ]
         count += several
     tensor = dynamics.tensor
@@ -176,7 +182,8 @@ def held_torques(
         if slot is not None:
             if whole:
                 out[slot: slot + slot_size(effect)] = effect.held_slot(segment_start)
-            continue
+            if not effect.state_size:  # (a speed-mode wheel has its inputs too)
+                continue
         if effect.kernel_code is None:
             torque, inertial = effect.held_torque(segment_start)
             if inertial:

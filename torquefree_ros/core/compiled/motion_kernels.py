@@ -51,7 +51,9 @@ reaches the kernels as numbers, never as code: nothing here calls
 (``held_slot_size`` floats, ``held_slot(segment_start)``: magnetorquers' applied dipole), effect
 after effect in scene order. Such an effect's entry carries, in place of a state offset, the index
 of its slot in ``held`` (the driver lays it out: ``drivers.held_slots``), so the slots need no
-offset arithmetic here and the sections before them keep their places::
+offset arithmetic here and the sections before them keep their places. Speed-mode reaction wheels
+have a slot too, their drives' torque errors (scale, bias) a wheel, each wheel's entry keeping its
+state offset and naming its pair's index as its last parameter::
 
     held = [body torque (3), inertial torque (3) | an input per state component (n_x)
             | the environment section (when the scene has an orbit) | the slots]
@@ -91,7 +93,9 @@ DAMPER = 2  # parameters: rotor inertia J, damping c; state: the rotor's rate nu
 ROTOR = 3  # parameters: the wheel's momentum h_B (3)
 # a wheel each; parameters: spin axis g (3), Js, max torque, max speed, speed band, viscous b,
 # Coulomb Fc, Coulomb band, Stribeck excess Fs - Fc, Stribeck speed, speed-loop gain (0: the
-# held input is a motor torque); state: Js (Omega + g . w), then the wheel's angle
+# held input is a motor torque), the index in held of the drive's torque error (scale, bias: the
+# speed loop's output turned into scale u + bias, its effect's slot; 0: none); state: Js (Omega +
+# g . w), then the wheel's angle. Wheels held at constant speed (mode hold) are a ROTOR entry.
 REACTION_WHEEL = 4
 # on the scene's orbit, reading the environment section of held; parameters: GM, the tensor (9)
 ORBIT_GRAVITY_GRADIENT = 5
@@ -105,7 +109,7 @@ PARAMETER_COUNTS = {
     GRAVITY_GRADIENT: 11,
     DAMPER: 2,
     ROTOR: 3,
-    REACTION_WHEEL: 13,
+    REACTION_WHEEL: 14,
     ORBIT_GRAVITY_GRADIENT: 10,
     RESIDUAL_DIPOLE: 4,
     MAGNETORQUERS: 1,
@@ -236,17 +240,24 @@ def _rotor(w1, w2, w3, model, p):
     return h2 * w3 - h3 * w2, h3 * w1 - h1 * w3, h1 * w2 - h2 * w1
 
 
-def _reaction_wheel(w1, w2, w3, h, command, model, p):
+def _reaction_wheel(w1, w2, w3, h, command, model, p, held):
     """
     Return a wheel's torque on the body, ``h'`` and its speed (ReactionWheels, same operations).
 
     ``h = Js (Omega + g . w)``; the net axial torque on the wheel is ``u - f`` (the motor's,
     limited, less friction), the body's ``(h g) x w - g (u - f)``; the speed ``Omega`` is the
-    wheel angle's rate.
+    wheel angle's rate. A speed drive's torque error, when the wheel has one, is read from
+    ``held`` at the index its 14th parameter gives.
     """
     g1, g2, g3, Js = model[p], model[p + 1], model[p + 2], model[p + 3]
     speed = h / Js - (g1 * w1 + g2 * w2 + g3 * w3)
-    u = _wheel_motor(speed, command, model[p + 4], model[p + 5], model[p + 6], model[p + 12])
+    scale, bias = 1.0, 0.0
+    e = int(model[p + 13])
+    if e > 0:
+        scale, bias = held[e], held[e + 1]
+    u = _wheel_motor(
+        speed, command, model[p + 4], model[p + 5], model[p + 6], model[p + 12], scale, bias
+    )
     f = _wheel_friction(
         speed, model[p + 7], model[p + 8], model[p + 9], model[p + 10], model[p + 11]
     )
@@ -259,19 +270,20 @@ def _reaction_wheel(w1, w2, w3, h, command, model, p):
     return torque, net, speed
 
 
-def _wheel_motor(speed, command, max_torque, max_speed, band, gain):
+def _wheel_motor(speed, command, max_torque, max_speed, band, gain, scale, bias):
     """
     Return the motor torque a wheel applies (ReactionWheels.motor_torque).
 
-    With a speed-loop ``gain`` the command is a speed set-point (NaN: the drive is off) and the
-    drive asks ``gain (command - Omega)``. Clipped to ``+-max_torque``; a torque that speeds the
-    wheel up (``u Omega > 0``) is scaled by ``(max_speed - |Omega|) / band`` in the last ``band``
-    below ``max_speed``, zero at and beyond it.
+    With a speed-loop ``gain`` the command is a speed set-point (NaN: the drive is off, asking
+    zero) and the drive asks ``gain (command - Omega)``, or under a torque error ``scale`` times
+    that plus ``bias``. Clipped to ``+-max_torque``; a torque that speeds the wheel up (``u Omega >
+    0``) is scaled by ``(max_speed - |Omega|) / band`` in the last ``band`` below ``max_speed``,
+    zero at and beyond it.
     """
     if gain > 0.0:
-        if math.isnan(command):
-            return 0.0
-        command = gain * (command - speed)
+        command = 0.0 if math.isnan(command) else gain * (command - speed)
+        if scale != 1.0 or bias != 0.0:
+            command = scale * command + bias
     u = min(max(command, -max_torque), max_torque)
     if u * speed > 0.0:
         room = (max_speed - abs(speed)) / band
@@ -373,10 +385,10 @@ def _rhs(t, Y, r, model, held, OUT, o):
         else:  # REACTION_WHEEL, its input (motor torque or set-point) held at its state's index
             s = 7 + int(model[at + 1])
             (e1, e2, e3), v1, v2 = _reaction_wheel(
-                w1, w2, w3, Y[r, s], held[HELD_TORQUES + s - 7], model, p
+                w1, w2, w3, Y[r, s], held[HELD_TORQUES + s - 7], model, p, held
             )
             OUT[o, s], OUT[o, s + 1] = v1, v2
-            at = p + 13
+            at = p + 14
         m1, m2, m3 = m1 + e1, m2 + e2, m3 + e3
     OUT[o, 0] = model[9] * m1 + model[10] * m2 + model[11] * m3
     OUT[o, 1] = model[12] * m1 + model[13] * m2 + model[14] * m3

@@ -37,9 +37,9 @@ less the wheels' spin, ``I_s = I - sum Js_i g_i g_i^T`` (:meth:`ReactionWheels.s
     Omega_i = h_i / Js_i - g_i . w
 
 The effect's state is ``(h_0, theta_0, h_1, theta_1, ...)``, a pair per wheel in ``wheels`` order
-(a kernel entry each). The angle costs one more component per wheel and no torque: it is
-integrated, not derived, because it is the integral of ``Omega`` over the whole run, which no
-sample holds.
+(a kernel entry each); none in hold mode (below). The angle costs one more component per wheel
+and no torque: it is integrated, not derived, because it is the integral of ``Omega`` over the
+whole run, which no sample holds.
 
 ``I_s`` must be positive definite (checked where the wheels meet the body: ``bound``, at scene
 load). The motor and friction torques are internal: the inertial momentum ``R(q) H_B``, ``H_B =
@@ -65,7 +65,11 @@ Speed mode: the drive's own speed loop, proportional, asks ``u_cmd = K (Omega_re
 ``K / Js_eff = speed_bandwidth I_a / (I_a - Js)``. Being proportional, it settles ``f / K`` short
 of the set-point under friction ``f`` (a drive's integral term would need a state of its own).
 The loop's torque then meets the same limits as a commanded one. The held set-point of a drive
-that is off is NaN, which the motor reads as zero torque.
+that is off is NaN, which the motor reads as zero torque. A ``wheel_torque_error`` fault turns the
+loop's torque into ``scale u_cmd + bias`` before the limits (zero with the drive off: the bias
+alone), at every stage of the integration: its ``(scale, bias)`` per wheel and interval come from
+the hold's overrides (:meth:`ReactionWheels.loop_errors`), and reach the kernel in the effect's
+slot of ``held`` (``held_slot``).
 
 The command ``u_cmd`` (torque mode: the input; speed mode: the loop's) is clipped to
 ``+-max_torque``. Speed limit: Basilisk zeroes a torque that would speed the wheel further (``u
@@ -95,6 +99,28 @@ the integrator's noise. A motor torque under the dry level leaves the wheel cree
 w_c`` where the ideal law has it stuck. In the band the wheel's time constant is ``Js_eff w_c /
 F(w_c)``: an explicit integrator's steps there are a few of it (DOP853's stability bound).
 
+Hold mode. ``mode: hold`` holds each wheel's relative speed exactly at its scene ``speed`` by an
+ideal drive and takes no commands (a ``wheel_command`` on its ``topic`` is refused and counted as
+``wrong mode``). With every ``Omega_i`` constant, ``H_B = I w + h``, ``h = sum Js_i Omega_i g_i``
+constant (:meth:`ReactionWheels.held_momentum_B`), and the body is exactly the ``rotor``'s
+gyrostat::
+
+    I w' + w x (I w + h) = tau_ext        (I: the scene's locked inertia)
+
+The effect then has no state of its own (``state_size`` 0: the integrator steps ``(w, q)`` alone,
+as with a ``rotor``, so the two runs are the same numbers), its compiled entry is the rotor's
+(``motion_kernels.ROTOR`` with ``h``), its Python torque the rotor's ``h x w``; each wheel's angle
+is ``Omega_i t`` and its speed ``Omega_i``, exactly. The drive's torque that holds wheel ``i``
+follows from the body's acceleration: ``Js_i (Omega_i' + g_i . w') = u_i - f_i`` with ``Omega_i'
+= 0`` gives ``u_i = Js_i g_i . w' + f_i(Omega_i)`` (the drive overcomes the friction, which never
+reaches the body). ``wheel_states`` reports it as the effort, ``w'`` from the whole right-hand
+side at the sample (:meth:`ReactionWheels.held_efforts`); the hold stays ideal whatever it needs,
+and ``/diagnostics`` counts the intervals whose mean drive torque ``Js_i g_i . (w_k - w_k-1) / dt
++ f_i`` (exact from two samples) exceeds ``max_torque`` as torque-limited time. ``max_speed``
+bounds the scene ``speed`` only. No actuator fault acts on a held array (refused at load with the
+fault's path): a stuck drive lets the wheel coast and an erring one drifts its speed, motions a
+held array has no state to carry.
+
 Presets. A wheel's ``preset: NAME`` names a published wheel (:mod:`.wheel_presets`: the table,
 each row with its source and date) and fills its ``spin_inertia``, ``max_torque``,
 ``max_speed`` and ``coulomb`` where its source gives one; any of them written beside the preset
@@ -107,6 +133,7 @@ torque it applies after the limits; :class:`WheelMonitor` what ``/diagnostics`` 
 from __future__ import annotations
 
 import bisect
+from collections import Counter
 import copy
 import math
 
@@ -137,6 +164,7 @@ from ..checks.schema import (
 )
 from ..commands.hold import CommandHold
 from ..compiled import motion_kernels
+from ..frames import quaternion
 
 #: the speed limit's band when a wheel gives none: this fraction of its ``max_speed``
 SPEED_BAND_FRACTION = 0.01
@@ -144,8 +172,13 @@ SPEED_BAND_FRACTION = 0.01
 COULOMB_BAND = 0.01
 #: the speed loop's bandwidth when the effect gives none, rad/s (~1.6 Hz)
 SPEED_BANDWIDTH = 10.0
-#: the modes: the scene's own motor torques, or a controller's motor torques or speed set-points
-MODES = ('schedule', 'torque', 'speed')
+#: the modes: the scene's own motor torques, a controller's motor torques or speed set-points, or
+#: every wheel held at its scene speed by an ideal drive
+MODES = ('schedule', 'torque', 'speed', 'hold')
+#: why a held array refuses a command (its first words: the refusal's counted reason)
+HELD_REFUSAL = (
+    'wrong mode: wheels in hold mode take no commands (each is held at its scene speed)'
+)
 
 _STRIBECK = mapping(
     {
@@ -221,19 +254,20 @@ _SEGMENT = mapping(
 )
 
 
-def motor_torque(speed, command, max_torque, max_speed, band, gain=0.0):
+def motor_torque(speed, command, max_torque, max_speed, band, gain=0.0, scale=1.0, bias=0.0):
     """
     Return the motor torque a wheel at relative ``speed`` applies for ``command``.
 
-    With a speed-loop ``gain`` (speed mode) ``command`` is a set-point (NaN: the drive is off) and
-    the drive asks ``gain (command - speed)``. Clipped to ``+-max_torque``; a torque that speeds
-    the wheel up fades out over the last ``band`` below ``max_speed`` (the module's speed limit).
-    The kernel's ``_wheel_motor``.
+    With a speed-loop ``gain`` (speed mode) ``command`` is a set-point (NaN: the drive is off,
+    asking zero) and the drive asks ``gain (command - speed)``, under a ``wheel_torque_error``
+    ``scale`` times that plus ``bias``. Clipped to ``+-max_torque``; a torque that speeds the
+    wheel up fades out over the last ``band`` below ``max_speed`` (the module's speed limit). The
+    kernel's ``_wheel_motor``.
     """
     if gain > 0.0:
-        if math.isnan(command):
-            return 0.0
-        command = gain * (command - speed)
+        command = 0.0 if math.isnan(command) else gain * (command - speed)
+        if scale != 1.0 or bias != 0.0:
+            command = scale * command + bias
     u = min(max(command, -max_torque), max_torque)
     if u * speed > 0.0:
         room = (max_speed - abs(speed)) / band
@@ -258,16 +292,17 @@ def friction_torque(speed, viscous, coulomb, band, excess, stribeck_speed):
     return viscous * speed + dry
 
 
-def wheel_terms(w1, w2, w3, h, command, p):
+def wheel_terms(w1, w2, w3, h, command, p, scale=1.0, bias=0.0):
     """
     Return one wheel's torque on the body, its ``h' = u - f`` and its speed (plain floats).
 
-    ``p``: the wheel's 13 kernel parameters (:data:`motion_kernels.REACTION_WHEEL`); the kernel's
-    ``_reaction_wheel``, the same operations.
+    ``p``: the wheel's 14 kernel parameters (:data:`motion_kernels.REACTION_WHEEL`); ``scale``
+    and ``bias`` a speed drive's torque error; the kernel's ``_reaction_wheel``, the same
+    operations.
     """
     g1, g2, g3, Js = p[0], p[1], p[2], p[3]
     speed = h / Js - (g1 * w1 + g2 * w2 + g3 * w3)
-    u = motor_torque(speed, command, p[4], p[5], p[6], p[12])
+    u = motor_torque(speed, command, p[4], p[5], p[6], p[12], scale, bias)
     f = friction_torque(speed, p[7], p[8], p[9], p[10], p[11])
     net = u - f
     torque = (
@@ -284,14 +319,14 @@ class ReactionWheels(MotionEffect):
     Balanced reaction wheels with motor limits and friction (the model: the module's docstring).
 
     State: per wheel its absolute axial momentum ``h_i = Js_i (Omega_i + g_i . w)``, N m s, then
-    its angle ``theta_i``, rad.
+    its angle ``theta_i``, rad; none when held (mode ``hold``: the rotor's gyrostat).
     """
 
     name = 'reaction_wheels'
     summary = (
         'balanced reaction wheels: motor torque per wheel (scheduled, or commanded as torques or '
         'speeds on wheel_command), clipped and speed-limited, viscous, Coulomb and Stribeck '
-        'friction; total angular momentum conserved'
+        'friction, or held at constant speed; total angular momentum conserved'
     )
     kernel_code = motion_kernels.REACTION_WHEEL
     message_type = 'sensor_msgs/msg/JointState'
@@ -309,8 +344,9 @@ class ReactionWheels(MotionEffect):
         'mode': Param(
             choice(*MODES),
             'schedule',
-            "where the motor torques come from: the scene's torque or schedule (schedule), or "
-            'commands on topic: effort motor torques (torque) or velocity set-points (speed)',
+            "where the motor torques come from: the scene's torque or schedule (schedule), "
+            'commands on topic: effort motor torques (torque) or velocity set-points (speed), or '
+            'an ideal drive holding each wheel at its speed (hold: no commands)',
         ),
         'topic': Param(topic_name, 'wheel_command', 'the commands (sensor_msgs/JointState)'),
         'timeout': Param(
@@ -372,8 +408,11 @@ class ReactionWheels(MotionEffect):
                 if values[key] is not None:
                     raise FieldError(
                         child(path, key),
-                        f"mode {values['mode']}: the motors take their {values['mode']} commands "
-                        f"on {values['topic']!r}; leave out torque and schedule",
+                        'mode hold: an ideal drive holds each wheel at its speed; leave out '
+                        'torque and schedule'
+                        if values['mode'] == 'hold'
+                        else f"mode {values['mode']}: the motors take their {values['mode']} "
+                        f"commands on {values['topic']!r}; leave out torque and schedule",
                     )
         count = len(wheels)
         if torque is not None and len(torque) != count:
@@ -448,6 +487,7 @@ class ReactionWheels(MotionEffect):
                     stribeck['static'] - wheel['coulomb'],
                     stribeck['speed'],
                     wheel['spin_inertia'] * speed_bandwidth if speed_mode else 0.0,
+                    0.0,  # the torque error's index in held (set by the compiled model)
                 )
             )
             axes.append(g)
@@ -464,8 +504,23 @@ class ReactionWheels(MotionEffect):
         self.band_speeds = np.array([row[5] - row[6] for row in rows])
         #: the input while no command is in force: zero torque, or (speed mode) the drive off
         self.off = (math.nan if speed_mode else 0.0,) * len(rows)
+        #: speed mode: each drive's torque error (scale, bias) on the piece, in a slot of held
+        self.held_slot_size = 2 * len(rows) if speed_mode else 0
         #: commands change the inputs at sample times only
-        self.holds_per_sample = mode != 'schedule'
+        self.holds_per_sample = mode not in ('schedule', 'hold')
+        #: the wheels' scene speeds, rad/s (hold mode: what the drive holds)
+        self.speeds = np.array([wheel['speed'] for wheel in wheels])
+        h = [0.0, 0.0, 0.0]
+        for row, speed in zip(rows, self.speeds.tolist()):
+            momentum = row[3] * speed
+            h = [h[k] + momentum * row[k] for k in range(3)]
+        #: hold mode: the wheels' constant momentum relative to the body, sum Js_i Omega_i g_i
+        self.h_B = np.array(h)
+        if mode == 'hold':  # the rotor's gyrostat: no state, the rotor's kernel entry
+            self.state_size = 0
+            self.kernel_code = motion_kernels.ROTOR
+        #: hold mode: commands refused, by reason (a run's own count: see bound)
+        self.refused: Counter = Counter()
         if schedule is None:
             self._starts = [0.0]
             self._commands = [torque if torque is not None else (0.0,) * len(rows)]
@@ -477,7 +532,8 @@ class ReactionWheels(MotionEffect):
         commanded = self.holds_per_sample or any(
             u != 0.0 for command in self._commands for u in command
         )
-        frictionless = all(row[7] == row[8] == row[10] == 0.0 for row in rows)
+        # (held: the drive overcomes the friction, which never reaches the body)
+        frictionless = mode == 'hold' or all(row[7] == row[8] == row[10] == 0.0 for row in rows)
         self.conserves = frozenset(
             {MOMENTUM} if commanded or not frictionless else {ENERGY, MOMENTUM}
         )
@@ -503,8 +559,11 @@ class ReactionWheels(MotionEffect):
         ``names`` the wheels commanded (any order, each once), ``velocity`` and ``effort`` its
         fields (``position`` is not read). The refusal is a reason whose first words name the
         rule (counted in /diagnostics): ``unknown name``, ``repeated name``, ``wrong length``,
-        ``both fields``, ``wrong mode``. Non-finite values are the hold's rule.
+        ``both fields``, ``wrong mode`` (any command to a held array). Non-finite values are the
+        hold's rule.
         """
+        if self.mode == 'hold':
+            return HELD_REFUSAL
         field = self.command_field
         given, other = (velocity, effort) if field == 'velocity' else (effort, velocity)
         other_field = 'effort' if field == 'velocity' else 'velocity'
@@ -541,6 +600,9 @@ class ReactionWheels(MotionEffect):
         hold's rules; the node, the offline replay and the tests all come in here.
         """
         read = self.command(names, velocity, effort)
+        if self.mode == 'hold':  # (no hold: the run's own count, reported by its monitor)
+            self.refused[read.split(':', 1)[0]] += 1
+            return False, read
         if isinstance(read, str):
             return self.hold.refuse(read)
         indices, values = read
@@ -558,6 +620,10 @@ class ReactionWheels(MotionEffect):
         problem = remaining_inertia_problem(tensor, self.spin_inertia_B())
         if problem is not None:
             raise FieldError(child(self.path, 'wheels'), problem)
+        if self.mode == 'hold':  # a count of refused commands of its own
+            bound = copy.copy(self)
+            bound.refused = Counter()
+            return bound
         if self.mode == 'schedule':
             return self
         bound = copy.copy(self)
@@ -578,7 +644,31 @@ class ReactionWheels(MotionEffect):
             return self.hold.values_at(segment_start)
         return self._commands[bisect.bisect_right(self._starts, segment_start) - 1]
 
+    def loop_errors(self, k: int) -> tuple[list, list]:
+        """
+        Return each speed drive's torque error on interval ``k``: ``(scales, biases)``.
+
+        Its ``wheel_torque_error`` faults' overrides on the hold (components none, the wheel's
+        index as their value: they leave the set-points as they are), in list order: ``s2 (s1 u
+        + b1) + b2`` is ``(s2 s1) u + (s2 b1 + b2)``. ``(1, 0)`` where none acts.
+        """
+        scales, biases = [1.0] * self.count, [0.0] * self.count
+        if self.hold is None or self.mode != 'speed':
+            return scales, biases
+        for override in self.hold.overrides:
+            if override.components == () and override.scale is not None and override.covers(k):
+                i, (scale,), (bias,) = int(override.values[0]), override.scale, override.bias
+                scales[i], biases[i] = scale * scales[i], scale * biases[i] + bias
+        return scales, biases
+
+    def held_slot(self, segment_start):
+        """Return the speed drives' torque errors on the piece: ``(scale_0, bias_0, ...)``."""
+        scales, biases = self._errors_at(segment_start)
+        return np.array([x for pair in zip(scales, biases) for x in pair])
+
     def held_inputs(self, segment_start):
+        if self.mode == 'hold':
+            return None
         held = np.zeros(self.state_size)
         held[0::2] = self.inputs(segment_start)
         return held
@@ -594,6 +684,8 @@ class ReactionWheels(MotionEffect):
         or zeros) and no friction (``viscous``, ``coulomb`` and a Stribeck ``static`` level all
         zero): then ``h_i' = u_i - f_i = 0``, and the body is a free gyrostat.
         """
+        if self.mode == 'hold':
+            return 'reaction wheels held at constant speed (the rotor: holds_speeds)'
         if self.mode != 'schedule':
             return f'reaction wheels in {self.mode} mode (commanded)'
         if any(u != 0.0 for command in self._commands for u in command):
@@ -622,21 +714,47 @@ class ReactionWheels(MotionEffect):
                 out[row] = self._commands[piece]
         return out
 
-    def applied(self, speeds: np.ndarray, inputs: np.ndarray):
+    def errors_before(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """
+        Return the speed drives' torque errors on the intervals :meth:`inputs_before` reads.
+
+        ``(scales, biases)``, each ``(N, n)``; None when no error can act (not speed mode). At
+        ``t = 0`` none, as the input there is ``off`` whatever acts on interval 0.
+        """
+        if self.held_slot_size == 0 or self.hold is None:
+            return None
+        rows = []
+        for t in np.asarray(times, dtype=float).tolist():
+            k = self.hold.interval_at(t)
+            rows.append(self.loop_errors(k - 1) if k > 0 else self.loop_errors(-1))
+        scales = np.array([scale for scale, _ in rows])
+        biases = np.array([bias for _, bias in rows])
+        return scales, biases
+
+    def applied(self, speeds: np.ndarray, inputs: np.ndarray, errors=None):
         """
         Return the motor torques the wheels apply, and where each limit acts.
 
         ``(u, torque_limited, speed_limited)`` for wheels at relative ``speeds`` given ``inputs``
-        (arrays of ``(..., n)``): :func:`motor_torque` element by element, the same operations;
+        and a speed drive's torque ``errors`` (:meth:`errors_before`; None: none) (arrays of
+        ``(..., n)``): :func:`motor_torque` element by element, the same operations;
         torque-limited where the asked torque exceeds ``max_torque``, speed-limited where the
         speed limit's band scales an accelerating torque down.
         """
         if speeds.shape == (1, self.count):  # one sample (a closed loop's): floats, ~10x faster
-            return self._applied_once(speeds[0].tolist(), inputs[0].tolist())
+            return self._applied_once(
+                speeds[0].tolist(),
+                inputs[0].tolist(),
+                None if errors is None else (errors[0][0].tolist(), errors[1][0].tolist()),
+            )
         max_torque, max_speed, band, gain = self._limits
         with np.errstate(invalid='ignore'):
             asked = np.where(gain > 0.0, gain * (inputs - speeds), inputs)
             asked = np.where(np.isnan(inputs), 0.0, asked)
+            if errors is not None:
+                scales, biases = errors
+                erring = (gain > 0.0) & ((scales != 1.0) | (biases != 0.0))
+                asked = np.where(erring, scales * asked + biases, asked)
             u = np.minimum(np.maximum(asked, -max_torque), max_torque)
             torque_limited = np.abs(asked) > max_torque
             room = (max_speed - np.abs(speeds)) / band
@@ -644,16 +762,21 @@ class ReactionWheels(MotionEffect):
             u = np.where(speed_limited, u * np.maximum(room, 0.0), u)
         return u, torque_limited, speed_limited
 
-    def _applied_once(self, speeds: list, inputs: list):
+    def _applied_once(self, speeds: list, inputs: list, errors=None):
         """:meth:`applied` of one sample, in floats: the same operations, element by element."""
         applied, torque_limited, speed_limited = [], [], []
-        for speed, command, (max_torque, max_speed, band, gain) in zip(
-            speeds, inputs, self._limit_rows
+        if errors is None:
+            errors = (1.0,) * self.count, (0.0,) * self.count
+        scales, biases = errors
+        for speed, command, (max_torque, max_speed, band, gain), scale, bias in zip(
+            speeds, inputs, self._limit_rows, scales, biases
         ):
             if math.isnan(command):
                 asked = 0.0
             else:
                 asked = gain * (command - speed) if gain > 0.0 else command
+            if gain > 0.0 and (scale != 1.0 or bias != 0.0):
+                asked = scale * asked + bias
             u = min(max(asked, -max_torque), max_torque)
             room = (max_speed - abs(speed)) / band
             limited = u * speed > 0.0 and room < 1.0
@@ -667,13 +790,55 @@ class ReactionWheels(MotionEffect):
 
     # -- the body ---------------------------------------------------------------------------------
     def spin_inertia_B(self):
+        """Return ``sum Js g g^T``; zero when held (the body is integrated with the locked I)."""
+        if self.mode == 'hold':
+            return np.zeros((3, 3))
         return np.einsum('i,ij,ik->jk', self.spin_inertias, self.axes, self.axes)
 
     def kernel_parameters(self):
+        if self.mode == 'hold':  # motion_kernels.ROTOR's: h
+            return tuple(self.h_B.tolist())
         return tuple(value for row in self.rows for value in row)
+
+    # -- held at constant speed: the rotor's gyrostat ---------------------------------------------
+    def holds_speeds(self) -> bool:
+        """
+        Tell whether the array is held at constant speeds: mode ``hold``, no fault acting on it.
+
+        Then the body is the free gyrostat of :meth:`held_momentum_B` with the locked inertia
+        (actuator faults on a held array are refused at load, so mode ``hold`` is enough).
+        """
+        return self.mode == 'hold'
+
+    def held_momentum_B(self) -> np.ndarray:
+        """Return the held wheels' constant momentum ``h = sum Js_i Omega_i g_i``, N m s, body."""
+        return self.h_B.copy()
+
+    def held_efforts(self, times, omega_B, q_NB, internal, dynamics) -> np.ndarray:
+        """
+        Return the torque each held wheel's drive applies at each sample, ``(N, n)``, N m.
+
+        ``u_i = Js_i g_i . w' + f_i(Omega_i)``, ``w'`` the body's acceleration from ``dynamics``'
+        whole right-hand side at the sample (``omega_B``, ``q_NB``, ``internal``: the run's
+        states there), on the piece that ends at it (a torque that changes at the sample acts
+        after it; at ``t = 0`` the first piece's).
+        """
+        friction = [
+            friction_torque(speed, *row[7:12])
+            for speed, row in zip(self.speeds.tolist(), self.rows)
+        ]
+        moments = self.spin_inertias[:, None] * self.axes  # Js_i g_i, a row each
+        out = np.empty((len(times), self.count))
+        for row, t in enumerate(np.asarray(times, dtype=float).tolist()):
+            y = np.concatenate([omega_B[row], q_NB[row], internal[row]])
+            w_dot = dynamics.derivative(t, y, piece_start_before(dynamics, t))[:3]
+            out[row] = moments @ w_dot + friction
+        return out
 
     # -- the equations of motion (the kernel's operations, in plain floats) ----------------------
     def initial_state(self, omega0_B):
+        if self.mode == 'hold':
+            return np.empty(0)
         w1, w2, w3 = (float(x) for x in omega0_B)
         state = []
         for row, wheel in zip(self.rows, self.values['wheels']):
@@ -681,22 +846,37 @@ class ReactionWheels(MotionEffect):
         return np.array(state)
 
     def torque_B(self, t, omega_B, q_NB, state, segment_start):
+        if self.mode == 'hold':  # Rotor.torque_B's operations
+            return quaternion.cross(self.h_B, omega_B)
         w1, w2, w3 = omega_B.tolist()
         t1 = t2 = t3 = 0.0
         momenta = state.tolist()[0::2]
-        for row, h, command in zip(self.rows, momenta, self._input_list(segment_start)):
-            (e1, e2, e3), _, _ = wheel_terms(w1, w2, w3, h, command, row)
+        scales, biases = self._errors_at(segment_start)
+        for row, h, command, scale, bias in zip(
+            self.rows, momenta, self._input_list(segment_start), scales, biases
+        ):
+            (e1, e2, e3), _, _ = wheel_terms(w1, w2, w3, h, command, row, scale, bias)
             t1, t2, t3 = t1 + e1, t2 + e2, t3 + e3
         return np.array([t1, t2, t3])
 
     def state_rate(self, t, omega_B, q_NB, state, segment_start):
+        if self.mode == 'hold':
+            return np.empty(0)
         w1, w2, w3 = omega_B.tolist()
         rates = []
         momenta = state.tolist()[0::2]
-        for row, h, command in zip(self.rows, momenta, self._input_list(segment_start)):
-            _, net, speed = wheel_terms(w1, w2, w3, h, command, row)
+        scales, biases = self._errors_at(segment_start)
+        for row, h, command, scale, bias in zip(
+            self.rows, momenta, self._input_list(segment_start), scales, biases
+        ):
+            _, net, speed = wheel_terms(w1, w2, w3, h, command, row, scale, bias)
             rates += [net, speed]
         return np.array(rates)
+
+    def _errors_at(self, segment_start):
+        if self.held_slot_size == 0 or self.hold is None:
+            return (1.0,) * self.count, (0.0,) * self.count
+        return self.loop_errors(self.hold.interval_at(segment_start))
 
     def _input_list(self, segment_start):
         inputs = self.inputs(segment_start)
@@ -704,19 +884,31 @@ class ReactionWheels(MotionEffect):
 
     # -- what the wheels carry --------------------------------------------------------------------
     def momenta(self, state: np.ndarray) -> np.ndarray:
-        """Return each wheel's absolute axial momentum ``h_i`` from the effect's state, N m s."""
+        """
+        Return each wheel's absolute axial momentum ``h_i`` from the effect's state, N m s.
+
+        Not for a held array, which has no state (its momentum: :meth:`held_momentum_B`).
+        """
         return state[..., 0::2]
 
-    def wheel_angles(self, state: np.ndarray) -> np.ndarray:
-        """Return each wheel's angle relative to the body from the effect's state, rad."""
+    def wheel_angles(self, state: np.ndarray, times=None) -> np.ndarray:
+        """
+        Return each wheel's angle relative to the body from the effect's state, rad.
+
+        Held (no state): ``Omega_i t`` at ``times`` (s), ``(N, n)``.
+        """
+        if self.mode == 'hold':
+            return np.outer(np.asarray(times, dtype=float), self.speeds)
         return state[..., 1::2]
 
     def wheel_speeds(self, omega_B: np.ndarray, state: np.ndarray) -> np.ndarray:
         """
         Return each wheel's speed relative to the body, ``Omega_i = h_i / Js_i - g_i . w``, rad/s.
 
-        Broadcasts over leading axes of ``omega_B`` and ``state``.
+        Broadcasts over leading axes of ``omega_B`` and ``state``; held: the scene speeds.
         """
+        if self.mode == 'hold':
+            return np.broadcast_to(self.speeds, np.shape(omega_B)[:-1] + (self.count,)).copy()
         return self.momenta(state) / self.spin_inertias - np.einsum(
             'ij,...j->...i', self.axes, omega_B
         )
@@ -727,13 +919,47 @@ class ReactionWheels(MotionEffect):
         return np.einsum('...i,ij->...j', relative, self.axes)
 
     def momentum_B(self, state):
-        """Return ``sum h_i g_i``: with ``I_s w`` the whole momentum (``I w + sum Js Omega g``)."""
+        """
+        Return ``sum h_i g_i``: with ``I_s w`` the whole momentum (``I w + sum Js Omega g``).
+
+        Held: ``h``, with the locked ``I w`` the whole momentum (the rotor's).
+        """
+        if self.mode == 'hold':
+            return np.broadcast_to(self.h_B, state.shape[:-1] + (3,))
         return np.einsum('...i,ij->...j', self.momenta(state), self.axes)
 
     def energy(self, state):
-        """Return ``sum h_i^2 / (2 Js_i)``: with ``w . I_s w / 2`` the whole kinetic energy."""
+        """
+        Return ``sum h_i^2 / (2 Js_i)``: with ``w . I_s w / 2`` the whole kinetic energy.
+
+        Held: zero, as the rotor's (``w . I w / 2`` is then the gyrostat's constant).
+        """
+        if self.mode == 'hold':
+            return np.zeros(state.shape[:-1])
         h = self.momenta(state)
         return 0.5 * np.einsum('...i,...i->...', h, h / self.spin_inertias)
+
+
+def piece_start_before(dynamics, t: float) -> float:
+    """
+    Return where the smooth piece of ``dynamics`` that ends at ``t`` starts (0 at ``t = 0``).
+
+    The latest of its stops before ``t``: the scene's breakpoints and, when commands change the
+    torque at sample times, the sample time before ``t`` (``Dynamics.next_breakpoint``'s stops
+    from the left; an environment window's end is not one: the environment is continuous there).
+    """
+    breakpoints = dynamics.breakpoints
+    index = bisect.bisect_left(breakpoints, t) - 1
+    start = breakpoints[index] if index >= 0 else 0.0
+    rate = dynamics.sample_rate
+    if rate is not None and t > 0.0:
+        k = math.ceil(t * rate) - 1
+        while k > 0 and k / rate >= t:
+            k -= 1
+        while (k + 1) / rate < t:
+            k += 1
+        start = max(start, k / rate)
+    return start
 
 
 def wheel_name(wheel: dict, index: int) -> str:
@@ -759,18 +985,48 @@ class WheelMonitor:
         self.speeds = np.zeros(effect.count)
         self.stored = np.zeros(3)
         self.seen = False
+        self.last_omega_B = None  # held: the rates of the sample before the block
 
     def update(self, times, omega_B, state) -> None:
         """Take the samples at ``times`` (after the last taken): rates, the effect's states."""
         effect = self.effect
         speeds = effect.wheel_speeds(omega_B, state)
-        _, torque_limited, speed_limited = effect.applied(speeds, effect.inputs_before(times))
+        if effect.mode == 'hold':
+            torque_limited = self._held_limited(omega_B)
+            speed_limited = np.zeros_like(torque_limited)
+        else:
+            _, torque_limited, speed_limited = effect.applied(
+                speeds, effect.inputs_before(times), effect.errors_before(times)
+            )
         after_start = np.asarray(times) > 0.0  # sample 0 ends no interval
         self.torque_limited += np.sum(torque_limited & after_start[:, None], axis=0)
         self.speed_limited += np.sum(speed_limited & after_start[:, None], axis=0)
         self.speeds = speeds[-1]
         self.stored = effect.stored_momentum_B(omega_B[-1], state[-1])
         self.seen = True
+
+    def _held_limited(self, omega_B) -> np.ndarray:
+        """
+        Return where a held wheel's drive needs more than ``max_torque`` on the interval before.
+
+        Its mean torque over the interval, ``Js_i g_i . (w_k - w_k-1) / dt + f_i(Omega_i)``
+        (exact: the drive's torque is ``Js_i g_i . w' + f_i`` and ``f_i`` is constant); the first
+        sample the monitor sees ends none it saw (False).
+        """
+        effect = self.effect
+        first = self.last_omega_B is None
+        before = omega_B[:1] if first else self.last_omega_B[None, :]
+        self.last_omega_B = np.array(omega_B[-1], dtype=float)
+        rates = np.diff(np.concatenate([before, omega_B]), axis=0) / self.period
+        friction = [
+            friction_torque(speed, *row[7:12])
+            for speed, row in zip(effect.speeds.tolist(), effect.rows)
+        ]
+        mean = rates @ (effect.spin_inertias[:, None] * effect.axes).T + friction
+        limited = np.abs(mean) > np.array([row[4] for row in effect.rows])
+        if first:
+            limited[0] = False
+        return limited
 
     def diagnostics(self) -> tuple[dict, str]:
         """Return the diagnostic values (by key) and a warning ("" when none)."""
@@ -792,6 +1048,13 @@ class WheelMonitor:
                 saturated.append(name)
         values['wheels.momentum'] = f'{float(np.linalg.norm(self.stored)):.6g}'
         values['wheels.momentum_B'] = ' '.join(f'{x:.6g}' for x in self.stored.tolist())
+        if effect.mode == 'hold':  # the commands refused, as command inputs report theirs
+            refused = effect.refused.copy()
+            values[f'{effect.topic}.accepted'] = '0'
+            values[f'{effect.topic}.refused'] = (
+                ', '.join(f'{reason} {count}' for reason, count in sorted(refused.items()))
+                or '0'
+            )
         warning = (
             f'wheels at their speed limit: {", ".join(saturated)}' if saturated else ''
         )
@@ -836,7 +1099,7 @@ class WheelStates(OutputEffect):
         return {'names': self.names}
 
     def stream(self, rate, propagator):
-        return _WheelStatesStream(_wheel_effects(propagator))
+        return _WheelStatesStream(_wheel_effects(propagator), propagator.dynamics)
 
 
 def _wheel_effects(propagator) -> list:
@@ -854,17 +1117,27 @@ def _wheel_effects(propagator) -> list:
 
 class _WheelStatesStream(OutputStream):
 
-    def __init__(self, wheels):
+    def __init__(self, wheels, dynamics):
         self.wheels = wheels
+        self.dynamics = dynamics
 
     def rows(self, first, times, omega_B, q_NB, internal):
         positions, velocities, efforts = [], [], []
         for effect, part in self.wheels:
             state = internal[:, part]
             speeds = effect.wheel_speeds(omega_B, state)
-            positions.append(effect.wheel_angles(state))
+            positions.append(effect.wheel_angles(state, times))
             velocities.append(speeds)
-            efforts.append(effect.applied(speeds, effect.inputs_before(times))[0])
+            if effect.mode == 'hold':  # the ideal drive's torque, from the body's acceleration
+                efforts.append(
+                    effect.held_efforts(times, omega_B, q_NB, internal, self.dynamics)
+                )
+            else:
+                efforts.append(
+                    effect.applied(
+                        speeds, effect.inputs_before(times), effect.errors_before(times)
+                    )[0]
+                )
         return np.concatenate(positions + velocities + efforts, axis=1)
 
 

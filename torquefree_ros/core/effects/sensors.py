@@ -855,20 +855,25 @@ def environment_at(place, times: np.ndarray, quantity: str) -> np.ndarray:
     if last.key != key:
         last.key, last.values = key, {}
     values = last.values
-    if quantity not in values:
-        if quantity == 'position':
-            value = place.state(times)[0]
-        elif quantity == 'sun':
-            value = place.sun_N(times)
-        elif quantity == 'shadow':
-            value = sun.shadow_fraction(
-                environment_at(place, times, 'position'), environment_at(place, times, 'sun')
-            )
-        else:
-            value = place.field_N(times, environment_at(place, times, 'position'), quantity)
-        value.setflags(write=False)
-        values[quantity] = value
-    return values[quantity]
+    if quantity in values:
+        return values[quantity]
+    if quantity in FIELD_MODELS and len(times) == 1 and 'position' not in values:
+        # a closed loop's sample: the position and the field in one call (read-only)
+        values['position'], values[quantity] = place.position_and_field(float(times[0]), quantity)
+        return values[quantity]
+    if quantity == 'position':
+        value = place.state(times)[0]
+    elif quantity == 'sun':
+        value = place.sun_N(times)
+    elif quantity == 'shadow':
+        value = sun.shadow_fraction(
+            environment_at(place, times, 'position'), environment_at(place, times, 'sun')
+        )
+    else:
+        value = place.field_N(times, environment_at(place, times, 'position'), quantity)
+    value.setflags(write=False)
+    values[quantity] = value
+    return value
 
 
 def body_frame(q_NB: np.ndarray, vectors_N: np.ndarray) -> np.ndarray:
@@ -893,7 +898,8 @@ class _SeededRows(OutputStream):
     Rows of a sensor of the environment: three normals a sample from ``PCG64(seed)``, in order.
 
     A skip forward draws the skipped samples' normals, a skip back starts over (as the gyro's), so
-    a sample's noise depends only on its index and the seed.
+    a sample's noise depends only on its index and the seed. One sample at a time they are drawn
+    ahead (:class:`_Normals`: the same values).
     """
 
     def __init__(self, seed: int):
@@ -901,19 +907,29 @@ class _SeededRows(OutputStream):
         self._restart()
 
     def _restart(self) -> None:
-        self.rng = np.random.Generator(np.random.PCG64(self.seed))
+        self.rng = _Normals(np.random.Generator(np.random.PCG64(self.seed)), 3)
         self.next_index = 0
 
-    def normals(self, first: int, count: int) -> np.ndarray:
-        """Return the normals ``(count, 3)`` of samples ``first ..``."""
+    def _seek(self, first: int) -> None:
+        """Make sample ``first`` the next to draw for."""
         if first < self.next_index:
             self._restart()
         while first > self.next_index:
             skipped = min(first - self.next_index, SKIP_CHUNK)
-            self.rng.standard_normal((skipped, 3))
+            self.rng.block(skipped)
             self.next_index += skipped
+
+    def normals(self, first: int, count: int) -> np.ndarray:
+        """Return the normals ``(count, 3)`` of samples ``first ..``."""
+        self._seek(first)
         self.next_index += count
-        return self.rng.standard_normal((count, 3))
+        return self.rng.block(count)
+
+    def normals_one(self, first: int) -> list:
+        """Return the normals of sample ``first`` as three Python floats."""
+        self._seek(first)
+        self.next_index += 1
+        return self.rng.one()
 
 
 #: a magnetometer row: sensor_msgs/MagneticField's magnetic_field [0:3], its covariance [3:12]
@@ -968,25 +984,35 @@ class Magnetometer(OutputEffect):
         return placed
 
     def stream(self, rate, propagator):
-        return _MagnetometerStream(self)
+        return _MagnetometerStream(self, rate)
 
 
 class _MagnetometerStream(_SeededRows):
 
-    def __init__(self, magnetometer: Magnetometer):
+    def __init__(self, magnetometer: Magnetometer, rate: float):
         values = magnetometer.values
         self.place = magnetometer.place
+        self.rate = rate
         self.model = values['field']
         self.noise = values['noise']
         self.bias = np.asarray(values['bias'], dtype=float)
+        self.bias_values = self.bias.tolist()
+        # no noise and no -0.0 in the bias: (s + b) is never -0.0, so adding the zero noise * g
+        # changes no reading, and a sample needs no normals
+        self.noiseless = self.noise == 0.0 and all(
+            math.copysign(1.0, b) > 0.0 for b in self.bias_values
+        )
         self.errors = AxisErrors(values, 'T')
         self.template = np.zeros(MAGNETIC_FIELD_ROW)
         variance = self.noise**2 + self.errors.rounding_variance()
         self.template[3:12] = np.diag(np.full(3, variance)).ravel()
+        self.template_row = self.template[np.newaxis]
         super().__init__(values['seed'])
 
     def rows(self, first, times, omega_B, q_NB, internal):
         count = times.shape[0]
+        if count == 1:  # a closed loop's sample
+            return self._row_one(first, times, q_NB)
         normals = self.normals(first, count)
         rows = np.tile(self.template, (count, 1))
         if count:
@@ -994,6 +1020,24 @@ class _MagnetometerStream(_SeededRows):
             measured = (self.errors.sense(field_B) + self.bias) + self.noise * normals
             rows[:, 0:3] = self.errors.digitise(measured)
         return rows
+
+    def _row_one(self, first: int, times: np.ndarray, q_NB: np.ndarray) -> np.ndarray:
+        """Return :meth:`rows` of one sample: the same operations on Python floats."""
+        # the place's own values (the same floats as environment_at's), kept for the next samples
+        field_N = self.place.field_values(float(times[0]), self.model, first, self.rate)
+        field_B = quaternion.rotate_values(quaternion.conjugate_values(q_NB.tolist()[0]), field_N)
+        sensed = self.errors.sense_one(field_B)
+        if self.noiseless:
+            measured = [s + bias for s, bias in zip(sensed, self.bias_values)]
+        else:
+            noise = self.noise
+            measured = [
+                (s + bias) + noise * x
+                for s, bias, x in zip(sensed, self.bias_values, self.normals_one(first))
+            ]
+        row = self.template_row.copy()
+        row[0, 0:3] = self.errors.digitise_one(measured)
+        return row
 
 
 @register

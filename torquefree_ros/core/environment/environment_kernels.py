@@ -36,6 +36,8 @@ Kernels:
   frames, tesla; :func:`dipole_earth_fixed`, :func:`dipole_inertial`: the tilted dipole;
   :func:`field_inertial_with`: either, inertial, through a given ``W`` and year;
   :func:`fields_inertial`: either at many instants, one by one (a sensor's samples);
+  :func:`environment_one`: the orbit's position and the field there at one instant (a sensor's
+  sample in a closed loop), :func:`environments` at each of many;
 - :func:`sun_position`: the Sun in the inertial frame, m; :func:`shadow_fraction`: 0 lit to 1
   umbra.
 
@@ -153,7 +155,8 @@ SECONDS_PER_CENTURY = 86400.0 * 36525.0
 
 def kernel(name: str):
     """Return the compiled kernel ``name`` (compiling the family on the first call)."""
-    compile_kernels()
+    if not _FAMILY.compiled:  # set once every kernel is compiled: no lock a call after that
+        compile_kernels()
     return globals()[name]
 
 
@@ -579,6 +582,30 @@ def fields_inertial(model, positions, seconds, table, out):
         field_inertial_with(model, positions[i], matrix, decimal_year(seconds[i]), table, out[i])
 
 
+def environment_one(model, orbit_t, seconds, row, table, out):
+    """
+    Write the position (m) into ``out[0]`` and the field (T) into ``out[1]`` at one instant.
+
+    Both inertial: the Keplerian orbit ``row`` at ``orbit_t`` s after its epoch, and the field of
+    ``model`` (0: IGRF, 1: the dipole) there at the UTC instant ``seconds``. One call for a
+    sensor's sample in a closed loop: :func:`kepler_state` then :func:`fields_inertial`'s row,
+    the same operations, so the same floats as the two of them.
+    """
+    state = np.empty(6)
+    kepler_state(orbit_t, row, state)
+    for i in range(3):
+        out[0, i] = state[i]
+    matrix = np.empty((3, 3))
+    earth_fixed_matrix(seconds, matrix)
+    field_inertial_with(model, state, matrix, decimal_year(seconds), table, out[1])
+
+
+def environments(model, orbit_ts, seconds, row, table, out):
+    """Write :func:`environment_one` at each instant into ``out[i]`` (``(N, 2, 3)``)."""
+    for i in range(seconds.shape[0]):
+        environment_one(model, orbit_ts[i], seconds[i], row, table, out[i])
+
+
 # ---------------------------------------------------------------------------------------------
 # The Sun and the shadow
 
@@ -684,6 +711,8 @@ _FAMILY = KernelFamily(
         'igrf_inertial',
         'dipole_inertial',
         'fields_inertial',
+        'environment_one',
+        'environments',
         'sun_position',
         'shadow_fraction',
     ),

@@ -71,9 +71,14 @@ NODES = 8
 GROUP = 16
 #: groups kept (16 minutes each)
 KEPT_GROUPS = 8
+#: a sensor's samples whose position and field are computed together (``Place.field_values``)
+AHEAD = 64
 #: what the integrators hold per window: the position (m) and the field of each model (T),
 #: inertial frame; the index of each is its slot in the kernels' environment section
 QUANTITIES = ('position', 'igrf', 'dipole')
+#: the Earth's polar radius (WGS 84), m: the lowest radius :meth:`Place.lowest_radius` takes for
+#: a TLE
+POLAR_RADIUS = 6356752.314245
 #: the field models an effect or output may name
 FIELD_MODELS = ('igrf', 'dipole')
 
@@ -152,6 +157,9 @@ class Place:
             self._key = ('tle', orbit.line1, orbit.line2, self.start)
         self._groups: collections.OrderedDict = collections.OrderedDict()
         self._lock = threading.Lock()
+        #: model -> ({scene time: index}, (AHEAD, 2, 3) positions and fields, the fields as
+        #: floats): a sensor's next samples, computed ahead
+        self._ahead: dict = {}
 
     @classmethod
     def from_mapping(cls, mapping, path: str = 'orbit') -> 'Place':
@@ -189,9 +197,10 @@ class Place:
         return cls(orbit, start, start_path or child(path, 'epoch'))
 
     def __getstate__(self) -> dict:
-        """Pickle the orbit and the start (campaign workers), not the windows kept nor the lock."""
+        """Pickle the orbit and the start (campaign workers), not the values kept nor the lock."""
         state = self.__dict__.copy()
         state['_groups'] = collections.OrderedDict()
+        state['_ahead'] = {}
         del state['_lock']
         return state
 
@@ -282,9 +291,119 @@ class Place:
         )
         return out.reshape(position.shape)
 
+    def position_and_field(self, t: float, model: str = 'igrf') -> tuple:
+        """
+        Return the position (m) and the field of ``model`` (T) at one scene time ``t``, inertial.
+
+        Two read-only ``(1, 3)`` arrays: the floats of :meth:`state` and :meth:`field_N` at
+        ``[t]``. A Keplerian orbit with the kernels enabled: compiled
+        (:func:`.environment_kernels.environment_one`, the same operations), where the two
+        methods' array handling costs several times the models (a sensor's sample in a closed
+        loop); the same errors as :meth:`field_N` outside the model's years. The values a sensor's
+        samples in order keep (:meth:`field_values`) are read where they hold ``t``.
+        """
+        kept = self._ahead.get(model)
+        if kept is not None:
+            index = kept[0].get(t)
+            if index is not None:
+                return kept[1][index, 0:1], kept[1][index, 1:2]
+        seconds = self.start + t
+        if self._row is None or not switch.ENABLED:
+            times = np.array([t], dtype=float)
+            position = self.state(times)[0]
+            out = np.concatenate([position, self.field_N(times, position, model)])
+        else:
+            if not magnetic.FIRST_INSTANT <= seconds <= magnetic.LAST_INSTANT:  # False for NaN
+                magnetic.check_instants(seconds, 'orbit', years=False)  # raises, naming why
+            out = np.empty((2, 3))
+            environment_kernels.kernel('environment_one')(
+                0 if model == 'igrf' else 1, self.offset + t, seconds, self._row,
+                magnetic.kernel_table(), out
+            )
+        out.setflags(write=False)  # and so its rows
+        return out[0:1], out[1:2]
+
+    def field_values(self, t: float, model: str, sample: int, rate: float) -> list:
+        """
+        Return the field of ``model`` (T, inertial) at ``t = sample / rate`` as three floats.
+
+        :meth:`position_and_field`'s field, for a sensor's samples in order: the position and
+        field of the next :data:`AHEAD` samples are computed with it in one compiled call
+        (:func:`.environment_kernels.environments`: each instant by itself, so the same floats)
+        and kept, one set a model, at a fraction of a call's cost a sample.
+        """
+        kept = self._ahead.get(model)
+        if kept is not None:
+            index = kept[0].get(t)
+            if index is not None:
+                return kept[2][index]
+        if self._compute_ahead(t, model, sample, rate):
+            return self._ahead[model][2][0]
+        return self.position_and_field(t, model)[1][0].tolist()
+
+    def _compute_ahead(self, t: float, model: str, sample: int, rate: float) -> bool:
+        """
+        Compute and keep the environment of samples ``sample ..`` at ``rate``; say whether it was.
+
+        Only a Keplerian orbit with the kernels enabled whose :data:`AHEAD` samples are within the
+        field model's years, and when ``t`` is the first of them, ``sample / rate``.
+        """
+        if self._row is None or not switch.ENABLED:
+            return False
+        times = np.arange(sample, sample + AHEAD) / rate
+        instants = self.start + times
+        if not (times[0] == t and magnetic.FIRST_INSTANT <= instants[0]
+                and instants[-1] <= magnetic.LAST_INSTANT):
+            return False
+        out = np.empty((AHEAD, 2, 3))
+        environment_kernels.kernel('environments')(
+            0 if model == 'igrf' else 1, self.offset + times, instants, self._row,
+            magnetic.kernel_table(), out
+        )
+        out.setflags(write=False)
+        self._ahead[model] = (
+            {s: i for i, s in enumerate(times.tolist())}, out, out[:, 1].tolist()
+        )
+        return True
+
     def sun_N(self, t) -> np.ndarray:
         """Return the Sun's geocentric position (m, inertial) at the scene times ``t``."""
         return sun.sun_position(self.instants(t))
+
+    def lowest_radius(self) -> float:
+        """
+        Return a radius (m) the orbit never goes below.
+
+        A Keplerian orbit's perigee ``a (1 - e)`` (its J2 drift turns the node and the perigee,
+        not ``a`` nor ``e``); a TLE's, whose SGP4 radius has no closed-form floor, the Earth's
+        polar radius (WGS 84): the surface.
+        """
+        if isinstance(self.orbit, KeplerOrbit):
+            return self.orbit.semi_major_axis * (1.0 - self.orbit.eccentricity)
+        return POLAR_RADIUS
+
+    def field_bound(self, model: str = 'igrf') -> float:
+        """
+        Return a bound (T) on ``|B|`` of ``model`` anywhere on the orbit, in the model's years.
+
+        Degree by degree, with the Schmidt semi-normalised ``g, h`` (nT) and ``rho = a / r``:
+        ``|B_n| <= sqrt((n + 1)(2n + 1)) rho^(n + 2) sqrt(sum_m g_nm^2 + h_nm^2)`` (the radial
+        part by Cauchy-Schwarz with ``sum_m P_nm^2 = 1``, the horizontal with ``sum_m |grad_S
+        Y_nm|^2 = n (n + 1)`` at every point: the addition theorem, the Schmidt functions of a
+        degree, cosine and sine terms alike, being an orthogonal basis of one norm), summed over
+        the degrees (1 for the dipole), ``r`` :meth:`lowest_radius`
+        (``rho^(n + 2)`` falls with ``r``) and the largest ``sum_m`` of the model's epochs (the
+        coefficients between two epochs are their linear interpolation: a convex combination).
+        """
+        table = magnetic.schmidt_table()  # (epochs, g|h, n, m), nT
+        strongest = np.sqrt((table * table).sum(axis=(1, 3)).max(axis=0))  # per degree n
+        rho = environment_kernels.IGRF_RADIUS / self.lowest_radius()
+        degrees = 1 if model == 'dipole' else environment_kernels.IGRF_DEGREE
+        bound = sum(
+            math.sqrt((n + 1) * (2 * n + 1)) * rho ** (n + 2) * float(strongest[n])
+            for n in range(1, degrees + 1)
+        )
+        return bound * 1e-9
 
     def check_field(self) -> None:
         """Refuse a start outside IGRF-14's years (``FieldError`` naming :attr:`start_path`)."""
@@ -368,6 +487,7 @@ __all__ = [
     'FIELD_MODELS',
     'GROUP',
     'NODES',
+    'POLAR_RADIUS',
     'Place',
     'QUANTITIES',
     'SECTION_KEYS',

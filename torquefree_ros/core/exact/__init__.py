@@ -24,6 +24,8 @@ momentum:
 - :mod:`.attitude_kernels`: the same evaluation compiled by numba (one family of kernels).
 - :mod:`.gyrostat`: the free gyrostat with its rotor along a principal axis, the same way;
   :mod:`.gyrostat_kernels`: its evaluation compiled (a family of its own).
+- :mod:`.gyrostat_oblique`: the free gyrostat with ``h`` off every principal axis (Weierstrass's
+  solution on the momentum sphere); :mod:`.gyrostat_oblique_kernels`: its evaluation compiled.
 
 Works on principal moments and rates, not on a body object. May import: :mod:`..numerics`,
 :mod:`..timing`, :mod:`..checks`, :mod:`..frames`.

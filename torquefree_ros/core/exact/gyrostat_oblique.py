@@ -104,6 +104,11 @@ the constant inertial momentum by an angle whose rate is exact, ``psi' = (H w . 
 converged (:class:`PeriodicIntegral`: no symmetry of the motion is assumed, the origin being any
 state); coasting wheels' angles come from the rates' integrals the same way
 (:class:`ObliqueRateIntegrals`).
+
+**The evaluation** is compiled by :mod:`.gyrostat_oblique_kernels` (numba) when the kernels are
+on where an object is built (:mod:`..numerics.kernels`), sample by sample with the operations
+below in their order; the numpy code here is the reference it repeats. The constants (the
+decimal arithmetic, the series) are built here either way.
 """
 
 from __future__ import annotations
@@ -114,8 +119,10 @@ from typing import NamedTuple
 
 import numpy as np
 
+from . import gyrostat_oblique_kernels
 from .elliptic import first_kind_from_values, JacobiElliptic
 from ..frames import quaternion
+from ..numerics import kernels
 
 #: significant digits of the constants' decimal arithmetic (as :mod:`.gyrostat`'s)
 DIGITS = 80
@@ -565,20 +572,43 @@ def _direction(d, p, y, a2, a1, a0):
 
 
 def _homogeneous(coefficients, X, Y):
-    """Evaluate ``sum c_j X^j Y^(deg - j)`` (Horner in ``X`` over ``Y``'s powers)."""
+    """
+    Evaluate ``sum c_j X^j Y^(deg - j)`` (Horner in ``X`` over ``Y``'s powers).
+
+    ``Y``'s powers by products, as the compiled path forms them (numpy's ``**`` is its own
+    vectorised ``pow``, in the last bit of some samples).
+    """
     degree = len(coefficients) - 1
     total = coefficients[degree] * np.ones_like(X)
+    power = Y
     for j in range(degree - 1, -1, -1):
-        total = total * X + coefficients[j] * Y ** (degree - j)
+        total = total * X + coefficients[j] * power
+        power = power * Y
     return total
 
 
 class ObliqueRates:
-    """The rates ``w(t)`` of one oblique motion, principal frame (numpy)."""
+    """
+    The rates ``w(t)`` of one oblique motion, principal frame.
+
+    Compiled (:mod:`.gyrostat_oblique_kernels`) when the kernels are on where it is built, the
+    numpy path below otherwise (the reference the kernels repeat).
+    """
 
     def __init__(self, motion: ObliqueMotion):
         self.motion = motion
         self.jacobi = JacobiElliptic(motion.mc, m=motion.m)
+        self._kernels = None
+        if kernels.ENABLED:
+            self._row = gyrostat_oblique_kernels.rates_row(
+                motion, self.jacobi, motion.form == ONE_REAL_ROOT
+            )
+            self._kernels = gyrostat_oblique_kernels.kernels()
+
+    @property
+    def compiled(self) -> bool:
+        """Tell whether the evaluation runs through the kernels (on where it was built)."""
+        return self._kernels is not None
 
     def momentum_direction(self, t: np.ndarray):
         """
@@ -590,6 +620,10 @@ class ObliqueRates:
         """
         mo = self.motion
         t = np.asarray(t, dtype=float)
+        if self._kernels is not None:
+            v = np.empty((t.shape[0], 3))
+            self._kernels['direction_kernel'](np.ascontiguousarray(t), self._row, v)
+            return v
         values = self._jacobi(mo.rate * (t - mo.turning_time))
         sn, cn, dn = values
         X, Y = sn * sn, cn * cn
@@ -647,6 +681,11 @@ class ObliqueRates:
         the initial state as one term (no difference of nearly equal momenta).
         """
         mo = self.motion
+        if self._kernels is not None:
+            t = np.ascontiguousarray(t, dtype=float)
+            w, m = np.empty((t.shape[0], 3)), np.empty((t.shape[0], 3))
+            self._kernels['state_kernel'](t, self._row, w, m)
+            return w, m
         v = self.momentum_direction(t)
         m0 = np.asarray(mo.momentum0)
         gain = (-2.0 * (v @ m0) / np.einsum('ij,ij->i', v, v))[:, None] * v
@@ -721,6 +760,8 @@ class PeriodicIntegral:
         panels.sort(key=lambda panel: panel[0])
         self.starts = np.array([a for a, _, _ in panels])
         self.widths = np.array([w for _, w, _ in panels])
+        #: each panel's middle and the scale to its Chebyshev variable ``x``
+        self.middles, self.scales = self.starts + 0.5 * self.widths, 2.0 / self.widths
         coefficients = np.array([rows for _, _, rows in panels])  # (count, n + 1, functions)
         count = len(panels)
         c = np.concatenate([coefficients, np.zeros((count, 2, coefficients.shape[2]))], axis=1)
@@ -734,8 +775,7 @@ class PeriodicIntegral:
         #: the mean of ``g`` over the period (per function)
         self.mean = np.array([math.fsum(column) for column in pieces.T.tolist()]) / period
         before = np.concatenate([np.zeros((1, pieces.shape[1])), np.cumsum(pieces, axis=0)[:-1]])
-        middles = self.starts + 0.5 * self.widths
-        integral[:, 0] += before - at_start - middles[:, None] * self.mean
+        integral[:, 0] += before - at_start - self.middles[:, None] * self.mean
         integral[:, 1] -= (0.5 * self.widths)[:, None] * self.mean
         self.coefficients = integral
         self.count, self.period = count, period
@@ -744,13 +784,24 @@ class PeriodicIntegral:
         # by degree, then panel: each step of Clenshaw's recurrence gathers one contiguous row
         table = np.moveaxis(integral, 1, 0)
         self._table = np.ascontiguousarray(table if self._vector else table[:, :, 0])
+        #: (degree, panel, function) for the compiled recurrence, whatever ``g``'s shape
+        self.compiled_table = np.ascontiguousarray(table)
+        self._kernel = None
+        if kernels.ENABLED:
+            self._kernel = gyrostat_oblique_kernels.kernels()['periodic_kernel']
 
     def __call__(self, t: np.ndarray) -> np.ndarray:
         """Return ``P(t)``: ``(N,)``, or ``(N, functions)`` for a vector ``g``."""
+        if self._kernel is not None:
+            t = np.ascontiguousarray(t, dtype=float)
+            out = np.empty((t.shape[0], self.compiled_table.shape[2]))
+            self._kernel(
+                t, self.period, self.starts, self.middles, self.scales, self.compiled_table, out
+            )
+            return out if self._vector else out[:, 0]
         r = t - self.period * np.floor(t / self.period)
         index = np.clip(np.searchsorted(self.starts, r, side='right') - 1, 0, self.count - 1)
-        width = self.widths[index]
-        x = (r - (self.starts[index] + 0.5 * width)) * (2.0 / width)
+        x = (r - self.middles[index]) * self.scales[index]
         if self._vector:
             x = x[:, None]
         table = self._table
@@ -784,6 +835,14 @@ class ObliqueRateIntegrals:
         """
         t = np.asarray(t, dtype=float)
         return np.outer(t, spins - axes_P @ self.mean) - _rows(self.series(t), axes_P)
+
+
+def _combine(columns, rows) -> np.ndarray:
+    """Return ``np.stack(columns, -1) @ matrix`` from the matrix's ``rows``, element by element."""
+    total = columns[0][..., None] * rows[0]
+    for column, row in zip(columns[1:], rows[1:]):
+        total += column[..., None] * row
+    return total
 
 
 def _rows(vectors: np.ndarray, matrix: np.ndarray) -> np.ndarray:
@@ -849,8 +908,24 @@ class ObliqueAttitude:
         m_A0 = E @ m0
         Q0 = self._arc(m_A0[None, :], np.array([self.H + m_A0[2]]))[0]
         q0 = np.asarray(q0_NB, dtype=float)
-        self._right = q_AB
-        self._left = quaternion.multiply(q0, quaternion.conjugate(quaternion.multiply(Q0, q_AB)))
+        left = quaternion.multiply(q0, quaternion.conjugate(quaternion.multiply(Q0, q_AB)))
+        # q = left ⊗ x ⊗ q_AB as one matrix: rows of ``columns @ matrix`` (as the principal-axis
+        # gyrostat's)
+        self._frame_change_rows = tuple(
+            np.array(row)
+            for row in zip(*quaternion.product_matrix_values(left.tolist(), q_AB.tolist()))
+        )
+        self._two_momentum = 2.0 * self.H
+        # the compiled evaluation, with these very constants (gyrostat_oblique_kernels)
+        if self.rates.compiled:
+            self._row = gyrostat_oblique_kernels.attitude_row(
+                self.H, self.psi_rate, motion.period, E, axes, self._frame_change_rows
+            )
+
+    @property
+    def compiled(self) -> bool:
+        """Tell whether the evaluation runs through the kernels, as its rates' does."""
+        return self.rates.compiled
 
     def _angle_rate(self, t: np.ndarray) -> np.ndarray:
         w, m = self.rates.state(t)
@@ -865,14 +940,29 @@ class ObliqueAttitude:
         )
 
     def __call__(self, t: np.ndarray):
+        """Return ``(omega_B, q_NB)`` at ``t``: ``(N, 3)`` and ``(N, 4)``."""
         t = np.asarray(t, dtype=float)
+        if self.rates.compiled:
+            t = np.ascontiguousarray(t)
+            omega, q = np.empty((t.shape[0], 3)), np.empty((t.shape[0], 4))
+            angle = self.angle
+            self.rates._kernels['attitude_kernel'](
+                t, self.rates._row, self._row, angle.starts, angle.middles, angle.scales,
+                angle.compiled_table, omega, q,
+            )
+            return omega, q
         w, m = self.rates.state(t)
         m_A = _rows(m, self._E)
         arc = self.H + m_A[:, 2]
         half = 0.5 * (self.psi_rate * t + self.angle(t))
-        about_H = np.column_stack(
-            [np.zeros_like(t), np.zeros_like(t), np.sin(half), np.cos(half)]
+        # Rz(psi) ⊗ Q(m_A), Q's scale 1 / sqrt(2 H arc) folded into the half angle's cosine and
+        # sine (Q's third component is 0)
+        scale = 1.0 / np.sqrt(self._two_momentum * arc)
+        cos_half, sin_half = np.cos(half) * scale, np.sin(half) * scale
+        inner = (
+            cos_half * m_A[:, 1] + sin_half * m_A[:, 0],
+            sin_half * m_A[:, 1] - cos_half * m_A[:, 0],
+            sin_half * arc,
+            cos_half * arc,
         )
-        inner = quaternion.multiply(about_H, self._arc(m_A, arc))
-        q = quaternion.multiply(quaternion.multiply(self._left[None, :], inner), self._right)
-        return _rows(w, self._axes), q
+        return _rows(w, self._axes), _combine(inner, self._frame_change_rows)

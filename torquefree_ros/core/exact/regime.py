@@ -19,7 +19,10 @@ Rest, a sphere, a pure spin (stable or not), the axisymmetric cones, the polhode
 and minor axes and the separatrix between them, with the periods and angles each has.
 
 A free gyrostat (``I w' + w x (I w + h) = 0``, ``h`` along a principal axis: issue 43) has
-equilibria and separatrices of its own, which move with ``h`` (:func:`classify_gyrostat`).
+equilibria and separatrices of its own, which move with ``h`` (:func:`classify_gyrostat`). With
+``h`` oblique to the principal axes (:func:`classify_oblique_gyrostat`) its equilibria and the
+distance to the nearest separatrix are found the same way, its period is the closed form's, and
+what the motion circles is not named.
 """
 
 from __future__ import annotations
@@ -29,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .gyrostat import solve_gyrostat, solver_frame
+from .gyrostat_oblique import solve_oblique
 from .polhode import solve_polhode
 
 # Moments closer than this (relative) are *labelled* equal in the regime report; the propagators
@@ -170,19 +174,29 @@ class GyrostatRegime:
 
     kind: str  # gyrostat_rotor_axis_polhode | gyrostat_transverse_axis_polhode |
     #            gyrostat_separatrix | gyrostat_uniform_precession | gyrostat_relative_equilibrium
-    rotor_axis: int  # the principal axis h lies along (of the gyrostat's inertia)
-    rotor_momentum: float  # h, N m s, signed
+    #            | gyrostat_oblique_polhode (h oblique: a periodic motion, what it circles unnamed)
+    #            | gyrostat_oblique (h oblique, a state the closed form refuses: not classified)
+    rotor_axis: int  # the principal axis h lies along (of the gyrostat's inertia); -1: oblique
+    rotor_momentum: float  # h, N m s, signed; oblique: |h|
     momentum: float  # |m| = |I w + h|
     circled: str = ''  # what the motion circles: 'the rotor axis' or 'principal axis k'
     polhode_period: float = float('nan')  # of the body rates
     flip_period: float = float('nan')  # (a free body's notion: not the gyrostat's)
     separatrix_distance: float = float('nan')  # 2T / 2T_sep - 1 for the nearest saddle
-    equilibria: tuple = ()  # GyrostatEquilibrium, the poles first
+    equilibria: tuple = ()  # GyrostatEquilibrium, the poles first (oblique: by energy)
+    rotor_vector: tuple = ()  # oblique: h in the principal frame of the gyrostat's inertia
+    energy: float = float('nan')  # 2T = w . I w
 
     def summary(self) -> str:
+        if self.rotor_vector:
+            h = ', '.join(f'{v:.6g}' for v in self.rotor_vector)
+            where = f'h ({h}) N m s in the principal frame, off every principal axis'
+        else:
+            where = (
+                f'h {self.rotor_momentum:.6g} N m s along principal axis {self.rotor_axis + 1}'
+            )
         parts = [
-            f'free gyrostat (h {self.rotor_momentum:.6g} N m s along principal axis '
-            f'{self.rotor_axis + 1}, |I w + h| {self.momentum:.6g}): '
+            f'free gyrostat ({where}, |I w + h| {self.momentum:.6g}): '
             + self.kind.replace('gyrostat_', '').replace('_', ' ')
         ]
         if self.circled:
@@ -191,11 +205,14 @@ class GyrostatRegime:
             parts.append(f'polhode period {self.polhode_period:.6g} s')
         if not np.isnan(self.separatrix_distance):
             parts.append(f'separatrix distance {self.separatrix_distance:.3g}')
+        if not np.isnan(self.energy):
+            parts.append(f'2T {self.energy:.6g}')
         shown = []
         for equilibrium in self.equilibria:
             m = ', '.join(f'{v:.4g}' for v in equilibrium.momentum)
             shown.append(f'm = ({m}) {equilibrium.kind}')
-        parts.append('equilibria ' + '; '.join(shown))
+        if shown:
+            parts.append('equilibria ' + '; '.join(shown))
         return ', '.join(parts)
 
 
@@ -303,3 +320,115 @@ def classify_gyrostat(moments, omega_P, rotor: int, h: float) -> GyrostatRegime:
         polhode_period=period / motion.rate,
         **common,
     )
+
+
+def oblique_equilibria(moments, h, H: float) -> tuple:
+    """
+    Return the relative equilibria on ``|m| = H`` of a gyrostat with any ``h``, with their kinds.
+
+    ``m x w = 0``, ``w = A (m - h)``: ``A (m - h) = mu m``, so ``m_i = h_i / (1 - mu J_i)`` and
+    ``sum h_i^2 / (1 - mu J_i)^2 = H^2``, a sextic in ``mu`` (Basak 2009; a quartic when one
+    ``h_i`` is zero) whose real roots are the equilibria (two to six); where ``h_i = 0``,
+    ``mu = 1 / J_i`` adds the pair with
+    ``m_i = ± sqrt(H^2 - sum of the others' squares)``. Each root is polished by Newton's method
+    on the sum; the kind as :func:`gyrostat_equilibria`'s (``lambda = mu``), sorted by energy.
+    Floats: labels for a report, not constants of the solution.
+    """
+    J = np.asarray(moments, dtype=float)
+    h = np.asarray(h, dtype=float)
+    # over the components of h that are not zero (each zero one's factor divides the sextic)
+    terms = [i for i in range(3) if h[i] != 0.0]
+    factors = {i: np.polynomial.Polynomial([1.0, -J[i]]) ** 2 for i in terms}
+    sextic = -H * H * np.prod([factors[i] for i in terms])
+    for i in terms:
+        sextic = sextic + h[i] * h[i] * np.prod([factors[j] for j in terms if j != i] or [1.0])
+    candidates = []
+    for root in sextic.roots():
+        if abs(root.imag) > 1e-6 * max(1.0, abs(root.real)):
+            continue
+        mu = float(root.real)
+        for _ in range(8):  # Newton's method on sum h_i^2 / (1 - mu J_i)^2 - H^2
+            gaps = 1.0 - mu * J
+            if np.any(gaps == 0.0):
+                break
+            value = float(np.sum(h * h / gaps**2)) - H * H
+            slope = float(np.sum(2.0 * J * h * h / gaps**3))
+            if slope == 0.0:
+                break
+            mu -= value / slope
+        gaps = 1.0 - mu * J
+        if np.all(gaps != 0.0):
+            candidates.append((mu, h / gaps))
+    for i in range(3):
+        others = [j for j in range(3) if j != i]
+        if h[i] != 0.0 or any(J[j] == J[i] for j in others):
+            continue  # (equal moments: a circle of equilibria or none, not listed)
+        m = np.zeros(3)
+        for j in others:
+            m[j] = h[j] / (1.0 - J[j] / J[i])
+        rest = H * H - float(m @ m)
+        if rest > 0.0:
+            for sign in (1.0, -1.0):
+                pair = m.copy()
+                pair[i] = sign * np.sqrt(rest)
+                candidates.append((1.0 / J[i], pair))
+    inverse = 1.0 / J
+    equilibria = []
+    for mu, m in candidates:
+        if not H > 0.0 or abs(float(np.linalg.norm(m)) - H) > 1e-8 * H:
+            continue  # (a root of a factor h_i = 0 cleared, off the sphere)
+        w = (m - h) * inverse
+        unit = m / np.linalg.norm(m)
+        tangent = np.linalg.svd(unit[None, :])[2][1:]  # two unit vectors across m
+        hessian = tangent @ np.diag(inverse - mu) @ tangent.T
+        determinant = float(np.linalg.det(hessian))
+        if abs(determinant) <= DEGENERATE_RTOL * float(inverse.max()) ** 2:
+            kind = 'degenerate'
+        else:
+            kind = 'centre' if determinant > 0.0 else 'saddle'
+        equilibria.append(GyrostatEquilibrium(tuple(m.tolist()), kind, float(w @ (J * w))))
+    return tuple(sorted(equilibria, key=lambda e: e.energy))
+
+
+def classify_oblique_gyrostat(moments, omega_P, h_P) -> GyrostatRegime:
+    """
+    Classify the free gyrostat's motion from ``omega_P`` with ``h_P`` oblique (principal frame).
+
+    The closed form (:func:`.gyrostat_oblique.solve_oblique`) says whether the state is a relative
+    equilibrium (``None``), exactly on a separatrix (its refusal for ``mc = 0``) or a periodic
+    motion, whose period (``2K / r``) is the rates'. What a periodic motion circles is not named
+    (``gyrostat_oblique_polhode``); a state the closed form refuses otherwise is
+    ``gyrostat_oblique``, unclassified. The equilibria and the distance to the nearest saddle's
+    separatrix from :func:`oblique_equilibria`; ``|I w + h|`` and ``2T``, the conserved
+    quantities, always.
+    """
+    J = np.asarray(moments, dtype=float)
+    w = np.asarray(omega_P, dtype=float)
+    h = np.asarray(h_P, dtype=float)
+    m = J * w + h
+    H = float(np.linalg.norm(m))
+    two_T = float(w @ (J * w))
+    equilibria = oblique_equilibria(J, h, H)
+    saddles = [e.energy for e in equilibria if e.kind == 'saddle']
+    distance = float('nan')
+    if saddles:
+        nearest = min(saddles, key=lambda energy: abs(two_T - energy))
+        distance = two_T / nearest - 1.0 if nearest else float('nan')
+    common = {
+        'rotor_axis': -1,
+        'rotor_momentum': float(np.linalg.norm(h)),
+        'momentum': H,
+        'separatrix_distance': distance,
+        'equilibria': equilibria,
+        'rotor_vector': tuple(h.tolist()),
+        'energy': two_T,
+    }
+    try:
+        motion = solve_oblique(J, w, h)
+    except ValueError as refusal:
+        if 'separatrix' in str(refusal):
+            return GyrostatRegime('gyrostat_separatrix', polhode_period=float('inf'), **common)
+        return GyrostatRegime('gyrostat_oblique', **common)
+    if motion is None:
+        return GyrostatRegime('gyrostat_relative_equilibrium', **common)
+    return GyrostatRegime('gyrostat_oblique_polhode', polhode_period=motion.period, **common)

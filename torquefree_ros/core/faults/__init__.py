@@ -19,9 +19,13 @@ Faults of the sensor outputs and actuators, and run-time changes of the sensors'
   checked field by field against a scene's outputs, and the columns each acts on per output;
 - :mod:`.injector`: a run's faults applied to its outputs' rows after the sensors computed them,
   on each output's own sample grid, with seeded draws;
+- :mod:`.batch`: the faults of many runs (a plant batch's bodies) applied to one sample's rows of
+  every run at once, bit for bit each run's injector;
+- :mod:`.draws`: the faults' seeded draws (counter-based ``Philox``), one fault's block of samples
+  or one sample of many faults;
 - :mod:`.actuators`: a run's actuator faults (a wheel that stops responding or errs in its
-  motor torque, stuck magnetorquers, a stuck or erring commanded torque) applied to the inputs
-  its command holds keep;
+  motor torque, stuck magnetorquers, a stuck or erring commanded torque, a noise on any of them)
+  applied to the inputs its command holds keep;
 - :mod:`.retune`: a sensor output rebuilt with new noise parameters while a run goes on.
 
 Beside :mod:`..propagators`, under :mod:`..scene` and :mod:`..run`. May import: :mod:`..effects`

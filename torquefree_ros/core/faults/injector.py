@@ -16,14 +16,12 @@
 A run's faults applied to its outputs' rows, after the sensors computed them.
 
 Each fault acts on the samples ``j`` of its output's own grid (``t_j = j / rate``, the output's
-rate) in its window (:mod:`.schedule`). Its draws (``noise``, ``spikes``) are 8 uniforms a sample
-from a counter-based generator, ``Philox`` keyed by ``SeedSequence(seed, spawn_key=(FAULT_DRAWS,
-index))`` at counter ``2 j`` (two counter steps, 8 draws, per sample): ``seed`` the output's own
-``seed`` (the scene's), ``index`` the fault's place in its list, ``j`` the sample; so a sample's
-faulted row depends on nothing else, however samples are cut into blocks, live, offline or
-replayed, and a block of samples draws in one call. Normals come from the uniforms by Box and
-Muller's transform (``sqrt(-2 ln u1) (cos 2 pi u2, sin 2 pi u2)``, uniforms 0 to 3: four normals,
-three used); a spike's happening is uniform 4 below its ``probability``. A stuck output holds the
+rate) in its window (:mod:`.schedule`). Its draws (``noise``, ``spikes``) are :mod:`.draws`' 8
+uniforms a sample: keyed by ``seed``, the output's own ``seed`` (the scene's), and ``index``, the
+fault's place in its list, at sample ``j``; so a sample's faulted row depends on nothing else,
+however samples are cut into blocks, live, offline or replayed, and a block of samples draws in
+one call. Normals come from uniforms 0 to 3 (:func:`.draws.normals`, three used); a spike's
+happening is uniform 4 below its ``probability``. A stuck output holds the
 row its sensor read at the sample before the window: kept once read, so the blocks after it need
 not hold it.
 
@@ -40,13 +38,11 @@ from typing import Callable
 
 import numpy as np
 
+from .draws import normals, uniforms
 from .schedule import ACTUATOR_FAULTS, Fault, FAULTED_OUTPUTS, spike_period_samples
 from ..effects.sensors import NOT_PROVIDED
 from ..frames import quaternion
 from ..timing.grid import first_sample_at_or_after
-
-#: the first spawn key of fault draws: apart from a sensor's own processes (1, 2, ...)
-FAULT_DRAWS = 1000
 
 
 @dataclasses.dataclass(frozen=True)
@@ -79,7 +75,7 @@ class FaultInjector:
         self.rates = tuple(rate / n for n in self.every)
         self._raw_row = raw_row
         self._positions = {output.topic: i for i, output in enumerate(self.outputs)}
-        self._seeds = tuple(int(output.values.get('seed') or 0) for output in self.outputs)
+        self.seeds = tuple(int(output.values.get('seed') or 0) for output in self.outputs)
         self.windows: tuple[_Window, ...] = ()
         self._held: dict[tuple, np.ndarray] = {}
         self.replace(faults, 0)
@@ -182,40 +178,48 @@ class FaultInjector:
 
     def _perturb(self, fault: Fault, name: str, out: np.ndarray, a: int, b: int, first: int):
         """Add a bias, a noise or spikes to samples ``a .. b - 1`` that carry a measurement."""
-        columns = FAULTED_OUTPUTS[name]
-        seed = self._seeds[self._positions[fault.output]]
+        seed = self.seeds[self._positions[fault.output]]
         samples = np.arange(a, b)
         if fault.kind == 'bias':
             vectors = np.tile(np.asarray(fault.step, dtype=float), (b - a, 1))
         elif fault.kind == 'noise':
-            vectors = fault.sigma * _normals(_uniforms(seed, fault.index, a, b))
+            vectors = fault.sigma * normals(uniforms(seed, fault.index, a, b))
         else:
-            uniforms = _uniforms(seed, fault.index, a, b)
+            draws = uniforms(seed, fault.index, a, b)
             if fault.probability is not None:
-                hit = uniforms[:, 4] < fault.probability
+                hit = draws[:, 4] < fault.probability
             else:
                 rate = self.rates[self._positions[fault.output]]
                 hit = np.isin(samples, spike_period_samples(fault, rate, a, b))
-            directions = _normals(uniforms[hit])
-            lengths = np.sqrt((directions * directions).sum(axis=1))
-            samples, vectors = samples[hit], fault.magnitude * directions / lengths[:, None]
-        if not samples.size:
-            return
-        indices = samples - first
-        measured = _measured(name, out[indices])
-        indices, vectors = indices[measured], vectors[measured]
-        values = out[indices, columns.measured]
-        if columns.quantity == 'vector':
-            out[indices, columns.measured] = values + vectors
-        elif columns.quantity == 'quaternion':
-            out[indices, columns.measured] = quaternion.multiply(
-                values, quaternion.exp_rotation(vectors)
-            )
-        else:  # a unit vector turned
-            turn = quaternion.exp_rotation(vectors).T
-            out[indices, columns.measured] = np.column_stack(
-                quaternion.rotate_values(turn, values.T)
-            )
+            samples, vectors = samples[hit], spike_vectors(fault.magnitude, draws[hit])
+        if samples.size:
+            perturb(name, out, samples - first, vectors)
+
+
+def spike_vectors(magnitude, draws: np.ndarray) -> np.ndarray:
+    """Return spikes of ``magnitude`` (a number, or one a row) along random directions."""
+    directions = normals(draws)
+    lengths = np.sqrt((directions * directions).sum(axis=1))
+    return np.reshape(magnitude, (-1, 1)) * directions / lengths[:, None]
+
+
+def perturb(name: str, out: np.ndarray, indices: np.ndarray, vectors: np.ndarray) -> None:
+    """Add ``vectors`` to the rows ``indices`` of output ``name`` that carry a measurement."""
+    columns = FAULTED_OUTPUTS[name]
+    measured = _measured(name, out[indices])
+    indices, vectors = indices[measured], vectors[measured]
+    values = out[indices, columns.measured]
+    if columns.quantity == 'vector':
+        out[indices, columns.measured] = values + vectors
+    elif columns.quantity == 'quaternion':
+        out[indices, columns.measured] = quaternion.multiply(
+            values, quaternion.exp_rotation(vectors)
+        )
+    else:  # a unit vector turned
+        turn = quaternion.exp_rotation(vectors).T
+        out[indices, columns.measured] = np.column_stack(
+            quaternion.rotate_values(turn, values.T)
+        )
 
 
 def _measured(name: str, rows: np.ndarray) -> np.ndarray:
@@ -229,19 +233,4 @@ def _measured(name: str, rows: np.ndarray) -> np.ndarray:
     return np.ones(rows.shape[0], bool)
 
 
-def _uniforms(seed: int, index: int, first: int, stop: int) -> np.ndarray:
-    """Return the ``(stop - first, 8)`` uniforms of fault ``index`` at samples ``first ..``."""
-    key = np.random.SeedSequence(seed, spawn_key=(FAULT_DRAWS, index)).generate_state(2, np.uint64)
-    bits = np.random.Philox(key=key)
-    bits.advance(2 * first)  # a counter step is 4 draws of 64 bits: 2 steps a sample
-    return np.random.Generator(bits).random((stop - first, 8))
-
-
-def _normals(uniforms: np.ndarray) -> np.ndarray:
-    """Return three standard normals a row from its first four uniforms (Box and Muller)."""
-    radius = np.sqrt(-2.0 * np.log1p(-uniforms[:, 0:2]))  # 1 - u in (0, 1]: a finite log
-    angle = 2.0 * math.pi * uniforms[:, 2:4]
-    return np.column_stack([radius * np.cos(angle), radius * np.sin(angle)])[:, :3]
-
-
-__all__ = ['FAULT_DRAWS', 'FaultInjector']
+__all__ = ['FaultInjector', 'perturb', 'spike_vectors']

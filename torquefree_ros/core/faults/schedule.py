@@ -56,7 +56,10 @@ on rows, on the run's own samples ``k`` (``t_k = k / rate``, the same rule) and 
     - torque_stuck:       {start: 1.0, end: 3.0}               # at the last torque, or
     - torque_stuck:       {start: 1.0, value: [0.0, 0.0, 0.0]} # at a given one, N m
     - torque_error:       {start: 1.0, bias: [1e-3, 0.0, 0.0], scale: 0.8}
+    - torque_noise:       {start: 1.0, end: 3.0, sigma: 1e-4, seed: 7}  # N m, 1-sigma an axis
     - wheel_torque_error: {wheel: rw1, start: 2.0, bias: 1e-3, scale: 0.5}
+    - wheel_torque_noise: {wheel: rw1, start: 2.0, sigma: 1e-4}        # N m, 1-sigma
+    - dipole_noise:       {start: 0.0, sigma: [0.01, 0.01, 0.02]}      # A m^2, 1-sigma an axis
 
 * ``wheel_stuck``: the wheel named (a wheel of commanded ``reaction_wheels``) ignores commands and
   its drive is off: its input is the one it has with no command in force (zero torque; a speed
@@ -65,14 +68,24 @@ on rows, on the run's own samples ``k`` (``t_k = k / rate``, the same rule) and 
   interval before the window (zero when the window starts at sample 0 or no command was in
   force), or ``value``, through the rods' saturation as any command: ``value: [0, 0, 0]`` turns
   them off;
-* ``torque_stuck``: every ``torque_command`` effect holds the torque it held on the interval
+* ``torque_stuck``: the ``torque_command`` effect holds the torque it held on the interval
   before the window (zero when none was in force), or ``value`` (N m, in the effect's frame);
-* ``torque_error``: every ``torque_command`` effect's torque (in its frame) is ``scale * torque +
+* ``torque_error``: the ``torque_command`` effect's torque (in its frame) is ``scale * torque +
   bias`` (``scale`` a number or one per axis, default 1; ``bias`` N m, default zero), whatever
   holds: a command, or zero once it timed out;
+* ``torque_noise``, ``wheel_torque_noise``, ``dipole_noise``: a seeded white noise of 1-sigma
+  ``sigma`` (a number, or one per axis for the torque and the dipole) is added to what holds on
+  each interval (the ``torque_command``'s torque in its frame, whatever holds; the motor torque
+  asked of the wheel named, of ``reaction_wheels`` in mode ``torque``, before its limits; every
+  ``magnetorquers``' dipole asked, before the rods' saturation); its normals are those of the
+  sensors' ``noise`` fault (:mod:`.draws`: keyed by ``seed``, default 0, and the fault's place in
+  its list, at the run's sample ``k``), so live, offline, a replay and the plant add the same;
+* the torque faults (``torque_stuck``, ``torque_error``, ``torque_noise``) act on the
+  ``torque_command`` on their ``topic``: given, or the scene's only one (every one on that topic);
 * ``wheel_torque_error``: the motor torque asked of the wheel named (of ``reaction_wheels`` in
-  mode ``torque``) is ``scale * u + bias`` (N m; default 1 and 0), before the wheel's torque and
-  speed limits, which still bound what the motor applies.
+  mode ``torque``; in mode ``speed`` the speed loop's output ``u = Js speed_bandwidth (Omega_ref
+  - Omega)``, zero with the drive off) is ``scale * u + bias`` (N m; default 1 and 0), before the
+  wheel's torque and speed limits, which still bound what the motor applies.
 
 A stuck or a given value replaces what the faults before it in the list did; an error acts on
 what they left (faults on one input apply in list order).
@@ -92,6 +105,7 @@ from ..checks.schema import (
     child,
     FieldError,
     fields,
+    integer,
     listing,
     number,
     one_key,
@@ -142,6 +156,9 @@ class Fault:
     probability: float | None = None  # spikes on each sample with it
     period: float | None = None  # spikes every period from start
     wheel: str | None = None  # wheel_stuck, wheel_torque_error: the wheel's name
+    topic: str | None = None  # the torque faults: their torque_command's topic (None: the only)
+    seed: int | None = None  # the actuators' noise faults: their draws' seed
+    noise: tuple | None = None  # the actuators' noise faults: 1-sigma, one a component
     bias: tuple | None = None  # torque_error, wheel_torque_error: added, N m (one a component)
     scale: tuple | None = None  # torque_error, wheel_torque_error: the factor (one a component)
     #: where it was written (``faults[1].wheel_stuck``): errors found later name it
@@ -150,7 +167,7 @@ class Fault:
     @property
     def target(self) -> str:
         """Return what it acts on: the output's topic, the wheel's name or the effect's."""
-        return self.wheel or self.output or ACTUATOR_FAULTS.get(self.kind, '')
+        return self.wheel or self.output or self.topic or ACTUATOR_FAULTS.get(self.kind, '')
 
 
 _TIME = number(minimum=0.0, maximum=MAX_FAULT_TIME, unit='s')
@@ -177,9 +194,16 @@ ACTUATOR_FAULTS = {
     'magnetorquer_stuck': 'magnetorquers',
     'torque_stuck': 'torque_command',
     'torque_error': 'torque_command',
+    'torque_noise': 'torque_command',
+    'wheel_torque_noise': 'reaction_wheels',
+    'dipole_noise': 'magnetorquers',
 }
 #: the actuator faults that scale and offset an input (the others replace it)
 ERROR_FAULTS = ('torque_error', 'wheel_torque_error')
+#: the actuator faults that add a seeded white noise to an input
+NOISE_FAULTS = ('torque_noise', 'wheel_torque_noise', 'dipole_noise')
+#: the faults of a torque_command, which a ``topic`` may choose
+TORQUE_FAULTS = ('torque_stuck', 'torque_error', 'torque_noise')
 
 
 def _per_axis(value, path):
@@ -189,7 +213,22 @@ def _per_axis(value, path):
     return (number()(value, path),) * 3
 
 
+def _sigmas(unit: str):
+    """Build a checker of a 1-sigma >= 0: a number, or three (one per axis); return three."""
+    def check(value, path):
+        if isinstance(value, (list, tuple)):
+            values = vector(3, unit=unit)(value, path)
+            if (values < 0.0).any():
+                raise FieldError(path, f'every entry must be >= 0 {unit}, got {shown(value)}')
+            return tuple(float(x) for x in values)
+        return (number(minimum=0.0, unit=unit)(value, path),) * 3
+
+    return check
+
+
 _WHEEL = Param(text(), description="the wheel's name")
+_TOPIC = Param(text(), None, "the torque_command's topic (default: the scene's only one)")
+_SEED = Param(integer(0, 2**63 - 1), 0, "the noise's seed (with the fault's place in its list)")
 _ACTUATOR_KINDS = {
     'wheel_stuck': {'wheel': _WHEEL},
     'wheel_torque_error': {
@@ -201,11 +240,27 @@ _ACTUATOR_KINDS = {
         'value': Param(vector(3, unit='A m^2'), None, 'default: the last dipole asked for')
     },
     'torque_stuck': {
-        'value': Param(vector(3, unit='N m'), None, 'default: the last torque held')
+        'value': Param(vector(3, unit='N m'), None, 'default: the last torque held'),
+        'topic': _TOPIC,
     },
     'torque_error': {
         'bias': Param(vector(3, unit='N m'), None, "added to the torque, in the effect's frame"),
         'scale': Param(_per_axis, None, "the torque's factor: a number, or one per axis"),
+        'topic': _TOPIC,
+    },
+    'torque_noise': {
+        'sigma': Param(_sigmas('N m'), description='1-sigma, N m: a number, or one per axis'),
+        'seed': _SEED,
+        'topic': _TOPIC,
+    },
+    'wheel_torque_noise': {
+        'wheel': _WHEEL,
+        'sigma': Param(number(minimum=0.0, unit='N m'), description='1-sigma, N m'),
+        'seed': _SEED,
+    },
+    'dipole_noise': {
+        'sigma': Param(_sigmas('A m^2'), description='1-sigma, A m^2: a number, or one per axis'),
+        'seed': _SEED,
     },
 }
 _WINDOW = {key: _COMMON[key] for key in ('start', 'end')}
@@ -266,6 +321,13 @@ def _actuator_fault(kind: str, values: dict, where: str, index: int) -> Fault:
             'bias': (0.0,) * width if bias is None else _floats(bias, width),
             'scale': (1.0,) * width if scale is None else _floats(scale, width),
         }
+    noise = {}
+    if kind in NOISE_FAULTS:
+        sigma = values['sigma']
+        noise = {
+            'seed': values['seed'],
+            'noise': tuple(sigma) if isinstance(sigma, tuple) else (float(sigma),),
+        }
     return Fault(
         kind=kind,
         output='',
@@ -274,8 +336,10 @@ def _actuator_fault(kind: str, values: dict, where: str, index: int) -> Fault:
         index=index,
         value=None if value is None else tuple(float(x) for x in value),
         wheel=values.get('wheel'),
+        topic=values.get('topic'),
         path=where,
         **errors,
+        **noise,
     )
 
 
@@ -356,6 +420,9 @@ def describe_fault(fault: Fault) -> str:
         else 'at ' + _values(fault.value) + ' N m',
         'torque_error': _error(fault),
         'wheel_torque_error': _error(fault),
+        'torque_noise': _noise(fault, 'N m'),
+        'wheel_torque_noise': _noise(fault, 'N m'),
+        'dipole_noise': _noise(fault, 'A m^2'),
     }[fault.kind]
     return f'{fault.kind} {fault.target} [{fault.start:g}, {end}) s {detail}'.rstrip()
 
@@ -371,6 +438,14 @@ def _error(fault: Fault) -> str:
     if len(fault.scale) == 1:
         return f'scale {fault.scale[0]:g} bias {fault.bias[0]:g} N m'
     return f'scale {_values(fault.scale)} bias {_values(fault.bias)} N m'
+
+
+def _noise(fault: Fault, unit: str) -> str:
+    """Say an actuator noise's 1-sigma and seed: ``sigma 0.0001 N m seed 7``."""
+    if fault.noise is None:
+        return ''
+    sigma = f'{fault.noise[0]:g}' if len(set(fault.noise)) == 1 else _values(fault.noise)
+    return f'sigma {sigma} {unit} seed {fault.seed}'
 
 
 def spike_period_samples(fault: Fault, rate: float, first: int, stop: int) -> list:
@@ -393,6 +468,8 @@ def spike_period_samples(fault: Fault, rate: float, first: int, stop: int) -> li
 __all__ = [
     'ACTUATOR_FAULTS',
     'ERROR_FAULTS',
+    'NOISE_FAULTS',
+    'TORQUE_FAULTS',
     'FAULTED_OUTPUTS',
     'FAULT_KINDS',
     'Fault',

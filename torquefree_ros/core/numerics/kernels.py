@@ -16,7 +16,8 @@
 The one switch and the one loader of numba's compiled kernels.
 
 Families of kernels are compiled: the exact attitude (``core/exact/attitude_kernels.py``), the
-exact gyrostat's (``core/exact/gyrostat_kernels.py``), the equations of motion with their
+exact gyrostat's (``core/exact/gyrostat_kernels.py``), the oblique gyrostat's
+(``core/exact/gyrostat_oblique_kernels.py``), the equations of motion with their
 integrators (``core/compiled/motion_kernels.py``) and the environment's
 (``core/environment/environment_kernels.py``). Each family is one file, because numba rebuilds a
 function's cache when *its own file* changes, not when a file it calls into does: a stale kernel

@@ -18,7 +18,12 @@ from . import analytic, gyrostat, numerical  # noqa: F401  (registers the propag
 from .base import Propagator, propagator_class, PROPAGATORS
 from ..body.rigid_body import RigidBody
 from ..checks.validation import finite_vector
-from ..exact.regime import classify_gyrostat, GyrostatRegime, MotionRegime
+from ..exact.regime import (
+    classify_gyrostat,
+    classify_oblique_gyrostat,
+    GyrostatRegime,
+    MotionRegime,
+)
 from ..numerics.steps import MAX_STEPS_PER_SAMPLE, StepBudgetExceeded, StepTooSmall
 
 __all__ = [
@@ -53,9 +58,11 @@ def make_propagator(
     Build a propagator by name.
 
     ``auto`` is the exact solution when no effect changes the motion, the exact free gyrostat
-    (``gyrostat``) when the only ones are ``rotor`` effects and coasting ``reaction_wheels`` whose
-    summed momentum lies along a principal axis or is zero (the free body with the inertia less
-    the wheels' spin; :func:`.gyrostat.free_gyrostat`, to :data:`.gyrostat.ROTOR_AXIS_TOLERANCE`),
+    (``gyrostat``) when the only ones are ``rotor`` effects and coasting ``reaction_wheels``
+    (:func:`.gyrostat.free_gyrostat`: their summed momentum along a principal axis, to
+    :data:`.gyrostat.ROTOR_AXIS_TOLERANCE`, or oblique, or zero: the free body with the inertia
+    less the wheels' spin) but for an oblique state the closed form refuses (exactly on a
+    separatrix, or a momentum beyond :data:`.gyrostat.OBLIQUE_MOMENTUM_RATIO` times the body's),
     else DOP853 held to ``accuracy`` (``rtol``;
     ``atol = accuracy / 100``; default :data:`DEFAULT_ACCURACY`). ``effects``: motion effects only
     (outputs never reach a propagator).
@@ -83,17 +90,26 @@ def motion_regime(propagator: Propagator) -> MotionRegime | GyrostatRegime:
     """
     Return the regime of the motion a propagator's initial state starts.
 
-    A free gyrostat's (rotors and coasting wheels along a principal axis, whichever propagator
-    runs it: :func:`.gyrostat.free_gyrostat`) is the gyrostat's own, with its equilibria and
-    separatrices (:func:`.exact.regime.classify_gyrostat`), or at ``h = 0`` the free body's with
-    the inertia less the wheels' spin; any other scene's is the torque-free
-    regime of the body at the initial rates (:meth:`RigidBody.classify`), which effects that
-    change the motion make a reading of the start only.
+    A free gyrostat's (rotors and coasting wheels, whichever propagator runs it:
+    :func:`.gyrostat.free_gyrostat`) is the gyrostat's own, with its equilibria and separatrices:
+    along a principal axis :func:`.exact.regime.classify_gyrostat`, oblique
+    :func:`.exact.regime.classify_oblique_gyrostat` (its period, equilibria and separatrix
+    distance; what the motion circles unnamed), an oblique state the closed form refuses
+    included (``auto`` integrates it, but it is a gyrostat all the same); at ``h = 0`` the free
+    body's with the inertia less the wheels' spin. Any other scene's is the torque-free regime of
+    the body at the initial rates (:meth:`RigidBody.classify`), which effects that change the
+    motion make a reading of the start only.
     """
     omega0 = propagator.omega0_B
-    found = gyrostat.free_gyrostat(propagator.body, propagator.effects, omega0)
-    if isinstance(found, str):
+    parts = gyrostat.gyrostat_parts(propagator.body, propagator.effects, omega0)
+    if isinstance(parts, str):
         return propagator.body.classify(omega0)
+    found = gyrostat.free_gyrostat(propagator.body, propagator.effects, omega0)
+    if isinstance(found, str) or found.oblique:
+        inertia, h_B = parts[0], parts[1]
+        return classify_oblique_gyrostat(
+            inertia.moments, inertia.to_principal(omega0), h_B @ inertia.principal_axes
+        )
     if found.momentum == 0.0:  # the free body with the inertia less the wheels' spin
         return found.inertia.classify(omega0)
     inertia = found.inertia

@@ -19,9 +19,17 @@ A body whose only motion effects are ``rotor``s (constant relative momentum) and
 ``reaction_wheels`` (scheduled, every motor torque zero, no friction: each wheel's absolute axial
 momentum ``h_i`` is then constant) is the free gyrostat ``I_s w' + w x (I_s w + h) = 0`` with
 ``I_s = I - sum Js g g^T`` (``I`` for rotors alone) and ``h = sum h_rotor + sum h_i g_i``; this
-propagator solves it exactly when ``h`` lies along a principal axis of ``I_s``. The regime and
-every constant are chosen once in the constructor; evaluation is a pure, vectorised function of
-time.
+propagator solves it exactly for any ``h``: along a principal axis of ``I_s`` by
+:mod:`torquefree_ros.core.exact.gyrostat` (Jacobi functions in the solver frame), oblique to them
+by :mod:`torquefree_ros.core.exact.gyrostat_oblique` (Weierstrass's solution on the momentum
+sphere, Basak 2009), in the principal frame of ``I_s``. The regime and every constant are chosen
+once in the constructor; evaluation is a pure, vectorised function of time.
+
+An oblique ``h`` the closed form refuses (a state exactly on a separatrix, ``mc = 0``, a motion
+whose curve is a circle: a uniform precession, or a momentum beyond
+:data:`OBLIQUE_MOMENTUM_RATIO` times the body's own) is no ``FreeGyrostat``:
+:func:`free_gyrostat` says why, and ``auto`` integrates it. An oblique relative equilibrium
+(``m x w = 0``) spins at its constant rate, as on a principal axis.
 
 ``h = 0`` is the free body ``I_s w' + w x I_s w = 0``, its rates and attitude evaluated by the
 ``analytic`` propagator itself (with ``I_s``): rotors whose momenta cancel, or coasting wheels
@@ -36,13 +44,16 @@ to the body, ``theta_i' = Omega_i = h_i / Js_i - g_i . w``, so
 ``theta_i = (h_i / Js_i) t - g_i . ∫_0^t w dt``: the relative speed is not constant (the body's
 rate along ``g_i`` moves it), ``h = 0`` or not. The rates' integral comes from
 :class:`~torquefree_ros.core.exact.gyrostat.RateIntegrals` (their Chebyshev series, at the
-float64 floor), in closed form for a uniform precession and a relative equilibrium; for
+float64 floor), or for an oblique ``h`` from
+:class:`~torquefree_ros.core.exact.gyrostat_oblique.ObliqueRateIntegrals` (the same, on panels
+of the period), in closed form for a uniform precession and a relative equilibrium; for
 ``h = 0`` from the gyrostat's closed form of the same rates at ``h = 0`` (with ``I_s``'s
 largest or distinct moment as the solver's axis 3).
 
-A wheel *held* at a constant relative speed ``Omega_i`` (an ideal drive whose torque is
-``u_i = Js_i g_i . w'``) is the ``rotor`` effect, not this: ``I w' + w x (I w + h) = 0`` with the
-locked inertia ``I`` and ``h = Js_i Omega_i g_i``, and the wheel's angle is ``Omega_i t``.
+Wheels *held* at constant relative speeds ``Omega_i`` (``reaction_wheels`` in mode ``hold``: an
+ideal drive whose torque is ``u_i = Js_i g_i . w'``) are a rotor: ``I w' + w x (I w + h) = 0``
+with the locked inertia ``I`` and ``h = sum Js_i Omega_i g_i``; they have no state, and each
+wheel's angle is ``Omega_i t`` (the effect's own).
 """
 
 from __future__ import annotations
@@ -66,6 +77,12 @@ from ..exact.gyrostat import (
     solver_frame,
     UniformPrecession,
 )
+from ..exact.gyrostat_oblique import (
+    ObliqueAttitude,
+    ObliqueMotion,
+    ObliqueRateIntegrals,
+    solve_oblique,
+)
 
 #: ``h`` counts as along a principal axis when its part across that axis is at most this fraction
 #: of ``|h|``: the rounding of the axis itself (a few units of float64's; ``I_s``'s eigenvectors
@@ -75,11 +92,35 @@ ROTOR_AXIS_TOLERANCE = 4.0 * float(np.finfo(float).eps)
 
 
 class FreeGyrostat(NamedTuple):
-    """A scene's free gyrostat: its inertia, the principal axis ``h`` lies along, and ``h``."""
+    """
+    A scene's free gyrostat: its inertia, the principal axis ``h`` lies along, and ``h``.
+
+    An oblique ``h`` (off every principal axis) has ``axis`` :data:`OBLIQUE`, ``momentum`` its
+    size ``|h|``, ``momentum_P`` the vector in the principal frame of ``inertia`` and ``motion``
+    its constants (:func:`.exact.gyrostat_oblique.solve_oblique`; None for a relative
+    equilibrium); ``h`` along an axis or zero leaves both None.
+    """
 
     inertia: RigidBody  # I_s: the scene's inertia less the wheels' spin
     axis: int  # the principal axis of ``inertia`` (its column) h lies along (h = 0: the solver's)
-    momentum: float  # h along that axis, N m s, signed
+    momentum: float  # h along that axis, N m s, signed (oblique: |h|)
+    momentum_P: tuple | None = None  # oblique: h in the principal frame of ``inertia``, N m s
+    motion: ObliqueMotion | None = None  # oblique: the motion's constants (None: stationary)
+
+    @property
+    def oblique(self) -> bool:
+        """Whether ``h`` lies off every principal axis (the general closed form solves it)."""
+        return self.momentum_P is not None
+
+
+#: :attr:`FreeGyrostat.axis` of an oblique ``h``: along no principal axis
+OBLIQUE = -1
+#: the oblique closed form forms the rates from the total momentum, ``w = I^-1 (m - h)``, so they
+#: carry ``m``'s rounding: about ``eps |m| / |I w|`` relative (measured against DOP853 at rtol
+#: 1e-13 on one body: 1.3e-12 at a ratio of 1.5e4, 2e-10 at 1.5e6). Beyond this ratio (with
+#: ``|I w| >= sqrt(I_min 2T)``, its least value along the motion) that is over ~2e-10, the order
+#: of ``auto``'s integrator tolerance, and ``auto`` integrates the scene instead
+OBLIQUE_MOMENTUM_RATIO = 1e6
 
 
 def free_gyrostat(body, effects, omega0_B) -> FreeGyrostat | str:
@@ -88,11 +129,36 @@ def free_gyrostat(body, effects, omega0_B) -> FreeGyrostat | str:
 
     Every effect must be a ``rotor`` or coasting ``reaction_wheels``
     (:meth:`ReactionWheels.coasting_problem`);
-    ``h`` (rotors' ``h_B`` plus the wheels' ``h_i g_i``, ``h_i`` at ``omega0_B``) must lie along a
-    principal axis of ``I_s`` within :data:`ROTOR_AXIS_TOLERANCE`. No effect: the free body,
-    ``h = 0``; so are momenta whose sum is within :data:`ROTOR_AXIS_TOLERANCE` of the sum of their
-    sizes (its own rounding: a pyramid's null-motion momenta add to a few rounding units, in no
-    particular direction), which the gyrostat takes as ``h = 0``: the free body with ``I_s``.
+    ``h`` (rotors' ``h_B`` plus the wheels' ``h_i g_i``, ``h_i`` at ``omega0_B``) along a
+    principal axis of ``I_s`` within :data:`ROTOR_AXIS_TOLERANCE` is the principal-axis gyrostat;
+    off every one, the oblique gyrostat (:func:`oblique_gyrostat`), unless its closed form refuses
+    the state. No effect: the free body, ``h = 0``; so are momenta whose sum is within
+    :data:`ROTOR_AXIS_TOLERANCE` of the sum of their sizes (its own rounding: a pyramid's
+    null-motion momenta add to a few rounding units, in no particular direction), which the
+    gyrostat takes as ``h = 0``: the free body with ``I_s``.
+    """
+    parts = gyrostat_parts(body, effects, omega0_B)
+    if isinstance(parts, str):
+        return parts
+    inertia, h_B, total = parts
+    h_P = h_B @ inertia.principal_axes
+    axis = int(np.argmax(np.abs(h_P)))
+    size = float(np.linalg.norm(h_P))
+    if size <= ROTOR_AXIS_TOLERANCE * total:  # (0 <= 0 too: no momentum at all)
+        return FreeGyrostat(inertia, free_body_axis(inertia.moments), 0.0)
+    across = math.hypot(*(float(h_P[k]) for k in range(3) if k != axis))
+    if across > ROTOR_AXIS_TOLERANCE * size:
+        return oblique_gyrostat(inertia, h_P, omega0_B)
+    return FreeGyrostat(inertia, axis, float(h_P[axis]))
+
+
+def gyrostat_parts(body, effects, omega0_B) -> tuple[RigidBody, np.ndarray, float] | str:
+    """
+    Return ``(I_s, h_B, the momenta's summed sizes)`` of a free gyrostat's scene, or why not.
+
+    Every effect must be a ``rotor``, ``reaction_wheels`` held at constant speeds (a rotor of
+    ``sum Js_i Omega_i g_i`` with the locked inertia: :meth:`ReactionWheels.holds_speeds`) or
+    coasting ones (:meth:`ReactionWheels.coasting_problem`), and ``I_s`` positive definite.
     """
     body = RigidBody.from_inertia(body)
     omega0_B = np.asarray(omega0_B, dtype=float)
@@ -104,7 +170,14 @@ def free_gyrostat(body, effects, omega0_B) -> FreeGyrostat | str:
             total += float(np.linalg.norm(effect.h_B))
             continue
         if not isinstance(effect, ReactionWheels):
-            return f"effects other than 'rotor' and coasting 'reaction_wheels' ({effect.name})"
+            return (
+                "effects other than 'rotor' and held or coasting 'reaction_wheels' "
+                f'({effect.name})'
+            )
+        if effect.holds_speeds():  # a rotor: the locked inertia, h constant
+            h_B = h_B + effect.held_momentum_B()
+            total += float(np.abs(effect.spin_inertias * effect.speeds).sum())
+            continue
         problem = effect.coasting_problem()
         if problem is not None:
             return problem
@@ -119,18 +192,45 @@ def free_gyrostat(body, effects, omega0_B) -> FreeGyrostat | str:
         if problem is not None:
             return problem
         inertia = spin_less_inertia(body.tensor - spin)
-    h_P = h_B @ inertia.principal_axes
-    axis = int(np.argmax(np.abs(h_P)))
-    size = float(np.linalg.norm(h_P))
-    if size <= ROTOR_AXIS_TOLERANCE * total:  # (0 <= 0 too: no momentum at all)
-        return FreeGyrostat(inertia, free_body_axis(inertia.moments), 0.0)
-    across = math.hypot(*(float(h_P[k]) for k in range(3) if k != axis))
-    if across > ROTOR_AXIS_TOLERANCE * size:
-        return (
-            f'a rotor momentum {h_B.tolist()} off every principal axis '
-            f'(the general oblique gyrostat is not solved in closed form here)'
-        )
-    return FreeGyrostat(inertia, axis, float(h_P[axis]))
+    return inertia, h_B, total
+
+
+def oblique_gyrostat(inertia: RigidBody, h_P, omega0_B) -> FreeGyrostat | str:
+    """
+    Return the gyrostat with ``h_P`` off every principal axis of ``inertia``, or why not.
+
+    Its constants are solved here, once (:func:`.exact.gyrostat_oblique.solve_oblique`, about a
+    millisecond of decimal arithmetic), so that a state the closed form refuses (exactly on a
+    separatrix, or a circle: a uniform precession), whose constants overflow float64, or whose
+    momentum dwarfs the body's own beyond :data:`OBLIQUE_MOMENTUM_RATIO` is said before any
+    propagator is built, and ``auto`` integrates it.
+    """
+    h = tuple(float(v) for v in h_P)
+    omega_P = inertia.to_principal(omega0_B)
+    size = math.hypot(*h)
+    where = f'a momentum {list(h)} N m s off every principal axis'
+    try:
+        motion = solve_oblique(inertia.moments, omega_P, h)
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as refusal:
+        return f'{where}, which the oblique closed form refuses: {refusal}'
+    if motion is not None:
+        if not _finite(motion):
+            return f'{where}, whose closed form overflows float64'
+        least = math.sqrt(float(inertia.moments.min()) * motion.energy)  # of |I w| on the motion
+        if not motion.momentum <= OBLIQUE_MOMENTUM_RATIO * least:
+            return (
+                f'{where}, |I w + h| {motion.momentum:.6g} more than {OBLIQUE_MOMENTUM_RATIO:g} '
+                f"times the body's own momentum (at least {least:.6g}): the oblique closed form "
+                'would carry its rounding into the rates'
+            )
+    return FreeGyrostat(inertia, OBLIQUE, size, h, motion)
+
+
+def _finite(values) -> bool:
+    """Return whether every number in a nest of tuples is finite."""
+    if isinstance(values, tuple):
+        return all(_finite(value) for value in values)
+    return not isinstance(values, float) or math.isfinite(values)
 
 
 def free_body_axis(moments) -> int:
@@ -170,7 +270,7 @@ def spin_less_inertia(tensor: np.ndarray) -> RigidBody:
 @register
 class GyrostatPropagator(Propagator):
     """
-    The exact solution of ``I_s w' + w x (I_s w + h) = 0`` for ``h`` along a principal axis.
+    The exact solution of ``I_s w' + w x (I_s w + h) = 0``, ``h`` along a principal axis or not.
 
     Rotors and coasting reaction wheels (:func:`free_gyrostat`).
     """
@@ -183,21 +283,26 @@ class GyrostatPropagator(Propagator):
         found = free_gyrostat(self.body, self.effects, self.omega0_B)
         if isinstance(found, str):
             raise ValueError(
-                f"propagator: '{self.name}' is the exact gyrostat with rotors or coasting wheels "
-                f'along a principal axis; the scene has {found}: use a numerical propagator '
-                "('auto' picks one)"
+                f"propagator: '{self.name}' is the exact gyrostat with rotors or coasting wheels; "
+                f"the scene has {found}: use a numerical propagator ('auto' picks one)"
             )
         h = found.momentum
         #: the principal axis (of the inertia less the wheels' spin) the momentum lies along,
-        #: and that momentum (N m s, signed)
+        #: and that momentum (N m s, signed); an oblique momentum: :data:`OBLIQUE` and ``|h|``
         self.rotor_axis, self.rotor_momentum = found.axis, h
-        #: the regime and constants (:class:`.exact.gyrostat.GyrostatMotion`); None for the free
-        #: body, a uniform precession or a relative equilibrium
+        #: an oblique momentum in the principal frame of that inertia (N m s); None on an axis
+        self.momentum_P = found.momentum_P
+        #: the regime and constants (:class:`.exact.gyrostat.GyrostatMotion`, or
+        #: :class:`.exact.gyrostat_oblique.ObliqueMotion` for an oblique momentum); None for the
+        #: free body, a uniform precession or a relative equilibrium
         self.motion = None
         self._free = self._attitude = self._integrals = None
         self._stationary = False
         self._wheels = self._wheel_parts()
         inertia = found.inertia
+        if found.oblique:
+            self._oblique(inertia, found)
+            return
         if h == 0.0:
             # the free body with I_s (the body's inertia for rotors alone), through its own path
             # (bit for bit); the wheels' angles from the gyrostat's rates at h = 0
@@ -237,12 +342,30 @@ class GyrostatPropagator(Propagator):
             self._integrals = RateIntegrals(rates)
             self._solver_rows = np.array(frame.rows)  # v_S = C v_B
 
+    def _oblique(self, inertia: RigidBody, found: FreeGyrostat) -> None:
+        """
+        Take the oblique closed form :func:`oblique_gyrostat` solved, in ``inertia``'s frame.
+
+        The rates and attitude by :class:`.exact.gyrostat_oblique.ObliqueAttitude` (body frame
+        out), the wheels' angles by the rates' periodic integrals; a relative equilibrium spins at
+        its constant rate.
+        """
+        if found.motion is None:
+            self._stationary = True
+            return
+        self.motion = found.motion
+        axes = inertia.principal_axes
+        self._attitude = ObliqueAttitude(found.motion, found.momentum_P, axes, self.q0_NB)
+        if self._wheels:
+            self._integrals = ObliqueRateIntegrals(self._attitude.rates)
+            self._solver_rows = axes.T  # v_P = axes^T v_B
+
     def _wheel_parts(self) -> tuple:
         """Return ``(slice of the states, axes (n, 3), h_i / Js_i)`` per reaction wheels effect."""
         dynamics = self.dynamics
         parts = []
         for effect, part in zip(dynamics.effects, dynamics.slices):
-            if isinstance(effect, ReactionWheels):
+            if isinstance(effect, ReactionWheels) and not effect.holds_speeds():  # (held: none)
                 momenta = effect.momenta(self.x0[part])
                 parts.append((part, effect.axes, momenta / effect.spin_inertias))
         return tuple(parts)

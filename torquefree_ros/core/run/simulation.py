@@ -78,6 +78,68 @@ class Invariants:
     conserved: frozenset  # of "energy", "momentum": which drifts are errors rather than physics
 
 
+class RecentStates:
+    """
+    A commanded run's latest states: its last block and the ``span`` samples before it.
+
+    A sensor rebuilt while the run goes on (:meth:`Simulation.retune`) with a latency of ``L``
+    samples fills its delay line with the measurements of the ``L`` samples before the change;
+    their states are the run's own. A commanded propagator cannot give them again: its command
+    hold keeps the commands in force, not the history, and asked for past times it would
+    integrate them again under today's command (and go on from there).
+    """
+
+    def __init__(self, span: int):
+        self.span = span  # run samples kept before the latest block's first
+        self.first = 0  # the run sample of the rows below
+        self.omega = self.q = self.internal = None
+
+    @classmethod
+    def for_run(cls, propagator, streams, every) -> 'RecentStates | None':
+        """Return the history a commanded run with delayed sensors keeps, or None."""
+        if not propagator.dynamics.holds_per_sample:
+            return None
+        spans = [getattr(s, 'latency', 0) * n for s, n in zip(streams, every)]
+        return cls(max(spans)) if any(spans) else None
+
+    def add(self, first: int, omega, q, internal) -> None:
+        """Keep samples ``first ..`` and the ``span`` before them (when they are at hand)."""
+        if self.omega is not None and self.first <= first <= self.first + len(self.omega):
+            keep = max(first - self.span, self.first)
+            cut = keep - self.first
+            end = first - self.first
+            omega = np.concatenate([self.omega[cut:end], omega])
+            q = np.concatenate([self.q[cut:end], q])
+            internal = np.concatenate([self.internal[cut:end], internal])
+            first = keep
+        self.first, self.omega, self.q, self.internal = first, omega, q, internal
+
+    def at(self, rate: float, before: int, name: str) -> '_PastStates':
+        """Return a view that answers ``states(times)`` for run samples before ``before``."""
+        return _PastStates(self, rate, before, name)
+
+
+@dataclass(frozen=True)
+class _PastStates:
+    recent: RecentStates
+    rate: float
+    before: int
+    name: str
+
+    def states(self, times):
+        k = np.rint(np.asarray(times) * self.rate).astype(np.int64)
+        recent = self.recent
+        index = k - recent.first
+        count = 0 if recent.omega is None else len(recent.omega)
+        if k.size and (index.min() < 0 or index.max() >= count or k.max() >= self.before):
+            raise ValueError(
+                f'{self.name}: the states of samples {int(k.min())} .. {int(k.max())} its delay '
+                f'line needs are no longer at hand (samples {recent.first} .. '
+                f'{recent.first + count - 1} are): change it at a later sample'
+            )
+        return recent.omega[index], recent.q[index], recent.internal[index]
+
+
 class Simulation:
     """
     A started simulation: ``propagator`` sampled at ``rate`` Hz from ``epoch_ns``.
@@ -111,6 +173,8 @@ class Simulation:
         self._last_raw: list = [None] * len(self.outputs)
         #: per output: the first sample j of a stream retune replaced (earlier rows: the old's)
         self._retuned_from: dict[int, int] = {}
+        #: a commanded run's latest states, for a retuned sensor's delay line (see retune)
+        self._recent = RecentStates.for_run(propagator, self._streams, self._every)
         self._injector = FaultInjector(
             faults, self.outputs, self.rate, self._every, self._raw_row
         )
@@ -169,6 +233,8 @@ class Simulation:
                 f"float64's range (propagator {self.propagator.describe()})"
             )
         block = SampleBlock(first, times, stamps_ns(self.epoch_ns, times), omega, q, internal)
+        if self._recent is not None:
+            self._recent.add(first, omega, q, internal)
         for _, part, monitor in self.monitors:
             monitor.update(times, omega, internal[:, part])
         return self.with_outputs(block) if outputs else block
@@ -255,16 +321,30 @@ class Simulation:
         faults act on the intervals from ``from_index`` on (not integrated yet); one that names
         what the run has not is refused first (``FieldError``), nothing changed.
         """
-        if faults is not None:
-            self._actuator_faults.replace(faults, from_index)
+        rebuilt = {}
         for position, output in (outputs or {}).items():
             every = self._every[position]
             output = output.for_run(self.propagator)
+            stream = output.stream(self.rate / every, self.propagator)
+            first = -(-from_index // every)
+            if self._recent is not None and getattr(stream, 'latency', 0):
+                # its delay line from the states this run had: a commanded propagator asked for
+                # past times would integrate them again under the command now in force
+                stream.propagator = self._recent.at(self.rate, from_index, output.name)
+                try:
+                    stream.rows(first, *(np.empty((0,) + shape) for shape in ((), (3,), (4,))),
+                                np.empty((0, self.propagator.dynamics.state_size)))
+                finally:
+                    stream.propagator = self.propagator
+            rebuilt[position] = output, stream, first
+        if faults is not None:
+            self._actuator_faults.replace(faults, from_index)
+        for position, (output, stream, first) in rebuilt.items():
             outputs_now = list(self.outputs)
             outputs_now[position] = output
             self.outputs = tuple(outputs_now)
-            self._streams[position] = output.stream(self.rate / every, self.propagator)
-            self._retuned_from[position] = -(-from_index // every)
+            self._streams[position] = stream
+            self._retuned_from[position] = first
             self._last_raw[position] = None
         if faults is not None:
             self._injector.replace(faults, from_index)

@@ -395,13 +395,37 @@ def _check_effect_scales(body: RigidBody, values) -> None:
 _SAMPLE_TOPICS = ('angular_velocity', 'attitude', '/clock', '/diagnostics')
 
 
+def _command_topic(effect) -> str | None:
+    """
+    Return the topic an effect takes commands on, or None.
+
+    A motion effect with a command message type takes commands unless its ``mode`` runs it from
+    the scene (``schedule``) or holds it (``hold``).
+    """
+    if not isinstance(effect, MotionEffect) or getattr(effect, 'message_type', None) is None:
+        return None
+    if getattr(effect, 'mode', None) in ('schedule', 'hold'):
+        return None
+    return effect.values.get('topic')
+
+
 def _check_output_topics(effects) -> None:
+    """
+    Refuse two effects on one topic, and an output on one of the simulator's own.
+
+    Each topic has one meaning: an output's messages, or one commanded effect's commands (every
+    command names only that effect's wheels or rods, so two arrays sharing a topic would refuse
+    each other's commands; arrays in different modes take a topic each).
+    """
     used = {}
     for index, effect in enumerate(effects):
-        if not isinstance(effect, OutputEffect):
-            continue
+        if isinstance(effect, OutputEffect):
+            topic = effect.topic
+        else:
+            topic = _command_topic(effect)
+            if topic is None:
+                continue
         where = f'effects[{index}].{effect.name}.topic'
-        topic = effect.topic
         if topic in _SAMPLE_TOPICS:
             raise FieldError(where, f"'{topic}' is one of the simulator's own topics")
         if topic in used:
