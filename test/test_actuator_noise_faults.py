@@ -25,21 +25,19 @@ correlation and a Kolmogorov-Smirnov test (scipy's, a library nobody here wrote)
 
 from __future__ import annotations
 
-import json
-
-from geometry_msgs.msg import Vector3Stamped, WrenchStamped
 import numpy as np
 import pytest
-from rclpy.node import Node
-from rclpy.parameter import Parameter
+from running_faults import (
+    assert_the_replay_is_the_recording,
+    GAIN,
+    NODE_SCENE,
+    set_while_running,
+)
 from scipy.stats import kstest
 from torquefree_ros import Plant
-from torquefree_ros.bag import BagReader
-from torquefree_ros.bag.offline import write_scene_bag
 from torquefree_ros.core.faults import describe_fault
 from torquefree_ros.core.run.simulation import Simulation
-from torquefree_ros.core.scene.loader import faults_from_text, scene_from_mapping, SceneError
-from torquefree_ros.testing import simulator
+from torquefree_ros.core.scene.loader import scene_from_mapping, SceneError
 
 RATE = 10.0
 COUNT = 30
@@ -272,32 +270,6 @@ def test_bad_noise_and_topic_faults_are_refused_with_the_field_path(faults, shap
 
 
 # -- on a running node ----------------------------------------------------------------------------
-NODE_SCENE = {
-    'body': {'inertia': [4.0, 5.0, 6.0]},
-    'initial': {'angular_velocity': [0.3, -0.2, 0.25]},
-    'effects': [{'torque_command': {'max_torque': 0.1}}],
-    'accuracy': 1e-12,
-}
-GAIN = 0.05  # N m s: K w, under max_torque
-
-
-class Damping(Node):
-    """Answer each sample with the torque ``-K w`` for the interval after it."""
-
-    def __init__(self, context):
-        super().__init__('damping', context=context)
-        self.commands = self.create_publisher(WrenchStamped, 'torque_command', 10)
-        self.create_subscription(Vector3Stamped, 'angular_velocity', self.answer, 10)
-
-    def answer(self, sample: Vector3Stamped) -> None:
-        command = WrenchStamped()
-        command.header.stamp, command.header.frame_id = sample.header.stamp, 'body'
-        torque = command.wrench.torque
-        torque.x, torque.y, torque.z = (-GAIN * sample.vector.x, -GAIN * sample.vector.y,
-                                        -GAIN * sample.vector.z)
-        self.commands.publish(command)
-
-
 def test_a_torque_noise_set_on_a_running_node_is_the_core_s_and_the_replay_s_byte_for_byte(
     tmp_path,
 ):
@@ -308,53 +280,19 @@ def test_a_torque_noise_set_on_a_running_node_is_the_core_s_and_the_replay_s_byt
     for bit, and the plant's stepped with those commands; ``/diagnostics`` names it;
     ``torquefree_bag --commands``' replay of the recording gives the same bytes.
     """
-    path = tmp_path / 'damping.yaml'
-    path.write_text(json.dumps(NODE_SCENE))
     first, more = 6, 10
-    text = '[{torque_noise: {start: 0.0, sigma: [2e-3, 1e-3, 3e-3], seed: 9}}]'
-    recorded = tmp_path / 'live'
-    with simulator(str(path), publish_rate=RATE, record_bag=str(recorded)) as sim:
-        sim.add_node(Damping(sim.context))
-        rates = sim.tap('angular_velocity', Vector3Stamped)
-        sim.advance(first)
-        result = sim.node.set_parameters_atomically([Parameter('faults', value=text)])
-        assert result.successful, result.reason
-        sim.advance(more)
-        rates.wait(first + more)
-        diagnostics = sim.node.sample_loop.simulation.fault_diagnostics(first)
-        received = rates.messages[: first + more]
-        epoch = sim.samples[0].stamp_ns
-    live = np.array([[m.vector.x, m.vector.y, m.vector.z] for m in received])
-    scene = scene_from_mapping(NODE_SCENE)
-    simulation = Simulation(scene.propagator(), RATE)
-    ((_, hold),) = simulation.command_holds
-    offline = [simulation.samples(0, 1).omega_B[0]]
-    for k in range(first + more - 1):
-        if k == first:
-            simulation.retune(k, faults_from_text(text, ()))
-        assert hold.receive(hold.stamp_ns(k), -GAIN * offline[-1], frame_id='')[0]
-        hold.seal(k)
-        offline.append(simulation.samples(k + 1, 1).omega_B[0])
-    np.testing.assert_array_equal(live, np.array(offline))
+    run = set_while_running(
+        tmp_path, '[{torque_noise: {start: 0.0, sigma: [2e-3, 1e-3, 3e-3], seed: 9}}]', first, more
+    )
+    np.testing.assert_array_equal(run.live, run.offline)
     # the plant with the noise from sample 6 (a window starting at 0.6 s) and the same torques
     plant = Plant(scene_from_mapping({**NODE_SCENE, 'faults': [
         {'torque_noise': {'start': first / RATE, 'sigma': [2e-3, 1e-3, 3e-3], 'seed': 9}}]}), RATE)
-    stepped = [plant.state.omega_B] + [plant.step(-GAIN * w).omega_B for w in offline[:-1]]
-    np.testing.assert_array_equal(np.array(stepped), live)
-    assert diagnostics == {
+    stepped = [plant.state.omega_B] + [plant.step(-GAIN * w).omega_B for w in run.offline[:-1]]
+    np.testing.assert_array_equal(np.array(stepped), run.live)
+    assert run.diagnostics == {
         'faults': '1',
         'faults_active': 'torque_noise torque_command [0, ...) s sigma [0.002, 0.001, 0.003] '
         'N m seed 9',
     }
-    replay = tmp_path / 'replay'
-    write_scene_bag(scene, replay, (first + more - 1) / RATE, RATE, epoch_ns=epoch,
-                    commands_bag=recorded)
-    window = (epoch, epoch + (first + more - 1) * round(1e9 / RATE))
-
-    def messages(bag, topic):
-        return [m.data for m in BagReader(bag).messages([topic])
-                if window[0] <= m.log_time_ns <= window[1]]
-
-    for topic in ('/angular_velocity', '/sensor_changes'):
-        recorded_messages = messages(recorded, topic)
-        assert recorded_messages and recorded_messages == messages(replay, topic), topic
+    assert_the_replay_is_the_recording(tmp_path, run)

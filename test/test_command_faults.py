@@ -27,13 +27,9 @@ running node's recording against its offline replay, byte for byte.
 
 from __future__ import annotations
 
-import json
-
-from geometry_msgs.msg import Vector3Stamped, WrenchStamped
 import numpy as np
 import pytest
-from rclpy.node import Node
-from rclpy.parameter import Parameter
+from running_faults import assert_the_replay_is_the_recording, set_while_running
 from torquefree_ros import Plant
 from torquefree_ros.bag import BagReader, BagWriter
 from torquefree_ros.bag.cdr import decode_joint_state, decode_stamped_doubles
@@ -43,7 +39,6 @@ from torquefree_ros.core.checks.schema import FieldError
 from torquefree_ros.core.commands.hold import CommandHold, Override
 from torquefree_ros.core.run.simulation import Simulation
 from torquefree_ros.core.scene.loader import faults_from_text, scene_from_mapping, SceneError
-from torquefree_ros.testing import simulator
 
 RATE = 10.0
 SPHERE = 5.0  # kg m^2: I w' = tau exactly (w x I w = 0)
@@ -419,32 +414,6 @@ def test_a_run_time_torque_fault_is_checked_and_shown_in_the_diagnostics():
 
 
 # -- on a running node ----------------------------------------------------------------------------
-NODE_SCENE = {
-    'body': {'inertia': [4.0, 5.0, 6.0]},
-    'initial': {'angular_velocity': [0.3, -0.2, 0.25]},
-    'effects': [{'torque_command': {'max_torque': 0.1}}],
-    'accuracy': 1e-12,
-}
-GAIN = 0.05  # N m s: K w, under max_torque
-
-
-class Damping(Node):
-    """Answer each sample with the torque ``-K w`` for the interval after it."""
-
-    def __init__(self, context):
-        super().__init__('damping', context=context)
-        self.commands = self.create_publisher(WrenchStamped, 'torque_command', 10)
-        self.create_subscription(Vector3Stamped, 'angular_velocity', self.answer, 10)
-
-    def answer(self, sample: Vector3Stamped) -> None:
-        command = WrenchStamped()
-        command.header.stamp, command.header.frame_id = sample.header.stamp, 'body'
-        torque = command.wrench.torque
-        torque.x, torque.y, torque.z = (-GAIN * sample.vector.x, -GAIN * sample.vector.y,
-                                        -GAIN * sample.vector.z)
-        self.commands.publish(command)
-
-
 def test_a_torque_error_set_on_a_running_node_replays_byte_for_byte(tmp_path):
     """
     Set between samples 5 and 6: it acts from interval 6, as the core's run with it from 6.
@@ -453,48 +422,13 @@ def test_a_torque_error_set_on_a_running_node_replays_byte_for_byte(tmp_path):
     bit for bit; ``/diagnostics``' values name it; ``torquefree_bag --commands``' replay of the
     recording gives the same bytes.
     """
-    path = tmp_path / 'damping.yaml'
-    path.write_text(json.dumps(NODE_SCENE))
-    first, more = 6, 10
-    text = '[{torque_error: {start: 0.0, scale: 0.5, bias: [1e-3, 0, -1e-3]}}]'
-    recorded = tmp_path / 'live'
-    with simulator(str(path), publish_rate=RATE, record_bag=str(recorded)) as sim:
-        sim.add_node(Damping(sim.context))
-        rates = sim.tap('angular_velocity', Vector3Stamped)
-        sim.advance(first)
-        result = sim.node.set_parameters_atomically([Parameter('faults', value=text)])
-        assert result.successful, result.reason
-        sim.advance(more)
-        rates.wait(first + more)
-        diagnostics = sim.node.sample_loop.simulation.fault_diagnostics(first)
-        received = rates.messages[: first + more]
-        epoch = sim.samples[0].stamp_ns
-    live = np.array([[m.vector.x, m.vector.y, m.vector.z] for m in received])
-    scene = scene_from_mapping(NODE_SCENE)
-    simulation = Simulation(scene.propagator(), RATE)
-    ((_, hold),) = simulation.command_holds
-    offline = [simulation.samples(0, 1).omega_B[0]]
-    for k in range(first + more - 1):
-        if k == first:
-            simulation.retune(k, faults_from_text(text, ()))
-        assert hold.receive(hold.stamp_ns(k), -GAIN * offline[-1], frame_id='')[0]
-        hold.seal(k)
-        offline.append(simulation.samples(k + 1, 1).omega_B[0])
-    np.testing.assert_array_equal(live, np.array(offline))
-    assert diagnostics == {
+    run = set_while_running(
+        tmp_path, '[{torque_error: {start: 0.0, scale: 0.5, bias: [1e-3, 0, -1e-3]}}]', 6, 10
+    )
+    np.testing.assert_array_equal(run.live, run.offline)
+    assert run.diagnostics == {
         'faults': '1',
         'faults_active': 'torque_error torque_command [0, ...) s scale [0.5, 0.5, 0.5] bias '
         '[0.001, 0, -0.001] N m',
     }
-    replay = tmp_path / 'replay'
-    write_scene_bag(scene, replay, (first + more - 1) / RATE, RATE, epoch_ns=epoch,
-                    commands_bag=recorded)
-    window = (epoch, epoch + (first + more - 1) * round(1e9 / RATE))
-
-    def messages(bag, topic):
-        return [m.data for m in BagReader(bag).messages([topic])
-                if window[0] <= m.log_time_ns <= window[1]]
-
-    for topic in ('/angular_velocity', '/sensor_changes'):
-        recorded_messages = messages(recorded, topic)
-        assert recorded_messages and recorded_messages == messages(replay, topic), topic
+    assert_the_replay_is_the_recording(tmp_path, run)
