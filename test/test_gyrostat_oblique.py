@@ -28,10 +28,13 @@ response to the inputs' rounding) is 1.3e-13 and 2.5e-13: the issue's 1e-13 is b
 float64 inputs allow there. The principal-axis references
 (torquefree_ros/bench/gyrostat_cases.json) through the same general form: within 3.2e-14 but
 for the 1e5 s case and the dominant rotor (1.6e-13 and 1.4e-13: their own floors), the coasting
-wheels' angles within one rounding unit of their size.
+wheels' angles within one rounding unit of their size. Exactly on a separatrix (``mc = 0``, both
+forms; 40 s, the saddle's instability growing the reference's own 1e-24 truncation by 2e5): rates
+within 6.8e-16 and attitude within 8.7e-15 rad, compiled and numpy.
 """
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -100,12 +103,20 @@ def test_rates_and_attitude_match_the_mpmath_reference(name):
 
 
 def test_the_cases_hold_both_forms_and_reach_the_separatrices():
-    """The reference exercises both Jacobi forms of ``P`` and ``mc`` down to 1e-10 on each."""
-    forms = {}
+    """
+    Both Jacobi forms of ``P``, ``mc`` down to 1e-10 on each, and ``mc = 0`` exactly on each.
+
+    The states exactly on a separatrix (:data:`SADDLES`) apart: they have no period.
+    """
+    forms, exact = {}, set()
     for case in CASES.values():
         motion = solve_oblique(case['inertia'], case['angular_velocity'], case['rotor_vector'])
+        if motion.mc == 0.0:
+            exact.add(motion.form)
+            assert case['name'] in SADDLES and motion.period == np.inf
+            continue
         forms.setdefault(motion.form, []).append(motion.mc)
-    assert set(forms) == {REAL_ROOTS, ONE_REAL_ROOT}
+    assert set(forms) == exact == {REAL_ROOTS, ONE_REAL_ROOT}
     assert min(forms[ONE_REAL_ROOT]) < 1e-9 and min(forms[REAL_ROOTS]) < 1e-4
     separatrix = [c['separatrix_distance'] for c in CASES.values() if 'separatrix_distance' in c]
     assert min(abs(d) for d in separatrix) < 2e-10 and len(separatrix) >= 6
@@ -119,6 +130,8 @@ def test_the_cases_hold_both_forms_and_reach_the_separatrices():
         'oblique_near_center',
         'oblique_separatrix_one_saddle_below_1e-10',
         'oblique_separatrix_one_saddle_above_1e-10',
+        'oblique_separatrix_exact',
+        'oblique_separatrix_exact_one_root',
     ],
 )
 def test_invariants_hold_to_the_float64_floor(name):
@@ -163,6 +176,81 @@ def test_the_period_is_the_motions(name):
     assert np.linalg.norm(solution.y[:, -1] - w0) <= 1e-9 * np.linalg.norm(w0)
     halfway = ObliqueRates(motion)(np.array([0.5 * motion.period]))[0]
     assert np.linalg.norm(halfway - w0) > 1e-3 * np.linalg.norm(w0)  # not a shorter one
+
+
+#: the states exactly on a separatrix and their saddles ``m_s`` (tools/make_gyrostat_reference.py,
+#: exact rational arithmetic), where ``w = A (m_s - h) = 3/8 m_s``
+SADDLES = {
+    'oblique_separatrix_exact': (-2.0, -2.0, 3.0),
+    'oblique_separatrix_exact_one_root': (-1.0, -2.0, 1.0),
+}
+#: a motion on a separatrix is ``e^{-2 r |t|}`` from its saddle (``r`` 0.149 and 0.125 /s): below
+#: 1e-21 from here on, both ways
+SADDLE_TIME = 200.0
+
+
+@pytest.mark.parametrize('name', sorted(SADDLES))
+def test_on_a_separatrix_the_rates_tend_to_the_saddle_s_both_ways(name):
+    """
+    ``mc = 0``: no period, and the rates at ``|t| >= 200 s`` are the saddle's, both ways.
+
+    Within 16 rounding units of the rates' scale (``w = w0 + A k v``, rounded in units of ``|m|
+    max(A)``, as the kernels' test), to 1e7 s, where ``sech`` has long underflowed to 0.
+    """
+    case = CASES[name]
+    motion = solve_oblique(case['inertia'], case['angular_velocity'], case['rotor_vector'])
+    assert motion.mc == 0.0 and motion.m == 1.0 and motion.period == np.inf
+    times = SADDLE_TIME * np.array([-5e4, -5.0, -1.0, 1.0, 5.0, 5e2, 5e4])
+    w, m = ObliqueRates(motion).state(times)
+    saddle = np.array(SADDLES[name])
+    scale = max(np.abs(w).max(), np.abs(m).max() / min(case['inertia']))
+    assert np.abs(w - 0.375 * saddle).max() <= 16.0 * np.finfo(float).eps * scale
+    assert np.abs(m - saddle).max() <= 16.0 * np.finfo(float).eps * np.abs(saddle).max()
+
+
+@pytest.mark.parametrize('name', sorted(SADDLES))
+def test_on_a_separatrix_the_attitude_becomes_the_saddle_s_steady_spin(name):
+    """
+    From 200 s on the attitude is ``q(200) ⊗ exp(w_s (t - 200) / 2)`` to 1e5 s.
+
+    The body spins at the saddle's constant ``w_s`` there (its distance below 1e-21): the angle's
+    series over the whole line (``WholeLineIntegral``) must end at the saddle's rate with no
+    drift. Within ``8 eps (16 + |w| t)`` rad: the angle ``|w| t`` and both sides' rounding.
+    """
+    case = CASES[name]
+    spin = 0.375 * np.array(SADDLES[name])
+    times = SADDLE_TIME + np.array([0.0, 1.0, 10.0, 1e3, 1e5])
+    omega, q = attitude(case)(times)  # the principal frame is the body frame here
+    expected = (
+        Rotation.from_quat(q[0]) * Rotation.from_rotvec(np.outer(times - times[0], spin))
+    ).as_quat()
+    _, angle = trajectory_errors(omega, q, np.broadcast_to(spin, omega.shape), expected)
+    assert np.all(angle <= 8.0 * np.finfo(float).eps * (16.0 + np.linalg.norm(spin) * times))
+    assert np.all(np.isfinite(q))
+
+
+@pytest.mark.parametrize('name', sorted(SADDLES))
+@pytest.mark.parametrize('span', [(0.0, 40.0), (40.0, 100.0), (100.0, 300.0), (-300.0, 0.0)])
+def test_on_a_separatrix_the_angle_is_its_rate_s_integral_over_the_whole_line(name, span):
+    """
+    ``psi(b) - psi(a)`` against Gauss-Legendre in ``t`` (20 nodes on each of 160 pieces).
+
+    Beyond the reference's 40 s too, where the series in ``s = tanh`` runs into ``s = ±1``: an
+    integration in ``t`` shares nothing with it but the rates (``psi'`` is smooth on the scale
+    ``1 / 2r``, 3.4 s at most, a piece 1.9 s at most: the rule's error far below rounding).
+    Within ``16 eps`` of the angle's size (measured at most 1.1: the angle's rounding, hundreds of
+    rad).
+    """
+    motion = attitude(CASES[name])
+    edges = np.linspace(*span, 161)
+    nodes, weights = np.polynomial.legendre.leggauss(20)
+    middles, halves = 0.5 * (edges[1:] + edges[:-1]), 0.5 * np.diff(edges)
+    rates = motion._angle_rate((middles[:, None] + halves[:, None] * nodes).ravel())
+    integral = math.fsum((rates.reshape(-1, 20) @ weights * halves).tolist())
+    ends = np.array(span)
+    psi = motion.psi_rate * ends + motion.angle(ends)
+    size = max(np.abs(psi).max(), abs(integral))
+    assert abs((psi[1] - psi[0]) - integral) <= 16.0 * np.finfo(float).eps * size
 
 
 PRINCIPAL_REFERENCE = json.loads(

@@ -336,6 +336,30 @@ def test_a_relative_equilibrium_spins_at_a_constant_rate():
     assert motion_regime(p).kind == 'gyrostat_relative_equilibrium'
 
 
+@pytest.mark.parametrize('name', ['oblique_separatrix_exact', 'oblique_separatrix_exact_one_root'])
+def test_a_state_exactly_on_a_separatrix_is_the_gyrostat_s(name):
+    """
+    ``mc = 0`` (the energy a saddle's, exactly in float64): ``auto`` takes the closed form.
+
+    The regime says so, with no period, the distance to the saddle's separatrix 0 (2T and the
+    saddle's energy each rounded: within 4 rounding units), and the saddle the motion tends to
+    among the equilibria (``w = 3/8 m_s`` from 200 s on, test_gyrostat_oblique.py).
+    """
+    case = OBLIQUE_CASES[name]
+    s = scene(case['inertia'], case['angular_velocity'], principal_rotors(case['rotor_vector']),
+              case['orientation'])
+    p = s.propagator()
+    assert p.name == 'gyrostat' and p.rotor_axis == OBLIQUE and p.motion.mc == 0.0
+    regime = motion_regime(p)
+    assert regime.kind == 'gyrostat_separatrix' and regime.polhode_period == np.inf
+    assert abs(regime.separatrix_distance) <= 4.0 * np.finfo(float).eps
+    omega, _ = p(np.array([1e4]))
+    saddle = np.array(case['inertia']) * omega[0] + np.array(case['rotor_vector'])
+    nearest = min(regime.equilibria, key=lambda e: np.linalg.norm(e.momentum - saddle))
+    assert nearest.kind == 'saddle'
+    assert np.linalg.norm(nearest.momentum - saddle) <= 1e-13 * regime.momentum
+
+
 def test_states_the_closed_form_refuses_are_integrated_and_named():
     """
     A sphere's oblique rotor (a circle: a uniform precession) and a momentum over the ratio.

@@ -570,6 +570,29 @@ OBLIQUE_CASES = {
         'horizon': 1e5,
         'samples': 51,
     },
+    # exactly on a separatrix (mc = 0), found in exact rational arithmetic: a saddle m_s with
+    # A (m_s - h) = 3/8 m_s (h = (1 - 3/8 J) m_s), and m0 = I w0 + h the separatrix's second
+    # point on a line from m_s along a direction v of the cone sum (1/J_k - 3/8) v_k^2 = 0
+    # (v = (2, 3, 1) and its sign changes: the separatrix is rational from its double point).
+    # The motion tends to the saddle, whose unstable rate 2r (0.3/s, 0.25/s) grows the
+    # integration's 1e-24 truncation by 2e5 over 40 s. Real roots: m_s = (-2, -2, 3)
+    'oblique_separatrix_exact': {
+        'inertia': [2.0, 3.0, 4.0],
+        'angular_velocity': [0.25, 0.25, 1.375],
+        'orientation': _q([1, 2, 3], 0.4),
+        'rotor_vector': [-0.5, 0.25, -1.5],
+        'horizon': 40.0,
+        'samples': 41,
+    },
+    # ... one real root: m_s = (-1, -2, 1), m0 = (1, 1, 2)
+    'oblique_separatrix_exact_one_root': {
+        'inertia': [2.0, 3.0, 4.0],
+        'angular_velocity': [0.625, 0.25, 0.625],
+        'orientation': _q([1, 2, 3], 0.4),
+        'rotor_vector': [-0.25, 0.25, -0.5],
+        'horizon': 40.0,
+        'samples': 41,
+    },
     **_oblique_separatrix_cases(),
 }
 

@@ -343,8 +343,16 @@ class Plant:
                 f'dipole: expected shape {shape} (A m^2, body frame), got {values.shape}'
             )
         values = values.reshape(self.size, 3)
-        # the node's rules, body by body: the hold's (not finite) and the effect's (too large)
-        for b, (row, effect) in enumerate(zip(values.tolist(), commands.effects)):
+        # the node's rules, the hold's (not finite) and the effect's (too large): a batch's bodies
+        # screened at once, then the first one flagged (one body: itself) by the rules themselves
+        if self.batch:
+            not_finite, too_large = torque_refusals(values, commands.max_torque)
+            too_large |= ~not_finite & (np.abs(values).max(axis=1) > commands.max_command)
+            suspects = np.flatnonzero(not_finite | too_large)[:1].tolist()
+        else:
+            suspects = [0]
+        for b in suspects:
+            row, effect = values[b].tolist(), commands.effects[b]
             reason = torque_refusal(row, effect.hold.max_torque) or dipole_too_large(
                 row, effect.values['max_command']
             )
@@ -439,9 +447,12 @@ class _Inputs:
         """Hold ``values`` (a row per body) from the sample stamped ``stamp_ns``."""
         self.asked[:] = values
         if self.applies is not None:
-            for b, apply in enumerate(self.applies):
-                self.held[b] = apply(values[b])
+            self.held[:] = self.applied(values)
         self.stamp_ns = stamp_ns
+
+    def applied(self, values: np.ndarray) -> np.ndarray:
+        """Return what the kernels read for ``values`` (a row per body), body by body."""
+        return np.array([apply(row) for apply, row in zip(self.applies, values)])
 
     def in_force(self, now_ns: int) -> np.ndarray:
         """Return what every body's kernels read on the interval stamped ``now_ns``."""
@@ -494,6 +505,29 @@ class _DipoleInputs(_Inputs):
         off = np.array([apply(e.hold.off) for apply, e in zip(applies, effects)])
         columns = slot + np.arange(effects[0].held_slot_size)
         super().__init__(effects, columns, off, 3, applies)
+        self.max_torque = np.array([e.hold.max_torque for e in effects])
+        self.allocations = None
+        self.max_command = np.array([e.values['max_command'] for e in effects])
+        if len({len(e.max_dipoles) for e in effects}) > 1:
+            return  # rods of different counts: body by body (_Inputs.applied)
+        # each body's rods: (N, rods, 3) allocations and axes, (N, rods, 1) largest dipoles
+        self.allocations = np.stack([e.allocation for e in effects])
+        self.axes = np.stack([e.axes for e in effects])
+        self.max_dipoles = np.stack([e.max_dipoles for e in effects])[:, :, None]
+
+    def applied(self, values: np.ndarray) -> np.ndarray:
+        """
+        Return the dipole each body's rods apply for ``values`` (``Magnetorquers.applied_dipole``).
+
+        Its operations for every body at once: a stacked matmul calls the same BLAS routine per
+        body as the effect's one-body products (matrix @ vector, then vector @ matrix), and the
+        clip is element by element, so each row is the effect's floats.
+        """
+        if self.allocations is None or len(values) == 1:
+            return super().applied(values)  # (one body: the effect's, which keeps its last)
+        least_norm = np.matmul(self.allocations, values[:, :, None])
+        rods = np.clip(least_norm, -self.max_dipoles, self.max_dipoles)
+        return np.matmul(np.swapaxes(rods, 1, 2), self.axes)[:, 0, :]
 
 
 class _FaultedInput:

@@ -33,7 +33,9 @@ sample alone (the node's closed loop, the offline bag, a campaign):
   rotation goes through numpy's matmul one body at a time (a stacked matmul calls the same BLAS
   routine per body as the stream's one-row product);
 - **the same environment**: bodies on one orbit (equal places) share ``sensors.environment_at``
-  of the sample's time, which is a function of the place and the time alone.
+  of the sample's time, which is a function of the place and the time alone; the magnetometers
+  of bodies on several places (a campaign's orbit phases) read each place's
+  ``Place.field_values``, as each body's stream does.
 
 The samples come in order from 0 (a new batch starts over): the gyro's bias walk and the delay
 lines of a latency carry from sample to sample.
@@ -180,6 +182,9 @@ class _Places:
                 groups.setdefault(place, []).append(body)
         self.groups = [(place, np.array(bodies)) for place, bodies in groups.items()]
         self.count = len(places)
+        # the placed bodies group after group, and each group's size (a row per group, repeated)
+        self.grouped = np.concatenate([b for _, b in self.groups] or [np.empty(0, dtype=int)])
+        self.sizes = np.array([b.size for _, b in self.groups], dtype=int)
 
     def vectors(self, times: np.ndarray, quantity: str) -> np.ndarray:
         """Return each body's ``quantity`` at ``times`` (one sample), ``(N, 3)``; NaN: no place."""
@@ -189,6 +194,22 @@ class _Places:
         out = np.full((self.count, 3), np.nan)
         for place, bodies in self.groups:
             out[bodies] = environment_at(place, times, quantity)
+        return out
+
+    def fields(self, j: int, times: np.ndarray, model: str, rate: float) -> np.ndarray:
+        """
+        Return each body's field of ``model`` at sample ``j`` of ``rate`` (``times``), ``(N, 3)``.
+
+        The field a body's own stream reads (``Place.field_values``: the place's samples ahead,
+        computed in one compiled call every few samples), so bodies on many orbits cost a lookup
+        each, not an evaluation; NaN: no place.
+        """
+        if len(self.groups) == 1 and self.groups[0][1].size == self.count:
+            return self.vectors(times, model)
+        t = float(times[0])
+        fields = np.array([place.field_values(t, model, j, rate) for place, _ in self.groups])
+        out = np.full((self.count, 3), np.nan)
+        out[self.grouped] = np.repeat(fields.reshape(-1, 3), self.sizes, axis=0)
         return out
 
     def scalars(self, times: np.ndarray, quantity: str) -> np.ndarray:
@@ -318,15 +339,16 @@ class _MagnetometerBatch:
         self.bias = np.array([s.bias for s in streams])
         self.errors = _AxisErrors([s.errors for s in streams])
         self.templates = np.array([s.template for s in streams])
+        self.rate = streams[0].rate
 
     def rows(self, j: int, times, omega_B, q_NB) -> np.ndarray:
         normals = self.normals.sample()
         if len(self.models) == 1:
-            field_N = self.models[0][2].vectors(times, self.models[0][0])
+            field_N = self.models[0][2].fields(j, times, self.models[0][0], self.rate)
         else:
             field_N = np.full((normals.shape[0], 3), np.nan)
             for model, bodies, places in self.models:
-                field_N[bodies] = places.vectors(times, model)[bodies]
+                field_N[bodies] = places.fields(j, times, model, self.rate)[bodies]
         field_B = body_frame(q_NB, field_N)
         measured = (self.errors.sense(field_B) + self.bias) + self.noise * normals
         rows = self.templates.copy()

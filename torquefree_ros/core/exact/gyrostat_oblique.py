@@ -95,15 +95,25 @@ deflated quadratic), so ``mc`` keeps its relative precision there, and the Jacob
 ``mc`` (:mod:`.elliptic`). Where the plane passes by a saddle the cubic ``C``'s coefficients
 nearly cancel: ``a2, a1, a0`` (and ``m0 . p``, ``w0 . p``) are polynomials in ``X, Y`` whose
 coefficients are formed in the decimal digits (the float plane's own rounding would move the
-point by ``eps / sqrt(mc)``). A state exactly on a separatrix (``mc = 0`` in the decimal digits)
-and a uniform precession are refused with their reason.
+point by ``eps / sqrt(mc)``). A uniform precession is refused with its reason.
+
+**Exactly on a separatrix** the cubic has a double root (the decimal roots split by the square
+root of the digits' rounding, :data:`SEPARATRIX_MC`): ``mc = 0``, ``m = 1``, ``sn = tanh``,
+``cn = dn = sech``, ``K = inf`` and no period; the motion leaves its saddle and returns to it
+(``t -> -inf, +inf``) as ``e^{-2r|t|}``. ``P`` is even about ``u = 0``, so a turning point reached
+while ``P`` increases is at ``-u_c``; with one real root ``P - e2 = H2 coth^2 u`` reaches only
+``[e2 + H2, inf)`` (the turning points below lie on the other loop), and ``X, Y, y`` of that form
+carry a common factor ``dn^2`` (``dn^4`` for ``y``) that vanishes at the saddle, so the real roots'
+``X = sn^2``, ``Y = cn^2``, ``y = slope_scale sn cn dn`` serve (the forms are homogeneous).
 
 **The attitude** (:class:`ObliqueAttitude`) is the principal-axis gyrostat's: the rotation about
 the constant inertial momentum by an angle whose rate is exact, ``psi' = (H w . e + 2T + h . w) /
 (H + m . e)``, integrated over a period by Chebyshev series on panels halved where they have not
 converged (:class:`PeriodicIntegral`: no symmetry of the motion is assumed, the origin being any
 state); coasting wheels' angles come from the rates' integrals the same way
-(:class:`ObliqueRateIntegrals`).
+(:class:`ObliqueRateIntegrals`). On a separatrix both integrate over the whole time axis
+(:class:`WholeLineIntegral`: panels in ``s = tanh(r (t - t_c))`` on ``(g - g_saddle) dt/ds``, plus
+``g_saddle t`` exactly).
 
 **The evaluation** is compiled by :mod:`.gyrostat_oblique_kernels` (numba) when the kernels are
 on where an object is built (:mod:`..numerics.kernels`), sample by sample with the operations
@@ -138,6 +148,10 @@ BASE_SHIFTS = 3
 #: a decimal quantity this small relative to its terms' scale counts as zero (the inputs' products
 #: are exact to ~48 digits, their rounding to float64 is 1e-16)
 _NEGLIGIBLE = decimal.Decimal(10) ** -40
+#: ``mc`` this small is a double root of the cubic, a state on a separatrix: the decimal roots of
+#: a double root split by the square root of the 80 digits' rounding (``mc`` ~ 1e-39 measured),
+#: a motion 1e-10 from a separatrix has ``mc`` ~ 1e-10
+SEPARATRIX_MC = decimal.Decimal(10) ** -30
 
 #: the turning point's form hands a sample to the initial point's where the direction ``v`` from
 #: the pencil's base point ``m0`` is within this sine of the tangent ``d`` (``m`` next to ``m0``,
@@ -173,7 +187,7 @@ class ObliqueMotion(NamedTuple):
     mc: float
     m: float
     rate: float  # r, 1/s: u = r t
-    period: float  # of the rates, s
+    period: float  # of the rates, s; inf on a separatrix (mc = 0)
     turning_time: float  # t_c, s: u = r (t - t_c)
     slope_scale: float  # y = slope_scale sn cn dn (times dn^4 + m mc sn^4: one real root)
     # the plane p = Y planes[0] + X planes[1], X = sn^2, Y = cn^2 (real roots: each a turning
@@ -387,13 +401,14 @@ class _Solver:
                 mc = product / (4 * r2 * (2 * r2 - 3 * e2))
             form, top = ONE_REAL_ROOT, e2
         r = r2.sqrt()
+        if mc <= SEPARATRIX_MC:  # a double root: on a separatrix, sn = tanh, cn = dn = sech
+            m, mc = decimal.Decimal(1), decimal.Decimal(0)
         fm, fmc = float(m), float(mc)
-        if not fmc > 0.0:
-            raise ValueError(
-                'the oblique gyrostat starts on a separatrix exactly (mc = 0): no closed form here'
-            )
         K = float(JacobiElliptic(fmc, m=fm).quarter_period)
-        turning, slope, P_c = self.turning_point(top)
+        # on a separatrix P reaches the double root only as t -> inf (one real root: P - e2 =
+        # H2 coth^2 u >= H2): the turning points with P below it lie on the other loop
+        reach = top + r2 if form == ONE_REAL_ROOT and fmc == 0.0 else top
+        turning, slope, P_c = self.turning_point(reach)
         # the time of the turning point from P(t_c) = P_c and the sign of P'(t_c), that of
         # s'(0) f'(s_c): P decreases on u in (0, K), increases on (K, 2K)
         if form == REAL_ROOTS:  # P = e3 + r^2 / sn^2
@@ -408,7 +423,7 @@ class _Solver:
             half = float(first_kind_from_values(float(sin2), abs(float(cos2)), float(dn2)))
             u_c = 0.5 * (half if cos2 >= 0 else 2.0 * K - half)
         if (self.slope > 0) == (slope > 0):  # P'(t_c) > 0
-            u_c = 2.0 * K - u_c
+            u_c = 2.0 * K - u_c if fmc > 0.0 else -u_c  # (P even about 0 on a separatrix)
         period = 2.0 * K / float(r)
 
         def floats(values):
@@ -598,11 +613,13 @@ class ObliqueRates:
     def __init__(self, motion: ObliqueMotion):
         self.motion = motion
         self.jacobi = JacobiElliptic(motion.mc, m=motion.m)
+        # one real root's X = sn^2 dn^2, Y = cn^4 - mc sn^4 (and y, Z times dn^4 + m mc sn^4);
+        # on a separatrix (cn = dn) these are sn^2, cn^2 (y, Z) times dn^2 (dn^4), which the
+        # homogeneous forms drop: the real roots' X, Y, nonzero as t -> inf
+        self.one_root = motion.form == ONE_REAL_ROOT and motion.mc > 0.0
         self._kernels = None
         if kernels.ENABLED:
-            self._row = gyrostat_oblique_kernels.rates_row(
-                motion, self.jacobi, motion.form == ONE_REAL_ROOT
-            )
+            self._row = gyrostat_oblique_kernels.rates_row(motion, self.jacobi, self.one_root)
             self._kernels = gyrostat_oblique_kernels.kernels()
 
     @property
@@ -624,25 +641,27 @@ class ObliqueRates:
             v = np.empty((t.shape[0], 3))
             self._kernels['direction_kernel'](np.ascontiguousarray(t), self._row, v)
             return v
-        values = self._jacobi(mo.rate * (t - mo.turning_time))
-        sn, cn, dn = values
-        X, Y = sn * sn, cn * cn
-        y = mo.slope_scale * sn * cn * dn
-        if mo.form == ONE_REAL_ROOT:
-            dn2, sn4 = dn * dn, X * X
-            y = y * (dn2 * dn2 + (mo.m * mo.mc) * sn4)
-            X = X * dn2
-            Y = Y * Y - mo.mc * sn4
-        start, end = (np.asarray(plane) for plane in mo.planes)
-        p = Y[:, None] * start + X[:, None] * end
-        d = np.asarray(mo.tangent)
-        m0_p, w0_p, a2, a1, a0 = (_homogeneous(c, X, Y) for c in mo.pencil)
-        v = _direction(d, p, y, a2, a1, a0)
-        # v = num d + den p mostly along d: m next to m0
-        along = np.abs(v @ d)
-        near = along * along > (1.0 - BASE_POINT_MARGIN**2) * np.einsum('ij,ij->i', v, v)
-        if np.any(near):
-            v[near] = self._initial_direction(t[near])
+        # on a separatrix cn = dn = sech underflow as t -> inf: their limit, 0
+        with np.errstate(under='ignore'):
+            values = self._jacobi(mo.rate * (t - mo.turning_time))
+            sn, cn, dn = values
+            X, Y = sn * sn, cn * cn
+            y = mo.slope_scale * sn * cn * dn
+            if self.one_root:
+                dn2, sn4 = dn * dn, X * X
+                y = y * (dn2 * dn2 + (mo.m * mo.mc) * sn4)
+                X = X * dn2
+                Y = Y * Y - mo.mc * sn4
+            start, end = (np.asarray(plane) for plane in mo.planes)
+            p = Y[:, None] * start + X[:, None] * end
+            d = np.asarray(mo.tangent)
+            m0_p, w0_p, a2, a1, a0 = (_homogeneous(c, X, Y) for c in mo.pencil)
+            v = _direction(d, p, y, a2, a1, a0)
+            # v = num d + den p mostly along d: m next to m0
+            along = np.abs(_along(v, d))
+            near = along * along > (1.0 - BASE_POINT_MARGIN**2) * np.einsum('ij,ij->i', v, v)
+            if np.any(near):
+                v[near] = self._initial_direction(t[near])
         return v
 
     def _jacobi(self, u):
@@ -653,25 +672,26 @@ class ObliqueRates:
     def _initial_direction(self, t):
         """Return ``v`` from the initial point's form (:class:`InitialForm`)."""
         mo, form = self.motion, self.motion.initial
-        sn, cn, dn = self._jacobi(mo.rate * (t - mo.base_time))
-        X, Y = sn * sn, cn * cn
-        Z = -2.0 * mo.rate ** 3 * sn * cn * dn
-        if mo.form == ONE_REAL_ROOT:
-            dn2, sn4 = dn * dn, X * X
-            X = X * dn2
-            Y = Y * Y - mo.mc * sn4
-            Z = Z * (dn2 * dn2 + (mo.m * mo.mc) * sn4)
-        N = form.slope_weight * Z + _homogeneous(form.numerator, X, Y)
-        D = _homogeneous(form.denominator, X, Y)
-        y = _homogeneous(form.turn_quartic, X, Y) + Z * _homogeneous(form.turn_slope, X, Y)
-        a2 = form.a2[0] * D + form.a2[1] * N
-        a1 = form.a1[0] * D * D + form.a1[1] * D * N + form.a1[2] * N * N
-        a0 = ((form.a0[0] * D + form.a0[1] * N) * D + form.a0[2] * N * N) * D + (
-            form.a0[3] * N * N * N
-        )
-        p0, p1 = (np.asarray(p) for p in form.plane_axes)
-        p = D[:, None] * p0 + N[:, None] * p1
-        return _direction(np.asarray(mo.tangent), p, y, a2, a1, a0)
+        with np.errstate(under='ignore'):
+            sn, cn, dn = self._jacobi(mo.rate * (t - mo.base_time))
+            X, Y = sn * sn, cn * cn
+            Z = -2.0 * mo.rate ** 3 * sn * cn * dn
+            if self.one_root:
+                dn2, sn4 = dn * dn, X * X
+                X = X * dn2
+                Y = Y * Y - mo.mc * sn4
+                Z = Z * (dn2 * dn2 + (mo.m * mo.mc) * sn4)
+            N = form.slope_weight * Z + _homogeneous(form.numerator, X, Y)
+            D = _homogeneous(form.denominator, X, Y)
+            y = _homogeneous(form.turn_quartic, X, Y) + Z * _homogeneous(form.turn_slope, X, Y)
+            a2 = form.a2[0] * D + form.a2[1] * N
+            a1 = form.a1[0] * D * D + form.a1[1] * D * N + form.a1[2] * N * N
+            a0 = ((form.a0[0] * D + form.a0[1] * N) * D + form.a0[2] * N * N) * D + (
+                form.a0[3] * N * N * N
+            )
+            p0, p1 = (np.asarray(p) for p in form.plane_axes)
+            p = D[:, None] * p0 + N[:, None] * p1
+            return _direction(np.asarray(mo.tangent), p, y, a2, a1, a0)
 
     def state(self, t: np.ndarray) -> tuple:
         """
@@ -688,7 +708,7 @@ class ObliqueRates:
             return w, m
         v = self.momentum_direction(t)
         m0 = np.asarray(mo.momentum0)
-        gain = (-2.0 * (v @ m0) / np.einsum('ij,ij->i', v, v))[:, None] * v
+        gain = (-2.0 * _along(v, m0) / np.einsum('ij,ij->i', v, v))[:, None] * v
         return np.asarray(mo.rate0) + gain * np.asarray(mo.inverse_moments), m0 + gain
 
     def __call__(self, t: np.ndarray) -> np.ndarray:
@@ -710,6 +730,9 @@ CHEBYSHEV_TAIL_ULPS = 32.0
 INITIAL_PANELS = 8
 #: ... or until it is this fraction of the period (a bound on the work; never reached in the cases)
 MIN_PANEL_FRACTION = 2.0**-20
+#: ... of the whole line's ``[-1, 1]`` in ``s = tanh``: next to ``s = ±1`` the integrand
+#: ``(g - limit) dt/ds`` carries ``g``'s rounding times ``dt/ds``, noise no panel resolves
+WHOLE_LINE_LEAST_PANEL = 2.0**-12
 #: samples of the momentum over a period from which the reference axis is chosen
 REFERENCE_SAMPLES = 512
 
@@ -728,7 +751,7 @@ class PeriodicIntegral:
     period (the panels' integrals summed by ``fsum``), ``P`` periodic with ``P(0) = 0``.
     """
 
-    def __init__(self, g, period: float):
+    def __init__(self, g, period: float, least_panel: float = MIN_PANEL_FRACTION):
         n = CHEBYSHEV_DEGREE
         nodes = np.cos(np.pi * (np.arange(n + 1) + 0.5) / (n + 1))
         transform = (2.0 / (n + 1)) * np.cos(
@@ -752,7 +775,7 @@ class PeriodicIntegral:
             tails = np.abs(coefficients[:, -3:]).max(axis=(1, 2))
             split = []
             for (a, w), rows, tail in zip(pending, coefficients, tails):
-                if tail <= CHEBYSHEV_TAIL_ULPS * _EPS * scale or w <= period * MIN_PANEL_FRACTION:
+                if tail <= CHEBYSHEV_TAIL_ULPS * _EPS * scale or w <= period * least_panel:
                     panels.append((a, w, rows))
                 else:
                     split += [(a, 0.5 * w), (a + 0.5 * w, 0.5 * w)]
@@ -813,6 +836,54 @@ class PeriodicIntegral:
         return x * b1 - b2 + table[0][index]
 
 
+class WholeLineIntegral:
+    """
+    ``∫_0^t g dt = limit t + P(t)`` of a ``g`` that tends to ``limit`` like ``sech^2`` both ways.
+
+    A motion on a separatrix (no period): ``g - limit`` is smooth in ``s = tanh(rate (t -
+    centre))`` over ``(-1, 1)`` and decays like ``1 - s^2 = rate dt/ds``, so ``(g - limit) dt/ds``
+    is a smooth function of ``s`` on ``[-1, 1]``, integrated by :class:`PeriodicIntegral`'s panels
+    in ``sigma = 1 + s`` over ``[0, 2]`` (its mean added back: nothing there is periodic).
+    """
+
+    def __init__(self, g, limit, rate: float, centre: float):
+        self.mean, self.rate, self.centre = limit, rate, centre
+
+        def integrand(sigma):
+            s = sigma - 1.0
+            values = np.asarray(g(centre + np.arctanh(s) / rate)) - limit
+            weight = 1.0 / (rate * (1.0 - s * s))
+            return values * (weight[:, None] if values.ndim == 2 else weight)
+
+        self.series = PeriodicIntegral(integrand, 2.0, WHOLE_LINE_LEAST_PANEL)
+        #: the integral from sigma = 0, less its value at t = 0 (P(0) = 0)
+        self.offset = 0.0
+        self.offset = self(np.zeros(1))[0]
+
+    def sigma(self, t: np.ndarray) -> np.ndarray:
+        """Return ``1 + tanh(rate (t - centre))``: the series' variable."""
+        return 1.0 + np.tanh(self.rate * (np.asarray(t, dtype=float) - self.centre))
+
+    def __call__(self, t: np.ndarray) -> np.ndarray:
+        """Return ``P(t)``: ``(N,)``, or ``(N, functions)`` for a vector ``g``."""
+        sigma = self.sigma(t)
+        series = self.series
+        slope = series.mean * (sigma[:, None] if series._vector else sigma)
+        return (series(sigma) + slope) - self.offset
+
+
+def _saddle_times(motion: ObliqueMotion) -> np.ndarray:
+    """Return the times ``t -> -inf, +inf`` of a separatrix, as far as ``sech`` is 0 in float64."""
+    return motion.turning_time + np.array([-1e3, 1e3]) / motion.rate
+
+
+def _integral(g, motion: ObliqueMotion, limit):
+    """Return ``g``'s integral: over a period, or over the whole line on a separatrix."""
+    if math.isfinite(motion.period):
+        return PeriodicIntegral(g, motion.period)
+    return WholeLineIntegral(g, limit, motion.rate, motion.turning_time)
+
+
 class ObliqueRateIntegrals:
     """
     ``∫_0^t w dt = mean t + P(t)``, principal frame: what a coasting wheel's angle needs.
@@ -822,7 +893,7 @@ class ObliqueRateIntegrals:
     """
 
     def __init__(self, rates: ObliqueRates):
-        self.series = PeriodicIntegral(rates, rates.motion.period)
+        self.series = _integral(rates, rates.motion, rates(_saddle_times(rates.motion))[1])
         #: the mean rates over a period, principal frame, rad/s
         self.mean = self.series.mean
 
@@ -843,6 +914,16 @@ def _combine(columns, rows) -> np.ndarray:
     for column, row in zip(columns[1:], rows[1:]):
         total += column[..., None] * row
     return total
+
+
+def _along(vectors: np.ndarray, v) -> np.ndarray:
+    """
+    Return ``vectors @ v`` for ``(N, 3)`` vectors, element by element.
+
+    A BLAS product's rounding can depend on ``N`` (its kernels differ by size): a sample must not
+    depend on the block it is asked in.
+    """
+    return vectors[:, 0] * v[0] + vectors[:, 1] * v[1] + vectors[:, 2] * v[2]
 
 
 def _rows(vectors: np.ndarray, matrix: np.ndarray) -> np.ndarray:
@@ -889,7 +970,13 @@ class ObliqueAttitude:
         m0 = np.asarray(motion.momentum0)
         if motion.base_time != 0.0:
             m0 = self.rates.momentum(np.zeros(1))[0]
-        samples = np.arange(REFERENCE_SAMPLES) * (motion.period / REFERENCE_SAMPLES)
+        if math.isfinite(motion.period):
+            samples = np.arange(REFERENCE_SAMPLES) * (motion.period / REFERENCE_SAMPLES)
+        else:  # the whole separatrix, by s = tanh(r (t - t_c)), and the saddle
+            nodes = np.cos(np.pi * (np.arange(REFERENCE_SAMPLES) + 0.5) / REFERENCE_SAMPLES)
+            samples = np.concatenate(
+                [motion.turning_time + np.arctanh(nodes) / motion.rate, _saddle_times(motion)]
+            )
         orbit = self.rates.momentum(samples)
         mean = orbit.mean(axis=0)
         candidates = [np.eye(3)[k] * sign for k in range(3) for sign in (1.0, -1.0)]
@@ -899,7 +986,9 @@ class ObliqueAttitude:
         self.reference = candidates[int(np.argmax(margins))]
         E = _frame_with_axis(self.reference)
         self._E = E
-        self.angle = PeriodicIntegral(self._angle_rate, motion.period)
+        self.angle = _integral(
+            self._angle_rate, motion, self._angle_rate(_saddle_times(motion))[1]
+        )
         self.psi_rate = self.angle.mean
         axes = np.asarray(principal_axes, dtype=float)
         self._axes = axes
@@ -919,7 +1008,8 @@ class ObliqueAttitude:
         # the compiled evaluation, with these very constants (gyrostat_oblique_kernels)
         if self.rates.compiled:
             self._row = gyrostat_oblique_kernels.attitude_row(
-                self.H, self.psi_rate, motion.period, E, axes, self._frame_change_rows
+                self.H, self.psi_rate, motion.period, E, axes, self._frame_change_rows,
+                None if isinstance(self.angle, PeriodicIntegral) else self.angle,
             )
 
     @property
@@ -930,7 +1020,8 @@ class ObliqueAttitude:
     def _angle_rate(self, t: np.ndarray) -> np.ndarray:
         w, m = self.rates.state(t)
         e = self.reference
-        return (self.H * (w @ e) + self.energy + w @ self.h) / (self.H + m @ e)
+        numerator = self.H * _along(w, e) + self.energy + _along(w, self.h)
+        return numerator / (self.H + _along(m, e))
 
     def _arc(self, m_A: np.ndarray, arc: np.ndarray) -> np.ndarray:
         """Return ``Q(m_A)``, ``(N, 4)``: the shortest arc from ``m / H`` to ``e_z``."""
@@ -945,7 +1036,7 @@ class ObliqueAttitude:
         if self.rates.compiled:
             t = np.ascontiguousarray(t)
             omega, q = np.empty((t.shape[0], 3)), np.empty((t.shape[0], 4))
-            angle = self.angle
+            angle = self.angle if isinstance(self.angle, PeriodicIntegral) else self.angle.series
             self.rates._kernels['attitude_kernel'](
                 t, self.rates._row, self._row, angle.starts, angle.middles, angle.scales,
                 angle.compiled_table, omega, q,

@@ -17,7 +17,8 @@ The oblique free gyrostat's evaluation compiled by numba, when installed (one fa
 
 The per-sample work of :mod:`.gyrostat_oblique`'s numpy path (:class:`.ObliqueRates`'
 ``state`` and ``momentum_direction`` with :class:`.elliptic.JacobiElliptic`'s ``sn, cn, dn``,
-:class:`.PeriodicIntegral`'s Clenshaw recurrence, :class:`.ObliqueAttitude`'s quaternions) as
+:class:`.PeriodicIntegral`'s Clenshaw recurrence, in ``1 + tanh`` for a separatrix's
+:class:`.WholeLineIntegral`, :class:`.ObliqueAttitude`'s quaternions) as
 scalar code that repeats it operation for operation, in the same order; that path stays the
 reference and the tests hold the two together (test_gyrostat_oblique_kernels.py). The constants
 are the Python path's own, copied into rows (:func:`rates_row`, :func:`attitude_row`): the
@@ -63,7 +64,10 @@ RATES_WIDTH = 88
 H, TWO_H, PSI_RATE, ANGLE_PERIOD = 0, 1, 2, 3
 FRAME_ROWS, AXES_ROWS = 4, 13  # E and the principal axes, 3x3 each, row by row
 FRAME_CHANGE_ROWS = 22  # q = x @ matrix, 4x4 row by row
-ATTITUDE_WIDTH = 38
+# on a separatrix (WholeLineIntegral; ANGLE_RATE 0 otherwise): the angle's series in sigma = 1 +
+# tanh(rate (t - centre)), its slope in sigma and its value at t = 0
+ANGLE_RATE, ANGLE_CENTRE, ANGLE_SLOPE, ANGLE_OFFSET = 38, 39, 40, 41
+ATTITUDE_WIDTH = 42
 
 #: gyrostat_oblique.BASE_POINT_MARGIN (a literal: compiled code keeps what it read)
 BASE_POINT_MARGIN = 0.05
@@ -115,9 +119,19 @@ def rates_row(motion, jacobi, one_real_root: bool) -> np.ndarray:
     return row
 
 
-def attitude_row(momentum, psi_rate, period, frame, axes, frame_change_rows) -> np.ndarray:
-    """Return an :class:`.ObliqueAttitude`'s constants as a row (the angle's series apart)."""
+def attitude_row(
+    momentum, psi_rate, period, frame, axes, frame_change_rows, whole_line=None
+) -> np.ndarray:
+    """
+    Return an :class:`.ObliqueAttitude`'s constants as a row (the angle's series apart).
+
+    ``whole_line``: the angle's :class:`.WholeLineIntegral` on a separatrix (``period`` inf).
+    """
     row = np.zeros(ATTITUDE_WIDTH)
+    if whole_line is not None:
+        period = whole_line.series.period
+        row[ANGLE_RATE], row[ANGLE_CENTRE] = whole_line.rate, whole_line.centre
+        row[ANGLE_SLOPE], row[ANGLE_OFFSET] = whole_line.series.mean, whole_line.offset
     row[H], row[TWO_H], row[PSI_RATE], row[ANGLE_PERIOD] = (
         momentum,
         2.0 * momentum,
@@ -369,7 +383,12 @@ def attitude_kernel(t, c, a, starts, middles, scales, table, omega, q):
     for the whole block (in ``q``'s place), then the rest (see :func:`_momentum_direction`).
     """
     for i in range(t.shape[0]):
-        q[i, 0] = _periodic(a[ANGLE_PERIOD], starts, middles, scales, table, t[i], 0)
+        if a[ANGLE_RATE] > 0.0:  # WholeLineIntegral.__call__
+            sigma = 1.0 + math.tanh(a[ANGLE_RATE] * (t[i] - a[ANGLE_CENTRE]))
+            series = _periodic(a[ANGLE_PERIOD], starts, middles, scales, table, sigma, 0)
+            q[i, 0] = (series + a[ANGLE_SLOPE] * sigma) - a[ANGLE_OFFSET]
+        else:
+            q[i, 0] = _periodic(a[ANGLE_PERIOD], starts, middles, scales, table, t[i], 0)
         q[i, 1], q[i, 2], q[i, 3] = _turning_values(c, t[i])
     for i in range(t.shape[0]):
         w0, w1, w2, m0, m1, m2 = _state(c, t[i], q[i, 1], q[i, 2], q[i, 3])

@@ -395,7 +395,7 @@ def classify_oblique_gyrostat(moments, omega_P, h_P) -> GyrostatRegime:
     Classify the free gyrostat's motion from ``omega_P`` with ``h_P`` oblique (principal frame).
 
     The closed form (:func:`.gyrostat_oblique.solve_oblique`) says whether the state is a relative
-    equilibrium (``None``), exactly on a separatrix (its refusal for ``mc = 0``) or a periodic
+    equilibrium (``None``), exactly on a separatrix (``mc = 0``: no period) or a periodic
     motion, whose period (``2K / r``) is the rates'. What a periodic motion circles is not named
     (``gyrostat_oblique_polhode``); a state the closed form refuses otherwise is
     ``gyrostat_oblique``, unclassified. The equilibria and the distance to the nearest saddle's
@@ -425,10 +425,10 @@ def classify_oblique_gyrostat(moments, omega_P, h_P) -> GyrostatRegime:
     }
     try:
         motion = solve_oblique(J, w, h)
-    except ValueError as refusal:
-        if 'separatrix' in str(refusal):
-            return GyrostatRegime('gyrostat_separatrix', polhode_period=float('inf'), **common)
+    except ValueError:
         return GyrostatRegime('gyrostat_oblique', **common)
     if motion is None:
         return GyrostatRegime('gyrostat_relative_equilibrium', **common)
+    if motion.mc == 0.0:  # the motion tends to a saddle: no period
+        return GyrostatRegime('gyrostat_separatrix', polhode_period=float('inf'), **common)
     return GyrostatRegime('gyrostat_oblique_polhode', polhode_period=motion.period, **common)

@@ -25,8 +25,8 @@ by :mod:`torquefree_ros.core.exact.gyrostat_oblique` (Weierstrass's solution on 
 sphere, Basak 2009), in the principal frame of ``I_s``. The regime and every constant are chosen
 once in the constructor; evaluation is a pure, vectorised function of time.
 
-An oblique ``h`` the closed form refuses (a state exactly on a separatrix, ``mc = 0``, a motion
-whose curve is a circle: a uniform precession, or a momentum beyond
+An oblique ``h`` the closed form refuses (a motion whose curve is a circle: a uniform
+precession, or a momentum beyond
 :data:`OBLIQUE_MOMENTUM_RATIO` times the body's own) is no ``FreeGyrostat``:
 :func:`free_gyrostat` says why, and ``auto`` integrates it. An oblique relative equilibrium
 (``m x w = 0``) spins at its constant rate, as on a principal axis.
@@ -200,8 +200,8 @@ def oblique_gyrostat(inertia: RigidBody, h_P, omega0_B) -> FreeGyrostat | str:
     Return the gyrostat with ``h_P`` off every principal axis of ``inertia``, or why not.
 
     Its constants are solved here, once (:func:`.exact.gyrostat_oblique.solve_oblique`, about a
-    millisecond of decimal arithmetic), so that a state the closed form refuses (exactly on a
-    separatrix, or a circle: a uniform precession), whose constants overflow float64, or whose
+    millisecond of decimal arithmetic), so that a state the closed form refuses (a circle: a
+    uniform precession), whose constants overflow float64, or whose
     momentum dwarfs the body's own beyond :data:`OBLIQUE_MOMENTUM_RATIO` is said before any
     propagator is built, and ``auto`` integrates it.
     """
@@ -214,7 +214,8 @@ def oblique_gyrostat(inertia: RigidBody, h_P, omega0_B) -> FreeGyrostat | str:
     except (ValueError, ArithmeticError, np.linalg.LinAlgError) as refusal:
         return f'{where}, which the oblique closed form refuses: {refusal}'
     if motion is not None:
-        if not _finite(motion):
+        # on a separatrix (mc = 0) the period is inf: the motion tends to a saddle
+        if not _finite(motion._replace(period=0.0) if motion.mc == 0.0 else motion):
             return f'{where}, whose closed form overflows float64'
         least = math.sqrt(float(inertia.moments.min()) * motion.energy)  # of |I w| on the motion
         if not motion.momentum <= OBLIQUE_MOMENTUM_RATIO * least:
