@@ -63,7 +63,7 @@ from typing import Callable
 
 import numpy as np
 
-from .dispersions import NumberTarget, parse_dispersion
+from .dispersions import DrawnThrough, NumberTarget, parse_dispersion
 from ..core.checks.schema import child, FieldError, fields, number, Param, shown, text
 from ..core.effects.magnetorquers import Magnetorquers
 from ..core.timing.grid import MAX_RATE
@@ -164,19 +164,12 @@ class Controller:
 
 
 @dataclass(frozen=True)
-class ControllerTarget:
+class ControllerTarget(DrawnThrough):
     """A number of the controller's ``parameters`` dispersed per run (``controller.NAME``)."""
 
     path: str
     name: str
     inner: NumberTarget
-
-    @property
-    def columns(self) -> tuple:
-        return self.inner.columns
-
-    def draw(self, rng, run) -> np.ndarray:
-        return self.inner.draw(rng, run)
 
 
 def import_factory(reference: str, path: str) -> Callable:

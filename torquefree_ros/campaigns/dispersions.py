@@ -404,8 +404,19 @@ class OrientationTarget:
         return q / math.sqrt(float(q @ q))
 
 
+class DrawnThrough:
+    """A target drawn by its ``inner`` target, its values placed where the target says."""
+
+    @property
+    def columns(self) -> tuple:
+        return self.inner.columns
+
+    def draw(self, rng, run) -> np.ndarray:
+        return self.inner.draw(rng, run)
+
+
 @dataclass(frozen=True)
-class EffectTarget:
+class EffectTarget(DrawnThrough):
     """
     A number or a vector of an effect or a fault: where it sits in the scene, how it is drawn.
 
@@ -423,13 +434,6 @@ class EffectTarget:
     @property
     def parameter(self) -> str:
         return self.keys[0]
-
-    @property
-    def columns(self) -> tuple:
-        return self.inner.columns
-
-    def draw(self, rng, run) -> np.ndarray:
-        return self.inner.draw(rng, run)
 
     def overlaps(self, other: EffectTarget) -> bool:
         """Tell whether the two targets reach the same number (one holds the other)."""
@@ -459,19 +463,12 @@ class EffectTarget:
 
 
 @dataclass(frozen=True)
-class OrbitTarget:
+class OrbitTarget(DrawnThrough):
     """A Keplerian element of the scene's ``orbit:`` (SI: m, rad, as the scene writes it)."""
 
     path: str  # orbit.ELEMENT
     element: str
     inner: NumberTarget
-
-    @property
-    def columns(self) -> tuple:
-        return self.inner.columns
-
-    def draw(self, rng, run) -> np.ndarray:
-        return self.inner.draw(rng, run)
 
     def place(self, document: dict, values: np.ndarray) -> None:
         """Write the drawn element into ``document``, a run's own copy of the scene's mapping."""

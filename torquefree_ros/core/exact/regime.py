@@ -251,16 +251,26 @@ def gyrostat_equilibria(moments, rotor: int, h: float, H: float) -> tuple:
         w = m * inverse
         w[rotor] -= h * inverse[rotor]
         multiplier = float(w @ m) / (H * H)
-        unit = m / H
-        tangent = np.linalg.svd(unit[None, :])[2][1:]  # two unit vectors across m
-        hessian = tangent @ np.diag(inverse - multiplier) @ tangent.T
-        determinant = float(np.linalg.det(hessian))
-        if abs(determinant) <= DEGENERATE_RTOL * float(inverse.max()) ** 2:
-            kind = 'degenerate'
-        else:
-            kind = 'centre' if determinant > 0.0 else 'saddle'
-        equilibria.append(GyrostatEquilibrium(tuple(m.tolist()), kind, float(w @ (J * w))))
+        equilibria.append(_equilibrium(m, m / H, w, J, inverse, multiplier))
     return tuple(equilibria)
+
+
+def _equilibrium(m, unit, w, J, inverse, multiplier: float) -> 'GyrostatEquilibrium':
+    """
+    Classify the equilibrium ``m`` of the momentum sphere (``unit`` its direction, ``w`` its rate).
+
+    By the energy's Hessian across ``m`` on the sphere, ``A - multiplier`` projected on the plane
+    across it: definite, a centre; indefinite, a saddle; singular to ``DEGENERATE_RTOL``,
+    degenerate.
+    """
+    tangent = np.linalg.svd(unit[None, :])[2][1:]  # two unit vectors across m
+    hessian = tangent @ np.diag(inverse - multiplier) @ tangent.T
+    determinant = float(np.linalg.det(hessian))
+    if abs(determinant) <= DEGENERATE_RTOL * float(inverse.max()) ** 2:
+        kind = 'degenerate'
+    else:
+        kind = 'centre' if determinant > 0.0 else 'saddle'
+    return GyrostatEquilibrium(tuple(m.tolist()), kind, float(w @ (J * w)))
 
 
 def classify_gyrostat(moments, omega_P, rotor: int, h: float) -> GyrostatRegime:
@@ -378,15 +388,7 @@ def oblique_equilibria(moments, h, H: float) -> tuple:
         if not H > 0.0 or abs(float(np.linalg.norm(m)) - H) > 1e-8 * H:
             continue  # (a root of a factor h_i = 0 cleared, off the sphere)
         w = (m - h) * inverse
-        unit = m / np.linalg.norm(m)
-        tangent = np.linalg.svd(unit[None, :])[2][1:]  # two unit vectors across m
-        hessian = tangent @ np.diag(inverse - mu) @ tangent.T
-        determinant = float(np.linalg.det(hessian))
-        if abs(determinant) <= DEGENERATE_RTOL * float(inverse.max()) ** 2:
-            kind = 'degenerate'
-        else:
-            kind = 'centre' if determinant > 0.0 else 'saddle'
-        equilibria.append(GyrostatEquilibrium(tuple(m.tolist()), kind, float(w @ (J * w))))
+        equilibria.append(_equilibrium(m, m / np.linalg.norm(m), w, J, inverse, mu))
     return tuple(sorted(equilibria, key=lambda e: e.energy))
 
 
