@@ -87,7 +87,7 @@ def refusing_effects(request: RunRequest | None) -> dict:
     return {
         effect.topic: effect
         for effect in effects
-        if getattr(effect, 'mode', None) == 'hold' and effect.topic not in taken
+        if effect.refuses_commands and effect.topic not in taken
     }
 
 

@@ -508,6 +508,9 @@ class ReactionWheels(MotionEffect):
         self.held_slot_size = 2 * len(rows) if speed_mode else 0
         #: commands change the inputs at sample times only
         self.holds_per_sample = mode not in ('schedule', 'hold')
+        #: a controller's commands on topic (torque, speed); held: refused and counted
+        self.commanded = mode in ('torque', 'speed')
+        self.refuses_commands = mode == 'hold'
         #: the wheels' scene speeds, rad/s (hold mode: what the drive holds)
         self.speeds = np.array([wheel['speed'] for wheel in wheels])
         h = [0.0, 0.0, 0.0]

@@ -89,6 +89,11 @@ class Effect(abc.ABC):
         """Whether this effect, bound to a propagator, takes commands: it has a hold of its own."""
         return self.hold is not None
 
+    #: whether it is set to take commands on its ``topic`` (bound, it then has a hold of its own)
+    commanded: ClassVar[bool] = False
+    #: whether commands on its ``topic`` are refused and counted: it takes none (held wheels)
+    refuses_commands: ClassVar[bool] = False
+
     #: the scene's place (``core.environment.place.Place``: its orbit and start) once placed there
     place = None
     #: whether it reads the environment (an orbit's position, the magnetic field, the Sun)

@@ -40,6 +40,7 @@ class TorqueCommand(MotionEffect):
     )
     message_type = 'geometry_msgs/msg/WrenchStamped'
     holds_per_sample = True
+    commanded = True
     parameters = {
         'topic': Param(topic_name, 'torque_command'),
         'frame': Param(choice('body', 'inertial'), 'body', 'the frame of wrench.torque'),

@@ -89,6 +89,7 @@ class Magnetorquers(FieldDipole):
     )
     message_type = 'geometry_msgs/msg/Vector3Stamped'
     holds_per_sample = True
+    commanded = True
     kernel_code = motion_kernels.MAGNETORQUERS
     #: the applied dipole, held on each piece in a slot of the kernels' ``held``
     held_slot_size = 3

@@ -396,17 +396,8 @@ _SAMPLE_TOPICS = ('angular_velocity', 'attitude', '/clock', '/diagnostics')
 
 
 def _command_topic(effect) -> str | None:
-    """
-    Return the topic an effect takes commands on, or None.
-
-    A motion effect with a command message type takes commands unless its ``mode`` runs it from
-    the scene (``schedule``) or holds it (``hold``).
-    """
-    if not isinstance(effect, MotionEffect) or getattr(effect, 'message_type', None) is None:
-        return None
-    if getattr(effect, 'mode', None) in ('schedule', 'hold'):
-        return None
-    return effect.values.get('topic')
+    """Return the topic an effect takes commands on (``commanded``), or None."""
+    return effect.topic if isinstance(effect, MotionEffect) and effect.commanded else None
 
 
 def _check_output_topics(effects) -> None:
