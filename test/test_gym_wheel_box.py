@@ -61,6 +61,27 @@ def _scene(mode):
     )
 
 
+def test_a_held_array_beside_the_commanded_one_takes_no_action():
+    """A held array (``mode: hold``) takes no commands: the action is the commanded array's."""
+    document = {
+        'body': {'inertia': [3.0, 4.0, 5.0]},
+        'initial': {'angular_velocity': [0.02, -0.01, 0.01]},
+        'effects': [
+            {'reaction_wheels': {'mode': 'torque', 'wheels': [
+                {'name': 'a', 'axis': [1.0, 0.0, 0.0], 'spin_inertia': 0.05, 'max_torque': 0.01,
+                 'max_speed': 100.0}]}},
+            {'reaction_wheels': {'mode': 'hold', 'topic': 'held', 'wheels': [
+                {'name': 'b', 'axis': [0.0, 0.0, 1.0], 'spin_inertia': 0.05, 'max_torque': 0.02,
+                 'max_speed': 300.0, 'speed': 50.0}]}},
+        ],
+        'accuracy': 1e-10,
+    }
+    scene = scene_from_mapping(document)
+    env = AttitudeEnv(scene, RATE, max_steps=5)
+    assert env.actuator == 'wheels'
+    np.testing.assert_array_equal(env.action_space.high, [0.01])
+
+
 @pytest.mark.parametrize('mode', ['torque', 'speed'])
 def test_each_wheel_bounds_its_own_action(mode):
     key = 'max_speed' if mode == 'speed' else 'max_torque'

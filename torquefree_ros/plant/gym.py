@@ -765,7 +765,7 @@ def _action_bound(scene: Scene, actuator: str):
     """
     if actuator == 'wheels':
         (wheels,) = [
-            e for e in scene.effects if e.name == 'reaction_wheels' and e.mode != 'schedule'
+            e for e in scene.effects if e.name == 'reaction_wheels' and e.commanded
         ]
         key = 'max_speed' if wheels.mode == 'speed' else 'max_torque'
         return np.array([float(wheel[key]) for wheel in wheels.values['wheels']])
